@@ -1,0 +1,1 @@
+"""The inspection engine: read → register → measure deviations → judge. numpy/scipy only."""

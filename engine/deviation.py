@@ -1,0 +1,212 @@
+"""Signed point-to-surface deviations by the paper's local-facet method, curvature-corrected.
+
+Sign and units, once for the whole product: a deviation is in millimetres, **positive along the
+nominal's outward normal** (excess material), negative inside the material.
+
+Method, for each registered point ``p`` (nominal frame):
+
+1. Local facets. Bare nominal points: the 4 nearest points and the 4 triangles they form (the
+   paper's Fig. 5). Meshes and u-v grids: their real triangles around the nearest point, widened
+   to those around the 4 nearest points when the closest point lands on the rim of that first
+   neighbourhood. The exact closest point on each triangle (face, edge or vertex) is computed and
+   the nearest facet kept.
+2. Curvature between samples. A flat facet cuts the chord of a curved surface, off by about
+   curvature x spacing^2 / 8. With the nominal's normals (I J K, mesh or grid orientation, or
+   estimated) the facet is lifted to the quadratic Phong surface with shape factor 1/2, which is
+   exact for any quadratic surface patch, and the foot point is re-solved on it. Facets whose
+   vertex normals disagree with the facet by more than ``MAX_NORMAL_TILT_DEG`` (sharp edges,
+   coarse tessellation) stay flat.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import barycentric, closest_point_on_triangles
+from .nominal import Nominal
+
+MAX_NORMAL_TILT_DEG = 25.0
+_QUAD_TRIS = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]])
+
+
+@dataclass(frozen=True)
+class Deviations:
+    """Deviation of each point from the nominal surface.
+
+    signed : (n,) mm, positive along the outward normal.
+    foot : (n, 3) closest point on the nominal surface, nominal frame.
+    normal : (n, 3) outward unit normal of the surface at ``foot``.
+    curved : (n,) bool, True where the curvature correction applied (else the flat facet).
+    """
+
+    signed: np.ndarray
+    foot: np.ndarray
+    normal: np.ndarray
+    curved: np.ndarray
+
+
+def point_to_surface(nominal: Nominal, pts: np.ndarray, curvature: bool = True) -> Deviations:
+    """Signed deviations of ``pts`` (n, 3), already in the nominal frame, from ``nominal``."""
+    pts = np.ascontiguousarray(pts, dtype=np.float64)
+    if nominal.triangles is None:
+        V, N, bary = _nearest_point_facets(nominal, pts)
+        return _finish(pts, V, N, bary, curvature, extrapolate=True)
+    V, N, bary = _mesh_facets(nominal, pts)
+    return _finish(pts, V, N, bary, curvature, extrapolate=False)
+
+
+def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
+    """The paper's facets: the 4 triangles of the 4 nearest nominal points; the nearest wins.
+
+    Where those facets are slivers (4 nearly collinear neighbours, as on a u-v grid) or the foot
+    point falls on a facet's border, the fan of triangles from the nearest point to pairs of its
+    8 nearest neighbours is searched as well, preferring a well-shaped facet that holds the foot.
+    """
+    k = min(4, nominal.n)
+    _, nn = nominal.tree.query(pts, k=k, workers=-1)
+    tris = nn[:, _QUAD_TRIS] if k == 4 else nn[:, None, :3]  # (n, t, 3) point indices
+    sel, b, good = _pick_facet(nominal, pts, tris)
+    bad = np.flatnonzero(~good)
+    if bad.size and nominal.n > 4:
+        k8 = min(8, nominal.n)
+        _, nn8 = nominal.tree.query(pts[bad], k=k8, workers=-1)
+        i, j = np.triu_indices(k8 - 1, 1)
+        fan = np.stack([np.broadcast_to(nn8[:, :1], (bad.size, i.size)),
+                        nn8[:, 1:][:, i], nn8[:, 1:][:, j]], axis=2)
+        tris2 = np.concatenate([sel[bad][:, None, :], fan], axis=1)
+        sel2, b2, _ = _pick_facet(nominal, pts[bad], tris2)
+        sel[bad], b[bad] = sel2, b2
+    return nominal.points[sel], nominal.normals(sel), b
+
+
+def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
+    """Among candidate facets (n, t, 3) pick per point the nearest well-shaped one holding the foot.
+
+    Returns (chosen facet (n, 3) point indices, barycentrics (n, 3), good (n,)) where ``good`` says
+    the chosen facet is well shaped and its foot point interior.
+    """
+    n, t = tris.shape[:2]
+    P = np.repeat(pts, t, axis=0)
+    Vt = nominal.points[tris.reshape(-1, 3)]
+    q, b = closest_point_on_triangles(P, Vt[:, 0], Vt[:, 1], Vt[:, 2])
+    d2 = np.einsum("ij,ij->i", P - q, P - q).reshape(n, t)
+    area2 = np.linalg.norm(np.cross(Vt[:, 1] - Vt[:, 0], Vt[:, 2] - Vt[:, 0]), axis=1)
+    edges2 = np.sum((Vt - np.roll(Vt, 1, axis=1)) ** 2, axis=(1, 2))
+    quality = (2.0 * np.sqrt(3.0) * area2 / np.maximum(edges2, 1e-300)).reshape(n, t)
+    ok = (quality > 0.1) & np.all(b > 1e-9, axis=1).reshape(n, t)
+    # Prefer facets that are well shaped and hold the foot; among them (or all) the nearest.
+    key = np.where(ok, d2, d2 + np.inf)
+    best = np.where(ok.any(axis=1), np.argmin(key, axis=1), np.argmin(d2, axis=1))
+    rows = np.arange(n)
+    return tris[rows, best], b.reshape(n, t, 3)[rows, best], ok[rows, best]
+
+
+def _mesh_facets(nominal: Nominal, pts: np.ndarray):
+    k = min(4, nominal.sample_tree.n)
+    _, nn = nominal.sample_tree.query(pts, k=k, workers=-1)
+    nn = nn.reshape(pts.shape[0], -1)
+    n = pts.shape[0]
+    best_tri, best_d2, best_b = _best_in_stars(nominal, pts, np.arange(n), nn[:, 0])
+    # Where the foot point lies on the outer rim of the nearest point's star, look wider.
+    centre = nn[:, 0]
+    is_vertex = centre < nominal.n
+    tri_verts = nominal.triangles[best_tri]
+    at_centre = np.where(tri_verts == centre[:, None], best_b, 0.0).sum(axis=1)
+    rim = np.flatnonzero(~is_vertex | (at_centre <= 1e-12))
+    for col in range(1, nn.shape[1]):
+        if not rim.size:
+            break
+        t, d2, b = _best_in_stars(nominal, pts[rim], rim, nn[rim, col])
+        better = d2 < best_d2[rim]
+        r = rim[better]
+        best_tri[r], best_d2[r], best_b[r] = t[better], d2[better], b[better]
+    sel = nominal.triangles[best_tri]
+    return nominal.points[sel], nominal.normals(sel), best_b
+
+
+def _best_in_stars(nominal: Nominal, pts: np.ndarray, rows: np.ndarray, samples: np.ndarray):
+    """For each query, the nearest triangle among those around its sample point."""
+    ptr = nominal.star_ptr
+    start = ptr[samples]
+    count = ptr[samples + 1] - start
+    m = pts.shape[0]
+    rep = np.repeat(np.arange(m), count)
+    offs = np.arange(rep.size) - np.repeat(np.cumsum(count) - count, count)
+    cand = nominal.star_tri[start[rep] + offs]
+    V = nominal.points[nominal.triangles[cand]]
+    P = pts[rep]
+    q, b = closest_point_on_triangles(P, V[:, 0], V[:, 1], V[:, 2])
+    d2 = np.einsum("ij,ij->i", P - q, P - q)
+    group_start = np.cumsum(count) - count
+    mins = np.minimum.reduceat(d2, group_start) if rep.size else np.empty(0)
+    hit = np.flatnonzero(d2 == mins[rep])
+    first = hit[np.r_[True, rep[hit][1:] != rep[hit][:-1]]]
+    return cand[first], d2[first], b[first]
+
+
+def _finish(pts, V, N, bary, curvature: bool, extrapolate: bool) -> Deviations:
+    """Curvature-correct the chosen facets and sign the distances.
+
+    Facets failing the normal-tilt check (or all, without ``curvature``) are treated as flat:
+    their vertex normals are replaced by the facet normal, which makes the Phong lift vanish.
+    With ``extrapolate`` (bare nominal points, whose sampling leaves gaps) a foot point that falls
+    just outside its facet, by less than the facet's longest edge, stays on the facet's surface
+    continued (the distance is measured along the normal); otherwise, and on meshes and grids
+    whose borders are real, the distance is to the facet's nearest edge or vertex.
+    """
+    fn = np.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
+    fn_len = np.linalg.norm(fn, axis=1)
+    fn = fn / np.where(fn_len > 0, fn_len, 1.0)[:, None]
+    agree = np.einsum("nij,nj->ni", N, fn)
+    flip = agree.sum(axis=1) < 0
+    fn[flip] *= -1
+    agree[flip] *= -1
+    cos_tilt = np.cos(np.radians(MAX_NORMAL_TILT_DEG))
+    curved = curvature & (fn_len > 0) & np.all(agree >= cos_tilt, axis=1)
+    flat = (fn_len > 0) & ~curved
+    N = N.copy()
+    N[flat] = fn[flat][:, None, :]
+    edge = np.max(np.linalg.norm(V - np.roll(V, 1, axis=1), axis=2), axis=1)
+
+    b = bary.copy()
+    free = np.zeros(pts.shape[0], dtype=bool)  # foot on the facet's continued surface
+    for _ in range(3):
+        s, nrm, q = _phong(V, N, b, fn)
+        d = np.einsum("ij,ij->i", pts - s, nrm)
+        # The tangent-plane foot, moved back to the flat facet, gives the next barycentrics.
+        target = pts - d[:, None] * nrm - (s - q)
+        _, b_in = closest_point_on_triangles(target, V[:, 0], V[:, 1], V[:, 2])
+        b = b_in
+        if extrapolate:
+            b_out = barycentric(target, V[:, 0], V[:, 1], V[:, 2])
+            gap = np.linalg.norm(np.einsum("ni,nij->nj", b_out - b_in, V), axis=1)
+            free = np.isfinite(gap) & (gap <= edge)
+            b = np.where(free[:, None], b_out, b_in)
+    s, nrm, _ = _phong(V, N, b, fn)
+    d = np.einsum("ij,ij->i", pts - s, nrm)
+    interior = np.all(b > 1e-9, axis=1) | free
+    e = np.linalg.norm(pts - s, axis=1)
+    signed = np.where(interior, d, np.where(d < 0, -e, e))
+    return Deviations(signed, s, nrm, curved)
+
+
+def _interp_normals(N, b, fallback):
+    n = np.einsum("ni,nij->nj", b, N)
+    ln = np.linalg.norm(n, axis=1)
+    ok = ln > 1e-9
+    out = fallback.copy()
+    out[ok] = n[ok] / ln[ok, None]
+    return out
+
+
+def _phong(V, N, b, fn):
+    """Point and normal of the Phong surface (shape factor 1/2) at barycentrics ``b``.
+
+    Returns (surface point, unit normal, flat point).
+    """
+    q = np.einsum("ni,nij->nj", b, V)
+    h = np.einsum("nij,nij->ni", V - q[:, None, :], N)
+    s = q + 0.5 * np.einsum("ni,ni,nij->nj", b, h, N)
+    return s, _interp_normals(N, b, fn), q

@@ -1,0 +1,132 @@
+"""The inspection pipeline: register → measure deviations → judge, with the verdict rules.
+
+Decision rule (pointwise, the paper's L-infinity argument): ACCEPT only when every measured point
+lies inside the tolerance zone [lower, upper]; REJECT when any point, outliers included, lies
+outside; INCONCLUSIVE when the pose cannot be trusted (the fit did not converge, or too few points
+lie on the surface for the pose to mean anything), whatever the deviations say.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .deviation import Deviations, point_to_surface
+from .errors import SettingsError
+from .geometry import apply_transform
+from .nominal import Nominal
+from .registration import RegistrationResult, RegistrationSettings, register
+
+ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
+MIN_INLIER_FRACTION = 0.5
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """Tolerance zone of the deviation, mm: ``lower`` <= d <= ``upper`` is in tolerance."""
+
+    lower: float
+    upper: float
+
+    def __post_init__(self):
+        if not (np.isfinite(self.lower) and np.isfinite(self.upper)):
+            raise SettingsError("tolerance limits must be finite numbers")
+        if not self.lower < self.upper:
+            raise SettingsError(f"tolerance zone is empty: lower limit {self.lower:g} mm is not "
+                                f"below upper limit {self.upper:g} mm")
+
+    @classmethod
+    def symmetric(cls, t: float) -> "Tolerance":
+        if not t > 0:
+            raise SettingsError(f"--tol must be positive, got {t:g}")
+        return cls(-float(t), float(t))
+
+    def excess(self, d: np.ndarray) -> np.ndarray:
+        """How far each deviation lies outside the zone (mm; <= 0 inside)."""
+        return np.maximum(d - self.upper, self.lower - d)
+
+
+@dataclass(frozen=True)
+class Statistics:
+    """Statistics of the signed deviations over all measured points (outliers included), mm."""
+
+    count: int
+    min: float
+    max: float
+    mean: float
+    std: float
+    rms: float
+    max_abs: float
+    n_out: int
+    fraction_in: float
+    worst: tuple[int, ...]
+    """Indices of up to 10 points farthest outside (or nearest to leaving) the zone, worst first."""
+
+    @classmethod
+    def of(cls, d: np.ndarray, tol: Tolerance, n_worst: int = 10) -> "Statistics":
+        ex = tol.excess(d)
+        out = ex > 0
+        worst = np.argsort(-ex, kind="stable")[:n_worst]
+        return cls(count=int(d.size), min=float(d.min()), max=float(d.max()),
+                   mean=float(d.mean()), std=float(d.std()),
+                   rms=float(np.sqrt(np.mean(d * d))), max_abs=float(np.abs(d).max()),
+                   n_out=int(out.sum()), fraction_in=float(1.0 - out.mean()),
+                   worst=tuple(int(i) for i in worst))
+
+
+@dataclass(frozen=True)
+class InspectionResult:
+    """Everything one inspection produced.
+
+    registered : (n, 3) measured points mapped into the nominal frame by
+        ``registration.T_nominal_measured``.
+    deviations : signed point-to-surface deviations at ``registered`` (see engine.deviation).
+    in_tolerance : (n,) bool.
+    """
+
+    verdict: str
+    reasons: tuple[str, ...]
+    tolerance: Tolerance
+    registration: RegistrationResult
+    registered: np.ndarray
+    deviations: Deviations
+    in_tolerance: np.ndarray
+    statistics: Statistics
+    normals_source: str
+    timings_s: dict = field(default_factory=dict)
+
+
+def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
+            settings: RegistrationSettings = RegistrationSettings()) -> InspectionResult:
+    """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``."""
+    t0 = time.perf_counter()
+    reg = register(nominal, measured, settings)
+    t1 = time.perf_counter()
+    registered = apply_transform(reg.T_nominal_measured, measured)
+    dev = point_to_surface(nominal, registered)
+    t2 = time.perf_counter()
+    verdict, reasons, inside = judge(dev.signed, tolerance, reg)
+    stats = Statistics.of(dev.signed, tolerance)
+    return InspectionResult(verdict, reasons, tolerance, reg, registered, dev, inside, stats,
+                            nominal.normals_source,
+                            {"register": t1 - t0, "deviation": t2 - t1})
+
+
+def judge(d: np.ndarray, tol: Tolerance, reg: RegistrationResult):
+    """Verdict, reasons and per-point in-tolerance mask for deviations ``d`` at pose ``reg``."""
+    inside = (d >= tol.lower) & (d <= tol.upper)
+    reasons = []
+    if not reg.converged:
+        reasons.append("registration did not converge: " + (reg.message or "no reason given"))
+    frac = reg.n_inliers / max(d.size, 1)
+    if frac < MIN_INLIER_FRACTION:
+        reasons.append(f"only {reg.n_inliers} of {d.size} points ({100 * frac:.0f}%) lie near the "
+                       "nominal surface at the best pose found; the pose cannot be trusted")
+    if reasons:
+        return INCONCLUSIVE, tuple(reasons), inside
+    n_out = int((~inside).sum())
+    if n_out:
+        return REJECT, (f"{n_out} of {d.size} points lie outside the tolerance zone",), inside
+    return ACCEPT, (f"all {d.size} points lie inside the tolerance zone",), inside

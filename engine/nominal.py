@@ -1,0 +1,372 @@
+"""The nominal surface: sampled CAD points, a u-v grid, or a triangle mesh, with outward normals.
+
+A :class:`Nominal` owns what registration and deviation measurement need from it:
+
+* ``points`` (N, 3) in millimetres, nominal frame;
+* outward unit ``normals`` per point, from the file's I J K columns, the mesh/grid orientation, or
+  estimated from neighbours (then ``normals_source == "estimated"`` and the sign convention rests
+  on that estimate: normals are made consistent over the surface and point away from its centre);
+* ``triangles`` (M, 3) for meshes and grids (grid cells are split along their shorter diagonal),
+  or None for bare points, where the paper's facets of the 4 nearest points are used instead;
+* a kd-tree over the points and coarse levels (seeded random subsets) for coarse-to-fine ICP.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
+from scipy.spatial import cKDTree
+
+from .errors import InputError
+from .pointio import PointSet
+
+NORMAL_NEIGHBOURS = 12
+_SEED = 20240607
+
+
+class Nominal:
+    """The nominal geometry; build it with :meth:`from_point_set`."""
+
+    def __init__(self, points: np.ndarray, normals: np.ndarray | None, normals_source: str,
+                 triangles: np.ndarray | None = None, kind: str = "points",
+                 grid_shape: tuple[int, int] | None = None, path: str = "<array>"):
+        self.points = np.ascontiguousarray(points, dtype=np.float64)
+        self.n = self.points.shape[0]
+        self.kind = kind
+        self.grid_shape = grid_shape
+        self.path = path
+        self.triangles = None if triangles is None else np.ascontiguousarray(triangles, np.int64)
+        self.normals_source = normals_source
+        if normals is None:
+            self._normals = np.full((self.n, 3), np.nan)
+            self._have_normal = np.zeros(self.n, dtype=bool)
+        else:
+            self._normals = np.ascontiguousarray(normals, dtype=np.float64)
+            self._have_normal = np.ones(self.n, dtype=bool)
+        lo, hi = self.points.min(0), self.points.max(0)
+        self.centre = 0.5 * (lo + hi)
+        self.diagonal = float(np.linalg.norm(hi - lo))
+        self._tree: cKDTree | None = None
+        self._levels: dict = {}
+        self._perm = np.random.default_rng(_SEED).permutation(self.n)
+        self._orient_ref: tuple[cKDTree, np.ndarray] | None = None
+        if self.triangles is not None:
+            self._build_stars()
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_point_set(cls, ps: PointSet) -> "Nominal":
+        """Build the nominal from a read file: a mesh, a declared grid, or bare points."""
+        if ps.dim != 3:
+            raise InputError("a 3D nominal needs x y z columns (a 2-column file is a 2D contour)",
+                             ps.path)
+        if ps.triangles is not None:
+            tris = _drop_degenerate(ps.points, ps.triangles)
+            if tris.shape[0] == 0:
+                raise InputError("the mesh has no triangle of non-zero area", ps.path)
+            tris, normals = _orient_mesh(ps.points, tris, ps.normals)
+            return cls(ps.points, normals, "file" if ps.normals is not None else "mesh", tris,
+                       "mesh", None, ps.path)
+        if ps.grid_shape is not None:
+            tris = _grid_triangles(ps.points, *ps.grid_shape)
+            tris = _drop_degenerate(ps.points, tris)
+            tris, normals = _orient_mesh(ps.points, tris, ps.normals, closed_check=False)
+            return cls(ps.points, normals, "file" if ps.normals is not None else "grid", tris,
+                       "grid", ps.grid_shape, ps.path)
+        return cls(ps.points, ps.normals, "file" if ps.normals is not None else "estimated",
+                   None, "points", None, ps.path)
+
+    # ------------------------------------------------------------------ neighbours
+    @property
+    def tree(self) -> cKDTree:
+        if self._tree is None:
+            self._tree = cKDTree(self.points, balanced_tree=False, compact_nodes=False)
+        return self._tree
+
+    def level(self, size: int) -> tuple[np.ndarray, cKDTree]:
+        """A coarse level: the first ``size`` points of a seeded permutation and their kd-tree."""
+        size = int(min(size, self.n))
+        if size >= self.n:
+            return np.arange(self.n), self.tree
+        if size not in self._levels:
+            idx = np.sort(self._perm[:size])
+            self._levels[size] = (idx, cKDTree(self.points[idx], balanced_tree=False,
+                                               compact_nodes=False))
+        return self._levels[size]
+
+    def level_shape(self, size: int) -> np.ndarray:
+        """(m, 3, 3) shape operators of a coarse level's points (see :meth:`shape_operators`)."""
+        key = ("shape", int(min(size, self.n)))
+        if key not in self._levels:
+            idx, _ = self.level(size)
+            self._levels[key] = self.shape_operators(idx)
+        return self._levels[key]
+
+    def shape_operators(self, idx: np.ndarray, k: int = 9) -> np.ndarray:
+        """(m, 3, 3) local curvature of the surface at points ``idx``, in the nominal frame.
+
+        Near point m with outward normal n the surface is m + u + 1/2 (u^T S u) n for tangent u,
+        so a point x lies ``n.(x - m) - 1/2 (x - m)^T S (x - m)`` above it: a second-order distance
+        that stays accurate on a coarse sample, where the tangent plane alone is off by
+        curvature x spacing^2 / 2. S is fitted to how the neighbours' normals turn
+        (dn = -S du). Where the normals turn by more than ~17 degrees between neighbours (sharp
+        edges) S is zero: the tangent plane is the honest approximation there.
+        """
+        idx = np.asarray(idx)
+        k = min(k, self.n)
+        p = self.points[idx]
+        n = self.normals(idx)
+        _, nb = self.tree.query(p, k=k, workers=-1)
+        dx = self.points[nb] - p[:, None, :]
+        dn = self.normals(nb) - n[:, None, :]
+        helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+        e1 = np.cross(n, helper)
+        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+        e2 = np.cross(n, e1)
+        u1, u2 = np.einsum("mkj,mj->mk", dx, e1), np.einsum("mkj,mj->mk", dx, e2)
+        g1, g2 = np.einsum("mkj,mj->mk", dn, e1), np.einsum("mkj,mj->mk", dn, e2)
+        # Least squares for symmetric K (k11, k12, k22) in  -g1 = k11 u1 + k12 u2,
+        # -g2 = k12 u1 + k22 u2.
+        A = np.zeros((idx.size, 3, 3))
+        A[:, 0, 0] = np.sum(u1 * u1, 1)
+        A[:, 0, 1] = A[:, 1, 0] = np.sum(u1 * u2, 1)
+        A[:, 1, 1] = np.sum(u2 * u2 + u1 * u1, 1)
+        A[:, 1, 2] = A[:, 2, 1] = np.sum(u1 * u2, 1)
+        A[:, 2, 2] = np.sum(u2 * u2, 1)
+        rhs = -np.stack([np.sum(g1 * u1, 1), np.sum(g1 * u2 + g2 * u1, 1), np.sum(g2 * u2, 1)], 1)
+        tr = np.trace(A, axis1=1, axis2=2)
+        kk = np.linalg.solve(A + (1e-9 * tr + 1e-300)[:, None, None] * np.eye(3),
+                             rhs[..., None])[..., 0]
+        S = (kk[:, 0, None, None] * np.einsum("mi,mj->mij", e1, e1)
+             + kk[:, 1, None, None] * (np.einsum("mi,mj->mij", e1, e2)
+                                       + np.einsum("mi,mj->mij", e2, e1))
+             + kk[:, 2, None, None] * np.einsum("mi,mj->mij", e2, e2))
+        reach = np.median(np.sqrt(u1 * u1 + u2 * u2), axis=1)
+        kmax = np.max(np.abs(np.linalg.eigvalsh(S)), axis=1)
+        turn = np.max(np.linalg.norm(dn, axis=2), axis=1)
+        S[(kmax * reach > 0.3) | (turn > 0.3)] = 0.0
+        return S
+
+    def spacing(self) -> float:
+        """Median distance from a point to its nearest neighbour (mm), on a seeded sample."""
+        idx = self._perm[: min(self.n, 2000)]
+        d, _ = self.tree.query(self.points[idx], k=2)
+        return float(np.median(d[:, 1]))
+
+    # ------------------------------------------------------------------ normals
+    def normals(self, idx: np.ndarray) -> np.ndarray:
+        """Outward unit normals of the points ``idx`` (estimated on first use for bare points)."""
+        idx = np.asarray(idx)
+        flat = idx.ravel()
+        missing = flat[~self._have_normal[flat]]
+        if missing.size:
+            self._estimate_normals(np.unique(missing))
+        return self._normals[flat].reshape(idx.shape + (3,))
+
+    def _estimate_normals(self, idx: np.ndarray) -> None:
+        k = min(NORMAL_NEIGHBOURS, self.n)
+        _, nb = self.tree.query(self.points[idx], k=k)
+        nrm = _quadric_normals(self.points[idx], self.points[nb])
+        ref_tree, ref_normals = self._orientation_reference()
+        _, j = ref_tree.query(self.points[idx])
+        flip = np.einsum("ij,ij->i", nrm, ref_normals[j]) < 0
+        nrm[flip] *= -1
+        self._normals[idx] = nrm
+        self._have_normal[idx] = True
+
+    def _orientation_reference(self):
+        """Consistently oriented normals on a coarse level (Hoppe et al.: spanning-tree propagation).
+
+        Each connected piece of the surface is then turned so that most of its normals point away
+        from the centre of the whole nominal.
+        """
+        if self._orient_ref is not None:
+            return self._orient_ref
+        idx = np.sort(self._perm[: min(self.n, 4000)])
+        pts = self.points[idx]
+        tree = cKDTree(pts)
+        k = min(NORMAL_NEIGHBOURS, self.n)
+        _, nb = self.tree.query(pts, k=k)
+        nrm = _pca_normals(self.points[nb])
+        kk = min(8, len(idx) - 1)
+        dist, nbr = tree.query(pts, k=kk + 1)
+        rows = np.repeat(np.arange(len(idx)), kk)
+        cols = nbr[:, 1:].ravel()
+        w = 1.0 - np.abs(np.einsum("ij,ij->i", nrm[rows], nrm[cols])) + 1e-9
+        g = coo_matrix((w, (rows, cols)), shape=(len(idx), len(idx))).tocsr()
+        g = g.maximum(g.T)
+        mst = minimum_spanning_tree(g)
+        mst = mst.maximum(mst.T)
+        ncomp, labels = connected_components(mst, directed=False)
+        for c in range(ncomp):
+            members = np.flatnonzero(labels == c)
+            order, pred = breadth_first_order(mst, members[0], directed=False)
+            for node in order[1:]:
+                if nrm[node] @ nrm[pred[node]] < 0:
+                    nrm[node] *= -1
+            out = np.einsum("ij,ij->i", pts[order] - self.centre, nrm[order])
+            if np.sum(out > 0) < np.sum(out < 0):
+                nrm[order] *= -1
+        self._orient_ref = (tree, nrm)
+        return self._orient_ref
+
+    # ------------------------------------------------------------------ mesh topology
+    def _build_stars(self) -> None:
+        """Per point, the triangles around it (CSR), plus extra sample points on large triangles.
+
+        Candidate facets for a query are the triangles around its nearest sample points; a large
+        triangle (longer than twice the typical edge) gets interior samples so that a query near
+        its middle still finds it.
+        """
+        tris = self.triangles
+        v = self.points[tris]
+        edges = np.linalg.norm(v - np.roll(v, 1, axis=1), axis=2)
+        longest = edges.max(1)
+        s = float(np.median(longest))
+        big = np.flatnonzero(longest > 2.0 * s)
+        extra_pts = [np.empty((0, 3))]
+        extra_tri = [np.empty(0, np.int64)]
+        if big.size:
+            for t in big:
+                m = int(min(np.ceil(longest[t] / s), 200))
+                ii, jj = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
+                keep = (ii + jj <= m)
+                b1, b2 = ii[keep] / m, jj[keep] / m
+                b0 = 1.0 - b1 - b2
+                interior = ~(np.isclose(b0, 1) | np.isclose(b1, 1) | np.isclose(b2, 1))
+                pts = (b0[interior, None] * v[t, 0] + b1[interior, None] * v[t, 1]
+                       + b2[interior, None] * v[t, 2])
+                extra_pts.append(pts)
+                extra_tri.append(np.full(pts.shape[0], t, np.int64))
+        self.extra_points = np.concatenate(extra_pts)
+        extra_tri_arr = np.concatenate(extra_tri)
+        vert_of = tris.ravel()
+        tri_of = np.repeat(np.arange(tris.shape[0]), 3)
+        order = np.argsort(vert_of, kind="stable")
+        counts = np.bincount(vert_of, minlength=self.n)
+        star_ptr = np.zeros(self.n + len(extra_tri_arr) + 1, np.int64)
+        star_ptr[1:self.n + 1] = np.cumsum(counts)
+        star_ptr[self.n + 1:] = star_ptr[self.n] + np.arange(1, len(extra_tri_arr) + 1)
+        self.star_ptr = star_ptr
+        self.star_tri = np.concatenate([tri_of[order], extra_tri_arr])
+        self._sample_tree: cKDTree | None = None
+
+    @property
+    def sample_tree(self) -> cKDTree:
+        """kd-tree over the points plus the extra samples on large triangles (meshes and grids)."""
+        if not len(self.extra_points):
+            return self.tree
+        if self._sample_tree is None:
+            self._sample_tree = cKDTree(np.vstack([self.points, self.extra_points]))
+        return self._sample_tree
+
+
+def _pca_normals(nbh: np.ndarray) -> np.ndarray:
+    """(m, k, 3) neighbourhoods → (m, 3) unit normals (smallest principal axis), unoriented."""
+    c = nbh - nbh.mean(axis=1, keepdims=True)
+    cov = np.einsum("mki,mkj->mij", c, c)
+    _, vecs = np.linalg.eigh(cov)
+    return vecs[:, :, 0]
+
+
+def _quadric_normals(centre: np.ndarray, nbh: np.ndarray) -> np.ndarray:
+    """Unoriented unit normals at ``centre`` (m, 3) from a quadric fitted to its neighbours (m, k, 3).
+
+    The plane normal (PCA) is tilted by the slope of a height field z = a + b x + c y + d x^2 +
+    e x y + f y^2 fitted in that frame: PCA alone is off by about curvature x spacing where the
+    neighbourhood is lopsided, the quadric's slope at the centre only to second order.
+    """
+    n0 = _pca_normals(nbh)
+    k = nbh.shape[1]
+    if k < 8:
+        return n0
+    # An orthonormal frame (e1, e2, n0) per point.
+    helper = np.where(np.abs(n0[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+    e1 = np.cross(n0, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(n0, e1)
+    d = nbh - centre[:, None, :]
+    x = np.einsum("mkj,mj->mk", d, e1)
+    y = np.einsum("mkj,mj->mk", d, e2)
+    z = np.einsum("mkj,mj->mk", d, n0)
+    scale = np.sqrt(np.mean(x**2 + y**2, axis=1, keepdims=True)) + 1e-300
+    x, y, z = x / scale, y / scale, z / scale
+    A = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=2)
+    AtA = np.einsum("mki,mkj->mij", A, A) + 1e-9 * np.eye(6)
+    Atz = np.einsum("mki,mk->mi", A, z)
+    coef = np.linalg.solve(AtA, Atz[..., None])[..., 0]
+    nrm = n0 - coef[:, 1:2] * e1 - coef[:, 2:3] * e2
+    return nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+
+
+def _grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:
+    """Split each u-v grid cell into two triangles along its shorter diagonal (u fastest)."""
+    i, j = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="xy")
+    v00 = (j * nu + i).ravel()
+    v10 = v00 + 1
+    v01 = v00 + nu
+    v11 = v01 + 1
+    d1 = np.linalg.norm(points[v00] - points[v11], axis=1)
+    d2 = np.linalg.norm(points[v10] - points[v01], axis=1)
+    use1 = d1 <= d2
+    t1 = np.where(use1[:, None], np.stack([v00, v10, v11], 1), np.stack([v00, v10, v01], 1))
+    t2 = np.where(use1[:, None], np.stack([v00, v11, v01], 1), np.stack([v10, v11, v01], 1))
+    return np.concatenate([t1, t2])
+
+
+def _drop_degenerate(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    v = points[tris]
+    area2 = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+    scale = np.max(np.linalg.norm(v - np.roll(v, 1, axis=1), axis=2), axis=1) ** 2
+    return tris[area2 > 1e-12 * np.maximum(scale, 1e-300)]
+
+
+def face_normals(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """(M, 3) area-weighted (unnormalised, length = 2 x area) face normals by winding."""
+    v = points[tris]
+    return np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+
+
+def _vertex_normals(n: int, tris: np.ndarray, fn: np.ndarray) -> np.ndarray:
+    vn = np.zeros((n, 3))
+    for c in range(3):
+        np.add.at(vn, tris[:, c], fn)
+    norm = np.linalg.norm(vn, axis=1)
+    vn[norm > 0] /= norm[norm > 0, None]
+    return vn
+
+
+def _orient_mesh(points, tris, file_normals, closed_check=True):
+    """Orient the winding outward and return (triangles, vertex normals).
+
+    With I J K normals in the file the winding is turned to agree with them and the file's normals
+    are kept. Otherwise a closed mesh is turned so its signed volume is positive (outward winding);
+    an open mesh keeps the winding it has.
+    """
+    fn = face_normals(points, tris)
+    if file_normals is not None:
+        mean_vn = file_normals[tris].sum(axis=1)
+        if np.einsum("ij,ij->i", fn, mean_vn).sum() < 0:
+            tris = tris[:, ::-1].copy()
+        return tris, file_normals
+    if closed_check and _is_closed(tris):
+        v = points[tris] - points.mean(axis=0)
+        volume = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6.0
+        if volume < 0:
+            tris = tris[:, ::-1].copy()
+            fn = -fn
+    vn = _vertex_normals(points.shape[0], tris, fn)
+    # Points used by no triangle get the normal of their nearest used point.
+    unused = np.linalg.norm(vn, axis=1) == 0
+    if unused.any():
+        used = np.flatnonzero(~unused)
+        _, j = cKDTree(points[used]).query(points[unused])
+        vn[unused] = vn[used[j]]
+    return tris, vn
+
+
+def _is_closed(tris: np.ndarray) -> bool:
+    e = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return bool(np.all(counts == 2))

@@ -1,0 +1,404 @@
+"""Point files as CMMs and CAD exports write them: ``.csv .txt .xyz .asc`` text and ``.npy``.
+
+Text layout accepted (detected from the file, no options needed):
+
+* delimiter: comma, semicolon, tab or runs of spaces; a semicolon file may use decimal commas;
+* ``#`` comment lines anywhere; ``# units: inch`` (mm, cm, m, in/inch) converts to millimetres;
+  ``# grid: NU x NV`` declares a u-v grid, points ordered with u fastest (index = j*NU + i);
+* an optional header row naming the columns (``x y z``, ``i j k`` or ``nx ny nz``, a label column
+  such as ``id``/``name``/``label``/``point``);
+* without a header, columns by count: ``x y`` (2D), ``x y z``, ``x y z i j k``, or those preceded
+  by a label column (``P0001, x, y, z``; a leading all-integer column counts as a label too).
+
+Every problem raises :class:`~engine.errors.InputError` naming the file and 1-based line.
+Meshes and PLY files need VTK and are read by ``reports.loading``, which builds the same
+:class:`PointSet`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError, InputNotFoundError
+
+TEXT_SUFFIXES = (".csv", ".txt", ".xyz", ".asc")
+UNIT_SCALE_TO_MM = {"mm": 1.0, "millimetre": 1.0, "millimeter": 1.0, "cm": 10.0, "m": 1000.0,
+                    "metre": 1000.0, "meter": 1000.0, "in": 25.4, "inch": 25.4, "inches": 25.4,
+                    "um": 1e-3, "µm": 1e-3, "micron": 1e-3}
+
+_GRID_RE = re.compile(r"^#\s*grid\s*[:=]?\s*(\d+)\s*(?:x|×|,|\s)\s*(\d+)\s*$", re.IGNORECASE)
+_UNITS_RE = re.compile(r"^#\s*units?\s*[:=]?\s*([a-zµ]+)\s*$", re.IGNORECASE)
+_LABEL_NAMES = {"id", "name", "label", "point", "pt", "no", "nr", "number", "pid", "index"}
+_AXIS_NAMES = {
+    "x": 0, "y": 1, "z": 2,
+    "i": 3, "j": 4, "k": 5, "nx": 3, "ny": 4, "nz": 5, "u": 3, "v": 4, "w": 5,
+}
+
+
+@dataclass(frozen=True)
+class PointSet:
+    """Points read from one file, in millimetres.
+
+    points : (n, 3) float64. 2D files get z = 0 and ``dim == 2``.
+    normals : (n, 3) float64 unit vectors (the file's I J K, or a mesh's vertex normals) or None.
+    labels : (n,) str array of point labels, or None.
+    grid_shape : (nu, nv) when the points form a u-v grid (u fastest), else None.
+    triangles : (m, 3) int64 vertex indices of a mesh's triangles, or None.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray | None = None
+    labels: np.ndarray | None = None
+    grid_shape: tuple[int, int] | None = None
+    triangles: np.ndarray | None = None
+    dim: int = 3
+    path: str = "<array>"
+
+    @property
+    def n(self) -> int:
+        return int(self.points.shape[0])
+
+
+def read_points(path: str | os.PathLike) -> PointSet:
+    """Read a text or ``.npy`` point file (see the module docstring for the layouts)."""
+    path = os.fspath(path)
+    suffix = os.path.splitext(path)[1].lower()
+    if not os.path.isfile(path):
+        raise InputNotFoundError("no such file", path)
+    if suffix == ".npy":
+        return _read_npy(path)
+    if suffix in TEXT_SUFFIXES:
+        return _read_text(path)
+    raise InputError(f"unsupported point file type '{suffix}' (expected one of "
+                     f"{', '.join(TEXT_SUFFIXES + ('.npy',))})", path)
+
+
+def _read_npy(path: str) -> PointSet:
+    try:
+        arr = np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as e:
+        raise InputError(f"not a readable .npy array ({e})", path) from e
+    if arr.ndim != 2 or arr.shape[1] not in (2, 3, 6):
+        raise InputError(f"array of shape {arr.shape}; expected (n, 2), (n, 3) or (n, 6)", path)
+    if not np.issubdtype(arr.dtype, np.number):
+        raise InputError(f"array of dtype {arr.dtype}; expected numbers", path)
+    arr = arr.astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
+    if bad.size:
+        raise InputError(f"row {bad[0]} holds NaN or infinity", path)
+    dim = 2 if arr.shape[1] == 2 else 3
+    pts = np.zeros((arr.shape[0], 3))
+    pts[:, :dim] = arr[:, :dim]
+    normals = _unit_normals(arr[:, 3:6], path, None) if arr.shape[1] == 6 else None
+    return finish_point_set(PointSet(pts, normals, dim=dim, path=path))
+
+
+@dataclass
+class _Layout:
+    delimiter: str | None  # None = whitespace
+    decimal_comma: bool
+    label_col: int | None
+    coord_cols: list[int]  # x, y[, z]
+    normal_cols: list[int] | None
+    n_cols: int
+    header_line: int | None  # 0-based line index of the header row
+    grid_shape: tuple[int, int] | None
+    unit_scale: float
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    if delimiter is None:
+        return line.split()
+    return [t.strip() for t in line.split(delimiter)]
+
+
+def _is_number(tok: str, decimal_comma: bool) -> bool:
+    try:
+        float(tok.replace(",", ".") if decimal_comma else tok)
+        return True
+    except ValueError:
+        return False
+
+
+def _detect_layout(path: str, lines: list[str]) -> _Layout:
+    grid_shape = None
+    unit_scale = 1.0
+    first = None
+    for idx, raw in enumerate(lines):
+        s = raw.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            m = _GRID_RE.match(s)
+            if m:
+                grid_shape = (int(m.group(1)), int(m.group(2)))
+                if min(grid_shape) < 2:
+                    raise InputError(f"grid {grid_shape[0]} x {grid_shape[1]} needs at least 2 x 2 "
+                                     "points", path, idx + 1)
+            m = _UNITS_RE.match(s)
+            if m:
+                unit = m.group(1).lower()
+                if unit not in UNIT_SCALE_TO_MM:
+                    raise InputError(f"unknown unit '{m.group(1)}' (expected one of mm, cm, m, in)",
+                                     path, idx + 1)
+                unit_scale = UNIT_SCALE_TO_MM[unit]
+            continue
+        first = idx
+        break
+    if first is None:
+        raise InputError("the file holds no points", path)
+    s = lines[first].strip()
+    if ";" in s:
+        delimiter: str | None = ";"
+    elif "\t" in s:
+        delimiter = "\t"
+    elif "," in s:
+        delimiter = ","
+    else:
+        delimiter = None
+    tokens = _split(s, delimiter)
+    decimal_comma = delimiter in (";", "\t", None) and any(
+        re.fullmatch(r"[-+]?\d+,\d+(?:[eE][-+]?\d+)?", t) for t in tokens)
+
+    header_line = None
+    label_col = None
+    coord_cols: list[int]
+    normal_cols: list[int] | None = None
+    numeric = [_is_number(t, decimal_comma) for t in tokens]
+    # A header row has no number in it except possibly none at all: names only.
+    if not any(numeric[1:]) and len(tokens) >= 2:
+        header_line = first
+        names = [t.strip().strip('"').strip("'").lower() for t in tokens]
+        slots: dict[int, int] = {}
+        for col, name in enumerate(names):
+            key = name.split("[")[0].split("(")[0].strip()
+            if key in _AXIS_NAMES and _AXIS_NAMES[key] not in slots:
+                slots[_AXIS_NAMES[key]] = col
+            elif key in _LABEL_NAMES and label_col is None:
+                label_col = col
+        if 0 not in slots or 1 not in slots:
+            raise InputError(f"header row {tokens!r} names no x and y columns", path, first + 1)
+        coord_cols = [slots[0], slots[1]] + ([slots[2]] if 2 in slots else [])
+        if all(a in slots for a in (3, 4, 5)):
+            normal_cols = [slots[3], slots[4], slots[5]]
+        if label_col is None and 0 not in slots.values() and len(names) > 0:
+            label_col = 0 if names[0] not in _AXIS_NAMES else None
+        n_cols = len(tokens)
+        # find first data line to confirm column count
+    else:
+        n_cols = len(tokens)
+        label_col = None
+        if not numeric[0]:
+            label_col = 0
+        elif n_cols in (4, 7) and _looks_like_integer_labels(lines, first, delimiter, decimal_comma):
+            label_col = 0
+        data_count = n_cols - (1 if label_col is not None else 0)
+        off = 1 if label_col is not None else 0
+        if data_count == 2:
+            coord_cols = [off, off + 1]
+        elif data_count == 3:
+            coord_cols = [off, off + 1, off + 2]
+        elif data_count == 6:
+            coord_cols = [off, off + 1, off + 2]
+            normal_cols = [off + 3, off + 4, off + 5]
+        else:
+            raise InputError(
+                f"{n_cols} columns without a header row: expected x y, x y z or x y z i j k, "
+                "optionally after a label column (add a header such as 'id,x,y,z' to say which "
+                "column is which)", path, first + 1)
+    return _Layout(delimiter, decimal_comma, label_col, coord_cols, normal_cols, n_cols,
+                   header_line, grid_shape, unit_scale)
+
+
+def _looks_like_integer_labels(lines, first, delimiter, decimal_comma) -> bool:
+    """A leading column of integers on the first rows is a point number, not a coordinate."""
+    seen = 0
+    for raw in lines[first:first + 50]:
+        s = raw.strip()
+        if not s or s.startswith("#"):
+            continue
+        tok = _split(s, delimiter)[0]
+        if not re.fullmatch(r"[-+]?\d+", tok):
+            return False
+        seen += 1
+    return seen > 0
+
+
+def _read_text(path: str) -> PointSet:
+    try:
+        with open(path, "rb") as f:
+            raw = f.read()
+    except OSError as e:
+        raise InputNotFoundError(f"cannot be read ({e.strerror})", path) from e
+    if b"\x00" in raw[:4096]:
+        raise InputError("is a binary file, not a text point file", path)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    lines = text.splitlines()
+    layout = _detect_layout(path, lines)
+    start = (layout.header_line + 1) if layout.header_line is not None else 0
+    if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in lines[start:]):
+        raise InputError("the file holds a header but no points", path)
+    data = _parse_fast(lines, start, layout)
+    if data is None:
+        data = _parse_slow(path, lines, start, layout)
+    coords, normals, labels, line_no = data
+    if coords.shape[0] == 0:
+        raise InputError("the file holds a header but no points", path)
+    bad = np.flatnonzero(~np.isfinite(coords).all(axis=1))
+    if normals is not None:
+        bad = np.union1d(bad, np.flatnonzero(~np.isfinite(normals).all(axis=1)))
+    if bad.size:
+        ln = line_no[bad[0]] if line_no is not None else _line_of_row(lines, start, bad[0])
+        raise InputError("NaN or infinity is not a coordinate", path, ln)
+    dim = coords.shape[1]
+    pts = np.zeros((coords.shape[0], 3))
+    pts[:, :dim] = coords * layout.unit_scale
+    if normals is not None:
+        normals = _unit_normals(normals, path, line_no, lines, start)
+    ps = PointSet(pts, normals, labels, layout.grid_shape, None, dim, path)
+    return finish_point_set(ps)
+
+
+def _line_of_row(lines: list[str], start: int, row: int) -> int:
+    count = -1
+    for idx in range(start, len(lines)):
+        s = lines[idx].strip()
+        if s and not s.startswith("#"):
+            count += 1
+            if count == row:
+                return idx + 1
+    return len(lines)
+
+
+def _parse_fast(lines, start, layout: _Layout):
+    """np.loadtxt over the data lines; None when anything is off (the slow path then explains)."""
+    if layout.decimal_comma:
+        return None
+    cols = layout.coord_cols + (layout.normal_cols or [])
+    try:
+        with warnings.catch_warnings():
+            # numpy notes blank and comment lines inside the data; they are allowed here.
+            warnings.simplefilter("ignore", UserWarning)
+            return _loadtxt(lines, start, layout, cols)
+    except (ValueError, IndexError):
+        return None
+
+
+def _loadtxt(lines, start, layout: _Layout, cols):
+    labels = None
+    if layout.label_col is None:
+        # Without usecols loadtxt itself refuses rows whose column count differs.
+        arr = np.loadtxt(lines[start:], delimiter=layout.delimiter, comments="#", ndmin=2,
+                         dtype=np.float64)
+        if arr.shape[1] != layout.n_cols:
+            return None
+        arr = arr[:, cols]
+    else:
+        if not _column_counts_ok(lines, start, layout):
+            return None
+        arr = np.loadtxt(lines[start:], delimiter=layout.delimiter, comments="#", usecols=cols,
+                         ndmin=2, dtype=np.float64)
+        labels = np.loadtxt(lines[start:], delimiter=layout.delimiter, comments="#",
+                            usecols=[layout.label_col], ndmin=1, dtype=str)
+        labels = np.char.strip(np.char.strip(labels), '"')
+    nc = len(layout.coord_cols)
+    coords = arr[:, :nc]
+    normals = arr[:, nc:nc + 3] if layout.normal_cols else None
+    return coords, normals, labels, None
+
+
+def _column_counts_ok(lines, start, layout: _Layout) -> bool:
+    n = layout.n_cols
+    d = layout.delimiter
+    for raw in lines[start:]:
+        s = raw.strip()
+        if not s or s[0] == "#":
+            continue
+        if (len(s.split()) if d is None else s.count(d) + 1) != n:
+            return False
+    return True
+
+
+def _parse_slow(path, lines, start, layout: _Layout):
+    coords, normals, labels, line_no = [], [], [], []
+    nc = len(layout.coord_cols)
+    for idx in range(start, len(lines)):
+        s = lines[idx].strip()
+        if not s or s.startswith("#"):
+            continue
+        toks = _split(s, layout.delimiter)
+        if len(toks) != layout.n_cols:
+            raise InputError(f"{len(toks)} columns where the file has {layout.n_cols}", path, idx + 1)
+        vals = []
+        for col in layout.coord_cols + (layout.normal_cols or []):
+            tok = toks[col]
+            try:
+                vals.append(float(tok.replace(",", ".") if layout.decimal_comma else tok))
+            except ValueError:
+                raise InputError(f"'{tok}' is not a number", path, idx + 1) from None
+        for v in vals:
+            if not math.isfinite(v):
+                raise InputError("NaN or infinity is not a coordinate", path, idx + 1)
+        coords.append(vals[:nc])
+        if layout.normal_cols:
+            normals.append(vals[nc:])
+        if layout.label_col is not None:
+            labels.append(toks[layout.label_col].strip('"'))
+        line_no.append(idx + 1)
+    return (np.asarray(coords, dtype=np.float64).reshape(-1, nc),
+            np.asarray(normals, dtype=np.float64).reshape(-1, 3) if layout.normal_cols else None,
+            np.asarray(labels, dtype=str) if layout.label_col is not None else None,
+            np.asarray(line_no))
+
+
+def _unit_normals(normals, path, line_no=None, lines=None, start=0) -> np.ndarray:
+    norm = np.linalg.norm(normals, axis=1)
+    bad = np.flatnonzero(~(norm > 1e-12) | ~np.isfinite(norm))
+    if bad.size:
+        if line_no is not None:
+            raise InputError("normal (I J K) has zero length", path, int(line_no[bad[0]]))
+        if lines is not None:
+            raise InputError("normal (I J K) has zero length", path, _line_of_row(lines, start, bad[0]))
+        raise InputError(f"row {bad[0]}: normal (I J K) has zero length", path)
+    return normals / norm[:, None]
+
+
+def finish_point_set(ps: PointSet) -> PointSet:
+    """Check what every reader must check: enough points, finite, not degenerate, grid size."""
+    pts = ps.points
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points of shape {pts.shape}; expected (n, 3)", ps.path)
+    if pts.shape[0] == 0:
+        raise InputError("the file holds no points", ps.path)
+    if pts.shape[0] < 3:
+        raise InputError(f"only {pts.shape[0]} point(s); at least 3 are needed", ps.path)
+    if not np.isfinite(pts).all():
+        row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+        raise InputError(f"point {row} holds NaN or infinity", ps.path)
+    check_not_degenerate(pts, ps.path)
+    if ps.grid_shape is not None:
+        nu, nv = ps.grid_shape
+        if nu * nv != pts.shape[0]:
+            raise InputError(f"header declares a {nu} x {nv} grid ({nu * nv} points) but the file "
+                             f"holds {pts.shape[0]} points", ps.path)
+    return ps
+
+
+def check_not_degenerate(pts: np.ndarray, path: str) -> None:
+    """Raise when all points coincide or lie on one line (no rigid pose can be found from them)."""
+    centred = pts - pts.mean(axis=0)
+    scale = float(np.abs(centred).max())
+    if scale == 0.0:
+        raise InputError(f"all {pts.shape[0]} points coincide", path)
+    sv = np.linalg.svd(centred / scale, compute_uv=False)
+    if sv[1] <= 1e-9 * sv[0]:
+        raise InputError(f"all {pts.shape[0]} points lie on one straight line", path)

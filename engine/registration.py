@@ -1,0 +1,481 @@
+"""Soft registration: the rigid pose of the measured points in the nominal frame, from any start.
+
+The method is the paper's modified ICP (section 4) with a global stage in front of it:
+
+1. **Global search.** Pose hypotheses are the principal-axes alignments (all four proper sign
+   combinations) and a deterministic even spread of rotations over SO(3), each placed at the
+   nominal's centroid and at anchor points spread over the nominal (so that a measurement covering
+   only part of the part can land on the right part). Every hypothesis runs a few ICP iterations on
+   a coarse sample of the nominal; the worse half is dropped every two iterations until a few remain.
+2. **Modified ICP, coarse to fine.** The surviving distinct poses are refined while the nominal
+   sample is made denser level by level (x4 each level, up to the full nominal), the paper's
+   Fig. 4 argument: a coarse sample finds the basin cheaply, density only matters at the end.
+   Each iteration is a closed-form rigid update (linearised point-to-plane least squares against
+   the nearest sample's normal, with a small point-to-point term that keeps sliding directions
+   in check).
+3. **Point-to-surface finish.** Gauss-Newton on the signed point-to-surface deviations of
+   :mod:`engine.deviation` (local facets, curvature-corrected), so that the final pose is the
+   least-squares optimum of point-to-surface distance over the inlier points, not of the distance
+   to the nearest sample.
+
+Gross outliers (a mis-probed point far off the surface) are excluded from the fit by a robust
+cut (``outlier_sigmas`` x 1.4826 x median absolute deviation, never below ``outlier_floor`` x the
+nominal's diagonal); they stay in the deviation table and the verdict.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .deviation import point_to_surface
+from .geometry import make_transform, rotation_angle_deg, rotation_from_rotvec, uniform_rotations
+from .nominal import Nominal
+
+_SEED = 7
+
+
+@dataclass(frozen=True)
+class RegistrationSettings:
+    """Settings of :func:`register`; the defaults need no tuning for parts from 10 mm to 5 m."""
+
+    n_rotations: int = 60
+    """Evenly spread rotations tried by the global search (plus 4 principal-axes alignments)."""
+    min_anchors: int = 8
+    """Anchors (spread over the nominal) where the evenly spread rotations are tried."""
+    max_anchors: int = 256
+    """At most this many anchors for the normal-aligned hypotheses (one per voxel of a tenth of
+    the measured extent, the voxel grown until no more remain)."""
+    n_spins: int = 12
+    """Spins about the normal tried at each anchor by the normal-aligned hypotheses."""
+    coarse_size: int = 1000
+    """Nominal points in the coarsest ICP level, at least …"""
+    coarse_samples_per_area: float = 500.0
+    """… and this x (nominal diagonal / measured extent)^2, at most 16 x coarse_size."""
+    coarse_measured: int = 32
+    """Measured points (farthest-point spread) used by the global search."""
+    keep_per_level: tuple[int, ...] = (48, 16, 6, 3)
+    """Distinct poses kept after the coarsest level, the next, …; the last number repeats."""
+    max_final_iterations: int = 50
+    """Point-to-surface Gauss-Newton iterations at most."""
+    outlier_sigmas: float = 6.0
+    """Robust cut for the fit, in robust standard deviations of the deviations."""
+    outlier_floor: float = 1e-4
+    """The cut is never below this fraction of the nominal's bounding-box diagonal."""
+    rotation_tol_rad: float = 1e-9
+    """Converged when an update rotates less than this …"""
+    translation_tol: float = 1e-10
+    """… and moves less than this fraction of the nominal's diagonal."""
+
+
+@dataclass(frozen=True)
+class RegistrationResult:
+    """Outcome of :func:`register`.
+
+    T_nominal_measured : (4, 4) maps measured coordinates into the nominal frame.
+    rms : root mean square of the signed point-to-surface deviations over the ``n_inliers``
+        points the final fit used (outliers excluded), mm.
+    score : truncated RMS over *all* measured points, sqrt(mean(min(d^2, cut^2))), mm; lower is
+        better; the same measure scores the runner-up pose, so the two compare.
+    runner_up_score : score of the best pose distinct from the chosen one (None when the global
+        search ended with a single distinct pose).
+    """
+
+    T_nominal_measured: np.ndarray
+    converged: bool
+    iterations: int
+    rms: float
+    n_inliers: int
+    inlier: np.ndarray
+    outlier_cut: float
+    score: float
+    hypotheses: int
+    runner_up_score: float | None
+    runner_up_T: np.ndarray | None
+    message: str = ""
+    rms_definition: str = field(default="RMS of signed point-to-surface deviations over the "
+                                        "inlier points used by the final fit (mm)")
+
+
+def register(nominal: Nominal, measured: np.ndarray,
+             settings: RegistrationSettings = RegistrationSettings()) -> RegistrationResult:
+    """Find ``T_nominal_measured`` for measured points (n, 3) lying in any pose."""
+    measured = np.ascontiguousarray(measured, dtype=np.float64)
+    # The coarsest level must still put a few hundred samples under the measured area.
+    extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
+    ratio = nominal.diagonal / max(extent, 1e-12)
+    coarse = int(np.clip(settings.coarse_samples_per_area * ratio * ratio,
+                         settings.coarse_size, 16 * settings.coarse_size))
+    lvl_idx, lvl_tree = nominal.level(coarse)
+    lvl_pts = nominal.points[lvl_idx]
+    lvl_nrm = nominal.normals(lvl_idx)
+    lvl_shape = nominal.level_shape(coarse)
+    h0 = _level_spacing(lvl_tree, lvl_pts)
+
+    sub = _spread_subset(measured, settings.coarse_measured)
+    T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings)
+    n_hyp = T.shape[0]
+
+    # Global stage on the coarsest level: every hypothesis iterates, poses that arrive at the
+    # same place merge, and only the best distinct ones go on. Scores on a coarse sample cannot
+    # tell close fits apart (its chords are off by curvature x spacing^2), so several distinct
+    # poses are carried to the finer levels, where they can.
+    T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=4,
+                             lam2=0.01, shape=lvl_shape)
+    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2)
+    T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=6,
+                             lam2=0.01, shape=lvl_shape)
+    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0])
+
+    # Coarse to fine: the nominal sample grows x4 per level, the measured subset with it.
+    size = coarse
+    level = 0
+    iters = 10
+    while size < nominal.n:
+        size = min(size * 4, nominal.n)
+        level += 1
+        idx, tree = nominal.level(size)
+        pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
+        h = _level_spacing(tree, pts_l)
+        msub = _spread_subset(measured, max(64, size // 16))
+        last = size >= nominal.n
+        shape = None if last else nominal.level_shape(size)
+        T, score, done = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h,
+                                    iterations=8 if last else 4, stop_rad=1e-6 if last else 0.0,
+                                    reach=10 * h, shape=shape)
+        iters += done
+        keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
+        T = _best_distinct(T, score, measured[msub], keep)
+    refined = [(Tc, iters) for Tc in T]
+
+    # Score every refined candidate by its point-to-surface deviations under one common cut; the
+    # best gets the point-to-surface finish, the best distinct other one is the runner-up.
+    floor = settings.outlier_floor * nominal.diagonal
+    devs = [point_to_surface(nominal, measured @ Tc[:3, :3].T + Tc[:3, 3]).signed
+            for Tc, _ in refined]
+    cut0 = min(_robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
+    scores = [_truncated_rms(d, cut0) for d in devs]
+    order = np.argsort(scores, kind="stable")
+    best = int(order[0])
+    Tb, converged, it, inlier, cut_b, d_b, message = _point_to_surface_fit(
+        nominal, measured, refined[best][0], settings)
+    score = _truncated_rms(d_b, cut0)
+    runner = next((int(j) for j in order[1:]
+                   if _is_distinct(refined[j][0], Tb, measured[sub], nominal.diagonal)), None)
+    rms = float(np.sqrt(np.mean(d_b[inlier] ** 2))) if inlier.any() else float("nan")
+    return RegistrationResult(
+        T_nominal_measured=Tb, converged=converged, iterations=refined[best][1] + it, rms=rms,
+        n_inliers=int(inlier.sum()), inlier=inlier, outlier_cut=cut_b, score=score,
+        hypotheses=n_hyp,
+        runner_up_score=None if runner is None else scores[runner],
+        runner_up_T=None if runner is None else refined[runner][0], message=message)
+
+
+def _truncated_rms(d: np.ndarray, cut: float) -> float:
+    return float(np.sqrt(np.mean(np.minimum(d * d, cut * cut))))
+
+
+# ---------------------------------------------------------------------------- global stage
+def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
+                lvl_nrm: np.ndarray, settings: RegistrationSettings) -> np.ndarray:
+    """(H, 4, 4) starting poses.
+
+    * the four principal-axes alignments, centroid on centroid (full coverage);
+    * evenly spread rotations, centroid on centroid and with a measured point ``p0`` put on a few
+      anchor points spread over the nominal;
+    * ``p0``'s local normal turned onto the nominal normal at anchors spread over the whole
+      nominal surface (about one per tenth of the measured extent), both ways round, at
+      ``n_spins`` spins about it: with the right anchor, one of these starts within 15 degrees
+      and a few millimetres of the answer, whatever part of the nominal was measured.
+
+    ``p0`` is a measured point near the measured centroid whose neighbours lie on a plane (so that
+    its normal means something); the centroid itself may be in the air (two faces of a bracket).
+    """
+    cm = measured.mean(axis=0)
+    cn = nominal.points.mean(axis=0)
+    Em, _ = _principal_axes(measured - cm)
+    En, _ = _principal_axes(lvl_pts - lvl_pts.mean(axis=0))
+    pca = np.asarray([En @ np.diag(s) @ Em.T
+                      for s in ([1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1])])
+    extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
+    p0, n0 = _reference_point(measured, extent)
+
+    U = uniform_rotations(settings.n_rotations)
+    few = lvl_pts[_spread_subset(lvl_pts, settings.min_anchors)]
+    R_all = [pca, U, np.repeat(U, few.shape[0], axis=0)]
+    t_all = [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
+
+    anchor_idx = _voxel_anchors(lvl_pts, 0.1 * extent, settings.max_anchors)
+    spins = np.linspace(0.0, 2 * np.pi, settings.n_spins, endpoint=False)
+    a_pts, a_nrm = lvl_pts[anchor_idx], lvl_nrm[anchor_idx]
+    spin = rotation_from_rotvec(a_nrm[:, None, :] * spins[None, :, None])  # (k, s, 3, 3)
+    for sign in (1.0, -1.0):
+        base = _rotation_between(sign * n0, a_nrm)  # (k, 3, 3)
+        R = (spin @ base[:, None]).reshape(-1, 3, 3)
+        R_all.append(R)
+        t_all.append(np.repeat(a_pts, spins.size, axis=0) - R @ p0)
+    return make_transform(np.concatenate(R_all), np.concatenate(t_all))
+
+
+def _reference_point(measured: np.ndarray, extent: float):
+    """A measured point near the centroid whose neighbourhood is planar, and its unit normal."""
+    n = measured.shape[0]
+    k = min(8, n)
+    cm = measured.mean(axis=0)
+    near = np.argsort(np.linalg.norm(measured - cm, axis=1), kind="stable")[: min(n, 16)]
+    _, nb = cKDTree(measured).query(measured[near], k=k)
+    c = measured[nb] - measured[nb].mean(axis=1, keepdims=True)
+    vals, vecs = np.linalg.eigh(np.einsum("mki,mkj->mij", c, c))
+    flatness = vals[:, 0] / np.maximum(vals[:, 1], 1e-300)
+    dist = np.linalg.norm(measured[near] - cm, axis=1) / max(extent, 1e-12)
+    best = int(np.argmin(dist + 5.0 * flatness))
+    return measured[near[best]], vecs[best, :, 0]
+
+
+def _voxel_anchors(pts: np.ndarray, voxel: float, cap: int) -> np.ndarray:
+    """One point per occupied voxel (the one nearest the voxel centre), the voxel grown until at
+    most ``cap`` remain: anchors spread by area over the surface, whatever its shape."""
+    voxel = max(voxel, 1e-9)
+    lo = pts.min(axis=0)
+    while True:
+        cell = np.floor((pts - lo) / voxel).astype(np.int64)
+        centre = lo + (cell + 0.5) * voxel
+        d = np.linalg.norm(pts - centre, axis=1)
+        key = (cell[:, 0] * 73856093) ^ (cell[:, 1] * 19349663) ^ (cell[:, 2] * 83492791)
+        order = np.lexsort((d, key))
+        first = order[np.r_[True, key[order][1:] != key[order][:-1]]]
+        if first.size <= cap:
+            return np.sort(first)
+        voxel *= 1.25
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(k, 3, 3) rotations turning the unit vector a (3,) onto each unit vector b (k, 3)."""
+    v = np.cross(a[None, :], b)
+    s = np.linalg.norm(v, axis=1)
+    c = b @ a
+    angle = np.arctan2(s, c)
+    axis = np.where(s[:, None] > 1e-12, v / np.maximum(s, 1e-300)[:, None], 0.0)
+    # Opposite vectors: any axis perpendicular to a.
+    opposite = (s <= 1e-12) & (c < 0)
+    if opposite.any():
+        perp = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+        axis[opposite] = perp / np.linalg.norm(perp)
+    return rotation_from_rotvec(axis * angle[:, None])
+
+
+def _principal_axes(c: np.ndarray):
+    """Principal axes (columns, largest first, right-handed) and their variances."""
+    vals, vecs = np.linalg.eigh(c.T @ c / max(c.shape[0], 1))
+    E = vecs[:, ::-1].copy()
+    if np.linalg.det(E) < 0:
+        E[:, 2] *= -1
+    return E, vals[::-1]
+
+
+def _spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
+    """Indices of up to ``m`` points spread over ``pts``: farthest-point sampling for small ``m``,
+    a seeded random subset for large ``m`` (where it spreads well enough and costs nothing)."""
+    n = pts.shape[0]
+    if n <= m:
+        return np.arange(n)
+    if m > 128:
+        return np.sort(np.random.default_rng(_SEED).choice(n, m, replace=False))
+    pool = np.arange(n)
+    if n > 8192:
+        pool = np.sort(np.random.default_rng(_SEED).choice(n, 8192, replace=False))
+    P = pts[pool]
+    chosen = np.empty(m, np.int64)
+    chosen[0] = int(np.argmin(np.linalg.norm(P - P.mean(0), axis=1)))
+    d = np.linalg.norm(P - P[chosen[0]], axis=1)
+    for i in range(1, m):
+        chosen[i] = int(np.argmax(d))
+        d = np.minimum(d, np.linalg.norm(P - P[chosen[i]], axis=1))
+    return np.sort(pool[chosen])
+
+
+def _level_spacing(tree: cKDTree, pts: np.ndarray) -> float:
+    sample = pts[:: max(1, pts.shape[0] // 1000)]
+    d, _ = tree.query(sample, k=2)
+    return float(np.median(d[:, 1]))
+
+
+def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, nrm: np.ndarray,
+               spacing: float, iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
+               reach: float = np.inf, shape: np.ndarray | None = None):
+    """Run ICP iterations for H poses at once; returns (poses, truncated scores, iterations run).
+
+    T : (H, 4, 4) poses; src : (m, 3) measured points. Each iteration pairs every transformed
+    point with its nearest sample and solves the linearised point-to-plane problem (point-to-
+    quadric when the samples' ``shape`` operators are given; plus, with
+    ``lam2`` > 0, a point-to-point term of that weight that keeps flat directions from drifting
+    while far from the solution), trimming pairs
+    farther than max(3 x spacing, 2.5 x the pose's median distance). Stops early once every
+    update rotates less than ``stop_rad`` and moves less than ``stop_rad`` x 100 x spacing.
+    Points farther than ``reach`` from every sample are left unpaired (it bounds the search).
+    The score (of the pose before the last update) is the mean of the smallest 75% of
+    min(e^2, (3 spacing)^2), where e combines the distance along the sample's normal with the
+    sideways distance beyond 3 x the sample spacing (a point hanging off the nominal's border):
+    up to a quarter of the points may be gross outliers without deciding which pose wins.
+    """
+    H, m = T.shape[0], src.shape[0]
+    score = np.zeros(H)
+    done = 0
+    for _ in range(iterations):
+        X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+        dist, j = tree.query(X.reshape(-1, 3), workers=_workers(H * m),
+                             distance_upper_bound=reach)
+        far = ~np.isfinite(dist).reshape(H, m)
+        j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
+        mp, n = pts[j], nrm[j]
+        r = X - mp
+        rn = np.sum(r * n, axis=2)
+        lat2 = np.maximum(np.sum(r * r, axis=2) - rn * rn, 0.0)
+        if shape is not None:
+            # Second-order distance to the surface through the sample (see
+            # Nominal.shape_operators), and its gradient as the direction of the residual.
+            Sr = np.einsum("hmij,hmj->hmi", shape[j], r)
+            rn = rn - 0.5 * np.sum(r * Sr, axis=2)
+            n = n - Sr
+        lat = np.maximum(np.sqrt(lat2) - 3 * spacing, 0.0)
+        e2 = np.where(far, np.inf, rn * rn + lat * lat)
+        score = _trimmed_mean(np.minimum(e2, (3 * spacing) ** 2))
+        tau = np.minimum(np.maximum(3 * spacing, 2.5 * np.sqrt(np.median(e2, axis=1))), reach)
+        w = (e2 <= (tau * tau)[:, None]).astype(np.float64)
+        sw = w.sum(1)
+        c = (w[..., None] * X).sum(1) / np.maximum(sw, 1.0)[:, None]
+        xt = X - c[:, None, :]
+        Jp = np.concatenate([np.cross(xt, n), n], axis=2)  # (H, m, 6)
+        Jw = Jp * w[..., None]
+        A = Jw.transpose(0, 2, 1) @ Jp
+        b = (Jw * rn[..., None]).sum(1)
+        if lam2:
+            # Point-to-point term: x' - m = r - [xt]x w + t.
+            xw = xt * w[..., None]
+            sx = xw.sum(1)
+            sxx = xw.transpose(0, 2, 1) @ xt
+            A_pp = np.zeros((H, 6, 6))
+            A_pp[:, :3, :3] = np.trace(sxx, axis1=1, axis2=2)[:, None, None] * np.eye(3) - sxx
+            A_pp[:, :3, 3:] = _skew_batch(sx)
+            A_pp[:, 3:, :3] = np.transpose(A_pp[:, :3, 3:], (0, 2, 1))
+            A_pp[:, 3:, 3:] = sw[:, None, None] * np.eye(3)
+            b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
+            A = A + lam2 * A_pp
+            b = b + lam2 * b_pp
+        reg = (1e-12 * np.trace(A, axis1=1, axis2=2) + 1e-300)[:, None, None] * np.eye(6)
+        delta = -np.linalg.solve(A + reg, b[..., None])[..., 0]
+        T = _compose_update(T, delta, c)
+        done += 1
+        if stop_rad and np.all(np.linalg.norm(delta[:, :3], axis=1) < stop_rad) and \
+                np.all(np.linalg.norm(delta[:, 3:], axis=1) < stop_rad * 100 * spacing):
+            break
+    return T, score, done
+
+
+def _trimmed_mean(e2: np.ndarray, keep: float = 0.75) -> np.ndarray:
+    """Per row of (H, m), the mean of the smallest ``keep`` fraction of the values."""
+    m = e2.shape[1]
+    k = max(1, int(np.ceil(keep * m)))
+    return np.mean(np.partition(e2, k - 1, axis=1)[:, :k], axis=1)
+
+
+def _workers(n_queries: int) -> int:
+    """Threads for a kd-tree query: more only where they pay for their start-up."""
+    return -1 if n_queries >= 20000 else 1
+
+
+def _skew_batch(v: np.ndarray) -> np.ndarray:
+    z = np.zeros(v.shape[0])
+    return np.stack([np.stack([z, -v[:, 2], v[:, 1]], -1),
+                     np.stack([v[:, 2], z, -v[:, 0]], -1),
+                     np.stack([-v[:, 1], v[:, 0], z], -1)], -2)
+
+
+def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Apply x' = c + R(w) (x - c) + t after T, for (H, 6) updates [w, t] about centres c."""
+    R = rotation_from_rotvec(delta[:, :3])
+    t = c - np.einsum("hij,hj->hi", R, c) + delta[:, 3:]
+    U = make_transform(R, t)
+    return U @ T
+
+
+def _is_distinct(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: float) -> bool:
+    """Two poses differ when they rotate apart by over 2 degrees or move the points apart by over
+    1% of the measured extent (the nominal's diagonal when smaller)."""
+    extent = min(float(np.linalg.norm(src.max(0) - src.min(0))), diagonal)
+    x1 = src @ T1[:3, :3].T + T1[:3, 3]
+    x2 = src @ T2[:3, :3].T + T2[:3, 3]
+    move = float(np.sqrt(np.mean(np.sum((x1 - x2) ** 2, axis=1))))
+    return rotation_angle_deg(T1[:3, :3] @ T2[:3, :3].T) > 2.0 or move > 0.01 * extent
+
+
+def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int) -> np.ndarray:
+    """The ``keep`` best-scoring poses (H, 4, 4), skipping any that lands within 1% of the
+    measured extent of a better one (poses compared by where they put a few spread points)."""
+    ref = src[_spread_subset(src, 4)]
+    extent = float(np.linalg.norm(src.max(0) - src.min(0)))
+    tol = 0.01 * max(extent, 1e-12)
+    feat = np.einsum("hij,mj->hmi", T[:, :3, :3], ref) + T[:, None, :3, 3]
+    order = np.argsort(score, kind="stable")
+    kept: list[int] = []
+    for i in order:
+        if kept:
+            gap = np.max(np.linalg.norm(feat[kept] - feat[i][None], axis=2), axis=1)
+            if np.min(gap) <= tol:
+                continue
+        kept.append(int(i))
+        if len(kept) >= keep:
+            break
+    return T[kept]
+
+
+# ---------------------------------------------------------------------------- final stage
+def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
+                          settings: RegistrationSettings):
+    """Gauss-Newton on signed point-to-surface deviations over the robust inlier set.
+
+    Returns (T, converged, iterations, inlier mask, cut, deviations at T, message).
+    """
+    floor = settings.outlier_floor * nominal.diagonal
+    tol_t = settings.translation_tol * nominal.diagonal
+    converged = False
+    message = ""
+    it = 0
+    for it in range(1, settings.max_final_iterations + 1):
+        X = measured @ T[:3, :3].T + T[:3, 3]
+        dev = point_to_surface(nominal, X)
+        d = dev.signed
+        if it <= 3:
+            # The inlier set settles with the pose in the first iterations, then stays fixed so
+            # that the iteration converges to the least-squares optimum over one set of points.
+            cut = _robust_cut(d, settings.outlier_sigmas, floor)
+            inlier = np.abs(d) <= cut
+        if inlier.sum() < 6:
+            message = f"only {int(inlier.sum())} points lie within {cut:.3g} mm of the surface"
+            return T, False, it, inlier, cut, d, message
+        Xi, ni, di = X[inlier], dev.normal[inlier], d[inlier]
+        c = Xi.mean(axis=0)
+        J = np.concatenate([np.cross(Xi - c, ni), ni], axis=1)
+        A = J.T @ J
+        b = J.T @ di
+        scale = np.trace(A) / 6.0
+        delta = -np.linalg.solve(A + 1e-12 * scale * np.eye(6), b)
+        T = _compose_update(T[None], delta[None], c[None])[0]
+        if np.linalg.norm(delta[:3]) < settings.rotation_tol_rad and \
+                np.linalg.norm(delta[3:]) < tol_t:
+            converged = True
+            break
+    X = measured @ T[:3, :3].T + T[:3, 3]
+    d = point_to_surface(nominal, X).signed
+    if not converged:
+        message = (f"the point-to-surface fit did not settle within "
+                   f"{settings.max_final_iterations} iterations")
+    return T, converged, it, inlier, cut, d, message
+
+
+def _robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
+    med = np.median(d)
+    sigma = 1.4826 * np.median(np.abs(d - med))
+    return float(max(abs(med) + sigmas * sigma, floor))

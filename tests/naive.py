@@ -1,0 +1,44 @@
+"""Slow, obvious twins of the fast kernels; used only to check them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def closest_point_on_segment(p, a, b):
+    ab = [b[i] - a[i] for i in range(3)]
+    L2 = sum(c * c for c in ab)
+    if L2 == 0.0:
+        return list(a)
+    t = sum((p[i] - a[i]) * ab[i] for i in range(3)) / L2
+    t = min(1.0, max(0.0, t))
+    return [a[i] + t * ab[i] for i in range(3)]
+
+
+def closest_point_on_triangle(p, a, b, c):
+    """Project onto the plane; keep the projection if it is inside (same-side tests), else the
+    nearest of the three edges."""
+    p, a, b, c = (np.asarray(v, float) for v in (p, a, b, c))
+    n = np.cross(b - a, c - a)
+    nn = float(n @ n)
+    best = None
+    if nn > 1e-24 * max(float((b - a) @ (b - a)) * float((c - a) @ (c - a)), 1e-300):
+        q = p - ((p - a) @ n) / nn * n
+        inside = all(np.cross(v1 - v0, q - v0) @ n >= 0 for v0, v1 in ((a, b), (b, c), (c, a)))
+        if inside:
+            best = q
+    if best is None:
+        cands = [np.asarray(closest_point_on_segment(p, s0, s1)) for s0, s1 in ((a, b), (b, c), (c, a))]
+        best = min(cands, key=lambda q: float((p - q) @ (p - q)))
+    return best
+
+
+def distance_to_mesh(p, points, triangles):
+    """Unsigned distance from p to a triangle mesh: every triangle tried."""
+    best = math.inf
+    for t in triangles:
+        q = closest_point_on_triangle(p, points[t[0]], points[t[1]], points[t[2]])
+        best = min(best, float(np.linalg.norm(p - q)))
+    return best

@@ -1,0 +1,70 @@
+"""Analytic test geometry with exact answers (independent of the engine)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from engine.pointio import PointSet
+
+
+def height(x, y):
+    """A doubly curved, asymmetric 500 x 250 mm surface (principal radii ~150-400 mm)."""
+    return -x**2 / 800.0 - y**2 / 300.0 + 1e-6 * x**3 + 4e-4 * x * y
+
+
+def height_normal(x, y):
+    hx = -x / 400.0 + 3e-6 * x**2 + 4e-4 * y
+    hy = -y / 150.0 + 4e-4 * x
+    n = np.stack([-hx, -hy, np.ones_like(np.asarray(x, float))], axis=-1)
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def height_grid(nu=300, nv=200):
+    """(points (nu*nv, 3), normals, (nu, nv)), u fastest, over [-250, 250] x [-125, 125]."""
+    X, Y = np.meshgrid(np.linspace(-250, 250, nu), np.linspace(-125, 125, nv))
+    x, y = X.ravel(), Y.ravel()
+    return np.column_stack([x, y, height(x, y)]), height_normal(x, y), (nu, nv)
+
+
+def exact_signed_distance(q):
+    """Signed distance (positive along +z-ish normal) from q to the height surface (Newton)."""
+    out = np.empty(len(q))
+    for i, p in enumerate(q):
+        r = least_squares(lambda z: p - np.array([z[0], z[1], height(z[0], z[1])]), p[:2],
+                          xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        s = np.array([r.x[0], r.x[1], height(*r.x)])
+        n = height_normal(r.x[0], r.x[1])
+        out[i] = np.sign((p - s) @ n) * np.linalg.norm(p - s)
+    return out
+
+
+def points_off_surface(rng, m, dev, xr=(-240, 240), yr=(-115, 115)):
+    """m points at signed offsets ``dev`` along the normal of the height surface."""
+    x = rng.uniform(*xr, m)
+    y = rng.uniform(*yr, m)
+    base = np.column_stack([x, y, height(x, y)])
+    return base + np.asarray(dev)[:, None] * height_normal(x, y)
+
+
+def sphere_points(n_theta=60, n_phi=120, r=50.0):
+    """A sphere of radius r sampled on a latitude-longitude pattern, with outward normals."""
+    th = np.linspace(0.05, np.pi - 0.05, n_theta)
+    ph = np.linspace(0, 2 * np.pi, n_phi, endpoint=False)
+    T, P = np.meshgrid(th, ph)
+    n = np.column_stack([np.sin(T.ravel()) * np.cos(P.ravel()), np.sin(T.ravel()) * np.sin(P.ravel()),
+                         np.cos(T.ravel())])
+    return r * n, n
+
+
+def random_rotation(rng):
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def point_set(points, normals=None, grid=None, triangles=None):
+    return PointSet(np.asarray(points, float), normals, None, grid, triangles, 3, "<test>")
