@@ -47,9 +47,23 @@ class Deviations:
     curved: np.ndarray
 
 
+CHUNK = 8192
+
+
 def point_to_surface(nominal: Nominal, pts: np.ndarray, curvature: bool = True) -> Deviations:
     """Signed deviations of ``pts`` (n, 3), already in the nominal frame, from ``nominal``."""
     pts = np.ascontiguousarray(pts, dtype=np.float64)
+    if pts.shape[0] <= CHUNK:
+        return _point_to_surface(nominal, pts, curvature)
+    # Chunks small enough for the CPU caches: the kernels are long chains of array operations,
+    # several times faster when their temporaries stay in cache.
+    parts = [_point_to_surface(nominal, pts[s:s + CHUNK], curvature)
+             for s in range(0, pts.shape[0], CHUNK)]
+    return Deviations(*(np.concatenate([getattr(p, f) for p in parts])
+                        for f in ("signed", "foot", "normal", "curved")))
+
+
+def _point_to_surface(nominal: Nominal, pts: np.ndarray, curvature: bool) -> Deviations:
     if nominal.triangles is None:
         V, N, bary = _nearest_point_facets(nominal, pts)
         return _finish(pts, V, N, bary, curvature, extrapolate=True)
@@ -104,29 +118,29 @@ def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
 
 
 def _mesh_facets(nominal: Nominal, pts: np.ndarray):
-    k = min(4, nominal.sample_tree.n)
-    _, nn = nominal.sample_tree.query(pts, k=k, workers=-1)
-    nn = nn.reshape(pts.shape[0], -1)
+    tree = nominal.sample_tree
     n = pts.shape[0]
-    best_tri, best_d2, best_b = _best_in_stars(nominal, pts, np.arange(n), nn[:, 0])
-    # Where the foot point lies on the outer rim of the nearest point's star, look wider.
-    centre = nn[:, 0]
+    _, centre = tree.query(pts, k=1, workers=-1)
+    best_tri, best_d2, best_b = _best_in_stars(nominal, pts, centre)
+    # Where the foot point lies on the outer rim of the nearest point's star, look wider: the
+    # triangles around the next three nearest points too.
     is_vertex = centre < nominal.n
     tri_verts = nominal.triangles[best_tri]
     at_centre = np.where(tri_verts == centre[:, None], best_b, 0.0).sum(axis=1)
     rim = np.flatnonzero(~is_vertex | (at_centre <= 1e-12))
-    for col in range(1, nn.shape[1]):
-        if not rim.size:
-            break
-        t, d2, b = _best_in_stars(nominal, pts[rim], rim, nn[rim, col])
-        better = d2 < best_d2[rim]
-        r = rim[better]
-        best_tri[r], best_d2[r], best_b[r] = t[better], d2[better], b[better]
+    k = min(4, tree.n)
+    if rim.size and k > 1:
+        _, nn = tree.query(pts[rim], k=k, workers=-1)
+        for col in range(1, k):
+            t, d2, b = _best_in_stars(nominal, pts[rim], nn[:, col])
+            better = d2 < best_d2[rim]
+            r = rim[better]
+            best_tri[r], best_d2[r], best_b[r] = t[better], d2[better], b[better]
     sel = nominal.triangles[best_tri]
     return nominal.points[sel], nominal.normals(sel), best_b
 
 
-def _best_in_stars(nominal: Nominal, pts: np.ndarray, rows: np.ndarray, samples: np.ndarray):
+def _best_in_stars(nominal: Nominal, pts: np.ndarray, samples: np.ndarray):
     """For each query, the nearest triangle among those around its sample point."""
     ptr = nominal.star_ptr
     start = ptr[samples]
@@ -172,7 +186,7 @@ def _finish(pts, V, N, bary, curvature: bool, extrapolate: bool) -> Deviations:
 
     b = bary.copy()
     free = np.zeros(pts.shape[0], dtype=bool)  # foot on the facet's continued surface
-    for _ in range(3):
+    for _ in range(2):
         s, nrm, q = _phong(V, N, b, fn)
         d = np.einsum("ij,ij->i", pts - s, nrm)
         # The tangent-plane foot, moved back to the flat facet, gives the next barycentrics.

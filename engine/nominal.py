@@ -69,8 +69,7 @@ class Nominal:
             return cls(ps.points, normals, "file" if ps.normals is not None else "mesh", tris,
                        "mesh", None, ps.path)
         if ps.grid_shape is not None:
-            tris = _grid_triangles(ps.points, *ps.grid_shape)
-            tris = _drop_degenerate(ps.points, tris)
+            tris = _drop_degenerate(ps.points, _grid_triangles(ps.points, *ps.grid_shape))
             tris, normals = _orient_mesh(ps.points, tris, ps.normals, closed_check=False)
             return cls(ps.points, normals, "file" if ps.normals is not None else "grid", tris,
                        "grid", ps.grid_shape, ps.path)
@@ -143,7 +142,8 @@ class Nominal:
                                        + np.einsum("mi,mj->mij", e2, e1))
              + kk[:, 2, None, None] * np.einsum("mi,mj->mij", e2, e2))
         reach = np.median(np.sqrt(u1 * u1 + u2 * u2), axis=1)
-        kmax = np.max(np.abs(np.linalg.eigvalsh(S)), axis=1)
+        kmax = np.abs(0.5 * (kk[:, 0] + kk[:, 2])) + np.sqrt(0.25 * (kk[:, 0] - kk[:, 2]) ** 2
+                                                              + kk[:, 1] ** 2)
         turn = np.max(np.linalg.norm(dn, axis=2), axis=1)
         S[(kmax * reach > 0.3) | (turn > 0.3)] = 0.0
         return S
@@ -220,36 +220,43 @@ class Nominal:
         its middle still finds it.
         """
         tris = self.triangles
-        v = self.points[tris]
-        edges = np.linalg.norm(v - np.roll(v, 1, axis=1), axis=2)
-        longest = edges.max(1)
-        s = float(np.median(longest))
+        P = self.points
+        longest = np.empty(tris.shape[0])
+        for s0 in range(0, tris.shape[0], 65536):
+            t = tris[s0:s0 + 65536]
+            a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
+            longest[s0:s0 + 65536] = np.sqrt(np.maximum.reduce([
+                np.einsum("ij,ij->i", b - a, b - a), np.einsum("ij,ij->i", c - b, c - b),
+                np.einsum("ij,ij->i", a - c, a - c)]))
+        s = float(np.median(longest[:: max(1, longest.size // 100000)]))
         big = np.flatnonzero(longest > 2.0 * s)
         extra_pts = [np.empty((0, 3))]
         extra_tri = [np.empty(0, np.int64)]
         if big.size:
-            for t in big:
+            v = self.points[tris[big]]
+            for t, vt in zip(big, v):
                 m = int(min(np.ceil(longest[t] / s), 200))
                 ii, jj = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
                 keep = (ii + jj <= m)
                 b1, b2 = ii[keep] / m, jj[keep] / m
                 b0 = 1.0 - b1 - b2
                 interior = ~(np.isclose(b0, 1) | np.isclose(b1, 1) | np.isclose(b2, 1))
-                pts = (b0[interior, None] * v[t, 0] + b1[interior, None] * v[t, 1]
-                       + b2[interior, None] * v[t, 2])
+                pts = (b0[interior, None] * vt[0] + b1[interior, None] * vt[1]
+                       + b2[interior, None] * vt[2])
                 extra_pts.append(pts)
                 extra_tri.append(np.full(pts.shape[0], t, np.int64))
         self.extra_points = np.concatenate(extra_pts)
         extra_tri_arr = np.concatenate(extra_tri)
-        vert_of = tris.ravel()
-        tri_of = np.repeat(np.arange(tris.shape[0]), 3)
-        order = np.argsort(vert_of, kind="stable")
-        counts = np.bincount(vert_of, minlength=self.n)
+        # Vertex -> triangles in CSR form; scipy's COO -> CSR conversion is a counting sort.
+        nt = tris.shape[0]
+        incidence = coo_matrix((np.ones(3 * nt, dtype=np.int8),
+                                (tris.ravel(), np.repeat(np.arange(nt, dtype=np.int64), 3))),
+                               shape=(self.n, nt)).tocsr()
         star_ptr = np.zeros(self.n + len(extra_tri_arr) + 1, np.int64)
-        star_ptr[1:self.n + 1] = np.cumsum(counts)
+        star_ptr[: self.n + 1] = incidence.indptr
         star_ptr[self.n + 1:] = star_ptr[self.n] + np.arange(1, len(extra_tri_arr) + 1)
         self.star_ptr = star_ptr
-        self.star_tri = np.concatenate([tri_of[order], extra_tri_arr])
+        self.star_tri = np.concatenate([incidence.indices.astype(np.int64), extra_tri_arr])
         self._sample_tree: cKDTree | None = None
 
     @property
@@ -302,24 +309,31 @@ def _quadric_normals(centre: np.ndarray, nbh: np.ndarray) -> np.ndarray:
 
 def _grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:
     """Split each u-v grid cell into two triangles along its shorter diagonal (u fastest)."""
-    i, j = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="xy")
-    v00 = (j * nu + i).ravel()
-    v10 = v00 + 1
-    v01 = v00 + nu
+    G = points.reshape(nv, nu, 3)
+    d1 = np.sum((G[:-1, :-1] - G[1:, 1:]) ** 2, axis=2).ravel()   # v00 - v11
+    d2 = np.sum((G[:-1, 1:] - G[1:, :-1]) ** 2, axis=2).ravel()   # v10 - v01
+    j, i = np.divmod(np.arange((nv - 1) * (nu - 1), dtype=np.int64), nu - 1)
+    v00 = j * nu + i
+    v10, v01 = v00 + 1, v00 + nu
     v11 = v01 + 1
-    d1 = np.linalg.norm(points[v00] - points[v11], axis=1)
-    d2 = np.linalg.norm(points[v10] - points[v01], axis=1)
     use1 = d1 <= d2
-    t1 = np.where(use1[:, None], np.stack([v00, v10, v11], 1), np.stack([v00, v10, v01], 1))
-    t2 = np.where(use1[:, None], np.stack([v00, v11, v01], 1), np.stack([v10, v11, v01], 1))
+    t1 = np.stack([v00, v10, np.where(use1, v11, v01)], 1)
+    t2 = np.stack([np.where(use1, v00, v10), v11, v01], 1)
     return np.concatenate([t1, t2])
 
 
 def _drop_degenerate(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    v = points[tris]
-    area2 = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
-    scale = np.max(np.linalg.norm(v - np.roll(v, 1, axis=1), axis=2), axis=1) ** 2
-    return tris[area2 > 1e-12 * np.maximum(scale, 1e-300)]
+    """Triangles of (numerically) non-zero area (in cache-sized chunks)."""
+    keep = np.empty(tris.shape[0], dtype=bool)
+    for s in range(0, tris.shape[0], 65536):
+        t = tris[s:s + 65536]
+        a = points[t[:, 0]]
+        e1, e2 = points[t[:, 1]] - a, points[t[:, 2]] - a
+        cr = np.cross(e1, e2)
+        area2sq = np.einsum("ij,ij->i", cr, cr)
+        scale = np.maximum(np.einsum("ij,ij->i", e1, e1), np.einsum("ij,ij->i", e2, e2))
+        keep[s:s + 65536] = area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2
+    return tris if keep.all() else tris[keep]
 
 
 def face_normals(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
@@ -344,12 +358,14 @@ def _orient_mesh(points, tris, file_normals, closed_check=True):
     are kept. Otherwise a closed mesh is turned so its signed volume is positive (outward winding);
     an open mesh keeps the winding it has.
     """
-    fn = face_normals(points, tris)
     if file_normals is not None:
-        mean_vn = file_normals[tris].sum(axis=1)
-        if np.einsum("ij,ij->i", fn, mean_vn).sum() < 0:
+        # A global sign decision: a spread sample of the triangles votes.
+        vote = tris[:: max(1, tris.shape[0] // 20000)]
+        if np.einsum("ij,ij->i", face_normals(points, vote),
+                     file_normals[vote].sum(axis=1)).sum() < 0:
             tris = tris[:, ::-1].copy()
         return tris, file_normals
+    fn = face_normals(points, tris)
     if closed_check and _is_closed(tris):
         v = points[tris] - points.mean(axis=0)
         volume = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6.0

@@ -25,12 +25,13 @@ nominal's diagonal); they stay in the deviation table and the verdict.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .deviation import point_to_surface
+from .deviation import Deviations, point_to_surface
 from .geometry import make_transform, rotation_angle_deg, rotation_from_rotvec, uniform_rotations
 from .nominal import Nominal
 
@@ -56,6 +57,13 @@ class RegistrationSettings:
     """… and this x (nominal diagonal / measured extent)^2, at most 16 x coarse_size."""
     coarse_measured: int = 32
     """Measured points (farthest-point spread) used by the global search."""
+    quadric_max_level: int = 16384
+    """Levels up to this many nominal points use point-to-quadric pairing; denser ones the plane
+    (their spacing makes the curvature term negligible)."""
+    icp_measured: int = 4096
+    """Measured points (seeded random subset) used by the ICP levels, at most."""
+    fit_measured: int = 16384
+    """Measured points the point-to-surface fit iterates on before its last full-set steps."""
     keep_per_level: tuple[int, ...] = (48, 16, 6, 3)
     """Distinct poses kept after the coarsest level, the next, …; the last number repeats."""
     max_final_iterations: int = 50
@@ -64,10 +72,12 @@ class RegistrationSettings:
     """Robust cut for the fit, in robust standard deviations of the deviations."""
     outlier_floor: float = 1e-4
     """The cut is never below this fraction of the nominal's bounding-box diagonal."""
-    rotation_tol_rad: float = 1e-9
-    """Converged when an update rotates less than this …"""
-    translation_tol: float = 1e-10
-    """… and moves less than this fraction of the nominal's diagonal."""
+    convergence_mm: float = 1e-6
+    """The point-to-surface fit has converged when a step would move no point by more than this."""
+    finish_step_mm: float = 0.01
+    """The single all-point step after a subset fit is taken, with deviations updated to first
+    order, when it moves no point by more than this (error ~ step^2 x curvature); otherwise
+    iteration over all points continues."""
 
 
 @dataclass(frozen=True)
@@ -94,6 +104,10 @@ class RegistrationResult:
     hypotheses: int
     runner_up_score: float | None
     runner_up_T: np.ndarray | None
+    deviations: Deviations
+    """Signed deviations of every measured point at ``T_nominal_measured``."""
+    deviation_s: float
+    """Seconds the evaluation of ``deviations`` took (part of the registration's run time)."""
     message: str = ""
     rms_definition: str = field(default="RMS of signed point-to-surface deviations over the "
                                         "inlier points used by the final fit (mm)")
@@ -122,7 +136,8 @@ def register(nominal: Nominal, measured: np.ndarray,
     # same place merge, and only the best distinct ones go on. Scores on a coarse sample cannot
     # tell close fits apart (its chords are off by curvature x spacing^2), so several distinct
     # poses are carried to the finer levels, where they can.
-    T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=4,
+    first = sub[_spread_subset(measured[sub], settings.coarse_measured // 2)]
+    T, score, _ = _icp_batch(T, measured[first], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=3,
                              lam2=0.01, shape=lvl_shape)
     T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2)
     T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=6,
@@ -139,9 +154,10 @@ def register(nominal: Nominal, measured: np.ndarray,
         idx, tree = nominal.level(size)
         pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
         h = _level_spacing(tree, pts_l)
-        msub = _spread_subset(measured, max(64, size // 16))
+        msub = _spread_subset(measured, min(max(64, size // 16), settings.icp_measured))
         last = size >= nominal.n
-        shape = None if last else nominal.level_shape(size)
+        shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
+            else None
         T, score, done = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h,
                                     iterations=8 if last else 4, stop_rad=1e-6 if last else 0.0,
                                     reach=10 * h, shape=shape)
@@ -150,27 +166,31 @@ def register(nominal: Nominal, measured: np.ndarray,
         T = _best_distinct(T, score, measured[msub], keep)
     refined = [(Tc, iters) for Tc in T]
 
-    # Score every refined candidate by its point-to-surface deviations under one common cut; the
-    # best gets the point-to-surface finish, the best distinct other one is the runner-up.
+    # Score every refined candidate by its point-to-surface deviations (on a seeded subset of
+    # the measured points) under one common cut; the best gets the point-to-surface finish, the
+    # best distinct other one is the runner-up.
     floor = settings.outlier_floor * nominal.diagonal
-    devs = [point_to_surface(nominal, measured @ Tc[:3, :3].T + Tc[:3, 3]).signed
+    ssub = _spread_subset(measured, settings.icp_measured)
+    devs = [point_to_surface(nominal, measured[ssub] @ Tc[:3, :3].T + Tc[:3, 3]).signed
             for Tc, _ in refined]
     cut0 = min(_robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
     scores = [_truncated_rms(d, cut0) for d in devs]
     order = np.argsort(scores, kind="stable")
     best = int(order[0])
-    Tb, converged, it, inlier, cut_b, d_b, message = _point_to_surface_fit(
+    Tb, converged, it, inlier, cut_b, dev_b, dev_s, message = _point_to_surface_fit(
         nominal, measured, refined[best][0], settings)
-    score = _truncated_rms(d_b, cut0)
+    score = _truncated_rms(dev_b.signed[ssub], cut0)
     runner = next((int(j) for j in order[1:]
                    if _is_distinct(refined[j][0], Tb, measured[sub], nominal.diagonal)), None)
-    rms = float(np.sqrt(np.mean(d_b[inlier] ** 2))) if inlier.any() else float("nan")
+    d_in = dev_b.signed[inlier]
+    rms = float(np.sqrt(np.mean(d_in * d_in))) if inlier.any() else float("nan")
     return RegistrationResult(
         T_nominal_measured=Tb, converged=converged, iterations=refined[best][1] + it, rms=rms,
         n_inliers=int(inlier.sum()), inlier=inlier, outlier_cut=cut_b, score=score,
         hypotheses=n_hyp,
         runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else refined[runner][0], message=message)
+        runner_up_T=None if runner is None else refined[runner][0], deviations=dev_b,
+        deviation_s=dev_s, message=message)
 
 
 def _truncated_rms(d: np.ndarray, cut: float) -> float:
@@ -221,6 +241,7 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
 
 def _reference_point(measured: np.ndarray, extent: float):
     """A measured point near the centroid whose neighbourhood is planar, and its unit normal."""
+    measured = measured[_spread_subset(measured, 4096)]
     n = measured.shape[0]
     k = min(8, n)
     cm = measured.mean(axis=0)
@@ -436,43 +457,97 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
                           settings: RegistrationSettings):
     """Gauss-Newton on signed point-to-surface deviations over the robust inlier set.
 
-    Returns (T, converged, iterations, inlier mask, cut, deviations at T, message).
+    Measurements larger than ``fit_measured`` points iterate on a seeded subset of that size;
+    then one Gauss-Newton step over every point moves the pose to the all-point optimum (the
+    subset's optimum is within noise / sqrt(subset) of it, so one step of a nearly linear problem
+    suffices; should it move any point by more than ``finish_step_mm``, iteration over all
+    points continues instead). The deviations follow that last step to first order (exact to
+    ~step^2 x curvature, far below a nanometre). Returns (T, converged, iterations, inlier mask
+    (all points), cut, Deviations of all points at T, seconds the evaluation of those deviations
+    took, message).
     """
     floor = settings.outlier_floor * nominal.diagonal
-    tol_t = settings.translation_tol * nominal.diagonal
-    converged = False
-    message = ""
-    it = 0
-    for it in range(1, settings.max_final_iterations + 1):
+    n = measured.shape[0]
+    fsub = _spread_subset(measured, settings.fit_measured)
+    T, converged, total, cut, inlier, dev, dev_s = _gauss_newton(
+        nominal, measured[fsub], T, settings, floor, None, settings.max_final_iterations)
+    if fsub.size < n and converged:
         X = measured @ T[:3, :3].T + T[:3, 3]
+        t0 = time.perf_counter()
         dev = point_to_surface(nominal, X)
-        d = dev.signed
-        if it <= 3:
-            # The inlier set settles with the pose in the first iterations, then stays fixed so
-            # that the iteration converges to the least-squares optimum over one set of points.
-            cut = _robust_cut(d, settings.outlier_sigmas, floor)
-            inlier = np.abs(d) <= cut
-        if inlier.sum() < 6:
-            message = f"only {int(inlier.sum())} points lie within {cut:.3g} mm of the surface"
-            return T, False, it, inlier, cut, d, message
-        Xi, ni, di = X[inlier], dev.normal[inlier], d[inlier]
-        c = Xi.mean(axis=0)
-        J = np.concatenate([np.cross(Xi - c, ni), ni], axis=1)
-        A = J.T @ J
-        b = J.T @ di
-        scale = np.trace(A) / 6.0
-        delta = -np.linalg.solve(A + 1e-12 * scale * np.eye(6), b)
-        T = _compose_update(T[None], delta[None], c[None])[0]
-        if np.linalg.norm(delta[:3]) < settings.rotation_tol_rad and \
-                np.linalg.norm(delta[3:]) < tol_t:
-            converged = True
-            break
-    X = measured @ T[:3, :3].T + T[:3, 3]
-    d = point_to_surface(nominal, X).signed
+        dev_s = time.perf_counter() - t0
+        inlier = np.abs(dev.signed) <= cut
+        delta, c = _gn_step(X[inlier], dev.normal[inlier], dev.signed[inlier])
+        total += 1
+        if _largest_motion(delta, X[inlier] - c) <= settings.finish_step_mm:
+            motion = np.cross(delta[:3], X - c) + delta[3:]
+            along = np.einsum("ij,ij->i", motion, dev.normal)
+            dev = Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
+                             dev.normal, dev.curved)
+            T = _compose_update(T[None], delta[None], c[None])[0]
+        else:
+            T, converged, it, cut, inlier, dev, dev_s = _gauss_newton(
+                nominal, measured, T, settings, floor, cut, settings.max_final_iterations)
+            total += it
+    message = ""
     if not converged:
         message = (f"the point-to-surface fit did not settle within "
                    f"{settings.max_final_iterations} iterations")
-    return T, converged, it, inlier, cut, d, message
+    if inlier.sum() < 6:
+        converged = False
+        message = f"only {int(inlier.sum())} points lie within {cut:.3g} mm of the surface"
+    return T, converged, total, inlier, cut, dev, dev_s, message
+
+
+def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):
+    """One linearised least-squares step [rotation vector, translation] about the centroid c of
+    the points X (n, 3) with surface normals and signed deviations d; returns (step, c)."""
+    c = X.mean(axis=0)
+    J = np.concatenate([np.cross(X - c, normals), normals], axis=1)
+    A = J.T @ J
+    b = J.T @ d
+    scale = np.trace(A) / 6.0
+    return -np.linalg.solve(A + 1e-12 * scale * np.eye(6), b), c
+
+
+def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
+    """Largest displacement (mm) a small step moves any of the points ``rel`` (about its centre)."""
+    reach = float(np.sqrt(np.max(np.einsum("ij,ij->i", rel, rel)))) if rel.size else 0.0
+    return float(np.linalg.norm(delta[:3]) * reach + np.linalg.norm(delta[3:]))
+
+
+def _gauss_newton(nominal, pts, T, settings, floor, cut, max_iter):
+    """Iterate the linearised point-to-surface least squares on ``pts`` from pose ``T``.
+
+    The inlier cut is re-estimated in the first 3 iterations (unless ``cut`` is given), then the
+    set stays fixed so that the iteration converges to one least-squares optimum. Converged when
+    a step would move no inlier by more than ``convergence_mm``; that last step is not applied, so
+    the returned deviations belong to the returned pose. Returns (T, converged, iterations, cut,
+    inlier, Deviations at T, seconds their evaluation took).
+    """
+    fixed = cut is not None
+    inlier = None
+    for it in range(1, max_iter + 1):
+        X = pts @ T[:3, :3].T + T[:3, 3]
+        t0 = time.perf_counter()
+        dev = point_to_surface(nominal, X)
+        dev_s = time.perf_counter() - t0
+        d = dev.signed
+        if inlier is None or (not fixed and it <= 3):
+            if not fixed:
+                cut = _robust_cut(d, settings.outlier_sigmas, floor)
+            inlier = np.abs(d) <= cut
+        if inlier.sum() < 6:
+            return T, False, it, cut, inlier, dev, dev_s
+        delta, c = _gn_step(X[inlier], dev.normal[inlier], d[inlier])
+        if _largest_motion(delta, X[inlier] - c) < settings.convergence_mm:
+            return T, True, it, cut, inlier, dev, dev_s
+        T = _compose_update(T[None], delta[None], c[None])[0]
+    X = pts @ T[:3, :3].T + T[:3, 3]
+    t0 = time.perf_counter()
+    dev = point_to_surface(nominal, X)
+    dev_s = time.perf_counter() - t0
+    return T, False, max_iter, cut, np.abs(dev.signed) <= cut, dev, dev_s
 
 
 def _robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:

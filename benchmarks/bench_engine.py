@@ -1,0 +1,108 @@
+"""Engine speed, memory and accuracy on synthetic parts in arbitrary poses; prints a table.
+
+    .venv/bin/python benchmarks/bench_engine.py            # all cases
+    .venv/bin/python benchmarks/bench_engine.py 60k/1.1k   # one case
+
+Each case runs in its own process (so peak memory is that case's). Engine time is registration
+from the arbitrary pose plus deviations, file loading excluded; "peak RSS" is the process's peak
+resident memory, the in-memory nominal and measured arrays included. Accuracy compares with the
+planted truth: the largest error of the registered points and of the signed deviations.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+CASES = {
+    # name: (nominal grid nu x nv, measured points, coverage x-range, y-range, kind)
+    "60k/1.1k": ((300, 200), 1100, (-245, 245), (-120, 120), "grid+IJK"),
+    "60k/400 quarter": ((300, 200), 400, (0, 245), (0, 120), "grid+IJK"),
+    "200k/100 bracket": (None, 100, None, None, "points+IJK"),
+    "1M/200k": ((1414, 707), 200_000, (-245, 245), (-120, 120), "grid+IJK"),
+    "5M/1M": ((3162, 1581), 1_000_000, (-245, 245), (-120, 120), "grid+IJK"),
+}
+
+
+def run_case(name: str) -> dict:
+    from engine.geometry import apply_transform, make_transform
+    from engine.inspection import Tolerance, inspect
+    from engine.nominal import Nominal
+    from engine.pointio import PointSet
+    import samples.generate as gen
+
+    grid, m, xr, yr, kind = CASES[name]
+    rng = np.random.default_rng(12345)
+    if grid is None:
+        nominal = gen.bracket_points(200_000, rng)
+        ps = PointSet(nominal[:, :3], nominal[:, 3:], path="bracket")
+        xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
+        yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
+        q = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
+                       np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
+        nq = np.vstack([gen.face_a_normal(xa, ya), gen.face_b_normal(yb, zb)])
+    else:
+        nu, nv = grid
+        X, Y = np.meshgrid(np.linspace(-250, 250, nu), np.linspace(-125, 125, nv))
+        x, y = X.ravel(), Y.ravel()
+        ps = PointSet(np.column_stack([x, y, gen.fairing_height(x, y)]), gen.fairing_normal(x, y),
+                      grid_shape=(nu, nv), path="fairing")
+        del X, Y, x, y
+        mx, my = rng.uniform(*xr, m), rng.uniform(*yr, m)
+        q = np.column_stack([mx, my, gen.fairing_height(mx, my)])
+        nq = gen.fairing_normal(mx, my)
+    planted = rng.normal(0.0, 0.003, len(q))
+    q = q + planted[:, None] * nq
+    R = gen.rotation([0.4, -0.7, 0.2], 137.0)
+    T = make_transform(R, np.array([1520.0, -830.0, 410.0]))
+    measured = apply_transform(T, q)
+
+    t0 = time.perf_counter()
+    nom = Nominal.from_point_set(ps)
+    res = inspect(nom, measured, Tolerance.symmetric(0.05))
+    engine_s = time.perf_counter() - t0
+    pose_err = float(np.max(np.linalg.norm(res.registered - q, axis=1)))
+    dev_err = float(np.max(np.abs(res.deviations.signed - planted)))
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return {"case": name, "nominal": int(nom.n), "measured": int(len(q)), "kind": kind,
+            "engine_s": engine_s, "register_s": res.timings_s["register"],
+            "deviation_s": res.timings_s["deviation"], "peak_mb": peak_mb,
+            "pose_err_um": pose_err * 1e3, "dev_err_um": dev_err * 1e3,
+            "verdict": res.verdict, "hypotheses": res.registration.hypotheses}
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) == 3 and argv[1] == "--child":
+        print(json.dumps(run_case(argv[2])))
+        return 0
+    names = argv[1:] or list(CASES)
+    rows = []
+    for name in names:
+        if name not in CASES:
+            print(f"unknown case {name!r}; cases: {', '.join(CASES)}", file=sys.stderr)
+            return 2
+        out = subprocess.run([sys.executable, __file__, "--child", name], capture_output=True,
+                             text=True, check=True)
+        rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    head = ("case", "nominal", "measured", "engine s", "register s", "deviation s",
+            "peak RSS MB", "pose err um", "dev err um", "verdict")
+    print("| " + " | ".join(head) + " |")
+    print("|" + "---|" * len(head))
+    for r in rows:
+        print(f"| {r['case']} | {r['nominal']:,} | {r['measured']:,} | {r['engine_s']:.3f} | "
+              f"{r['register_s']:.3f} | {r['deviation_s']:.3f} | {r['peak_mb']:.0f} | "
+              f"{r['pose_err_um']:.2f} | {r['dev_err_um']:.2f} | {r['verdict']} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
