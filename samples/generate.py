@@ -1,0 +1,238 @@
+"""Generate the bundled samples and their ground truth (deterministic: fixed seeds).
+
+    python samples/generate.py            # rewrites samples/belly_fairing and samples/seat_bracket
+
+belly_fairing/  a 500 x 250 mm doubly curved form tool like the paper's section 5.2:
+    nominal.csv   60,000-point u-v grid (300 x 200, u fastest) with I J K normals
+    measured.csv  1,100 CMM points (label, x, y, z) in an arbitrary pose on the machine bed, with
+                  probing noise and a local dent
+    truth.json    the pose, the planted deviation of every point, the expected verdict
+seat_bracket/   an L-shaped seat bracket with two freeform faces (A: flange top, B: web face):
+    nominal.xyz   200,000 points over the whole part with outward I J K normals
+    measured.csv  100 points on faces A and B only (a small part of the nominal), arbitrary pose
+    truth.json    as above
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+# ----------------------------------------------------------------------------- geometry helpers
+def rotation(axis, deg) -> np.ndarray:
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    t = np.radians(deg)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(t) * K + (1 - np.cos(t)) * K @ K
+
+
+def pose(R, t) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = t
+    return T
+
+
+# ----------------------------------------------------------------------------- belly fairing
+def fairing_height(x, y):
+    """z (mm) of the fairing's moulding surface over x in [-250, 250], y in [-125, 125]."""
+    return 60.0 - x**2 / 800.0 - y**2 / 300.0 + 1e-6 * x**3 + 4e-4 * x * y
+
+
+def fairing_normal(x, y):
+    hx = -x / 400.0 + 3e-6 * x**2 + 4e-4 * y
+    hy = -y / 150.0 + 4e-4 * x
+    n = np.stack([-hx, -hy, np.ones_like(x)], axis=-1)
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def fairing_defect(x, y):
+    """Planted form error (mm, along the outward normal): a dent and a shallow rise."""
+    dent = -0.15 * np.exp(-((x - 120.0) ** 2 + (y + 40.0) ** 2) / (2 * 18.0**2))
+    rise = 0.06 * np.exp(-((x + 150.0) ** 2 + (y - 60.0) ** 2) / (2 * 40.0**2))
+    return dent + rise
+
+
+def make_fairing(out: str) -> dict:
+    rng = np.random.default_rng(2024)
+    nu, nv = 300, 200
+    u = np.linspace(-250.0, 250.0, nu)
+    v = np.linspace(-125.0, 125.0, nv)
+    X, Y = np.meshgrid(u, v)  # rows follow v, so u runs fastest
+    x, y = X.ravel(), Y.ravel()
+    nominal = np.column_stack([x, y, fairing_height(x, y), fairing_normal(x, y)])
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "nominal.csv"), "w") as f:
+        f.write("# belly-fairing form tool, nominal CAD sample (mm)\n")
+        f.write(f"# grid: {nu} x {nv}\n")
+        f.write("x,y,z,i,j,k\n")
+        np.savetxt(f, nominal, fmt="%.6f", delimiter=",")
+
+    # 1,100 CMM points on a jittered 44 x 25 pattern, 5 mm inside the edges.
+    gx, gy = np.meshgrid(np.linspace(-245, 245, 44), np.linspace(-120, 120, 25))
+    mx = np.clip(gx.ravel() + rng.uniform(-4, 4, gx.size), -245, 245)
+    my = np.clip(gy.ravel() + rng.uniform(-4, 4, gy.size), -120, 120)
+    planted = fairing_defect(mx, my) + rng.normal(0.0, 0.004, mx.size)
+    on = np.column_stack([mx, my, fairing_height(mx, my)])
+    pts_nominal_frame = on + planted[:, None] * fairing_normal(mx, my)
+    # The part lies upside down and turned on the CMM bed.
+    R = rotation([0.3, 1.0, 0.2], 151.0)
+    t = np.array([812.4, -233.1, 95.7])
+    measured = pts_nominal_frame @ R.T + t
+    T_measured_nominal = pose(R, t)
+    labels = [f"P{i + 1:04d}" for i in range(mx.size)]
+    with open(os.path.join(out, "measured.csv"), "w") as f:
+        f.write("# CMM points, machine coordinates (mm)\n")
+        f.write("id,x,y,z\n")
+        for lab, p in zip(labels, measured):
+            f.write(f"{lab},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+    truth = {
+        "description": "belly-fairing form tool: 60,000-point grid, 1,100 CMM points",
+        "T_nominal_measured": np.linalg.inv(T_measured_nominal).tolist(),
+        "planted_deviation_mm": [round(float(d), 6) for d in planted],
+        "defect": "dent -0.15 mm (sigma 18 mm) at (120, -40); rise +0.06 mm (sigma 40 mm) at "
+                  "(-150, 60); probing noise sigma 0.004 mm; coordinates rounded to 0.0001 mm",
+        "tolerance_mm": 0.25,
+        "expected_verdict": "ACCEPT",
+    }
+    _write_json(os.path.join(out, "truth.json"), truth)
+    return truth
+
+
+# ----------------------------------------------------------------------------- seat bracket
+W = 60.0  # width along y
+
+
+def face_a_height(x, y):
+    """Face A, the flange top: z over x in [8, 120], y in [0, 60]."""
+    return 8.0 + 3.0 * np.sin(np.pi * (x - 8.0) / 112.0) * (1.0 - 0.3 * np.cos(np.pi * y / W))
+
+
+def face_a_normal(x, y):
+    s = 1.0 - 0.3 * np.cos(np.pi * y / W)
+    zx = 3.0 * np.pi / 112.0 * np.cos(np.pi * (x - 8.0) / 112.0) * s
+    zy = 3.0 * np.sin(np.pi * (x - 8.0) / 112.0) * 0.3 * np.pi / W * np.sin(np.pi * y / W)
+    n = np.stack([-zx, -zy, np.ones_like(x)], axis=-1)
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def face_b_offset(y, z):
+    """Face B, the web's inner face: x over y in [0, 60], z in [8, 90]."""
+    return 8.0 + 2.0 * np.sin(np.pi * (z - 8.0) / 82.0) * (1.0 + 0.2 * y / W)
+
+
+def face_b_normal(y, z):
+    xy = 2.0 * np.sin(np.pi * (z - 8.0) / 82.0) * 0.2 / W
+    xz = 2.0 * np.pi / 82.0 * np.cos(np.pi * (z - 8.0) / 82.0) * (1.0 + 0.2 * y / W)
+    n = np.stack([np.ones_like(y), -xy, -xz], axis=-1)  # outward = +x, into the open corner
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def bracket_points(n_total: int, rng) -> np.ndarray:
+    """(n, 6) points with outward normals spread over the bracket's faces by area."""
+    faces = []
+
+    def add(area, sampler):
+        faces.append((area, sampler))
+
+    add(112 * W * 1.02, lambda k: _face_a(rng, k))
+    add(82 * W * 1.01, lambda k: _face_b(rng, k))
+    add(120 * W, lambda k: _plane(rng, k, lambda a, b: (a * 120, b * W, 0 * a), (0, 0, -1)))
+    add(90 * W, lambda k: _plane(rng, k, lambda a, b: (0 * a, b * W, a * 90), (-1, 0, 0)))
+    add(8 * W, lambda k: _plane(rng, k, lambda a, b: (120 + 0 * a, b * W, a * 8), (1, 0, 0)))
+    add(8 * W, lambda k: _plane(rng, k, lambda a, b: (a * 8, b * W, 90 + 0 * a), (0, 0, 1)))
+    end_area = 120 * 8 + 8 * 82 + 2 * 112 * 3 / np.pi * 0.7 + 2 * 82 * 2 / np.pi * 1.1
+    add(end_area, lambda k: _end(rng, k, 0.0, (0, -1, 0)))
+    add(end_area, lambda k: _end(rng, k, W, (0, 1, 0)))
+    areas = np.array([a for a, _ in faces])
+    counts = np.floor(n_total * areas / areas.sum()).astype(int)
+    counts[0] += n_total - counts.sum()
+    return np.vstack([s(k) for (_, s), k in zip(faces, counts)])
+
+
+def _face_a(rng, k):
+    x = rng.uniform(8.0, 120.0, k)
+    y = rng.uniform(0.0, W, k)
+    return np.column_stack([x, y, face_a_height(x, y), face_a_normal(x, y)])
+
+
+def _face_b(rng, k):
+    y = rng.uniform(0.0, W, k)
+    z = rng.uniform(8.0, 90.0, k)
+    return np.column_stack([face_b_offset(y, z), y, z, face_b_normal(y, z)])
+
+
+def _plane(rng, k, f, normal):
+    a, b = rng.uniform(0, 1, k), rng.uniform(0, 1, k)
+    x, y, z = f(a, b)
+    n = np.broadcast_to(np.asarray(normal, float), (k, 3))
+    return np.column_stack([x, y, z, n])
+
+
+def _end(rng, k, y0, normal):
+    """An end face (y = y0): the L-shaped outline with curved inner edges, by rejection."""
+    out = []
+    while sum(len(o) for o in out) < k:
+        x = rng.uniform(0, 120, 4 * k)
+        z = rng.uniform(0, 90, 4 * k)
+        inside = ((x <= face_b_offset(y0, np.clip(z, 8, 90))) & (z <= 90)) | \
+                 ((z <= face_a_height(np.clip(x, 8, 120), y0)) & (x <= 120))
+        out.append(np.column_stack([x[inside], z[inside]]))
+    xz = np.vstack(out)[:k]
+    n = np.broadcast_to(np.asarray(normal, float), (k, 3))
+    return np.column_stack([xz[:, 0], np.full(k, y0), xz[:, 1], n])
+
+
+def make_bracket(out: str) -> dict:
+    rng = np.random.default_rng(77)
+    nominal = bracket_points(200_000, rng)
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "nominal.xyz"), "w") as f:
+        f.write("# seat bracket, nominal CAD sample over every face (mm), outward normals\n")
+        f.write("x y z i j k\n")
+        np.savetxt(f, nominal, fmt="%.6f", delimiter=" ")
+    # 50 points on face A and 50 on face B, away from the edges.
+    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
+    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
+    on = np.vstack([np.column_stack([xa, ya, face_a_height(xa, ya)]),
+                    np.column_stack([face_b_offset(yb, zb), yb, zb])])
+    nrm = np.vstack([face_a_normal(xa, ya), face_b_normal(yb, zb)])
+    # Machined: a small uniform offset of 15 um plus noise, like the paper's 0.0004-0.023 mm.
+    planted = 0.012 + rng.normal(0.0, 0.004, 100)
+    pts = on + planted[:, None] * nrm
+    R = rotation([-0.5, 0.2, 1.0], 73.0)
+    t = np.array([402.0, 618.5, -55.25])
+    measured = pts @ R.T + t
+    with open(os.path.join(out, "measured.csv"), "w") as f:
+        f.write("# CMM points on faces A (P001-P050) and B (P051-P100), machine coordinates\n")
+        f.write("id,x,y,z\n")
+        for i, p in enumerate(measured):
+            f.write(f"P{i + 1:03d},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+    truth = {
+        "description": "seat bracket: 200,000 nominal points, 100 CMM points on faces A and B",
+        "T_nominal_measured": np.linalg.inv(pose(R, t)).tolist(),
+        "planted_deviation_mm": [round(float(d), 6) for d in planted],
+        "defect": "uniform +0.012 mm excess with noise sigma 0.004 mm",
+        "tolerance_mm": 0.05,
+        "expected_verdict": "ACCEPT",
+    }
+    _write_json(os.path.join(out, "truth.json"), truth)
+    return truth
+
+
+def _write_json(path, obj):
+    with open(path, "w") as f:
+        json.dump(obj, f, indent=1)
+        f.write("\n")
+
+
+if __name__ == "__main__":
+    make_fairing(os.path.join(HERE, "belly_fairing"))
+    make_bracket(os.path.join(HERE, "seat_bracket"))
+    print("samples written under", HERE)
