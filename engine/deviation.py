@@ -55,12 +55,35 @@ def point_to_surface(nominal: Nominal, pts: np.ndarray, curvature: bool = True) 
     pts = np.ascontiguousarray(pts, dtype=np.float64)
     if pts.shape[0] <= CHUNK:
         return _point_to_surface(nominal, pts, curvature)
-    # Chunks small enough for the CPU caches: the kernels are long chains of array operations,
-    # several times faster when their temporaries stay in cache.
-    parts = [_point_to_surface(nominal, pts[s:s + CHUNK], curvature)
+    # Chunks small enough for the CPU caches (the kernels are long chains of array operations,
+    # several times faster when their temporaries stay in cache), taken in Morton order so that
+    # neighbouring queries touch neighbouring parts of the kd-tree and the nominal's arrays.
+    order = morton_order(pts)
+    parts = [_point_to_surface(nominal, pts[order[s:s + CHUNK]], curvature)
              for s in range(0, pts.shape[0], CHUNK)]
-    return Deviations(*(np.concatenate([getattr(p, f) for p in parts])
-                        for f in ("signed", "foot", "normal", "curved")))
+    out = []
+    for f in ("signed", "foot", "normal", "curved"):
+        joined = np.concatenate([getattr(p, f) for p in parts])
+        back = np.empty_like(joined)
+        back[order] = joined
+        out.append(back)
+    return Deviations(*out)
+
+
+def morton_order(pts: np.ndarray, bits: int = 10) -> np.ndarray:
+    """Indices that visit (n, 3) points along a Z-order (Morton) curve over their bounding box."""
+    lo = pts.min(axis=0)
+    span = np.maximum(pts.max(axis=0) - lo, 1e-300)
+    cells = np.minimum((pts - lo) / span * (1 << bits), (1 << bits) - 1).astype(np.uint64)
+    code = np.zeros(pts.shape[0], dtype=np.uint64)
+    for axis in range(3):
+        v = cells[:, axis]
+        v = (v | (v << np.uint64(16))) & np.uint64(0x030000FF)
+        v = (v | (v << np.uint64(8))) & np.uint64(0x0300F00F)
+        v = (v | (v << np.uint64(4))) & np.uint64(0x030C30C3)
+        v = (v | (v << np.uint64(2))) & np.uint64(0x09249249)
+        code |= v << np.uint64(axis)
+    return np.argsort(code, kind="stable")
 
 
 def _point_to_surface(nominal: Nominal, pts: np.ndarray, curvature: bool) -> Deviations:

@@ -69,7 +69,7 @@ class Nominal:
             return cls(ps.points, normals, "file" if ps.normals is not None else "mesh", tris,
                        "mesh", None, ps.path)
         if ps.grid_shape is not None:
-            tris = _drop_degenerate(ps.points, _grid_triangles(ps.points, *ps.grid_shape))
+            tris = _grid_triangles(ps.points, *ps.grid_shape)
             tris, normals = _orient_mesh(ps.points, tris, ps.normals, closed_check=False)
             return cls(ps.points, normals, "file" if ps.normals is not None else "grid", tris,
                        "grid", ps.grid_shape, ps.path)
@@ -155,8 +155,13 @@ class Nominal:
         return float(np.median(d[:, 1]))
 
     # ------------------------------------------------------------------ normals
-    def normals(self, idx: np.ndarray) -> np.ndarray:
-        """Outward unit normals of the points ``idx`` (estimated on first use for bare points)."""
+    def normals(self, idx) -> np.ndarray:
+        """Outward unit normals of the points ``idx`` (estimated on first use for bare points);
+        ``slice(None)`` gives all of them without a copy once they are known."""
+        if isinstance(idx, slice):
+            if not self._have_normal.all():
+                self._estimate_normals(np.flatnonzero(~self._have_normal))
+            return self._normals[idx]
         idx = np.asarray(idx)
         flat = idx.ravel()
         missing = flat[~self._have_normal[flat]]
@@ -256,7 +261,8 @@ class Nominal:
         star_ptr[: self.n + 1] = incidence.indptr
         star_ptr[self.n + 1:] = star_ptr[self.n] + np.arange(1, len(extra_tri_arr) + 1)
         self.star_ptr = star_ptr
-        self.star_tri = np.concatenate([incidence.indices.astype(np.int64), extra_tri_arr])
+        self.star_tri = (incidence.indices if not len(extra_tri_arr) else
+                         np.concatenate([incidence.indices, extra_tri_arr.astype(incidence.indices.dtype)]))
         self._sample_tree: cKDTree | None = None
 
     @property
@@ -308,18 +314,55 @@ def _quadric_normals(centre: np.ndarray, nbh: np.ndarray) -> np.ndarray:
 
 
 def _grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:
-    """Split each u-v grid cell into two triangles along its shorter diagonal (u fastest)."""
-    G = points.reshape(nv, nu, 3)
-    d1 = np.sum((G[:-1, :-1] - G[1:, 1:]) ** 2, axis=2).ravel()   # v00 - v11
-    d2 = np.sum((G[:-1, 1:] - G[1:, :-1]) ** 2, axis=2).ravel()   # v10 - v01
-    j, i = np.divmod(np.arange((nv - 1) * (nu - 1), dtype=np.int64), nu - 1)
+    """Split each u-v grid cell into two triangles along its shorter diagonal (u fastest);
+    triangles of zero area (collapsed rows or columns, as at a pole) are left out."""
+    C = [np.ascontiguousarray(points[:, k]).reshape(nv, nu) for k in range(3)]
+    m = (nv - 1) * (nu - 1)
+    use1 = np.empty((nv - 1, nu - 1), dtype=bool)
+    ok = np.empty((2, nv - 1, nu - 1), dtype=bool)
+    rows = max(1, 32768 // nu)  # cache-sized bands of cell rows
+    for r0 in range(0, nv - 1, rows):
+        r1 = min(r0 + rows, nv - 1)
+        # Per coordinate, the four corner arrays of the band's cells.
+        p00 = [c[r0:r1, :-1] for c in C]
+        p10 = [c[r0:r1, 1:] for c in C]
+        p01 = [c[r0 + 1:r1 + 1, :-1] for c in C]
+        p11 = [c[r0 + 1:r1 + 1, 1:] for c in C]
+        u = sum((a - b) ** 2 for a, b in zip(p00, p11)) <= sum((a - b) ** 2
+                                                                for a, b in zip(p10, p01))
+        use1[r0:r1] = u
+        third = [np.where(u, a, b) for a, b in zip(p11, p01)]   # triangle 1: v00 v10 (v11|v01)
+        first = [np.where(u, a, b) for a, b in zip(p00, p10)]   # triangle 2: (v00|v10) v11 v01
+        ok[0, r0:r1] = _nonzero_area_xyz(p00, p10, third)
+        ok[1, r0:r1] = _nonzero_area_xyz(first, p11, p01)
+    use1 = use1.ravel()
+    j, i = np.divmod(np.arange(m, dtype=np.int64), nu - 1)
     v00 = j * nu + i
-    v10, v01 = v00 + 1, v00 + nu
-    v11 = v01 + 1
-    use1 = d1 <= d2
-    t1 = np.stack([v00, v10, np.where(use1, v11, v01)], 1)
-    t2 = np.stack([np.where(use1, v00, v10), v11, v01], 1)
-    return np.concatenate([t1, t2])
+    tris = np.empty((2 * m, 3), dtype=np.int64)
+    tris[:m, 0] = v00
+    tris[:m, 1] = v00 + 1
+    tris[:m, 2] = np.where(use1, v00 + nu + 1, v00 + nu)
+    tris[m:, 0] = np.where(use1, v00, v00 + 1)
+    tris[m:, 1] = v00 + nu + 1
+    tris[m:, 2] = v00 + nu
+    ok = ok.reshape(-1)
+    return tris if ok.all() else tris[ok]
+
+
+def _nonzero_area_xyz(a, b, c) -> np.ndarray:
+    """Non-zero area for triangles given as per-coordinate arrays [x, y, z] of their corners."""
+    e1 = [bb - aa for aa, bb in zip(a, b)]
+    e2 = [cc - aa for aa, cc in zip(a, c)]
+    cx = e1[1] * e2[2] - e1[2] * e2[1]
+    cy = e1[2] * e2[0] - e1[0] * e2[2]
+    cz = e1[0] * e2[1] - e1[1] * e2[0]
+    area2sq = cx * cx + cy * cy + cz * cz
+    scale = np.maximum(sum(e * e for e in e1), sum(e * e for e in e2))
+    return area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2
+
+
+def _nonzero_area(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    return _nonzero_area_xyz(a.T, b.T, c.T)
 
 
 def _drop_degenerate(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
@@ -328,11 +371,7 @@ def _drop_degenerate(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
     for s in range(0, tris.shape[0], 65536):
         t = tris[s:s + 65536]
         a = points[t[:, 0]]
-        e1, e2 = points[t[:, 1]] - a, points[t[:, 2]] - a
-        cr = np.cross(e1, e2)
-        area2sq = np.einsum("ij,ij->i", cr, cr)
-        scale = np.maximum(np.einsum("ij,ij->i", e1, e1), np.einsum("ij,ij->i", e2, e2))
-        keep[s:s + 65536] = area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2
+        keep[s:s + 65536] = _nonzero_area(a, points[t[:, 1]], points[t[:, 2]])
     return tris if keep.all() else tris[keep]
 
 

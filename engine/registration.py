@@ -149,10 +149,16 @@ def register(nominal: Nominal, measured: np.ndarray,
     level = 0
     iters = 10
     while size < nominal.n:
-        size = min(size * 4, nominal.n)
+        # x4 per level; past the last quadric level straight to the full nominal, whose kd-tree
+        # the deviations need anyway (big intermediate levels would cost trees, not accuracy).
+        size = size * 4 if size * 4 <= settings.quadric_max_level else nominal.n
+        size = min(size, nominal.n)
         level += 1
         idx, tree = nominal.level(size)
-        pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
+        if size >= nominal.n:
+            pts_l, nrm_l = nominal.points, nominal.normals(slice(None))
+        else:
+            pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
         h = _level_spacing(tree, pts_l)
         msub = _spread_subset(measured, min(max(64, size // 16), settings.icp_measured))
         last = size >= nominal.n
