@@ -24,7 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import barycentric, closest_point_on_triangles
+from . import kernels
+from .geometry import closest_point_on_triangles
 from .nominal import Nominal
 
 MAX_NORMAL_TILT_DEG = 25.0
@@ -165,85 +166,34 @@ def _mesh_facets(nominal: Nominal, pts: np.ndarray):
 
 def _best_in_stars(nominal: Nominal, pts: np.ndarray, samples: np.ndarray):
     """For each query, the nearest triangle among those around its sample point."""
-    ptr = nominal.star_ptr
-    start = ptr[samples]
-    count = ptr[samples + 1] - start
-    m = pts.shape[0]
-    rep = np.repeat(np.arange(m), count)
-    offs = np.arange(rep.size) - np.repeat(np.cumsum(count) - count, count)
-    cand = nominal.star_tri[start[rep] + offs]
-    V = nominal.points[nominal.triangles[cand]]
-    P = pts[rep]
-    q, b = closest_point_on_triangles(P, V[:, 0], V[:, 1], V[:, 2])
-    d2 = np.einsum("ij,ij->i", P - q, P - q)
-    group_start = np.cumsum(count) - count
-    mins = np.minimum.reduceat(d2, group_start) if rep.size else np.empty(0)
-    hit = np.flatnonzero(d2 == mins[rep])
-    first = hit[np.r_[True, rep[hit][1:] != rep[hit][:-1]]]
-    return cand[first], d2[first], b[first]
+    n = pts.shape[0]
+    best_tri = np.zeros(n, np.int64)
+    best_d2 = np.full(n, np.inf)
+    best_b = np.zeros((n, 3))
+    kernels.best_in_stars(pts, np.arange(n), samples.astype(np.int64), nominal.star_ptr,
+                          nominal.star_tri, nominal.triangles, nominal.points,
+                          best_tri, best_d2, best_b)
+    return best_tri, best_d2, best_b
 
 
 def _finish(pts, V, N, bary, curvature: bool, extrapolate: bool) -> Deviations:
     """Curvature-correct the chosen facets and sign the distances.
 
-    Facets failing the normal-tilt check (or all, without ``curvature``) are treated as flat:
-    their vertex normals are replaced by the facet normal, which makes the Phong lift vanish.
-    With ``extrapolate`` (bare nominal points, whose sampling leaves gaps) a foot point that falls
-    just outside its facet, by less than the facet's longest edge, stays on the facet's surface
-    continued (the distance is measured along the normal); otherwise, and on meshes and grids
-    whose borders are real, the distance is to the facet's nearest edge or vertex.
+    Facets whose vertex normals tilt from the facet by more than ``MAX_NORMAL_TILT_DEG`` (or all,
+    without ``curvature``) are treated as flat: their vertex normals are replaced by the facet
+    normal, which makes the Phong lift vanish. With ``extrapolate`` (bare nominal points, whose
+    sampling leaves gaps) a foot point that falls just outside its facet, by less than the
+    facet's longest edge, stays on the facet's surface continued (the distance is measured
+    along the normal); otherwise, and on meshes and grids whose borders are real, the distance
+    is to the facet's nearest edge or vertex. The per-point work is ``kernels.phong_finish``.
     """
-    fn = np.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
-    fn_len = np.linalg.norm(fn, axis=1)
-    fn = fn / np.where(fn_len > 0, fn_len, 1.0)[:, None]
-    agree = np.einsum("nij,nj->ni", N, fn)
-    flip = agree.sum(axis=1) < 0
-    fn[flip] *= -1
-    agree[flip] *= -1
-    cos_tilt = np.cos(np.radians(MAX_NORMAL_TILT_DEG))
-    curved = curvature & (fn_len > 0) & np.all(agree >= cos_tilt, axis=1)
-    flat = (fn_len > 0) & ~curved
-    N = N.copy()
-    N[flat] = fn[flat][:, None, :]
-    edge = np.max(np.linalg.norm(V - np.roll(V, 1, axis=1), axis=2), axis=1)
-
-    b = bary.copy()
-    free = np.zeros(pts.shape[0], dtype=bool)  # foot on the facet's continued surface
-    for _ in range(2):
-        s, nrm, q = _phong(V, N, b, fn)
-        d = np.einsum("ij,ij->i", pts - s, nrm)
-        # The tangent-plane foot, moved back to the flat facet, gives the next barycentrics.
-        target = pts - d[:, None] * nrm - (s - q)
-        _, b_in = closest_point_on_triangles(target, V[:, 0], V[:, 1], V[:, 2])
-        b = b_in
-        if extrapolate:
-            b_out = barycentric(target, V[:, 0], V[:, 1], V[:, 2])
-            gap = np.linalg.norm(np.einsum("ni,nij->nj", b_out - b_in, V), axis=1)
-            free = np.isfinite(gap) & (gap <= edge)
-            b = np.where(free[:, None], b_out, b_in)
-    s, nrm, _ = _phong(V, N, b, fn)
-    d = np.einsum("ij,ij->i", pts - s, nrm)
-    interior = np.all(b > 1e-9, axis=1) | free
-    e = np.linalg.norm(pts - s, axis=1)
-    signed = np.where(interior, d, np.where(d < 0, -e, e))
-    return Deviations(signed, s, nrm, curved)
-
-
-def _interp_normals(N, b, fallback):
-    n = np.einsum("ni,nij->nj", b, N)
-    ln = np.linalg.norm(n, axis=1)
-    ok = ln > 1e-9
-    out = fallback.copy()
-    out[ok] = n[ok] / ln[ok, None]
-    return out
-
-
-def _phong(V, N, b, fn):
-    """Point and normal of the Phong surface (shape factor 1/2) at barycentrics ``b``.
-
-    Returns (surface point, unit normal, flat point).
-    """
-    q = np.einsum("ni,nij->nj", b, V)
-    h = np.einsum("nij,nij->ni", V - q[:, None, :], N)
-    s = q + 0.5 * np.einsum("ni,ni,nij->nj", b, h, N)
-    return s, _interp_normals(N, b, fn), q
+    n = pts.shape[0]
+    signed = np.empty(n)
+    foot = np.empty((n, 3))
+    normal = np.empty((n, 3))
+    curved = np.empty(n, dtype=bool)
+    kernels.phong_finish(np.ascontiguousarray(pts), np.ascontiguousarray(V),
+                         np.ascontiguousarray(N), np.ascontiguousarray(bary), bool(curvature),
+                         float(np.cos(np.radians(MAX_NORMAL_TILT_DEG))), bool(extrapolate),
+                         signed, foot, normal, curved)
+    return Deviations(signed, foot, normal, curved)

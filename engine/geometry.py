@@ -8,20 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-
-def closest_point_on_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray):
-    """Closest point to each ``p`` on the segment ``a``–``b``.
-
-    p, a, b : (n, 3) float. Returns (closest (n, 3), t (n,)) with closest = a + t (b - a),
-    t in [0, 1]; a zero-length segment gives t = 0.
-    """
-    ab = b - a
-    denom = np.einsum("ij,ij->i", ab, ab)
-    t = np.einsum("ij,ij->i", p - a, ab)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(denom > 0.0, t / np.where(denom > 0.0, denom, 1.0), 0.0)
-    t = np.clip(t, 0.0, 1.0)
-    return a + t[:, None] * ab, t
+from . import kernels
 
 
 def closest_point_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray):
@@ -29,110 +16,14 @@ def closest_point_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: n
 
     p, a, b, c : (n, 3) float. Returns (closest (n, 3), bary (n, 3)) where
     closest = bary[:, 0] a + bary[:, 1] b + bary[:, 2] c, bary >= 0, sum 1. Faces, edges and
-    vertices are all handled (Ericson's Voronoi-region tests, vectorised); degenerate
-    (zero-area) triangles reduce to the nearest of their edges.
+    vertices are all handled (Ericson's Voronoi-region tests, compiled in ``engine.kernels``);
+    degenerate (zero-area) triangles reduce to the nearest of their edges.
     """
-    p = np.asarray(p, dtype=np.float64)
-    ab = b - a
-    ac = c - a
-    ap = p - a
-    bp = p - b
-    cp = p - c
-    d1 = _dot(ab, ap)
-    d2 = _dot(ac, ap)
-    d3 = _dot(ab, bp)
-    d4 = _dot(ac, bp)
-    d5 = _dot(ab, cp)
-    d6 = _dot(ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    n = p.shape[0]
-    u = np.zeros(n)
-    v = np.zeros(n)
-    w = np.zeros(n)
-    # Face region first; later assignments (edges, then vertices) take precedence, in the
-    # reverse of Ericson's early-return order.
-    den = va + vb + vc
-    inside = den > 0
-    sden = np.where(inside, den, 1.0)
-    v[:] = vb / sden
-    w[:] = vc / sden
-    u[:] = 1.0 - v - w
-
-    def _set(mask, uu, vv, ww):
-        u[mask], v[mask], w[mask] = uu[mask], vv[mask], ww[mask]
-
-    zero = np.zeros(n)
-    one = np.ones(n)
-    e_bc = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)
-    t = _safe_div(d4 - d3, (d4 - d3) + (d5 - d6))
-    _set(e_bc, zero, 1.0 - t, t)
-    e_ac = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
-    t = _safe_div(d2, d2 - d6)
-    _set(e_ac, 1.0 - t, zero, t)
-    e_ab = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
-    t = _safe_div(d1, d1 - d3)
-    _set(e_ab, 1.0 - t, t, zero)
-    _set((d6 >= 0) & (d5 <= d6), zero, zero, one)
-    _set((d3 >= 0) & (d4 <= d3), zero, one, zero)
-    _set((d1 <= 0) & (d2 <= 0), one, zero, zero)
-
-    # Zero-area triangles: the region tests are not meaningful; take the nearest edge.
-    ab2, ac2 = _dot(ab, ab), _dot(ac, ac)
-    degenerate = np.flatnonzero(ab2 * ac2 - _dot(ab, ac) ** 2
-                                <= 1e-12 * np.maximum(ab2 * ac2, 1e-300))
-    bary = np.stack([u, v, w], axis=1)
-    if degenerate.size:
-        bary[degenerate] = _nearest_edge(p[degenerate], a[degenerate], b[degenerate],
-                                         c[degenerate])
-    closest = a + bary[:, 1:2] * ab + bary[:, 2:3] * ac
+    p, a, b, c = (np.ascontiguousarray(x, dtype=np.float64) for x in (p, a, b, c))
+    bary = np.empty((p.shape[0], 3))
+    kernels.closest_bary_batch(p, a, b, c, bary)
+    closest = bary[:, :1] * a + bary[:, 1:2] * b + bary[:, 2:3] * c
     return closest, bary
-
-
-def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    return x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1] + x[:, 2] * y[:, 2]
-
-
-def _safe_div(num: np.ndarray, den: np.ndarray) -> np.ndarray:
-    ok = den != 0
-    return np.clip(np.where(ok, num / np.where(ok, den, 1.0), 0.0), 0.0, 1.0)
-
-
-def _nearest_edge(p, a, b, c) -> np.ndarray:
-    """Barycentrics of the nearest point on the three edges (for degenerate triangles)."""
-    m = p.shape[0]
-    best_d = np.full(m, np.inf)
-    best_b = np.zeros((m, 3))
-    for (s0, s1, i0, i1) in ((a, b, 0, 1), (b, c, 1, 2), (c, a, 2, 0)):
-        q, t = closest_point_on_segments(p, s0, s1)
-        d = _dot(p - q, p - q)
-        better = d < best_d
-        best_d = np.where(better, d, best_d)
-        bb = np.zeros((m, 3))
-        bb[:, i0] = 1.0 - t
-        bb[:, i1] = t
-        best_b[better] = bb[better]
-    return best_b
-
-
-def barycentric(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (n, 3) of the projection of each ``p`` onto the plane of ``a b c``,
-    not clamped to the triangle (negative outside it); NaN for degenerate triangles."""
-    ab = b - a
-    ac = c - a
-    ap = p - a
-    d00 = np.einsum("ij,ij->i", ab, ab)
-    d01 = np.einsum("ij,ij->i", ab, ac)
-    d11 = np.einsum("ij,ij->i", ac, ac)
-    d20 = np.einsum("ij,ij->i", ap, ab)
-    d21 = np.einsum("ij,ij->i", ap, ac)
-    det = d00 * d11 - d01 * d01
-    ok = det > 1e-12 * np.maximum(d00 * d11, 1e-300)
-    safe = np.where(ok, det, 1.0)
-    v = np.where(ok, (d11 * d20 - d01 * d21) / safe, np.nan)
-    w = np.where(ok, (d00 * d21 - d01 * d20) / safe, np.nan)
-    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 def skew(v: np.ndarray) -> np.ndarray:

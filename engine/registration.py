@@ -57,14 +57,14 @@ class RegistrationSettings:
     """… and this x (nominal diagonal / measured extent)^2, at most 16 x coarse_size."""
     coarse_measured: int = 32
     """Measured points (farthest-point spread) used by the global search."""
-    quadric_max_level: int = 16384
+    quadric_max_level: int = 4096
     """Levels up to this many nominal points use point-to-quadric pairing; denser ones the plane
     (their spacing makes the curvature term negligible)."""
     icp_measured: int = 4096
     """Measured points (seeded random subset) used by the ICP levels, at most."""
     fit_measured: int = 16384
     """Measured points the point-to-surface fit iterates on before its last full-set steps."""
-    keep_per_level: tuple[int, ...] = (48, 16, 6, 3)
+    keep_per_level: tuple[int, ...] = (32, 8, 4, 2)
     """Distinct poses kept after the coarsest level, the next, …; the last number repeats."""
     max_final_iterations: int = 50
     """Point-to-surface Gauss-Newton iterations at most."""
@@ -160,7 +160,7 @@ def register(nominal: Nominal, measured: np.ndarray,
         else:
             pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
         h = _level_spacing(tree, pts_l)
-        msub = _spread_subset(measured, min(max(64, size // 16), settings.icp_measured))
+        msub = _spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
         last = size >= nominal.n
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
             else None

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from engine.geometry import (barycentric, closest_point_on_triangles, horn_rigid, make_transform,
+from engine.geometry import (closest_point_on_triangles, horn_rigid, make_transform,
                              rotation_angle_deg, rotation_from_quaternion, rotation_from_rotvec,
                              uniform_rotations)
 from naive import closest_point_on_triangle
@@ -38,13 +38,6 @@ def test_closest_point_regions_face_edge_vertex():
     p = np.array([[0.2, 0.2, 3.0], [0.5, -1.0, 0.5], [-1.0, -1.0, 0.0], [2.0, 2.0, 0.0]])
     q, _ = closest_point_on_triangles(p, *(np.repeat(v, 4, 0) for v in (a, b, c)))
     assert np.allclose(q, [[0.2, 0.2, 0], [0.5, 0, 0], [0, 0, 0], [0.5, 0.5, 0]])
-
-
-def test_barycentric_unclamped_outside():
-    a, b, c = np.array([[0.0, 0, 0]]), np.array([[1.0, 0, 0]]), np.array([[0.0, 1, 0]])
-    bc = barycentric(np.array([[2.0, -0.5, 7.0]]), a, b, c)
-    assert np.allclose(bc, [[-0.5, 2.0, -0.5]])
-    assert np.isnan(barycentric(np.array([[0.0, 0, 1]]), a, b, 2 * b)).all()
 
 
 def test_rotations_agree_and_are_proper():

@@ -1,0 +1,249 @@
+"""Compiled inner loops (numba) of the deviation measurement.
+
+Per measured point these run a short, branchy computation (which triangle of a star is nearest,
+which Voronoi region of that triangle holds the foot point, a few Phong iterations): as numpy
+array chains they are memory-bound and an order of magnitude slower. Each kernel has a slow,
+obvious twin in ``tests/naive.py`` or is checked against analytic geometry in the tests.
+
+Compiled on first use and cached next to this file (numba ``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def _dot(ax, ay, az, bx, by, bz):
+    return ax * bx + ay * by + az * bz
+
+
+@njit(cache=True)
+def _segment_t(px, py, pz, ax, ay, az, bx, by, bz):
+    ex, ey, ez = bx - ax, by - ay, bz - az
+    den = _dot(ex, ey, ez, ex, ey, ez)
+    if den <= 0.0:
+        return 0.0
+    t = _dot(px - ax, py - ay, pz - az, ex, ey, ez) / den
+    return min(1.0, max(0.0, t))
+
+
+@njit(cache=True)
+def closest_bary(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
+    """Barycentrics (u, v, w) of the closest point to p on the solid triangle a b c.
+
+    Ericson's Voronoi-region tests; a zero-area triangle reduces to the nearest of its edges.
+    """
+    abx, aby, abz = bx - ax, by - ay, bz - az
+    acx, acy, acz = cx - ax, cy - ay, cz - az
+    ab2 = _dot(abx, aby, abz, abx, aby, abz)
+    ac2 = _dot(acx, acy, acz, acx, acy, acz)
+    abac = _dot(abx, aby, abz, acx, acy, acz)
+    if ab2 * ac2 - abac * abac <= 1e-12 * max(ab2 * ac2, 1e-300):
+        best = np.inf
+        u = v = w = 0.0
+        for e in range(3):
+            if e == 0:
+                t = _segment_t(px, py, pz, ax, ay, az, bx, by, bz)
+                qx, qy, qz = ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)
+            elif e == 1:
+                t = _segment_t(px, py, pz, bx, by, bz, cx, cy, cz)
+                qx, qy, qz = bx + t * (cx - bx), by + t * (cy - by), bz + t * (cz - bz)
+            else:
+                t = _segment_t(px, py, pz, cx, cy, cz, ax, ay, az)
+                qx, qy, qz = cx + t * (ax - cx), cy + t * (ay - cy), cz + t * (az - cz)
+            d = _dot(px - qx, py - qy, pz - qz, px - qx, py - qy, pz - qz)
+            if d < best:
+                best = d
+                if e == 0:
+                    u, v, w = 1.0 - t, t, 0.0
+                elif e == 1:
+                    u, v, w = 0.0, 1.0 - t, t
+                else:
+                    u, v, w = t, 0.0, 1.0 - t
+        return u, v, w
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = _dot(abx, aby, abz, apx, apy, apz)
+    d2 = _dot(acx, acy, acz, apx, apy, apz)
+    if d1 <= 0.0 and d2 <= 0.0:
+        return 1.0, 0.0, 0.0
+    bpx, bpy, bpz = px - bx, py - by, pz - bz
+    d3 = _dot(abx, aby, abz, bpx, bpy, bpz)
+    d4 = _dot(acx, acy, acz, bpx, bpy, bpz)
+    if d3 >= 0.0 and d4 <= d3:
+        return 0.0, 1.0, 0.0
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        t = d1 / (d1 - d3)
+        return 1.0 - t, t, 0.0
+    cpx, cpy, cpz = px - cx, py - cy, pz - cz
+    d5 = _dot(abx, aby, abz, cpx, cpy, cpz)
+    d6 = _dot(acx, acy, acz, cpx, cpy, cpz)
+    if d6 >= 0.0 and d5 <= d6:
+        return 0.0, 0.0, 1.0
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        t = d2 / (d2 - d6)
+        return 1.0 - t, 0.0, t
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return 0.0, 1.0 - t, t
+    den = 1.0 / (va + vb + vc)
+    v = vb * den
+    w = vc * den
+    return 1.0 - v - w, v, w
+
+
+@njit(cache=True)
+def closest_bary_batch(p, a, b, c, out):
+    """Row-wise :func:`closest_bary`: p, a, b, c (n, 3) → out (n, 3)."""
+    for i in range(p.shape[0]):
+        u, v, w = closest_bary(p[i, 0], p[i, 1], p[i, 2], a[i, 0], a[i, 1], a[i, 2],
+                               b[i, 0], b[i, 1], b[i, 2], c[i, 0], c[i, 1], c[i, 2])
+        out[i, 0] = u
+        out[i, 1] = v
+        out[i, 2] = w
+
+
+@njit(cache=True)
+def best_in_stars(pts, rows, samples, star_ptr, star_tri, triangles, points,
+                  best_tri, best_d2, best_bary):
+    """For each query ``rows[k]``, try every triangle around sample point ``samples[k]``.
+
+    Keeps, per query, the nearest triangle seen so far in ``best_tri`` / ``best_d2`` (squared
+    distance) / ``best_bary`` (initialise best_d2 to inf before the first call); a sample of -1
+    is skipped.
+    """
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        s = samples[k]
+        if s < 0:
+            continue
+        px, py, pz = pts[i, 0], pts[i, 1], pts[i, 2]
+        for j in range(star_ptr[s], star_ptr[s + 1]):
+            t = star_tri[j]
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            u, v, w = closest_bary(px, py, pz, points[a, 0], points[a, 1], points[a, 2],
+                                   points[b, 0], points[b, 1], points[b, 2],
+                                   points[c, 0], points[c, 1], points[c, 2])
+            qx = u * points[a, 0] + v * points[b, 0] + w * points[c, 0]
+            qy = u * points[a, 1] + v * points[b, 1] + w * points[c, 1]
+            qz = u * points[a, 2] + v * points[b, 2] + w * points[c, 2]
+            d2 = _dot(px - qx, py - qy, pz - qz, px - qx, py - qy, pz - qz)
+            if d2 < best_d2[i]:
+                best_d2[i] = d2
+                best_tri[i] = t
+                best_bary[i, 0] = u
+                best_bary[i, 1] = v
+                best_bary[i, 2] = w
+
+
+@njit(cache=True)
+def _phong(V, N, b0, b1, b2, fnx, fny, fnz):
+    """Phong surface (shape factor 1/2) point, unit normal and flat point at barycentrics."""
+    qx = b0 * V[0, 0] + b1 * V[1, 0] + b2 * V[2, 0]
+    qy = b0 * V[0, 1] + b1 * V[1, 1] + b2 * V[2, 1]
+    qz = b0 * V[0, 2] + b1 * V[1, 2] + b2 * V[2, 2]
+    sx, sy, sz = qx, qy, qz
+    nx = ny = nz = 0.0
+    bb = (b0, b1, b2)
+    for i in range(3):
+        h = _dot(V[i, 0] - qx, V[i, 1] - qy, V[i, 2] - qz, N[i, 0], N[i, 1], N[i, 2])
+        sx += 0.5 * bb[i] * h * N[i, 0]
+        sy += 0.5 * bb[i] * h * N[i, 1]
+        sz += 0.5 * bb[i] * h * N[i, 2]
+        nx += bb[i] * N[i, 0]
+        ny += bb[i] * N[i, 1]
+        nz += bb[i] * N[i, 2]
+    ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if ln > 1e-9:
+        nx, ny, nz = nx / ln, ny / ln, nz / ln
+    else:
+        nx, ny, nz = fnx, fny, fnz
+    return sx, sy, sz, nx, ny, nz, qx, qy, qz
+
+
+@njit(cache=True)
+def phong_finish(pts, V, N, bary, curvature, cos_tilt, extrapolate,
+                 signed, foot, normal, curved):
+    """Lift each point's chosen facet to its Phong surface and measure the signed distance.
+
+    pts (n, 3); V, N (n, 3, 3) facet vertices and their outward normals; bary (n, 3) the flat
+    closest point. Writes signed (n,), foot (n, 3), normal (n, 3), curved (n,). See
+    ``engine.deviation._finish`` for the rules (tilt check, extrapolation over sampling gaps).
+    """
+    Nl = np.empty((3, 3))
+    for i in range(pts.shape[0]):
+        Vi = V[i]
+        px, py, pz = pts[i, 0], pts[i, 1], pts[i, 2]
+        e1x, e1y, e1z = Vi[1, 0] - Vi[0, 0], Vi[1, 1] - Vi[0, 1], Vi[1, 2] - Vi[0, 2]
+        e2x, e2y, e2z = Vi[2, 0] - Vi[0, 0], Vi[2, 1] - Vi[0, 1], Vi[2, 2] - Vi[0, 2]
+        fnx, fny, fnz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+        fl = math.sqrt(fnx * fnx + fny * fny + fnz * fnz)
+        if fl > 0:
+            fnx, fny, fnz = fnx / fl, fny / fl, fnz / fl
+        ag0 = _dot(N[i, 0, 0], N[i, 0, 1], N[i, 0, 2], fnx, fny, fnz)
+        ag1 = _dot(N[i, 1, 0], N[i, 1, 1], N[i, 1, 2], fnx, fny, fnz)
+        ag2 = _dot(N[i, 2, 0], N[i, 2, 1], N[i, 2, 2], fnx, fny, fnz)
+        if ag0 + ag1 + ag2 < 0:
+            fnx, fny, fnz = -fnx, -fny, -fnz
+            ag0, ag1, ag2 = -ag0, -ag1, -ag2
+        min_agree = min(ag0, min(ag1, ag2))
+        is_curved = curvature and fl > 0 and min_agree >= cos_tilt
+        flat = fl > 0 and not is_curved
+        for k in range(3):
+            for m in range(3):
+                Nl[k, m] = N[i, k, m]
+            if flat:
+                Nl[k, 0], Nl[k, 1], Nl[k, 2] = fnx, fny, fnz
+        edge = 0.0
+        for k in range(3):
+            k2 = (k + 1) % 3
+            dx, dy, dz = Vi[k2, 0] - Vi[k, 0], Vi[k2, 1] - Vi[k, 1], Vi[k2, 2] - Vi[k, 2]
+            edge = max(edge, math.sqrt(dx * dx + dy * dy + dz * dz))
+        b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
+        free = False
+        for _ in range(2):
+            sx, sy, sz, nx, ny, nz, qx, qy, qz = _phong(Vi, Nl, b0, b1, b2, fnx, fny, fnz)
+            d = _dot(px - sx, py - sy, pz - sz, nx, ny, nz)
+            # The tangent-plane foot, moved back to the flat facet, gives the next barycentrics.
+            tx = px - d * nx - (sx - qx)
+            ty = py - d * ny - (sy - qy)
+            tz = pz - d * nz - (sz - qz)
+            c0, c1, c2 = closest_bary(tx, ty, tz, Vi[0, 0], Vi[0, 1], Vi[0, 2],
+                                      Vi[1, 0], Vi[1, 1], Vi[1, 2], Vi[2, 0], Vi[2, 1], Vi[2, 2])
+            b0, b1, b2 = c0, c1, c2
+            free = False
+            if extrapolate and fl > 0:
+                # Unclamped barycentrics of the target in the facet's plane.
+                d00 = _dot(e1x, e1y, e1z, e1x, e1y, e1z)
+                d01 = _dot(e1x, e1y, e1z, e2x, e2y, e2z)
+                d11 = _dot(e2x, e2y, e2z, e2x, e2y, e2z)
+                apx, apy, apz = tx - Vi[0, 0], ty - Vi[0, 1], tz - Vi[0, 2]
+                d20 = _dot(apx, apy, apz, e1x, e1y, e1z)
+                d21 = _dot(apx, apy, apz, e2x, e2y, e2z)
+                det = d00 * d11 - d01 * d01
+                if det > 1e-12 * max(d00 * d11, 1e-300):
+                    ov = (d11 * d20 - d01 * d21) / det
+                    ow = (d00 * d21 - d01 * d20) / det
+                    ou = 1.0 - ov - ow
+                    gx = ((ou - c0) * Vi[0, 0] + (ov - c1) * Vi[1, 0] + (ow - c2) * Vi[2, 0])
+                    gy = ((ou - c0) * Vi[0, 1] + (ov - c1) * Vi[1, 1] + (ow - c2) * Vi[2, 1])
+                    gz = ((ou - c0) * Vi[0, 2] + (ov - c1) * Vi[1, 2] + (ow - c2) * Vi[2, 2])
+                    if math.sqrt(gx * gx + gy * gy + gz * gz) <= edge:
+                        free = True
+                        b0, b1, b2 = ou, ov, ow
+        sx, sy, sz, nx, ny, nz, _, _, _ = _phong(Vi, Nl, b0, b1, b2, fnx, fny, fnz)
+        d = _dot(px - sx, py - sy, pz - sz, nx, ny, nz)
+        interior = free or (b0 > 1e-9 and b1 > 1e-9 and b2 > 1e-9)
+        if not interior:
+            e = math.sqrt(_dot(px - sx, py - sy, pz - sz, px - sx, py - sy, pz - sz))
+            d = -e if d < 0 else e
+        signed[i] = d
+        foot[i, 0], foot[i, 1], foot[i, 2] = sx, sy, sz
+        normal[i, 0], normal[i, 1], normal[i, 2] = nx, ny, nz
+        curved[i] = is_curved
