@@ -156,12 +156,7 @@ class Nominal:
 
     # ------------------------------------------------------------------ normals
     def normals(self, idx) -> np.ndarray:
-        """Outward unit normals of the points ``idx`` (estimated on first use for bare points);
-        ``slice(None)`` gives all of them without a copy once they are known."""
-        if isinstance(idx, slice):
-            if not self._have_normal.all():
-                self._estimate_normals(np.flatnonzero(~self._have_normal))
-            return self._normals[idx]
+        """Outward unit normals of the points ``idx`` (estimated on first use for bare points)."""
         idx = np.asarray(idx)
         flat = idx.ravel()
         missing = flat[~self._have_normal[flat]]

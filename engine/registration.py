@@ -156,7 +156,8 @@ def register(nominal: Nominal, measured: np.ndarray,
         level += 1
         idx, tree = nominal.level(size)
         if size >= nominal.n:
-            pts_l, nrm_l = nominal.points, nominal.normals(slice(None))
+            # Normals looked up as needed: bare points get theirs estimated only where paired.
+            pts_l, nrm_l = nominal.points, nominal.normals
         else:
             pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
         h = _level_spacing(tree, pts_l)
@@ -334,7 +335,8 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
                reach: float = np.inf, shape: np.ndarray | None = None):
     """Run ICP iterations for H poses at once; returns (poses, truncated scores, iterations run).
 
-    T : (H, 4, 4) poses; src : (m, 3) measured points. Each iteration pairs every transformed
+    T : (H, 4, 4) poses; src : (m, 3) measured points; nrm : (L, 3) sample normals, or a function
+    giving the normals of sample indices. Each iteration pairs every transformed
     point with its nearest sample and solves the linearised point-to-plane problem (point-to-
     quadric when the samples' ``shape`` operators are given; plus, with
     ``lam2`` > 0, a point-to-point term of that weight that keeps flat directions from drifting
@@ -356,7 +358,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
                              distance_upper_bound=reach)
         far = ~np.isfinite(dist).reshape(H, m)
         j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
-        mp, n = pts[j], nrm[j]
+        mp, n = pts[j], (nrm(j) if callable(nrm) else nrm[j])
         r = X - mp
         rn = np.sum(r * n, axis=2)
         lat2 = np.maximum(np.sum(r * r, axis=2) - rn * rn, 0.0)
