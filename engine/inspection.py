@@ -2,8 +2,9 @@
 
 Decision rule (pointwise, the paper's L-infinity argument): ACCEPT only when every measured point
 lies inside the tolerance zone [lower, upper]; REJECT when any point, outliers included, lies
-outside; INCONCLUSIVE when the pose cannot be trusted (the fit did not converge, or too few points
-lie on the surface for the pose to mean anything), whatever the deviations say.
+outside; INCONCLUSIVE when the pose cannot be trusted (the fit did not converge, or fewer than half of the
+points lie within 1% of the nominal's size of its surface: the measurement is not of this part),
+whatever the deviations say.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
 
 ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
-MIN_INLIER_FRACTION = 0.5
+MIN_NEAR_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -122,10 +123,10 @@ def judge(d: np.ndarray, tol: Tolerance, reg: RegistrationResult):
     reasons = []
     if not reg.converged:
         reasons.append("registration did not converge: " + (reg.message or "no reason given"))
-    frac = reg.n_inliers / max(d.size, 1)
-    if frac < MIN_INLIER_FRACTION:
-        reasons.append(f"only {reg.n_inliers} of {d.size} points ({100 * frac:.0f}%) lie near the "
-                       "nominal surface at the best pose found; the pose cannot be trusted")
+    if reg.near_fraction < MIN_NEAR_FRACTION:
+        reasons.append(f"only {100 * reg.near_fraction:.0f}% of the {d.size} points lie within "
+                       f"{reg.near_distance:.3g} mm (1% of the nominal's size) of the nominal at "
+                       "the best pose found; the pose cannot be trusted")
     if reasons:
         return INCONCLUSIVE, tuple(reasons), inside
     n_out = int((~inside).sum())

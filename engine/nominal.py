@@ -22,6 +22,7 @@ from .errors import InputError
 from .pointio import PointSet
 
 NORMAL_NEIGHBOURS = 12
+MAX_SUBDIVISION = 16  # a large triangle gets at most 16 x 16 / 2 interior sample points
 _SEED = 20240607
 
 
@@ -216,8 +217,9 @@ class Nominal:
         """Per point, the triangles around it (CSR), plus extra sample points on large triangles.
 
         Candidate facets for a query are the triangles around its nearest sample points; a large
-        triangle (longer than twice the typical edge) gets interior samples so that a query near
-        its middle still finds it.
+        triangle (longer than twice the typical edge) gets interior samples, on a barycentric
+        grid of up to ``MAX_SUBDIVISION`` steps per edge, so that a query near its middle still
+        finds it.
         """
         tris = self.triangles
         P = self.points
@@ -233,18 +235,18 @@ class Nominal:
         extra_pts = [np.empty((0, 3))]
         extra_tri = [np.empty(0, np.int64)]
         if big.size:
-            v = self.points[tris[big]]
-            for t, vt in zip(big, v):
-                m = int(min(np.ceil(longest[t] / s), 200))
-                ii, jj = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
-                keep = (ii + jj <= m)
-                b1, b2 = ii[keep] / m, jj[keep] / m
-                b0 = 1.0 - b1 - b2
-                interior = ~(np.isclose(b0, 1) | np.isclose(b1, 1) | np.isclose(b2, 1))
-                pts = (b0[interior, None] * vt[0] + b1[interior, None] * vt[1]
-                       + b2[interior, None] * vt[2])
+            steps = np.minimum(np.ceil(longest[big] / s), MAX_SUBDIVISION).astype(np.int64)
+            for m in np.unique(steps):
+                # Interior points of the barycentric grid with m steps per edge, for every big
+                # triangle that gets m steps at once.
+                ii, jj = np.meshgrid(np.arange(1, m), np.arange(1, m), indexing="ij")
+                keep = ii + jj < m
+                bc = np.column_stack([m - ii[keep] - jj[keep], ii[keep], jj[keep]]) / m
+                group = big[steps == m]
+                v = P[tris[group]]  # (g, 3, 3)
+                pts = np.einsum("kc,gcj->gkj", bc, v).reshape(-1, 3)
                 extra_pts.append(pts)
-                extra_tri.append(np.full(pts.shape[0], t, np.int64))
+                extra_tri.append(np.repeat(group, bc.shape[0]).astype(np.int64))
         self.extra_points = np.concatenate(extra_pts)
         extra_tri_arr = np.concatenate(extra_tri)
         # Vertex -> triangles in CSR form; scipy's COO -> CSR conversion is a counting sort.

@@ -70,6 +70,11 @@ class RegistrationSettings:
     """Point-to-surface Gauss-Newton iterations at most."""
     outlier_sigmas: float = 6.0
     """Robust cut for the fit, in robust standard deviations of the deviations."""
+    near_fraction_of_size: float = 0.01
+    """A point lies *near* the nominal within this fraction of its bounding-box diagonal …"""
+    min_near_fraction: float = 0.5
+    """… and a pose is only worth fitting (and trusting) when at least this fraction of the
+    measured points lies near the nominal."""
     outlier_floor: float = 1e-4
     """The cut is never below this fraction of the nominal's bounding-box diagonal."""
     convergence_mm: float = 1e-6
@@ -108,6 +113,10 @@ class RegistrationResult:
     """Signed deviations of every measured point at ``T_nominal_measured``."""
     deviation_s: float
     """Seconds the evaluation of ``deviations`` took (part of the registration's run time)."""
+    near_fraction: float
+    """Fraction of all measured points within ``near_distance`` of the nominal surface."""
+    near_distance: float
+    """``near_fraction_of_size`` x the nominal's bounding-box diagonal, mm."""
     message: str = ""
     rms_definition: str = field(default="RMS of signed point-to-surface deviations over the "
                                         "inlier points used by the final fit (mm)")
@@ -184,8 +193,22 @@ def register(nominal: Nominal, measured: np.ndarray,
     scores = [_truncated_rms(d, cut0) for d in devs]
     order = np.argsort(scores, kind="stable")
     best = int(order[0])
-    Tb, converged, it, inlier, cut_b, dev_b, dev_s, message = _point_to_surface_fit(
-        nominal, measured, refined[best][0], settings)
+    near = settings.near_fraction_of_size * nominal.diagonal
+    if np.mean(np.abs(devs[best]) <= near) < settings.min_near_fraction:
+        # Most points lie nowhere near the nominal at the best pose found: the measurement is
+        # not (only) of this part. No fit can make that trustworthy; measure and say so.
+        Tb = refined[best][0]
+        X = measured @ Tb[:3, :3].T + Tb[:3, 3]
+        t0 = time.perf_counter()
+        dev_b = point_to_surface(nominal, X)
+        dev_s = time.perf_counter() - t0
+        converged, it, cut_b = False, 0, cut0
+        inlier = np.abs(dev_b.signed) <= cut_b
+        message = "the measured points do not match the nominal at any pose found"
+    else:
+        Tb, converged, it, inlier, cut_b, dev_b, dev_s, message = _point_to_surface_fit(
+            nominal, measured, refined[best][0], settings)
+    near_fraction = float(np.mean(np.abs(dev_b.signed) <= near))
     score = _truncated_rms(dev_b.signed[ssub], cut0)
     runner = next((int(j) for j in order[1:]
                    if _is_distinct(refined[j][0], Tb, measured[sub], nominal.diagonal)), None)
@@ -197,7 +220,7 @@ def register(nominal: Nominal, measured: np.ndarray,
         hypotheses=n_hyp,
         runner_up_score=None if runner is None else scores[runner],
         runner_up_T=None if runner is None else refined[runner][0], deviations=dev_b,
-        deviation_s=dev_s, message=message)
+        deviation_s=dev_s, near_fraction=near_fraction, near_distance=near, message=message)
 
 
 def _truncated_rms(d: np.ndarray, cut: float) -> float:
@@ -479,24 +502,26 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     fsub = _spread_subset(measured, settings.fit_measured)
     T, converged, total, cut, inlier, dev, dev_s = _gauss_newton(
         nominal, measured[fsub], T, settings, floor, None, settings.max_final_iterations)
-    if fsub.size < n and converged:
+    if fsub.size < n:
         X = measured @ T[:3, :3].T + T[:3, 3]
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, X)
         dev_s = time.perf_counter() - t0
         inlier = np.abs(dev.signed) <= cut
-        delta, c = _gn_step(X[inlier], dev.normal[inlier], dev.signed[inlier])
-        total += 1
-        if _largest_motion(delta, X[inlier] - c) <= settings.finish_step_mm:
-            motion = np.cross(delta[:3], X - c) + delta[3:]
-            along = np.einsum("ij,ij->i", motion, dev.normal)
-            dev = Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
-                             dev.normal, dev.curved)
-            T = _compose_update(T[None], delta[None], c[None])[0]
-        else:
-            T, converged, it, cut, inlier, dev, dev_s = _gauss_newton(
-                nominal, measured, T, settings, floor, cut, settings.max_final_iterations)
-            total += it
+        if converged and inlier.sum() >= 6:
+            delta, c = _gn_step(X[inlier], dev.normal[inlier], dev.signed[inlier])
+            total += 1
+            if _largest_motion(delta, X[inlier] - c) <= settings.finish_step_mm:
+                motion = np.cross(delta[:3], X - c) + delta[3:]
+                along = np.einsum("ij,ij->i", motion, dev.normal)
+                dev = Deviations(dev.signed + along,
+                                 dev.foot + motion - along[:, None] * dev.normal,
+                                 dev.normal, dev.curved)
+                T = _compose_update(T[None], delta[None], c[None])[0]
+            else:
+                T, converged, it, cut, inlier, dev, dev_s = _gauss_newton(
+                    nominal, measured, T, settings, floor, cut, settings.max_final_iterations)
+                total += it
     message = ""
     if not converged:
         message = (f"the point-to-surface fit did not settle within "

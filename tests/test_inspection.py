@@ -84,3 +84,15 @@ def test_tolerance_validation():
         Tolerance.symmetric(0.0)
     with pytest.raises(SettingsError):
         Tolerance(float("nan"), 1.0)
+
+
+def test_unconverged_fit_on_a_subset_still_measures_every_point(fairing):
+    """A measurement larger than the fit's subset whose fit does not settle: the deviations and
+    the verdict still cover every point."""
+    rng = np.random.default_rng(8)
+    _, measured = _part(rng, rng.normal(0, 0.003, 900))
+    settings = RegistrationSettings(max_final_iterations=1, fit_measured=200)
+    res = inspect(fairing, measured, Tolerance.symmetric(1.0), settings)
+    assert res.deviations.signed.shape == (900,) and res.in_tolerance.shape == (900,)
+    assert res.registration.inlier.shape == (900,)
+    assert res.verdict == INCONCLUSIVE
