@@ -42,9 +42,9 @@ _SEED = 7
 class RegistrationSettings:
     """Settings of :func:`register`; the defaults need no tuning for parts from 10 mm to 5 m."""
 
-    n_rotations: int = 60
+    n_rotations: int = 24
     """Evenly spread rotations tried by the global search (plus 4 principal-axes alignments)."""
-    min_anchors: int = 8
+    min_anchors: int = 4
     """Anchors (spread over the nominal) where the evenly spread rotations are tried."""
     max_anchors: int = 256
     """At most this many anchors for the normal-aligned hypotheses (one per voxel of a tenth of
