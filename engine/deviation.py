@@ -145,35 +145,24 @@ def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     tree = nominal.sample_tree
     n = pts.shape[0]
     _, centre = tree.query(pts, k=1, workers=-1)
-    best_tri, best_d2, best_b = _best_in_stars(nominal, pts, centre)
-    # Where the foot point lies on the outer rim of the nearest point's star, look wider: the
-    # triangles around the next three nearest points too.
-    is_vertex = centre < nominal.n
-    tri_verts = nominal.triangles[best_tri]
-    at_centre = np.where(tri_verts == centre[:, None], best_b, 0.0).sum(axis=1)
-    rim = np.flatnonzero(~is_vertex | (at_centre <= 1e-12))
+    best_tri = np.zeros(n, np.int64)
+    best_d2 = np.full(n, np.inf)
+    best_b = np.zeros((n, 3))
+    args = (nominal.star_ptr, nominal.star_tri, nominal.triangles, nominal.points,
+            best_tri, best_d2, best_b)
+    kernels.best_in_stars(pts, np.arange(n), centre.astype(np.int64), *args)
+    # Where the foot point lies on the outer rim of the nearest point's star (or the nearest
+    # sample is an interior sample of one large triangle), look wider: the triangles around the
+    # next three nearest points too.
+    at_centre = np.where(nominal.triangles[best_tri] == centre[:, None], best_b, 0.0).sum(axis=1)
+    rim = np.flatnonzero((centre >= nominal.n) | (at_centre <= 1e-12))
     k = min(4, tree.n)
     if rim.size and k > 1:
         _, nn = tree.query(pts[rim], k=k, workers=-1)
         for col in range(1, k):
-            t, d2, b = _best_in_stars(nominal, pts[rim], nn[:, col])
-            better = d2 < best_d2[rim]
-            r = rim[better]
-            best_tri[r], best_d2[r], best_b[r] = t[better], d2[better], b[better]
+            kernels.best_in_stars(pts, rim, nn[:, col].astype(np.int64), *args)
     sel = nominal.triangles[best_tri]
     return nominal.points[sel], nominal.normals(sel), best_b
-
-
-def _best_in_stars(nominal: Nominal, pts: np.ndarray, samples: np.ndarray):
-    """For each query, the nearest triangle among those around its sample point."""
-    n = pts.shape[0]
-    best_tri = np.zeros(n, np.int64)
-    best_d2 = np.full(n, np.inf)
-    best_b = np.zeros((n, 3))
-    kernels.best_in_stars(pts, np.arange(n), samples.astype(np.int64), nominal.star_ptr,
-                          nominal.star_tri, nominal.triangles, nominal.points,
-                          best_tri, best_d2, best_b)
-    return best_tri, best_d2, best_b
 
 
 def _finish(pts, V, N, bary, curvature: bool, extrapolate: bool) -> Deviations:

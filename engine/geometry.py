@@ -61,30 +61,6 @@ def rotation_from_quaternion(q: np.ndarray) -> np.ndarray:
     ], -2)
 
 
-def horn_rigid(p: np.ndarray, m: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
-    """Closed-form rigid motion T (4x4) minimising sum w |T p - m|^2 (Horn's quaternion method).
-
-    p, m : (n, 3) corresponding points; w : (n,) non-negative weights or None.
-    """
-    w = np.ones(p.shape[0]) if w is None else np.asarray(w, dtype=np.float64)
-    sw = w.sum()
-    cp = (w[:, None] * p).sum(0) / sw
-    cm = (w[:, None] * m).sum(0) / sw
-    S = ((p - cp) * w[:, None]).T @ (m - cm)
-    sxx, sxy, sxz = S[0]
-    syx, syy, syz = S[1]
-    szx, szy, szz = S[2]
-    N = np.array([
-        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-    ])
-    evals, evecs = np.linalg.eigh(N)
-    R = rotation_from_quaternion(evecs[:, np.argmax(evals)])
-    return make_transform(R, cm - R @ cp)
-
-
 def make_transform(R: np.ndarray, t: np.ndarray) -> np.ndarray:
     """(…, 3, 3) rotations and (…, 3) translations → (…, 4, 4) homogeneous transforms."""
     R = np.asarray(R, dtype=np.float64)

@@ -149,12 +149,6 @@ class Nominal:
         S[(kmax * reach > 0.3) | (turn > 0.3)] = 0.0
         return S
 
-    def spacing(self) -> float:
-        """Median distance from a point to its nearest neighbour (mm), on a seeded sample."""
-        idx = self._perm[: min(self.n, 2000)]
-        d, _ = self.tree.query(self.points[idx], k=2)
-        return float(np.median(d[:, 1]))
-
     # ------------------------------------------------------------------ normals
     def normals(self, idx) -> np.ndarray:
         """Outward unit normals of the points ``idx`` (estimated on first use for bare points)."""

@@ -2,17 +2,19 @@
 
 The method is the paper's modified ICP (section 4) with a global stage in front of it:
 
-1. **Global search.** Pose hypotheses are the principal-axes alignments (all four proper sign
-   combinations) and a deterministic even spread of rotations over SO(3), each placed at the
-   nominal's centroid and at anchor points spread over the nominal (so that a measurement covering
-   only part of the part can land on the right part). Every hypothesis runs a few ICP iterations on
-   a coarse sample of the nominal; the worse half is dropped every two iterations until a few remain.
+1. **Global search.** Pose hypotheses are the principal-axes alignments (the four proper sign
+   combinations), an even spread of rotations over SO(3) placed at the centroid and at a few
+   anchors, and -- what carries partial coverage -- the measured surface normal turned onto the
+   nominal normal at anchors spread over the whole nominal, at 12 spins. Every hypothesis runs a
+   few ICP iterations on a coarse sample of the nominal, paired point-to-quadric (each sample
+   carries its local curvature, so a coarse sample still scores close fits correctly); poses
+   that arrive at the same place merge and only the best distinct ones go on.
 2. **Modified ICP, coarse to fine.** The surviving distinct poses are refined while the nominal
-   sample is made denser level by level (x4 each level, up to the full nominal), the paper's
+   sample is made denser level by level (x4 each level, then the full nominal), the paper's
    Fig. 4 argument: a coarse sample finds the basin cheaply, density only matters at the end.
-   Each iteration is a closed-form rigid update (linearised point-to-plane least squares against
-   the nearest sample's normal, with a small point-to-point term that keeps sliding directions
-   in check).
+   Each iteration is a closed-form rigid update: linearised point-to-plane (or point-to-quadric)
+   least squares, with a small point-to-point term in the global stage that keeps sliding
+   directions in check far from the solution.
 3. **Point-to-surface finish.** Gauss-Newton on the signed point-to-surface deviations of
    :mod:`engine.deviation` (local facets, curvature-corrected), so that the final pose is the
    least-squares optimum of point-to-surface distance over the inlier points, not of the distance
@@ -32,7 +34,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .deviation import Deviations, point_to_surface
-from .geometry import make_transform, rotation_angle_deg, rotation_from_rotvec, uniform_rotations
+from .geometry import (make_transform, rotation_angle_deg, rotation_from_rotvec, skew,
+                       uniform_rotations)
 from .nominal import Nominal
 
 _SEED = 7
@@ -92,8 +95,9 @@ class RegistrationResult:
     T_nominal_measured : (4, 4) maps measured coordinates into the nominal frame.
     rms : root mean square of the signed point-to-surface deviations over the ``n_inliers``
         points the final fit used (outliers excluded), mm.
-    score : truncated RMS over *all* measured points, sqrt(mean(min(d^2, cut^2))), mm; lower is
-        better; the same measure scores the runner-up pose, so the two compare.
+    score : truncated RMS sqrt(mean(min(d^2, cut^2))) of the deviations, mm, over a seeded subset
+        of at most 4,096 measured points (all of them when fewer), outliers included up to the
+        cut; lower is better; the same measure on the same points scores the runner-up pose.
     runner_up_score : score of the best pose distinct from the chosen one (None when the global
         search ended with a single distinct pose).
     """
@@ -180,7 +184,7 @@ def register(nominal: Nominal, measured: np.ndarray,
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
         T = _best_distinct(T, score, measured[msub], keep)
-    refined = [(Tc, iters) for Tc in T]
+    refined = list(T)
 
     # Score every refined candidate by its point-to-surface deviations (on a seeded subset of
     # the measured points) under one common cut; the best gets the point-to-surface finish, the
@@ -188,7 +192,7 @@ def register(nominal: Nominal, measured: np.ndarray,
     floor = settings.outlier_floor * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
     devs = [point_to_surface(nominal, measured[ssub] @ Tc[:3, :3].T + Tc[:3, 3]).signed
-            for Tc, _ in refined]
+            for Tc in refined]
     cut0 = min(_robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
     scores = [_truncated_rms(d, cut0) for d in devs]
     order = np.argsort(scores, kind="stable")
@@ -197,7 +201,7 @@ def register(nominal: Nominal, measured: np.ndarray,
     if np.mean(np.abs(devs[best]) <= near) < settings.min_near_fraction:
         # Most points lie nowhere near the nominal at the best pose found: the measurement is
         # not (only) of this part. No fit can make that trustworthy; measure and say so.
-        Tb = refined[best][0]
+        Tb = refined[best]
         X = measured @ Tb[:3, :3].T + Tb[:3, 3]
         t0 = time.perf_counter()
         dev_b = point_to_surface(nominal, X)
@@ -207,19 +211,19 @@ def register(nominal: Nominal, measured: np.ndarray,
         message = "the measured points do not match the nominal at any pose found"
     else:
         Tb, converged, it, inlier, cut_b, dev_b, dev_s, message = _point_to_surface_fit(
-            nominal, measured, refined[best][0], settings)
+            nominal, measured, refined[best], settings)
     near_fraction = float(np.mean(np.abs(dev_b.signed) <= near))
     score = _truncated_rms(dev_b.signed[ssub], cut0)
     runner = next((int(j) for j in order[1:]
-                   if _is_distinct(refined[j][0], Tb, measured[sub], nominal.diagonal)), None)
+                   if _is_distinct(refined[j], Tb, measured[sub], nominal.diagonal)), None)
     d_in = dev_b.signed[inlier]
     rms = float(np.sqrt(np.mean(d_in * d_in))) if inlier.any() else float("nan")
     return RegistrationResult(
-        T_nominal_measured=Tb, converged=converged, iterations=refined[best][1] + it, rms=rms,
+        T_nominal_measured=Tb, converged=converged, iterations=iters + it, rms=rms,
         n_inliers=int(inlier.sum()), inlier=inlier, outlier_cut=cut_b, score=score,
         hypotheses=n_hyp,
         runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else refined[runner][0], deviations=dev_b,
+        runner_up_T=None if runner is None else refined[runner], deviations=dev_b,
         deviation_s=dev_s, near_fraction=near_fraction, near_distance=near, message=message)
 
 
@@ -294,9 +298,9 @@ def _voxel_anchors(pts: np.ndarray, voxel: float, cap: int) -> np.ndarray:
         cell = np.floor((pts - lo) / voxel).astype(np.int64)
         centre = lo + (cell + 0.5) * voxel
         d = np.linalg.norm(pts - centre, axis=1)
-        key = (cell[:, 0] * 73856093) ^ (cell[:, 1] * 19349663) ^ (cell[:, 2] * 83492791)
-        order = np.lexsort((d, key))
-        first = order[np.r_[True, key[order][1:] != key[order][:-1]]]
+        order = np.lexsort((d, cell[:, 2], cell[:, 1], cell[:, 0]))
+        c = cell[order]
+        first = order[np.r_[True, np.any(c[1:] != c[:-1], axis=1)]]
         if first.size <= cap:
             return np.sort(first)
         voxel *= 1.25
@@ -410,7 +414,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
             sxx = xw.transpose(0, 2, 1) @ xt
             A_pp = np.zeros((H, 6, 6))
             A_pp[:, :3, :3] = np.trace(sxx, axis1=1, axis2=2)[:, None, None] * np.eye(3) - sxx
-            A_pp[:, :3, 3:] = _skew_batch(sx)
+            A_pp[:, :3, 3:] = skew(sx)
             A_pp[:, 3:, :3] = np.transpose(A_pp[:, :3, 3:], (0, 2, 1))
             A_pp[:, 3:, 3:] = sw[:, None, None] * np.eye(3)
             b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
@@ -436,13 +440,6 @@ def _trimmed_mean(e2: np.ndarray, keep: float = 0.75) -> np.ndarray:
 def _workers(n_queries: int) -> int:
     """Threads for a kd-tree query: more only where they pay for their start-up."""
     return -1 if n_queries >= 20000 else 1
-
-
-def _skew_batch(v: np.ndarray) -> np.ndarray:
-    z = np.zeros(v.shape[0])
-    return np.stack([np.stack([z, -v[:, 2], v[:, 1]], -1),
-                     np.stack([v[:, 2], z, -v[:, 0]], -1),
-                     np.stack([-v[:, 1], v[:, 0], z], -1)], -2)
 
 
 def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """``qa-inspect``: the command line over the engine.
 
 Exit codes (a contract): 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE, 64 usage error, 65 bad input data,
-66 input file not found, 73 an output could not be written, 70 internal error.
+66 input file not found, 73 an output could not be written, 70 internal error, 130 interrupted.
 """
 
 from __future__ import annotations
@@ -75,6 +75,9 @@ def main(argv: list[str] | None = None) -> int:
         print("usage: qa-inspect inspect NOMINAL MEASURED --tol T "
               "[--tol-lower L --tol-upper U] [--json FILE|-] [--csv FILE]", file=sys.stderr)
         return EX_USAGE
+    except KeyboardInterrupt:
+        print("qa-inspect: interrupted; no result was written", file=sys.stderr)
+        return 130
 
 
 def _tolerance(args):

@@ -62,8 +62,9 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "score": _num(reg.score),
             "hypotheses": int(reg.hypotheses),
             "runner_up_score": None if reg.runner_up_score is None else _num(reg.runner_up_score),
-            "score_definition": "truncated RMS over all measured points, "
-                                "sqrt(mean(min(d^2, cut^2))) in mm; lower is better",
+            "score_definition": "truncated RMS sqrt(mean(min(d^2, cut^2))) in mm over a seeded "
+                                "subset of at most 4096 measured points, the same for the "
+                                "runner-up pose; lower is better",
             "message": reg.message,
         },
         "deviations": {

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from engine.geometry import (closest_point_on_triangles, horn_rigid, make_transform,
-                             rotation_angle_deg, rotation_from_quaternion, rotation_from_rotvec,
+from engine.geometry import (closest_point_on_triangles, rotation_angle_deg,
+                             rotation_from_quaternion, rotation_from_rotvec,
                              uniform_rotations)
 from naive import closest_point_on_triangle
 from surfaces import random_rotation
@@ -66,12 +66,3 @@ def test_uniform_rotations_cover_so3():
         R = random_rotation(rng)
         worst = max(worst, min(rotation_angle_deg(R @ Ui.T) for Ui in U))
     assert worst < 60.0  # every rotation lies within an ICP basin of one sample
-
-
-def test_horn_recovers_known_transform():
-    rng = np.random.default_rng(4)
-    p = rng.normal(size=(40, 3)) * 100
-    R = random_rotation(rng)
-    t = rng.normal(size=3) * 1000
-    T = horn_rigid(p, p @ R.T + t)
-    assert np.allclose(T, make_transform(R, t), atol=1e-9)
