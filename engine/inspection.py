@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from .errors import SettingsError
 from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
+
+if TYPE_CHECKING:
+    from .contour import ContourIndex, Template2D
 
 ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
 MIN_NEAR_FRACTION = 0.5
@@ -97,6 +101,8 @@ class InspectionResult:
     statistics: Statistics
     normals_source: str
     timings_s: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+    """Kind-specific facts for the outputs (2D: the template's contours, symmetry, flatness)."""
 
 
 def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
@@ -133,3 +139,69 @@ def judge(d: np.ndarray, tol: Tolerance, reg: RegistrationResult):
     if n_out:
         return REJECT, (f"{n_out} of {d.size} points lie outside the tolerance zone",), inside
     return ACCEPT, (f"all {d.size} points lie inside the tolerance zone",), inside
+
+
+def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
+               index: "ContourIndex | None" = None) -> InspectionResult:
+    """Register measured points to a 2D contour template and judge them.
+
+    measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
+        otherwise they are a planar template measured in any 3D pose: a plane is fitted (its
+        flatness reported), the points are taken into it, and both ways of laying the plane onto
+        the template (face up, face down) are tried.
+    The result's ``T_nominal_measured`` is the full 4x4 (measured → template frame, the template
+    in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
+    """
+    from .contour import ContourIndex
+    from .registration2d import fit_plane, register_2d
+
+    t0 = time.perf_counter()
+    index = index or ContourIndex(template)
+    extra: dict = {"template": {"contours": int(template.closed.size),
+                                "closed": int(template.closed.sum()),
+                                "primitives": template.n_primitives}}
+    if dim == 2:
+        frames = [np.eye(4)]
+    else:
+        plane = fit_plane(measured)
+        F = np.eye(4)
+        F[:3, :3] = plane.R
+        F[:3, 3] = -plane.R @ plane.origin
+        flip = np.diag([1.0, -1.0, -1.0, 1.0])  # the plane seen from its other face
+        frames = [F, flip @ F]
+        extra["flatness"] = {"peak_to_valley": plane.flatness, "rms": plane.rms_w,
+                             "n_points": int(measured.shape[0])}
+    best = None
+    for F in frames:
+        q = measured @ F[:3, :3].T + F[:3, 3]
+        reg = register_2d(index, q[:, :2])
+        if best is None or reg.score < best[1].score:
+            best = (F, reg, q)
+    F, reg, q = best
+    E = np.eye(4)
+    E[:2, :2] = reg.T[:2, :2]
+    E[:2, 3] = reg.T[:2, 2]
+    T = E @ F
+    t1 = time.perf_counter()
+    registered = measured @ T[:3, :3].T + T[:3, 3]
+    d = reg.deviations.signed
+    foot = np.column_stack([reg.deviations.foot, np.zeros(d.size)])
+    g = registered[:, :2] - reg.deviations.foot
+    ln = np.linalg.norm(g, axis=1)
+    normal2 = g / np.where(ln > 0, ln, 1.0)[:, None] * np.sign(np.where(d == 0, 1.0, d))[:, None]
+    dev = Deviations(d, foot, np.column_stack([normal2, np.zeros(d.size)]),
+                     np.zeros(d.size, dtype=bool))
+    reg3 = RegistrationResult(
+        T_nominal_measured=T, converged=reg.converged, iterations=reg.iterations, rms=reg.rms,
+        n_inliers=reg.n_inliers, inlier=reg.inlier, outlier_cut=reg.outlier_cut,
+        score=reg.score, hypotheses=reg.hypotheses, runner_up_score=reg.runner_up_score,
+        runner_up_T=None, deviations=dev, deviation_s=0.0, near_fraction=reg.near_fraction,
+        near_distance=reg.near_distance, message=reg.message,
+        rms_definition="RMS of signed point-to-contour deviations over the inlier points used "
+                       "by the final fit (mm)")
+    extra["template"]["symmetric"] = reg.symmetric
+    verdict, reasons, inside = judge(d, tolerance, reg3)
+    stats = Statistics.of(d, tolerance)
+    t2 = time.perf_counter()
+    return InspectionResult(verdict, reasons, tolerance, reg3, registered, dev, inside, stats,
+                            "contour", {"register": t1 - t0, "deviation": t2 - t1}, extra)

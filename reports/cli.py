@@ -48,7 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("nominal", metavar="NOMINAL",
                    help="nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, "
                         "'# grid: NU x NV' header for a u-v grid), mesh (.stl .ply .obj .vtk "
-                        ".vtp) or structured grid (.vts)")
+                        ".vtp), structured grid (.vts), or a 2D contour template: a DXF "
+                        "drawing (.dxf) or airfoil ordinates (.dat, with --scale)")
     i.add_argument("measured", metavar="MEASURED", help="measured points (same formats)")
     i.add_argument("--tol", type=_finite_float, metavar="T",
                    help="symmetric tolerance: deviations within ±T mm are in tolerance")
@@ -56,6 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="lower limit of an asymmetric zone, mm (e.g. -0.1)")
     i.add_argument("--tol-upper", type=_finite_float, metavar="U",
                    help="upper limit of an asymmetric zone, mm (e.g. 0.3)")
+    i.add_argument("--layer", action="append", metavar="NAME",
+                   help="DXF template: take this layer (repeatable; default: every layer)")
+    i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
+                   help="DXF template: its units, overriding the file's $INSUNITS")
+    i.add_argument("--scale", type=_finite_float, metavar="CHORD",
+                   help="airfoil ordinate template (.dat): chord length in mm")
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE", help="write one CSV row per measured point")
     return p
@@ -73,7 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError as e:
         print(str(e), file=sys.stderr)
         print("usage: qa-inspect inspect NOMINAL MEASURED --tol T "
-              "[--tol-lower L --tol-upper U] [--json FILE|-] [--csv FILE]", file=sys.stderr)
+              "[--tol-lower L --tol-upper U] [--json FILE|-] [--csv FILE] "
+              "[--layer NAME] [--units U] [--scale CHORD]", file=sys.stderr)
         return EX_USAGE
     except KeyboardInterrupt:
         print("qa-inspect: interrupted; no result was written", file=sys.stderr)
@@ -108,6 +116,8 @@ def _cmd_inspect(args) -> int:
     tol = _tolerance(args)
     try:
         return _run_inspect(args, tol)
+    except UsageError:
+        raise
     except InputNotFoundError as e:
         print(f"qa-inspect: error: {e}", file=sys.stderr)
         return EX_NOINPUT
@@ -128,7 +138,7 @@ def _cmd_inspect(args) -> int:
 
 def _run_inspect(args, tol) -> int:
     from engine.errors import InputError
-    from engine.inspection import inspect
+    from engine.inspection import inspect, inspect_2d
     from engine.nominal import Nominal
 
     from .loading import load_point_set, sha256_of
@@ -136,16 +146,38 @@ def _run_inspect(args, tol) -> int:
                           write_atomic)
 
     t0 = time.perf_counter()
-    nominal_ps = load_point_set(args.nominal)
-    measured_ps = load_point_set(args.measured)
-    if measured_ps.dim != 3:
-        raise InputError("measured points have 2 columns (x y) but the nominal is a 3D surface",
-                         measured_ps.path)
-    nominal = Nominal.from_point_set(nominal_ps)
-    inputs = [InputRecord("nominal", args.nominal, sha256_of(args.nominal), nominal_ps.n),
+    suffix = os.path.splitext(args.nominal)[1].lower()
+    measured_ps = None
+    if suffix in (".dxf", ".dat"):
+        from .template2d import read_airfoil_template, read_dxf_template
+
+        if suffix == ".dxf":
+            tpl = read_dxf_template(args.nominal, layers=args.layer, units=args.units)
+        else:
+            if args.scale is None:
+                raise UsageError("qa-inspect inspect: an airfoil ordinate template needs "
+                                 "--scale CHORD (the chord length in mm)")
+            tpl = read_airfoil_template(args.nominal, args.scale)
+        measured_ps = load_point_set(args.measured)
+        n_nominal = tpl.template.n_primitives
+    else:
+        nominal_ps = load_point_set(args.nominal)
+        measured_ps = load_point_set(args.measured)
+        if measured_ps.dim != 3:
+            raise InputError("measured points have 2 columns (x y) but the nominal is a 3D "
+                             "surface", measured_ps.path)
+        nominal = Nominal.from_point_set(nominal_ps)
+        n_nominal = nominal_ps.n
+    inputs = [InputRecord("nominal", args.nominal, sha256_of(args.nominal), n_nominal),
               InputRecord("measured", args.measured, sha256_of(args.measured), measured_ps.n)]
     t1 = time.perf_counter()
-    result = inspect(nominal, measured_ps.points, tol)
+    if suffix in (".dxf", ".dat"):
+        result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol)
+        result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
+                                        flattened_curves=tpl.flattened,
+                                        ignored_entities=tpl.ignored)
+    else:
+        result = inspect(nominal, measured_ps.points, tol)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
@@ -160,11 +192,11 @@ def _run_inspect(args, tol) -> int:
     if args.json == "-":
         sys.stdout.write(result_json(doc))
     else:
-        print(_summary(result, nominal, written))
+        print(_summary(result, written))
     return EXIT[result.verdict]
 
 
-def _summary(result, nominal, written) -> str:
+def _summary(result, written) -> str:
     st = result.statistics
     reg = result.registration
     tol = result.tolerance
@@ -180,6 +212,16 @@ def _summary(result, nominal, written) -> str:
     if result.normals_source == "estimated":
         lines.append("  note: the nominal has no normals; the deviation sign comes from normals "
                      "estimated from its points")
+    tpl = result.extra.get("template")
+    if tpl:
+        lines.append(f"  template: {tpl['contours']} contour(s), {tpl['closed']} closed, "
+                     f"{tpl['primitives']} primitives, units {tpl['units']}"
+                     + ("; symmetric: equivalent poses give the same deviations"
+                        if tpl["symmetric"] else ""))
+    flat = result.extra.get("flatness")
+    if flat:
+        lines.append(f"  measured plane: flatness {flat['peak_to_valley']:.4f} mm peak to "
+                     f"valley, {flat['rms']:.4f} mm rms")
     if written:
         lines.append("results: " + ", ".join(os.path.abspath(w) for w in written))
     return "\n".join(lines)

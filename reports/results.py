@@ -74,8 +74,12 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "worst": [{"index": i, "deviation": float(dev[i])} for i in st.worst],
             "sign": "positive along the nominal's outward normal (excess material)",
             "normals_source": result.normals_source,
-            "method": "local facets around the nearest nominal points, curvature-corrected "
-                      "with the nominal normals",
+            "method": ("exact distance to the template's line segments and circular arcs "
+                       "(splines and ellipses flattened within 0.1 um); positive outward for "
+                       "closed contours (into holes), to the left of the drawn direction for "
+                       "open ones" if result.normals_source == "contour" else
+                       "local facets around the nearest nominal points, curvature-corrected "
+                       "with the nominal normals"),
             "units": "mm",
         },
         "tolerance": {"lower": result.tolerance.lower, "upper": result.tolerance.upper,
@@ -84,7 +88,23 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
                    for r in inputs],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},
+        **_json_safe(result.extra),
     }
+
+
+def _json_safe(obj):
+    """Kind-specific facts (numpy scalars included) as plain JSON types."""
+    if isinstance(obj, dict):
+        return {str(k): _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer, int)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        return _num(float(obj))
+    return obj
 
 
 def _num(v: float):

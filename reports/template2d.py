@@ -1,4 +1,5 @@
-"""2D contour templates from DXF drawings (ezdxf), chained into contours.
+"""2D contour templates from files: DXF drawings (ezdxf), chained into contours, and airfoil
+ordinates (Selig ``.dat``).
 
 Geometry taken (model space, INSERTed blocks expanded): LINE, ARC, CIRCLE, LWPOLYLINE and 2D
 POLYLINE with bulges of either sign, SPLINE (control points, knots, weights, or fit points only),
@@ -31,8 +32,8 @@ GEOMETRY = {"LINE", "ARC", "CIRCLE", "LWPOLYLINE", "POLYLINE", "SPLINE", "ELLIPS
 
 
 @dataclass(frozen=True)
-class DxfTemplate:
-    """A template read from a DXF file.
+class TemplateFile:
+    """A 2D template read from a file (DXF drawing or airfoil ordinates).
 
     template : the contours (mm, drawing XY plane).
     units : the drawing's unit name; ``unitless`` is True when $INSUNITS was unset (taken as mm).
@@ -50,7 +51,7 @@ class DxfTemplate:
 
 
 def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
-                      chain_tol: float | None = None, units: str | None = None) -> DxfTemplate:
+                      chain_tol: float | None = None, units: str | None = None) -> TemplateFile:
     """Read the contours of a DXF drawing.
 
     layers : names of the layers to take (default: every layer).
@@ -127,7 +128,7 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
     extent = _extent(prims)
     tol = chain_tol if chain_tol is not None else max(1e-6 * extent, 1e-9)
     contours = chain(prims, tol)
-    return DxfTemplate(path, build_template(contours), unit_name, unitless, dict(ignored),
+    return TemplateFile(path, build_template(contours), unit_name, unitless, dict(ignored),
                        flattened, recovered)
 
 
@@ -298,3 +299,39 @@ def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
             seq, tail = walk(k, True)
             contours.append((seq, tail == node[2 * k]))
     return contours
+
+
+def read_airfoil_template(path: str | os.PathLike, chord_mm: float) -> TemplateFile:
+    """An airfoil ordinate file (Selig format: a name line, then ``x y`` pairs from the trailing
+    edge over the upper surface to the leading edge and back, chord 1) as a closed polygon
+    template through its ordinates, scaled to ``chord_mm``. A blunt trailing edge is closed by
+    a straight segment."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputNotFoundError("no such file", path)
+    if not (chord_mm > 0 and math.isfinite(chord_mm)):
+        raise InputError(f"--scale (chord length, mm) must be positive, got {chord_mm:g}", path)
+    pts = []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        lines = f.read().splitlines()
+    for ln, raw in enumerate(lines[1:], start=2):
+        s = raw.strip()
+        if not s or s.startswith("#"):
+            continue
+        tok = s.split()
+        if len(tok) != 2:
+            raise InputError(f"{len(tok)} values where an ordinate file has 2 (x y)", path, ln)
+        try:
+            x, y = float(tok[0]), float(tok[1])
+        except ValueError:
+            raise InputError(f"'{s}' is not a pair of numbers", path, ln) from None
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise InputError("NaN or infinity is not an ordinate", path, ln)
+        pts.append((x * chord_mm, y * chord_mm))
+    if len(pts) < 3:
+        raise InputError(f"only {len(pts)} ordinates; an airfoil needs at least 3", path)
+    prims = [segment(pts[i], pts[i + 1]) for i in range(len(pts) - 1)
+             if math.dist(pts[i], pts[i + 1]) > 0]
+    if math.dist(pts[-1], pts[0]) > 0:
+        prims.append(segment(pts[-1], pts[0]))
+    return TemplateFile(path, build_template([(prims, True)]), "chord 1 scaled to mm", False)

@@ -1,0 +1,290 @@
+"""Soft registration in the template plane: rotation + translation of measured 2D points onto a
+contour template, from any start; and the plane of a planar template measured in 3D.
+
+Same structure as the 3D engine: a global search over pose hypotheses (rotations every 5 degrees
+about the centroid, and the measured point nearest the centroid put on anchors along the contours
+with its local direction along theirs), ICP on a dense sampling of the contours (point-to-line
+against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
+distance: the final pose is the least-squares optimum of point-to-contour distance over the
+inlier points. Gross outliers are cut from the fit (6 robust sigmas) but stay in the verdict.
+
+A template with symmetries (a gear) has several equally good poses; any of them gives the same
+deviations. The result says so when the runner-up pose maps the template onto itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .contour import ContourIndex, Deviations2D, deviations_2d
+
+_SEED = 11
+
+
+@dataclass(frozen=True)
+class Registration2D:
+    """Outcome of :func:`register_2d`.
+
+    T : (3, 3) homogeneous 2D transform mapping measured plane coordinates into the template.
+    rms : RMS of the signed deviations over the fit's inliers (mm).
+    score : truncated RMS over all points, sqrt(mean(min(d^2, cut^2))) (mm); runner_up_score the
+        same for the best distinct other pose (None when there is none).
+    symmetric : the runner-up pose fits as well and maps the template onto itself.
+    """
+
+    T: np.ndarray
+    converged: bool
+    iterations: int
+    rms: float
+    n_inliers: int
+    inlier: np.ndarray
+    outlier_cut: float
+    score: float
+    hypotheses: int
+    runner_up_score: float | None
+    symmetric: bool
+    deviations: Deviations2D
+    near_fraction: float
+    near_distance: float
+    message: str = ""
+
+
+def rot2(theta) -> np.ndarray:
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def _pose(theta, t) -> np.ndarray:
+    T = np.eye(3)
+    T[:2, :2] = rot2(theta)
+    T[:2, 2] = t
+    return T
+
+
+def apply2(T: np.ndarray, p: np.ndarray) -> np.ndarray:
+    return p @ T[:2, :2].T + T[:2, 2]
+
+
+class _Samples:
+    """Dense samples of the contours with their unit tangents (for ICP pairing)."""
+
+    def __init__(self, index: ContourIndex):
+        t = index.t
+        pts = index.tree.data
+        owner = index.owner
+        seg = t.kind[owner] == 0
+        tan = np.empty_like(pts)
+        d = t.end[owner] - t.start[owner]
+        tan[seg] = d[seg]
+        rad = pts - t.centre[owner]
+        tan[~seg] = np.column_stack([-rad[~seg, 1], rad[~seg, 0]]) * np.sign(t.sweep[owner][~seg])[:, None]
+        tan /= np.maximum(np.linalg.norm(tan, axis=1, keepdims=True), 1e-300)
+        self.pts, self.tan, self.tree = pts, tan, index.tree
+        self.normal = np.column_stack([-tan[:, 1], tan[:, 0]])
+        self.spacing = index.spacing
+
+
+def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
+                max_anchors: int = 400, outlier_sigmas: float = 6.0,
+                max_iterations: int = 50) -> Registration2D:
+    """Find the 2D pose of measured points (n, 2) on the template of ``index``."""
+    p = np.asarray(measured, float)
+    S = _Samples(index)
+    extent_t = float(np.linalg.norm(np.ptp(S.pts, axis=0)))
+    extent_m = float(np.linalg.norm(np.ptp(p, axis=0)))
+    cm = p.mean(axis=0)
+    sub = _spread(p, 48)
+    hyps = []
+    # Rotations about the centroid, centroid on the template's centroid.
+    ct = S.pts.mean(axis=0)
+    for th in np.linspace(0, 2 * np.pi, n_angles, endpoint=False):
+        hyps.append(_pose(th, ct - rot2(th) @ cm))
+    # The point nearest the centroid onto anchors along the contours, direction along theirs.
+    p0, d0 = _reference(p)
+    step = max(1, len(S.pts) // max_anchors)
+    for k in range(0, len(S.pts), step):
+        base = np.arctan2(S.tan[k, 1], S.tan[k, 0]) - np.arctan2(d0[1], d0[0])
+        for th in (base, base + np.pi):
+            hyps.append(_pose(th, S.pts[k] - rot2(th) @ p0))
+    T = np.array(hyps)
+    n_hyp = T.shape[0]
+    h = S.spacing
+    T, score = _icp2(T, p[sub], S, iterations=8, reach=np.inf)
+    T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
+    T, score = _icp2(T, p[_spread(p, 2048)], S, iterations=10, reach=np.inf)
+    order = np.argsort(score, kind="stable")
+    T = T[order]
+    # Exact point-to-contour Gauss-Newton for the best few, then choose.
+    near = 0.01 * extent_t
+    fits = [_gauss_newton2(index, p, Tc, outlier_sigmas, max_iterations, h) for Tc in T[:3]]
+    cut0 = min(f[4] for f in fits)
+    scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in fits]
+    best = int(np.argmin(scores))
+    Tb, conv, it, inl, cut, dev = fits[best]
+    runner = None
+    symmetric = False
+    for j in np.argsort(scores, kind="stable"):
+        if j == best:
+            continue
+        if _distinct(fits[j][0], Tb, p, 0.01 * max(extent_m, 1e-12)):
+            runner = int(j)
+            break
+    if runner is not None and scores[runner] <= 1.05 * scores[best] + 0.1 * h:
+        # Does the relative transform map the template onto itself?
+        rel = fits[runner][0] @ np.linalg.inv(Tb)
+        moved = apply2(rel, S.pts[:: max(1, len(S.pts) // 2000)])
+        dist, _ = S.tree.query(moved)
+        symmetric = bool(np.max(dist) <= 2 * h)
+    d_in = dev.signed[inl]
+    message = "" if conv else f"the point-to-contour fit did not settle within {max_iterations} iterations"
+    return Registration2D(
+        T=Tb, converged=conv, iterations=8 + 10 + it,
+        rms=float(np.sqrt(np.mean(d_in ** 2))) if inl.any() else float("nan"),
+        n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=scores[best],
+        hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
+        symmetric=symmetric, deviations=dev,
+        near_fraction=float(np.mean(np.abs(dev.signed) <= near)), near_distance=near,
+        message=message)
+
+
+def _spread(p: np.ndarray, m: int) -> np.ndarray:
+    if p.shape[0] <= m:
+        return np.arange(p.shape[0])
+    return np.sort(np.random.default_rng(_SEED).choice(p.shape[0], m, replace=False))
+
+
+def _reference(p: np.ndarray):
+    """The measured point nearest the centroid and the local direction of its neighbours."""
+    q = p[_spread(p, 4096)]
+    i = int(np.argmin(np.linalg.norm(q - q.mean(axis=0), axis=1)))
+    k = min(6, q.shape[0])
+    _, nb = cKDTree(q).query(q[i], k=k)
+    c = q[nb] - q[nb].mean(axis=0)
+    _, vecs = np.linalg.eigh(c.T @ c)
+    return q[i], vecs[:, -1]
+
+
+def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int, reach: float):
+    """Batched point-to-line ICP in 2D for H poses; returns (poses, trimmed scores)."""
+    H, m = T.shape[0], src.shape[0]
+    score = np.zeros(H)
+    for _ in range(iterations):
+        X = src @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]
+        _, j = S.tree.query(X.reshape(-1, 2), workers=-1)
+        j = j.reshape(H, m)
+        r = X - S.pts[j]
+        n = S.normal[j]
+        rn = np.sum(r * n, axis=2)
+        e2 = rn * rn
+        k = max(1, int(0.75 * m))
+        score = np.mean(np.partition(e2, k - 1, axis=1)[:, :k], axis=1)
+        tau2 = np.maximum(9 * S.spacing ** 2, 6.25 * np.median(e2, axis=1))
+        w = (e2 <= tau2[:, None]).astype(float)
+        c = (w[..., None] * X).sum(1) / np.maximum(w.sum(1), 1)[:, None]
+        xt = X - c[:, None, :]
+        J = np.stack([xt[..., 0] * n[..., 1] - xt[..., 1] * n[..., 0], n[..., 0], n[..., 1]], 2)
+        Jw = J * w[..., None]
+        A = Jw.transpose(0, 2, 1) @ J + 1e-9 * np.eye(3)
+        b = (Jw * rn[..., None]).sum(1)
+        delta = -np.linalg.solve(A, b[..., None])[..., 0]
+        T = _compose(T, delta, c)
+    return T, score
+
+
+def _compose(T, delta, c):
+    """x' = c + R(dtheta) (x - c) + dt after T, for (H, 3) steps [dtheta, dtx, dty]."""
+    th = delta[:, 0]
+    U = np.zeros_like(T)
+    cs, sn = np.cos(th), np.sin(th)
+    U[:, 0, 0], U[:, 0, 1], U[:, 1, 0], U[:, 1, 1] = cs, -sn, sn, cs
+    Rc = np.einsum("hij,hj->hi", U[:, :2, :2], c)
+    U[:, :2, 2] = c - Rc + delta[:, 1:]
+    U[:, 2, 2] = 1.0
+    return U @ T
+
+
+def _best_distinct(T, score, src, keep, tol):
+    order = np.argsort(score, kind="stable")
+    feat = np.einsum("hij,mj->hmi", T[:, :2, :2], src[:4]) + T[:, None, :2, 2]
+    kept = []
+    for i in order:
+        if kept and np.min(np.max(np.linalg.norm(feat[kept] - feat[i][None], axis=2), axis=1)) <= tol:
+            continue
+        kept.append(int(i))
+        if len(kept) >= keep:
+            break
+    return T[kept]
+
+
+def _distinct(T1, T2, p, tol) -> bool:
+    return float(np.max(np.linalg.norm(apply2(T1, p) - apply2(T2, p), axis=1))) > tol
+
+
+def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float,
+                   max_iter: int, h: float):
+    """Least squares on the exact signed point-to-contour distance over the robust inliers.
+
+    Returns (T, converged, iterations, inlier, cut, Deviations2D at T).
+    """
+    floor = 1e-6 * max(float(np.linalg.norm(np.ptp(index.tree.data, axis=0))), 1e-12)
+    inlier = None
+    cut = np.inf
+    for it in range(1, max_iter + 1):
+        X = apply2(T, p)
+        dev = deviations_2d(index, X)
+        d = dev.signed
+        if inlier is None or it <= 3:
+            med = np.median(d)
+            cut = float(max(abs(med) + sigmas * 1.4826 * np.median(np.abs(d - med)), floor))
+            inlier = np.abs(d) <= cut
+        if inlier.sum() < 3:
+            return T, False, it, inlier, cut, dev
+        # The gradient of the signed distance: the unit vector from the foot to the point,
+        # signed like the deviation (on the contour itself, the contour's positive normal).
+        g = X - dev.foot
+        ln = np.linalg.norm(g, axis=1)
+        g = g / np.where(ln > 0, ln, 1.0)[:, None] * np.sign(np.where(d == 0, 1.0, d))[:, None]
+        Xi, gi, di = X[inlier], g[inlier], d[inlier]
+        c = Xi.mean(axis=0)
+        xt = Xi - c
+        J = np.column_stack([xt[:, 0] * gi[:, 1] - xt[:, 1] * gi[:, 0], gi[:, 0], gi[:, 1]])
+        A = J.T @ J + 1e-12 * np.trace(J.T @ J) * np.eye(3)
+        delta = -np.linalg.solve(A, J.T @ di)
+        reach = float(np.max(np.linalg.norm(xt, axis=1))) if xt.size else 0.0
+        if abs(delta[0]) * reach + np.linalg.norm(delta[1:]) < 1e-7:
+            return T, True, it, inlier, cut, dev
+        T = _compose(T[None], delta[None], c[None])[0]
+    X = apply2(T, p)
+    dev = deviations_2d(index, X)
+    return T, False, max_iter, np.abs(dev.signed) <= cut, cut, dev
+
+
+@dataclass(frozen=True)
+class PlaneFrame:
+    """A plane fitted to 3D points: origin, in-plane axes u, v and normal w (rows of R).
+
+    to_plane(p) gives (n, 3) coordinates (u, v, w): w is the out-of-plane residual.
+    flatness : peak-to-valley of w (mm); rms_w : its RMS.
+    """
+
+    origin: np.ndarray
+    R: np.ndarray
+    flatness: float
+    rms_w: float
+
+    def to_plane(self, p: np.ndarray) -> np.ndarray:
+        return (p - self.origin) @ self.R.T
+
+
+def fit_plane(p: np.ndarray) -> PlaneFrame:
+    """Least-squares plane through 3D points (n, 3)."""
+    o = p.mean(axis=0)
+    _, s, vt = np.linalg.svd(p - o, full_matrices=False)
+    R = vt.copy()
+    if np.linalg.det(R) < 0:
+        R[2] *= -1
+    w = (p - o) @ R[2]
+    return PlaneFrame(o, R, float(np.ptp(w)), float(np.sqrt(np.mean(w * w))))

@@ -1,0 +1,156 @@
+"""2D template inspection: pose from any start, partial coverage, symmetry, planar 3D input,
+and the command line with DXF and airfoil templates."""
+
+import json
+import math
+import os
+
+import ezdxf
+import numpy as np
+import pytest
+
+from engine.contour import SEGMENT, ContourIndex, deviations_2d
+from engine.inspection import ACCEPT, REJECT, Tolerance, inspect_2d
+from engine.registration2d import _pose, apply2, register_2d
+from reports.cli import main
+from reports.template2d import read_airfoil_template, read_dxf_template
+from surfaces import random_rotation
+from test_contour import slotted_plate
+
+DATA = os.path.join(os.path.dirname(__file__), "data", "dxf")
+
+
+def points_on(t, n, rng, weight=None):
+    """n points spread by length over the template's primitives (optionally weighted)."""
+    L = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
+                 np.abs(t.sweep) * t.radius)
+    if weight is not None:
+        L = L * weight
+    i = rng.choice(len(L), n, p=L / L.sum())
+    u = rng.uniform(0, 1, n)
+    a = t.angle0[i] + u * t.sweep[i]
+    return np.where((t.kind[i] == SEGMENT)[:, None], t.start[i] + u[:, None] * (t.end[i] - t.start[i]),
+                    t.centre[i] + t.radius[i, None] * np.column_stack([np.cos(a), np.sin(a)]))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_pose_from_any_angle_and_offset(seed):
+    rng = np.random.default_rng(seed)
+    t = slotted_plate()
+    q = points_on(t, 300, rng) + rng.normal(0, 0.002, (300, 2))
+    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-800, 800, 2)), q)
+    r = register_2d(ContourIndex(t), meas)
+    assert r.converged and not r.symmetric
+    assert np.max(np.linalg.norm(apply2(r.T, meas) - q, axis=1)) < 0.003
+
+
+def test_points_along_part_of_the_contour():
+    rng = np.random.default_rng(5)
+    t = slotted_plate()
+    # Only the rounded end and the bottom edge were measured.
+    w = np.array([1.0, 1.0, 0.0, 0.0, 0.0])
+    q = points_on(t, 150, rng, w) + rng.normal(0, 0.002, (150, 2))
+    meas = apply2(_pose(2.0, [300.0, -40.0]), q)
+    r = register_2d(ContourIndex(t), meas)
+    assert np.max(np.linalg.norm(apply2(r.T, meas) - q, axis=1)) < 0.005
+
+
+def test_symmetric_gear_any_equivalent_pose_is_right():
+    rng = np.random.default_rng(6)
+    g = read_dxf_template(f"{DATA}/gear_z20.dxf", units="mm").template
+    idx = ContourIndex(g)
+    q = points_on(g, 400, rng, (g.contour == 0).astype(float))
+    meas = apply2(_pose(1.234, [55.0, -20.0]), q)
+    r = register_2d(idx, meas)
+    assert r.converged and r.symmetric
+    d = deviations_2d(idx, apply2(r.T, meas)).signed
+    assert np.max(np.abs(d)) < 1e-6
+
+
+def test_planar_template_measured_in_3d_either_face_up():
+    rng = np.random.default_rng(7)
+    t = slotted_plate()
+    q = points_on(t, 250, rng)
+    dev = rng.normal(0, 0.003, 250)
+    dev[17] = 0.2  # one point out of a ±0.05 zone
+    # Move each point along the contour's positive normal by its planted deviation.
+    idx = ContourIndex(t)
+    base = deviations_2d(idx, q)
+    nrm = np.zeros_like(q)
+    for i, (p, f) in enumerate(zip(q, base.foot)):
+        # Positive side: probe both normals of the primitive, keep the one that reads positive.
+        prim = base.primitive[i]
+        if t.kind[prim] == SEGMENT:
+            tan = t.end[prim] - t.start[prim]
+            n = np.array([-tan[1], tan[0]]) / np.linalg.norm(tan)
+        else:
+            n = (p - t.centre[prim]) / np.linalg.norm(p - t.centre[prim])
+        if deviations_2d(idx, (p + 1e-3 * n)[None]).signed[0] < 0:
+            n = -n
+        nrm[i] = n
+    q2 = q + dev[:, None] * nrm
+    for flip in (1.0, -1.0):
+        z = rng.normal(0, 0.001, 250)
+        P3 = np.column_stack([q2[:, 0], flip * q2[:, 1], z])
+        R = random_rotation(rng)
+        meas = P3 @ R.T + rng.uniform(-500, 500, 3)
+        res = inspect_2d(t, meas, 3, Tolerance.symmetric(0.05))
+        assert res.verdict == REJECT and res.statistics.n_out == 1
+        assert res.statistics.worst[0] == 17
+        assert np.max(np.abs(res.deviations.signed - dev)) < 0.004
+        assert res.extra["flatness"]["peak_to_valley"] == pytest.approx(np.ptp(z), rel=0.2)
+        # The 4x4 is a proper rigid transform and puts the points back into the template plane.
+        T = res.registration.T_nominal_measured
+        assert np.linalg.det(T[:3, :3]) == pytest.approx(1.0)
+        assert np.max(np.abs(res.registered[:, 2])) < 0.01
+
+
+def test_cli_with_dxf_and_2d_points(tmp_path, capsys):
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_lwpolyline([(0, 0, 0), (30, 0, math.tan(math.pi / 4)), (30, 20, 0), (0, 20, 0)],
+                       format="xyb", close=True)
+    msp.add_circle((12, 10), 4)
+    msp.add_text("TEMPLATE 7")
+    dxf = tmp_path / "frame.dxf"
+    doc.saveas(dxf)
+    t = read_dxf_template(dxf).template
+    rng = np.random.default_rng(8)
+    q = points_on(t, 200, rng)
+    meas = apply2(_pose(0.7, [10.0, 20.0]), q)
+    f = tmp_path / "m.txt"
+    np.savetxt(f, meas, fmt="%.6f")
+    code = main(["inspect", str(dxf), str(f), "--tol", "0.01", "--json", str(tmp_path / "r.json")])
+    assert code == 0
+    doc_ = json.loads((tmp_path / "r.json").read_text())
+    assert doc_["verdict"] == ACCEPT and doc_["template"]["closed"] == 2
+    assert doc_["template"]["ignored_entities"] == {"TEXT": 1}
+    assert doc_["deviations"]["max_abs"] < 1e-5
+    assert "template: 2 contour(s)" in capsys.readouterr().out
+
+
+def test_airfoil_ordinates_template(tmp_path, capsys):
+    # NACA 0012, chord 1, Selig order (TE -> upper -> LE -> lower -> TE).
+    x = (1 - np.cos(np.linspace(0, np.pi, 60))) / 2
+    yt = 0.6 * (0.2969 * np.sqrt(x) - 0.1260 * x - 0.3516 * x**2 + 0.2843 * x**3
+                - 0.1036 * x**4)
+    upper = np.column_stack([x[::-1], yt[::-1]])
+    lower = np.column_stack([x[1:], -yt[1:]])
+    dat = tmp_path / "naca0012.dat"
+    dat.write_text("NACA 0012\n" + "\n".join(f"{a:.6f} {b:.6f}" for a, b in np.vstack([upper, lower])))
+    tpl = read_airfoil_template(dat, 250.0)
+    t = tpl.template
+    assert t.closed.tolist() == [True]
+    assert np.ptp(np.vstack([t.start, t.end])[:, 0]) == pytest.approx(250.0, abs=1e-3)
+    rng = np.random.default_rng(9)
+    q = points_on(t, 300, rng)
+    f = tmp_path / "m.csv"
+    np.savetxt(f, apply2(_pose(-1.1, [40.0, 5.0]), q), fmt="%.6f", delimiter=",")
+    assert main(["inspect", str(dat), str(f), "--tol", "0.3", "--scale", "250"]) == 0
+    assert main(["inspect", str(dat), str(f), "--tol", "0.3"]) == 64
+    assert "needs --scale" in capsys.readouterr().err
+    bad = tmp_path / "bad.dat"
+    bad.write_text("NAME\n0 0\n0.5 x\n1 0\n")
+    assert main(["inspect", str(bad), str(f), "--tol", "0.3", "--scale", "1"]) == 65
+    assert "bad.dat:3: '0.5 x' is not a pair of numbers" in capsys.readouterr().err
