@@ -102,9 +102,12 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     ct = S.pts.mean(axis=0)
     for th in np.linspace(0, 2 * np.pi, n_angles, endpoint=False):
         hyps.append(_pose(th, ct - rot2(th) @ cm))
-    # The point nearest the centroid onto anchors along the contours, direction along theirs.
+    # The point nearest the centroid onto anchors along the contours, direction along theirs:
+    # an anchor every 5% of the measured extent (so one lands near the right place however
+    # little of the contour was measured), at most max_anchors.
     p0, d0 = _reference(p)
-    step = max(1, len(S.pts) // max_anchors)
+    per_anchor = max(0.05 * extent_m / max(S.spacing, 1e-12), 1.0)
+    step = max(1, int(per_anchor), len(S.pts) // max_anchors)
     for k in range(0, len(S.pts), step):
         base = np.arctan2(S.tan[k, 1], S.tan[k, 0]) - np.arctan2(d0[1], d0[0])
         for th in (base, base + np.pi):
@@ -112,7 +115,9 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     T = np.array(hyps)
     n_hyp = T.shape[0]
     h = S.spacing
-    T, score = _icp2(T, p[sub], S, iterations=8, reach=np.inf)
+    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], S, iterations=5, reach=np.inf)
+    T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
+    T, score = _icp2(T, p[sub], S, iterations=6, reach=np.inf)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
     T, score = _icp2(T, p[_spread(p, 2048)], S, iterations=10, reach=np.inf)
     order = np.argsort(score, kind="stable")
@@ -141,7 +146,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     d_in = dev.signed[inl]
     message = "" if conv else f"the point-to-contour fit did not settle within {max_iterations} iterations"
     return Registration2D(
-        T=Tb, converged=conv, iterations=8 + 10 + it,
+        T=Tb, converged=conv, iterations=5 + 6 + 10 + it,
         rms=float(np.sqrt(np.mean(d_in ** 2))) if inl.any() else float("nan"),
         n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=scores[best],
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],

@@ -11,6 +11,12 @@ seat_bracket/   an L-shaped seat bracket with two freeform faces (A: flange top,
     nominal.xyz   200,000 points over the whole part with outward I J K normals
     measured.csv  100 points on faces A and B only (a small part of the nominal), arbitrary pose
     truth.json    as above
+fuselage_frame/ a fuselage frame contour template like the paper's section 5.1:
+    template.dxf  a 30-degree frame segment between radii 1000 and 1100 mm: bulged polyline arcs,
+                  straight ends, a spline joggle at one end, two lightening holes (circles)
+    measured.csv  500 CMM points (label, x, y, z) along the contours, the template lying tilted
+                  on the bed (a planar template measured in 3D), noise and a local rise
+    truth.json    the pose, the planted deviation of every point, the expected verdict
 """
 
 from __future__ import annotations
@@ -226,6 +232,122 @@ def make_bracket(out: str) -> dict:
     return truth
 
 
+# ----------------------------------------------------------------------------- fuselage frame
+FRAME_R_IN, FRAME_R_OUT = 1000.0, 1100.0
+FRAME_A0, FRAME_A1 = np.radians(75.0), np.radians(105.0)
+HOLES = [(np.radians(85.0), 25.0), (np.radians(95.0), 25.0)]
+
+
+def _frame_joggle():
+    """Fit points of the spline closing the frame at 75 degrees: an S-shaped joggle."""
+    a = FRAME_A0
+    radial = np.array([np.cos(a), np.sin(a)])
+    tangent = np.array([-np.sin(a), np.cos(a)])
+    r = np.linspace(FRAME_R_IN, FRAME_R_OUT, 5)
+    off = np.array([0.0, 4.0, 0.0, -4.0, 0.0])
+    return [tuple(ri * radial + oi * tangent) for ri, oi in zip(r, off)]
+
+
+def _write_frame_dxf(ezdxf, path: str) -> None:
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4  # millimetres
+    doc.layers.add("PROFILE")
+    doc.layers.add("NOTES")
+    msp = doc.modelspace()
+    p_out0 = FRAME_R_OUT * np.array([np.cos(FRAME_A0), np.sin(FRAME_A0)])
+    p_out1 = FRAME_R_OUT * np.array([np.cos(FRAME_A1), np.sin(FRAME_A1)])
+    p_in1 = FRAME_R_IN * np.array([np.cos(FRAME_A1), np.sin(FRAME_A1)])
+    p_in0 = FRAME_R_IN * np.array([np.cos(FRAME_A0), np.sin(FRAME_A0)])
+    b = np.tan((FRAME_A1 - FRAME_A0) / 4.0)
+    # Outer arc counter-clockwise, straight end, inner arc clockwise: one open polyline whose
+    # ends the spline joggle joins.
+    msp.add_lwpolyline([(*p_out0, b), (*p_out1, 0.0), (*p_in1, -b), (*p_in0, 0.0)],
+                       format="xyb", close=False, dxfattribs={"layer": "PROFILE"})
+    fit = _frame_joggle()
+    msp.add_spline(fit_points=fit[::-1], dxfattribs={"layer": "PROFILE"})  # inner end -> outer
+    for ang, r in HOLES:
+        c = 1050.0 * np.array([np.cos(ang), np.sin(ang)])
+        msp.add_circle(tuple(c), r, dxfattribs={"layer": "PROFILE"})
+    msp.add_text("FRAME 12 TEMPLATE, TOL +/-0.05", dxfattribs={"layer": "NOTES"})
+    doc.saveas(path)
+
+
+def make_frame(out: str) -> dict:
+    import ezdxf
+
+    from engine.contour import SEGMENT, ContourIndex, deviations_2d
+    from reports.template2d import read_dxf_template
+
+    os.makedirs(out, exist_ok=True)
+    # Fixed dates, GUIDs and writer stamps, so that the file is reproducible byte for byte.
+    fixed = ezdxf.options.write_fixed_meta_data_for_testing
+    ezdxf.options.write_fixed_meta_data_for_testing = True
+    try:
+        _write_frame_dxf(ezdxf, os.path.join(out, "template.dxf"))
+    finally:
+        ezdxf.options.write_fixed_meta_data_for_testing = fixed
+    t = read_dxf_template(os.path.join(out, "template.dxf")).template
+    rng = np.random.default_rng(512)
+    # 500 points: 400 along the outer profile, 50 in each hole, spread by length.
+    L = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
+                 np.abs(t.sweep) * t.radius)
+    outer = int(np.argmax([np.sum(L[t.contour == c]) for c in range(t.closed.size)]))
+    pts = []
+    for c, n in [(outer, 400)] + [(c, 50) for c in range(t.closed.size) if c != outer]:
+        sel = np.flatnonzero(t.contour == c)
+        i = rng.choice(sel, n, p=L[sel] / L[sel].sum())
+        u = rng.uniform(0.02, 0.98, n)
+        a = t.angle0[i] + u * t.sweep[i]
+        pts.append(np.where((t.kind[i] == SEGMENT)[:, None],
+                            t.start[i] + u[:, None] * (t.end[i] - t.start[i]),
+                            t.centre[i] + t.radius[i, None] * np.column_stack([np.cos(a),
+                                                                               np.sin(a)])))
+    q = np.vstack(pts)
+    # Planted deviation along the positive normal: a rise of +0.03 mm on the outer arc near
+    # 100 degrees, probing noise 3 um.
+    ang = np.arctan2(q[:, 1], q[:, 0])
+    rad = np.hypot(q[:, 0], q[:, 1])
+    rise = 0.03 * np.exp(-((ang - np.radians(100.0)) / np.radians(2.0)) ** 2) * (rad > 1090)
+    planted = rise + rng.normal(0.0, 0.003, q.shape[0])
+    idx = ContourIndex(t)
+    base = deviations_2d(idx, q)
+    nrm = np.zeros_like(q)
+    for k in range(q.shape[0]):
+        prim = base.primitive[k]
+        if t.kind[prim] == SEGMENT:
+            tan = t.end[prim] - t.start[prim]
+            n = np.array([-tan[1], tan[0]]) / np.linalg.norm(tan)
+        else:
+            n = (q[k] - t.centre[prim]) / np.linalg.norm(q[k] - t.centre[prim])
+        if deviations_2d(idx, (q[k] + 1e-3 * n)[None]).signed[0] < 0:
+            n = -n
+        nrm[k] = n
+    q2 = q + planted[:, None] * nrm
+    # The template lies on the CMM bed tilted by 2 degrees, turned and shifted; the probe also
+    # sees 2 um of flatness noise.
+    z = rng.normal(0.0, 0.002, q.shape[0])
+    P3 = np.column_stack([q2, z])
+    R = rotation([0.2, -0.1, 1.0], 63.0) @ rotation([1.0, 0.0, 0.0], 2.0)
+    tr = np.array([-310.0, -1180.0, 42.0])
+    measured = P3 @ R.T + tr
+    with open(os.path.join(out, "measured.csv"), "w") as f:
+        f.write("# CMM points along the frame template, machine coordinates (mm)\n")
+        f.write("id,x,y,z\n")
+        for i, p in enumerate(measured):
+            f.write(f"F{i + 1:03d},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+    truth = {
+        "description": "fuselage frame contour template (DXF) and 500 CMM points, tilted 2 deg",
+        "T_nominal_measured": np.linalg.inv(pose(R, tr)).tolist(),
+        "planted_deviation_mm": [round(float(d), 6) for d in planted],
+        "defect": "rise +0.03 mm (sigma 2 deg) on the outer arc at 100 deg; noise sigma 0.003 "
+                  "mm in plane and 0.002 mm out of plane",
+        "tolerance_mm": 0.05,
+        "expected_verdict": "ACCEPT",
+    }
+    _write_json(os.path.join(out, "truth.json"), truth)
+    return truth
+
+
 def _write_json(path, obj):
     with open(path, "w") as f:
         json.dump(obj, f, indent=1)
@@ -235,4 +357,5 @@ def _write_json(path, obj):
 if __name__ == "__main__":
     make_fairing(os.path.join(HERE, "belly_fairing"))
     make_bracket(os.path.join(HERE, "seat_bracket"))
+    make_frame(os.path.join(HERE, "fuselage_frame"))
     print("samples written under", HERE)
