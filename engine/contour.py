@@ -245,16 +245,21 @@ class ContourIndex:
             better = dist < best
             best = np.where(better, dist, best)
             best_i = np.where(better, cand[:, col], best_i)
-        # Exact unless a nearer primitive could hide beyond the k-th sample.
-        unsure = np.flatnonzero(d[:, -1] < best + self.reach) if k < self.owner.size else []
-        for s in range(0, len(unsure), 256):
-            rows = unsure[s:s + 256]
-            m = self.t.n_primitives
-            pp = np.repeat(p[rows], m, axis=0)
-            ii = np.tile(np.arange(m), rows.size)
-            _, dist, _, _ = point_to_primitives(pp, self.t, ii)
-            dist = dist.reshape(rows.size, m)
-            best_i[rows] = np.argmin(dist, axis=1)
+        # Exact unless a nearer primitive could hide beyond the k-th sample: then every
+        # primitive with a sample inside the ball of radius best + reach is tried.
+        if k < self.owner.size:
+            unsure = np.flatnonzero(d[:, -1] < best + self.reach)
+            if unsure.size:
+                lists = self.tree.query_ball_point(p[unsure], r=best[unsure] + self.reach)
+                counts = np.array([len(x) for x in lists])
+                rows = np.repeat(unsure, counts)
+                cand = self.owner[np.concatenate([np.asarray(x, dtype=np.int64)
+                                                  for x in lists])]
+                pair = np.unique(np.column_stack([rows, cand]), axis=0)
+                _, dist, _, _ = point_to_primitives(p[pair[:, 0]], self.t, pair[:, 1])
+                order = np.lexsort((dist, pair[:, 0]))
+                first = order[np.r_[True, pair[order[1:], 0] != pair[order[:-1], 0]]]
+                best_i[pair[first, 0]] = pair[first, 1]
         foot, dist, left, at_end = point_to_primitives(p, self.t, best_i)
         return best_i, foot, dist, left, at_end
 

@@ -122,19 +122,24 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     T, score = _icp2(T, p[_spread(p, 2048)], S, iterations=10, reach=np.inf)
     order = np.argsort(score, kind="stable")
     T = T[order]
-    # Exact point-to-contour Gauss-Newton for the best few, then choose.
+    # Exact point-to-contour Gauss-Newton: a few steps for the best three (on a subset of the
+    # points), the best of them to convergence, then one step over every point.
     near = 0.01 * extent_t
-    fits = [_gauss_newton2(index, p, Tc, outlier_sigmas, max_iterations, h) for Tc in T[:3]]
-    cut0 = min(f[4] for f in fits)
-    scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in fits]
+    fsub = _spread(p, 4096)
+    short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5, h) for Tc in T[:3]]
+    cut0 = min(f[4] for f in short)
+    scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
     best = int(np.argmin(scores))
-    Tb, conv, it, inl, cut, dev = fits[best]
+    Tb, conv, it, inl, cut, dev = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
+                                                 max_iterations, h)
+    Tb, inl, dev = _all_points_step(index, p, Tb, cut)
+    fits = short
     runner = None
     symmetric = False
     for j in np.argsort(scores, kind="stable"):
         if j == best:
             continue
-        if _distinct(fits[j][0], Tb, p, 0.01 * max(extent_m, 1e-12)):
+        if _distinct(fits[j][0], Tb, p[fsub], 0.01 * max(extent_m, 1e-12)):
             runner = int(j)
             break
     if runner is not None and scores[runner] <= 1.05 * scores[best] + 0.1 * h:
@@ -228,6 +233,36 @@ def _distinct(T1, T2, p, tol) -> bool:
     return float(np.max(np.linalg.norm(apply2(T1, p) - apply2(T2, p), axis=1))) > tol
 
 
+def _all_points_step(index: ContourIndex, p: np.ndarray, T: np.ndarray, cut: float):
+    """Deviations of every point at T, then one Gauss-Newton step over all inliers (the subset's
+    optimum is within noise / sqrt(subset) of theirs); the deviations follow the step to first
+    order. Returns (T, inlier, Deviations2D)."""
+    X = apply2(T, p)
+    dev = deviations_2d(index, X)
+    d = dev.signed
+    inl = np.abs(d) <= cut
+    if inl.sum() < 3:
+        return T, inl, dev
+    g = _gradient(X, dev.foot, d)
+    c = X[inl].mean(axis=0)
+    xt = X - c
+    J = np.column_stack([xt[:, 0] * g[:, 1] - xt[:, 1] * g[:, 0], g[:, 0], g[:, 1]])
+    A = J[inl].T @ J[inl]
+    delta = -np.linalg.solve(A + 1e-12 * np.trace(A) * np.eye(3), J[inl].T @ d[inl])
+    d_new = d + J @ delta
+    T = _compose(T[None], delta[None], c[None])[0]
+    X_new = apply2(T, p)
+    return T, np.abs(d_new) <= cut, Deviations2D(d_new, X_new - d_new[:, None] * g,
+                                                 dev.primitive)
+
+
+def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Unit gradient of the signed distance: from the foot to the point, signed like d."""
+    g = X - foot
+    ln = np.linalg.norm(g, axis=1)
+    return g / np.where(ln > 0, ln, 1.0)[:, None] * np.sign(np.where(d == 0, 1.0, d))[:, None]
+
+
 def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float,
                    max_iter: int, h: float):
     """Least squares on the exact signed point-to-contour distance over the robust inliers.
@@ -247,11 +282,7 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
             inlier = np.abs(d) <= cut
         if inlier.sum() < 3:
             return T, False, it, inlier, cut, dev
-        # The gradient of the signed distance: the unit vector from the foot to the point,
-        # signed like the deviation (on the contour itself, the contour's positive normal).
-        g = X - dev.foot
-        ln = np.linalg.norm(g, axis=1)
-        g = g / np.where(ln > 0, ln, 1.0)[:, None] * np.sign(np.where(d == 0, 1.0, d))[:, None]
+        g = _gradient(X, dev.foot, d)
         Xi, gi, di = X[inlier], g[inlier], d[inlier]
         c = Xi.mean(axis=0)
         xt = Xi - c
