@@ -154,3 +154,10 @@ def test_airfoil_ordinates_template(tmp_path, capsys):
     bad.write_text("NAME\n0 0\n0.5 x\n1 0\n")
     assert main(["inspect", str(bad), str(f), "--tol", "0.3", "--scale", "1"]) == 65
     assert "bad.dat:3: '0.5 x' is not a pair of numbers" in capsys.readouterr().err
+
+
+def test_points_that_match_no_contour_are_inconclusive():
+    rng = np.random.default_rng(10)
+    blob = np.column_stack([rng.normal(size=(200, 2)) * 80.0, np.zeros(200)])
+    res = inspect_2d(slotted_plate(), blob, 2, Tolerance.symmetric(0.1))
+    assert res.verdict == "INCONCLUSIVE"

@@ -205,3 +205,20 @@ def test_real_unordered_loop_of_lines_and_arcs():
     assert t.closed.tolist() == [True] and t.n_primitives == 11 and (t.kind == ARC).sum() == 2
     ends = np.roll(t.end, 1, axis=0)
     assert np.max(np.linalg.norm(t.start - ends, axis=1)) < 1e-6 * np.ptp(t.start)
+
+
+def test_damaged_file_goes_through_recover_mode(tmp_path):
+    doc, msp = new_doc()
+    msp.add_line((0, 0), (10, 0))
+    msp.add_circle((0, 0), 3)
+    f = save(doc, tmp_path)
+    text = f.read_text()
+    damaged = tmp_path / "damaged.dxf"
+    damaged.write_text(text[: text.rfind("OBJECTS")])  # truncated: no OBJECTS, no EOF
+    d = read_dxf_template(damaged)
+    assert d.recovered and d.template.n_primitives == 2
+    hopeless = tmp_path / "hopeless.dxf"
+    i = text.find("AcDbLine")
+    hopeless.write_text(text[:i] + "AcDbLine\n 10\nnot-a-number\n" + text[i + 9:])
+    with pytest.raises(InputError, match="hopeless.dxf: not a readable DXF file"):
+        read_dxf_template(hopeless)
