@@ -119,9 +119,12 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
     T, score = _icp2(T, p[sub], S, iterations=6, reach=np.inf)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
-    T, score = _icp2(T, p[_spread(p, 2048)], S, iterations=10, reach=np.inf)
+    T, score = _icp2(T, p[_spread(p, 512)], S, iterations=10, reach=np.inf)
     order = np.argsort(score, kind="stable")
-    T = T[order]
+    # Candidates clearly worse than the best (4x its score, beyond the sampling noise) are not
+    # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).
+    keep = score[order] <= 4.0 * score[order[0]] + (0.1 * S.spacing) ** 2
+    T = T[order][keep]
     # Exact point-to-contour Gauss-Newton: a few steps for the best three (on a subset of the
     # points), the best of them to convergence, then one step over every point.
     near = 0.01 * extent_t
