@@ -21,7 +21,7 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from engine.contour import SEGMENT, arc, build_template, segment  # noqa: E402
+from engine.contour import arc, build_template, points_on, segment  # noqa: E402
 from engine.inspection import Tolerance, inspect_2d  # noqa: E402
 from engine.registration2d import _pose, apply2  # noqa: E402
 
@@ -46,17 +46,6 @@ def wavy_template(n_entities: int):
             prims.append(segment(a, b))
     hole = [arc((20.0, -10.0), 30.0, 0.0, 2 * np.pi)]
     return build_template([(prims, True), (hole, True)])
-
-
-def points_on(t, n, rng):
-    L = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
-                 np.abs(t.sweep) * t.radius)
-    i = rng.choice(len(L), n, p=L / L.sum())
-    u = rng.uniform(0, 1, n)
-    a = t.angle0[i] + u * t.sweep[i]
-    return np.where((t.kind[i] == SEGMENT)[:, None],
-                    t.start[i] + u[:, None] * (t.end[i] - t.start[i]),
-                    t.centre[i] + t.radius[i, None] * np.column_stack([np.cos(a), np.sin(a)]))
 
 
 def run(n_entities: int, n_points: int) -> dict:

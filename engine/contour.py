@@ -195,10 +195,13 @@ def point_to_primitives(p: np.ndarray, t: Template2D, idx: np.ndarray):
 
 @dataclass(frozen=True)
 class Deviations2D:
-    """signed (n,) mm, positive on the contour's positive side; foot (n, 2); primitive (n,)."""
+    """signed (n,) mm, positive on the contour's positive side; foot (n, 2) closest point;
+    normal (n, 2) unit normal at the foot toward the positive side (at a joint, the bisector);
+    primitive (n,) index of the nearest primitive."""
 
     signed: np.ndarray
     foot: np.ndarray
+    normal: np.ndarray
     primitive: np.ndarray
 
 
@@ -281,8 +284,27 @@ def deviations_2d(index: ContourIndex, pts: np.ndarray) -> Deviations2D:
             normal[rows] = left[rows] + n_other
     side = np.sign(np.einsum("ij,ij->i", pts - foot, normal))
     side = np.where(side == 0, 1.0, side)
-    signed = dist * side * t.side[t.contour[prim]]
-    return Deviations2D(signed, foot, prim)
+    positive = t.side[t.contour[prim]]
+    signed = dist * side * positive
+    ln = np.linalg.norm(normal, axis=1, keepdims=True)
+    unit = normal / np.where(ln > 0, ln, 1.0) * positive[:, None]
+    return Deviations2D(signed, foot, unit, prim)
+
+
+def points_on(t: Template2D, n: int, rng: np.random.Generator,
+              weight: np.ndarray | None = None) -> np.ndarray:
+    """n points (n, 2) on the template, spread over its primitives by length (times ``weight``
+    per primitive when given), uniformly along each: for test data and sample parts."""
+    L = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
+                 np.abs(t.sweep) * t.radius)
+    if weight is not None:
+        L = L * weight
+    i = rng.choice(len(L), n, p=L / L.sum())
+    u = rng.uniform(0.0, 1.0, n)
+    a = t.angle0[i] + u * t.sweep[i]
+    return np.where((t.kind[i] == SEGMENT)[:, None],
+                    t.start[i] + u[:, None] * (t.end[i] - t.start[i]),
+                    t.centre[i] + t.radius[i, None] * np.column_stack([np.cos(a), np.sin(a)]))
 
 
 def _neighbour(t: Template2D, prim: np.ndarray, at_end: np.ndarray) -> np.ndarray:

@@ -185,12 +185,9 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     t1 = time.perf_counter()
     registered = measured @ T[:3, :3].T + T[:3, 3]
     d = reg.deviations.signed
-    foot = np.column_stack([reg.deviations.foot, np.zeros(d.size)])
-    g = registered[:, :2] - reg.deviations.foot
-    ln = np.linalg.norm(g, axis=1)
-    normal2 = g / np.where(ln > 0, ln, 1.0)[:, None] * np.sign(np.where(d == 0, 1.0, d))[:, None]
-    dev = Deviations(d, foot, np.column_stack([normal2, np.zeros(d.size)]),
-                     np.zeros(d.size, dtype=bool))
+    zeros = np.zeros(d.size)
+    dev = Deviations(d, np.column_stack([reg.deviations.foot, zeros]),
+                     np.column_stack([reg.deviations.normal, zeros]), zeros.astype(bool))
     reg3 = RegistrationResult(
         T_nominal_measured=T, converged=reg.converged, iterations=reg.iterations, rms=reg.rms,
         n_inliers=reg.n_inliers, inlier=reg.inlier, outlier_cut=reg.outlier_cut,

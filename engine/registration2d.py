@@ -256,7 +256,7 @@ def _all_points_step(index: ContourIndex, p: np.ndarray, T: np.ndarray, cut: flo
     T = _compose(T[None], delta[None], c[None])[0]
     X_new = apply2(T, p)
     return T, np.abs(d_new) <= cut, Deviations2D(d_new, X_new - d_new[:, None] * g,
-                                                 dev.primitive)
+                                                 dev.normal, dev.primitive)
 
 
 def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:

@@ -275,7 +275,7 @@ def _write_frame_dxf(ezdxf, path: str) -> None:
 def make_frame(out: str) -> dict:
     import ezdxf
 
-    from engine.contour import SEGMENT, ContourIndex, deviations_2d
+    from engine.contour import SEGMENT, ContourIndex, deviations_2d, points_on
     from reports.template2d import read_dxf_template
 
     os.makedirs(out, exist_ok=True)
@@ -289,39 +289,20 @@ def make_frame(out: str) -> dict:
     t = read_dxf_template(os.path.join(out, "template.dxf")).template
     rng = np.random.default_rng(512)
     # 500 points: 400 along the outer profile, 50 in each hole, spread by length.
-    L = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
-                 np.abs(t.sweep) * t.radius)
-    outer = int(np.argmax([np.sum(L[t.contour == c]) for c in range(t.closed.size)]))
-    pts = []
-    for c, n in [(outer, 400)] + [(c, 50) for c in range(t.closed.size) if c != outer]:
-        sel = np.flatnonzero(t.contour == c)
-        i = rng.choice(sel, n, p=L[sel] / L[sel].sum())
-        u = rng.uniform(0.02, 0.98, n)
-        a = t.angle0[i] + u * t.sweep[i]
-        pts.append(np.where((t.kind[i] == SEGMENT)[:, None],
-                            t.start[i] + u[:, None] * (t.end[i] - t.start[i]),
-                            t.centre[i] + t.radius[i, None] * np.column_stack([np.cos(a),
-                                                                               np.sin(a)])))
-    q = np.vstack(pts)
+    length = [np.sum(np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
+                              np.abs(t.sweep) * t.radius)[t.contour == c])
+              for c in range(t.closed.size)]
+    outer = int(np.argmax(length))
+    q = np.vstack([points_on(t, n, rng, (t.contour == c).astype(float))
+                   for c, n in [(outer, 400)] + [(c, 50) for c in range(t.closed.size)
+                                                 if c != outer]])
     # Planted deviation along the positive normal: a rise of +0.03 mm on the outer arc near
     # 100 degrees, probing noise 3 um.
     ang = np.arctan2(q[:, 1], q[:, 0])
     rad = np.hypot(q[:, 0], q[:, 1])
     rise = 0.03 * np.exp(-((ang - np.radians(100.0)) / np.radians(2.0)) ** 2) * (rad > 1090)
     planted = rise + rng.normal(0.0, 0.003, q.shape[0])
-    idx = ContourIndex(t)
-    base = deviations_2d(idx, q)
-    nrm = np.zeros_like(q)
-    for k in range(q.shape[0]):
-        prim = base.primitive[k]
-        if t.kind[prim] == SEGMENT:
-            tan = t.end[prim] - t.start[prim]
-            n = np.array([-tan[1], tan[0]]) / np.linalg.norm(tan)
-        else:
-            n = (q[k] - t.centre[prim]) / np.linalg.norm(q[k] - t.centre[prim])
-        if deviations_2d(idx, (q[k] + 1e-3 * n)[None]).signed[0] < 0:
-            n = -n
-        nrm[k] = n
+    nrm = deviations_2d(ContourIndex(t), q).normal
     q2 = q + planted[:, None] * nrm
     # The template lies on the CMM bed tilted by 2 degrees, turned and shifted; the probe also
     # sees 2 um of flatness noise.

@@ -9,7 +9,7 @@ import ezdxf
 import numpy as np
 import pytest
 
-from engine.contour import SEGMENT, ContourIndex, deviations_2d
+from engine.contour import ContourIndex, deviations_2d, points_on
 from engine.inspection import ACCEPT, REJECT, Tolerance, inspect_2d
 from engine.registration2d import _pose, apply2, register_2d
 from reports.cli import main
@@ -18,19 +18,6 @@ from surfaces import random_rotation
 from test_contour import slotted_plate
 
 DATA = os.path.join(os.path.dirname(__file__), "data", "dxf")
-
-
-def points_on(t, n, rng, weight=None):
-    """n points spread by length over the template's primitives (optionally weighted)."""
-    L = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
-                 np.abs(t.sweep) * t.radius)
-    if weight is not None:
-        L = L * weight
-    i = rng.choice(len(L), n, p=L / L.sum())
-    u = rng.uniform(0, 1, n)
-    a = t.angle0[i] + u * t.sweep[i]
-    return np.where((t.kind[i] == SEGMENT)[:, None], t.start[i] + u[:, None] * (t.end[i] - t.start[i]),
-                    t.centre[i] + t.radius[i, None] * np.column_stack([np.cos(a), np.sin(a)]))
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3, 4])
@@ -74,20 +61,7 @@ def test_planar_template_measured_in_3d_either_face_up():
     dev = rng.normal(0, 0.003, 250)
     dev[17] = 0.2  # one point out of a ±0.05 zone
     # Move each point along the contour's positive normal by its planted deviation.
-    idx = ContourIndex(t)
-    base = deviations_2d(idx, q)
-    nrm = np.zeros_like(q)
-    for i, (p, f) in enumerate(zip(q, base.foot)):
-        # Positive side: probe both normals of the primitive, keep the one that reads positive.
-        prim = base.primitive[i]
-        if t.kind[prim] == SEGMENT:
-            tan = t.end[prim] - t.start[prim]
-            n = np.array([-tan[1], tan[0]]) / np.linalg.norm(tan)
-        else:
-            n = (p - t.centre[prim]) / np.linalg.norm(p - t.centre[prim])
-        if deviations_2d(idx, (p + 1e-3 * n)[None]).signed[0] < 0:
-            n = -n
-        nrm[i] = n
+    nrm = deviations_2d(ContourIndex(t), q).normal
     q2 = q + dev[:, None] * nrm
     for flip in (1.0, -1.0):
         z = rng.normal(0, 0.001, 250)
