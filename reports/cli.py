@@ -146,32 +146,42 @@ def _run_inspect(args, tol) -> int:
                           write_atomic)
 
     t0 = time.perf_counter()
-    suffix = os.path.splitext(args.nominal)[1].lower()
-    measured_ps = None
-    if suffix in (".dxf", ".dat"):
+    is_template = os.path.splitext(args.nominal)[1].lower() in (".dxf", ".dat")
+    if is_template:
         from .template2d import read_airfoil_template, read_dxf_template
 
-        if suffix == ".dxf":
+        if args.nominal.lower().endswith(".dxf"):
+            if args.scale is not None:
+                raise UsageError("qa-inspect inspect: --scale applies to airfoil ordinate "
+                                 "templates (.dat) only")
             tpl = read_dxf_template(args.nominal, layers=args.layer, units=args.units)
         else:
             if args.scale is None:
                 raise UsageError("qa-inspect inspect: an airfoil ordinate template needs "
                                  "--scale CHORD (the chord length in mm)")
+            if args.layer or args.units:
+                raise UsageError("qa-inspect inspect: --layer and --units apply to DXF "
+                                 "templates only")
             tpl = read_airfoil_template(args.nominal, args.scale)
-        measured_ps = load_point_set(args.measured)
-        n_nominal = tpl.template.n_primitives
+        nominal_record = InputRecord("nominal", args.nominal, sha256_of(args.nominal), None,
+                                     tpl.template.n_primitives)
     else:
+        if args.layer or args.units or args.scale is not None:
+            raise UsageError("qa-inspect inspect: --layer, --units and --scale apply to 2D "
+                             "templates (.dxf, .dat) only")
         nominal_ps = load_point_set(args.nominal)
-        measured_ps = load_point_set(args.measured)
+        nominal_record = InputRecord("nominal", args.nominal, sha256_of(args.nominal),
+                                     nominal_ps.n)
+    measured_ps = load_point_set(args.measured)
+    if not is_template:
         if measured_ps.dim != 3:
             raise InputError("measured points have 2 columns (x y) but the nominal is a 3D "
                              "surface", measured_ps.path)
         nominal = Nominal.from_point_set(nominal_ps)
-        n_nominal = nominal_ps.n
-    inputs = [InputRecord("nominal", args.nominal, sha256_of(args.nominal), n_nominal),
+    inputs = [nominal_record,
               InputRecord("measured", args.measured, sha256_of(args.measured), measured_ps.n)]
     t1 = time.perf_counter()
-    if suffix in (".dxf", ".dat"):
+    if is_template:
         result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol)
         result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
                                         flattened_curves=tpl.flattened,

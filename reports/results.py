@@ -37,7 +37,10 @@ class InputRecord:
     role: str  # "nominal" or "measured"
     path: str
     sha256: str
-    n_points: int
+    n_points: int | None
+    """Points in the file (None for a 2D template, which has primitives instead)."""
+    n_primitives: int | None = None
+    """Line segments and arcs of a 2D template."""
 
 
 def result_document(result: InspectionResult, inputs: list[InputRecord],
@@ -84,7 +87,8 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
         },
         "tolerance": {"lower": result.tolerance.lower, "upper": result.tolerance.upper,
                       "decision_rule": "simple: every point inside the zone"},
-        "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points}
+        "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points,
+                    **({} if r.n_primitives is None else {"n_primitives": r.n_primitives})}
                    for r in inputs],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},

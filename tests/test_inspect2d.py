@@ -135,3 +135,15 @@ def test_points_that_match_no_contour_are_inconclusive():
     blob = np.column_stack([rng.normal(size=(200, 2)) * 80.0, np.zeros(200)])
     res = inspect_2d(slotted_plate(), blob, 2, Tolerance.symmetric(0.1))
     assert res.verdict == "INCONCLUSIVE"
+
+
+def test_template_options_on_the_wrong_nominal_are_usage_errors(tmp_path, capsys):
+    pts = tmp_path / "n.xyz"
+    np.savetxt(pts, np.random.default_rng(0).normal(size=(50, 3)))
+    assert main(["inspect", str(pts), str(pts), "--tol", "1", "--layer", "A"]) == 64
+    assert "apply to 2D templates" in capsys.readouterr().err
+    doc = ezdxf.new("R2010")
+    doc.modelspace().add_circle((0, 0), 5)
+    dxf = tmp_path / "c.dxf"
+    doc.saveas(dxf)
+    assert main(["inspect", str(dxf), str(pts), "--tol", "1", "--scale", "2"]) == 64
