@@ -93,11 +93,8 @@ def make_fairing(out: str) -> dict:
     measured = pts_nominal_frame @ R.T + t
     T_measured_nominal = pose(R, t)
     labels = [f"P{i + 1:04d}" for i in range(mx.size)]
-    with open(os.path.join(out, "measured.csv"), "w") as f:
-        f.write("# CMM points, machine coordinates (mm)\n")
-        f.write("id,x,y,z\n")
-        for lab, p in zip(labels, measured):
-            f.write(f"{lab},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+    _write_cmm(os.path.join(out, "measured.csv"), "CMM points, machine coordinates (mm)", labels,
+               measured)
     truth = {
         "description": "belly-fairing form tool: 60,000-point grid, 1,100 CMM points",
         "T_nominal_measured": np.linalg.inv(T_measured_nominal).tolist(),
@@ -215,11 +212,9 @@ def make_bracket(out: str) -> dict:
     R = rotation([-0.5, 0.2, 1.0], 73.0)
     t = np.array([402.0, 618.5, -55.25])
     measured = pts @ R.T + t
-    with open(os.path.join(out, "measured.csv"), "w") as f:
-        f.write("# CMM points on faces A (P001-P050) and B (P051-P100), machine coordinates\n")
-        f.write("id,x,y,z\n")
-        for i, p in enumerate(measured):
-            f.write(f"P{i + 1:03d},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+    _write_cmm(os.path.join(out, "measured.csv"),
+               "CMM points on faces A (P001-P050) and B (P051-P100), machine coordinates",
+               [f"P{i + 1:03d}" for i in range(len(measured))], measured)
     truth = {
         "description": "seat bracket: 200,000 nominal points, 100 CMM points on faces A and B",
         "T_nominal_measured": np.linalg.inv(pose(R, t)).tolist(),
@@ -311,11 +306,9 @@ def make_frame(out: str) -> dict:
     R = rotation([0.2, -0.1, 1.0], 63.0) @ rotation([1.0, 0.0, 0.0], 2.0)
     tr = np.array([-310.0, -1180.0, 42.0])
     measured = P3 @ R.T + tr
-    with open(os.path.join(out, "measured.csv"), "w") as f:
-        f.write("# CMM points along the frame template, machine coordinates (mm)\n")
-        f.write("id,x,y,z\n")
-        for i, p in enumerate(measured):
-            f.write(f"F{i + 1:03d},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+    _write_cmm(os.path.join(out, "measured.csv"),
+               "CMM points along the frame template, machine coordinates (mm)",
+               [f"F{i + 1:03d}" for i in range(len(measured))], measured)
     truth = {
         "description": "fuselage frame contour template (DXF) and 500 CMM points, tilted 2 deg",
         "T_nominal_measured": np.linalg.inv(pose(R, tr)).tolist(),
@@ -327,6 +320,15 @@ def make_frame(out: str) -> dict:
     }
     _write_json(os.path.join(out, "truth.json"), truth)
     return truth
+
+
+def _write_cmm(path, comment, labels, points):
+    """A CMM point file as the machines write them: comment, header, label and x y z (0.1 um)."""
+    with open(path, "w") as f:
+        f.write(f"# {comment}\n")
+        f.write("id,x,y,z\n")
+        for lab, p in zip(labels, points):
+            f.write(f"{lab},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
 
 
 def _write_json(path, obj):

@@ -25,8 +25,8 @@ def test_generator_reproduces_committed_samples(tmp_path, name, make):
     for f in os.listdir(tmp_path):
         committed = os.path.join(SAMPLES, name, f)
         if f.endswith(".dxf"):
-            # ezdxf's section layout depends on what the process did before; the geometry
-            # is what must be the same.
+            # ezdxf writes its CLASSES section in set order (Python's hash seed decides); the
+            # geometry is what must be the same.
             a, b = read_dxf_template(tmp_path / f).template, read_dxf_template(committed).template
             for field in ("kind", "start", "end", "centre", "radius", "angle0", "sweep",
                           "contour", "closed", "side"):
