@@ -30,8 +30,9 @@ class Registration2D:
 
     T : (3, 3) homogeneous 2D transform mapping measured plane coordinates into the template.
     rms : RMS of the signed deviations over the fit's inliers (mm).
-    score : truncated RMS over all points, sqrt(mean(min(d^2, cut^2))) (mm); runner_up_score the
-        same for the best distinct other pose (None when there is none).
+    score : truncated RMS sqrt(mean(min(d^2, cut^2))) (mm) over a seeded subset of at most 4,096
+        points; runner_up_score the same for the best distinct other pose after a short fit
+        (None when there is none).
     symmetric : the runner-up pose fits as well and maps the template onto itself.
     """
 
@@ -115,11 +116,11 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     T = np.array(hyps)
     n_hyp = T.shape[0]
     h = S.spacing
-    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], S, iterations=5, reach=np.inf)
+    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], S, iterations=5)
     T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
-    T, score = _icp2(T, p[sub], S, iterations=6, reach=np.inf)
+    T, score = _icp2(T, p[sub], S, iterations=6)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
-    T, score = _icp2(T, p[_spread(p, 512)], S, iterations=10, reach=np.inf)
+    T, score = _icp2(T, p[_spread(p, 512)], S, iterations=10)
     order = np.argsort(score, kind="stable")
     # Candidates clearly worse than the best (4x its score, beyond the sampling noise) are not
     # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).
@@ -136,27 +137,28 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     Tb, conv, it, inl, cut, dev = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
                                                  max_iterations, h)
     Tb, inl, dev = _all_points_step(index, p, Tb, cut)
-    fits = short
+    score = float(np.sqrt(np.mean(np.minimum(dev.signed[fsub] ** 2, cut0 ** 2))))
     runner = None
     symmetric = False
     for j in np.argsort(scores, kind="stable"):
         if j == best:
             continue
-        if _distinct(fits[j][0], Tb, p[fsub], 0.01 * max(extent_m, 1e-12)):
+        if _distinct(short[j][0], Tb, p[fsub], 0.01 * max(extent_m, 1e-12)):
             runner = int(j)
             break
-    if runner is not None and scores[runner] <= 1.05 * scores[best] + 0.1 * h:
+    if runner is not None and scores[runner] <= 1.05 * score + 0.1 * h:
         # Does the relative transform map the template onto itself?
-        rel = fits[runner][0] @ np.linalg.inv(Tb)
+        rel = short[runner][0] @ np.linalg.inv(Tb)
         moved = apply2(rel, S.pts[:: max(1, len(S.pts) // 2000)])
         dist, _ = S.tree.query(moved)
         symmetric = bool(np.max(dist) <= 2 * h)
     d_in = dev.signed[inl]
-    message = "" if conv else f"the point-to-contour fit did not settle within {max_iterations} iterations"
+    message = "" if conv else (f"the point-to-contour fit did not settle within "
+                               f"{max_iterations} iterations")
     return Registration2D(
         T=Tb, converged=conv, iterations=5 + 6 + 10 + it,
         rms=float(np.sqrt(np.mean(d_in ** 2))) if inl.any() else float("nan"),
-        n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=scores[best],
+        n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=score,
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
         symmetric=symmetric, deviations=dev,
         near_fraction=float(np.mean(np.abs(dev.signed) <= near)), near_distance=near,
@@ -180,7 +182,7 @@ def _reference(p: np.ndarray):
     return q[i], vecs[:, -1]
 
 
-def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int, reach: float):
+def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
     """Batched point-to-line ICP in 2D for H poses; returns (poses, trimmed scores)."""
     H, m = T.shape[0], src.shape[0]
     score = np.zeros(H)
