@@ -1,7 +1,7 @@
 """Soft registration in the template plane: rotation + translation of measured 2D points onto a
 contour template, from any start; and the plane of a planar template measured in 3D.
 
-Same structure as the 3D engine: a global search over pose hypotheses (rotations every 5 degrees
+Same structure as the 3D engine: a global search over pose hypotheses (rotations every 10 degrees
 about the centroid, and the measured point nearest the centroid put on anchors along the contours
 with its local direction along theirs), ICP on a dense sampling of the contours (point-to-line
 against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
@@ -87,8 +87,18 @@ class _Samples:
         self.normal = np.column_stack([-tan[:, 1], tan[:, 0]])
         self.spacing = index.spacing
 
+    def coarse(self, m: int) -> "_Samples":
+        """Every k-th sample (about m of them) with its own kd-tree: the global search's points
+        are often far from the contour, where a dense tree makes each query expensive."""
+        k = max(1, len(self.pts) // m)
+        out = object.__new__(_Samples)
+        out.pts, out.tan, out.normal = self.pts[::k], self.tan[::k], self.normal[::k]
+        out.tree = cKDTree(out.pts) if k > 1 else self.tree
+        out.spacing = self.spacing * k
+        return out
 
-def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
+
+def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
                 max_anchors: int = 400, outlier_sigmas: float = 6.0,
                 max_iterations: int = 50) -> Registration2D:
     """Find the 2D pose of measured points (n, 2) on the template of ``index``."""
@@ -116,11 +126,12 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     T = np.array(hyps)
     n_hyp = T.shape[0]
     h = S.spacing
-    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], S, iterations=5)
+    Sc = S.coarse(1000)
+    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], Sc, iterations=5)
     T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
-    T, score = _icp2(T, p[sub], S, iterations=6)
+    T, score = _icp2(T, p[sub], Sc, iterations=6)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
-    T, score = _icp2(T, p[_spread(p, 512)], S, iterations=10)
+    T, score = _icp2(T, p[_spread(p, 256)], S, iterations=8)
     order = np.argsort(score, kind="stable")
     # Candidates clearly worse than the best (4x its score, beyond the sampling noise) are not
     # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).
@@ -130,7 +141,9 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     # points), the best of them to convergence, then one step over every point.
     near = 0.01 * extent_t
     fsub = _spread(p, 4096)
-    short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5, h) for Tc in T[:3]]
+    # (A single clear candidate needs no short round.)
+    short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5 if len(T) > 1 else 0, h)
+             for Tc in T[:3]]
     cut0 = min(f[4] for f in short)
     scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
     best = int(np.argmin(scores))
@@ -156,7 +169,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 72,
     message = "" if conv else (f"the point-to-contour fit did not settle within "
                                f"{max_iterations} iterations")
     return Registration2D(
-        T=Tb, converged=conv, iterations=5 + 6 + 10 + it,
+        T=Tb, converged=conv, iterations=5 + 6 + 8 + it,
         rms=float(np.sqrt(np.mean(d_in ** 2))) if inl.any() else float("nan"),
         n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=score,
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
@@ -188,7 +201,7 @@ def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
     score = np.zeros(H)
     for _ in range(iterations):
         X = src @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]
-        _, j = S.tree.query(X.reshape(-1, 2), workers=-1)
+        _, j = S.tree.query(X.reshape(-1, 2), workers=-1 if H * m >= 20000 else 1)
         j = j.reshape(H, m)
         r = X - S.pts[j]
         n = S.normal[j]
@@ -282,8 +295,7 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
         dev = deviations_2d(index, X)
         d = dev.signed
         if inlier is None or it <= 3:
-            med = np.median(d)
-            cut = float(max(abs(med) + sigmas * 1.4826 * np.median(np.abs(d - med)), floor))
+            cut = _robust_cut(d, sigmas, floor)
             inlier = np.abs(d) <= cut
         if inlier.sum() < 3:
             return T, False, it, inlier, cut, dev
@@ -300,7 +312,14 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
         T = _compose(T[None], delta[None], c[None])[0]
     X = apply2(T, p)
     dev = deviations_2d(index, X)
+    if inlier is None:  # no iteration asked for: just measure, with the robust cut
+        cut = _robust_cut(dev.signed, sigmas, floor)
     return T, False, max_iter, np.abs(dev.signed) <= cut, cut, dev
+
+
+def _robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
+    med = np.median(d)
+    return float(max(abs(med) + sigmas * 1.4826 * np.median(np.abs(d - med)), floor))
 
 
 @dataclass(frozen=True)
