@@ -193,7 +193,7 @@ def register(nominal: Nominal, measured: np.ndarray,
     ssub = _spread_subset(measured, settings.icp_measured)
     devs = [point_to_surface(nominal, measured[ssub] @ Tc[:3, :3].T + Tc[:3, 3]).signed
             for Tc in refined]
-    cut0 = min(_robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
+    cut0 = min(robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
     scores = [_truncated_rms(d, cut0) for d in devs]
     order = np.argsort(scores, kind="stable")
     best = int(order[0])
@@ -565,7 +565,7 @@ def _gauss_newton(nominal, pts, T, settings, floor, cut, max_iter):
         d = dev.signed
         if inlier is None or (not fixed and it <= 3):
             if not fixed:
-                cut = _robust_cut(d, settings.outlier_sigmas, floor)
+                cut = robust_cut(d, settings.outlier_sigmas, floor)
             inlier = np.abs(d) <= cut
         if inlier.sum() < 6:
             return T, False, it, cut, inlier, dev, dev_s
@@ -580,7 +580,9 @@ def _gauss_newton(nominal, pts, T, settings, floor, cut, max_iter):
     return T, False, max_iter, cut, np.abs(dev.signed) <= cut, dev, dev_s
 
 
-def _robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
+def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
+    """Outlier cut for deviations d (mm): |median| + ``sigmas`` x 1.4826 x median absolute
+    deviation, never below ``floor``. Shared by the 3D and 2D fits."""
     med = np.median(d)
     sigma = 1.4826 * np.median(np.abs(d - med))
     return float(max(abs(med) + sigmas * sigma, floor))

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
+from .registration import robust_cut
 
 _SEED = 11
 
@@ -295,7 +296,7 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
         dev = deviations_2d(index, X)
         d = dev.signed
         if inlier is None or it <= 3:
-            cut = _robust_cut(d, sigmas, floor)
+            cut = robust_cut(d, sigmas, floor)
             inlier = np.abs(d) <= cut
         if inlier.sum() < 3:
             return T, False, it, inlier, cut, dev
@@ -313,13 +314,8 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
     X = apply2(T, p)
     dev = deviations_2d(index, X)
     if inlier is None:  # no iteration asked for: just measure, with the robust cut
-        cut = _robust_cut(dev.signed, sigmas, floor)
+        cut = robust_cut(dev.signed, sigmas, floor)
     return T, False, max_iter, np.abs(dev.signed) <= cut, cut, dev
-
-
-def _robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
-    med = np.median(d)
-    return float(max(abs(med) + sigmas * 1.4826 * np.median(np.abs(d - med)), floor))
 
 
 @dataclass(frozen=True)
