@@ -2,9 +2,9 @@
 
 Decision rule (pointwise, the paper's L-infinity argument): ACCEPT only when every measured point
 lies inside the tolerance zone [lower, upper]; REJECT when any point, outliers included, lies
-outside; INCONCLUSIVE when the pose cannot be trusted (the fit did not converge, or fewer than half of the
-points lie within 1% of the nominal's size of its surface: the measurement is not of this part),
-whatever the deviations say.
+outside; INCONCLUSIVE when the pose cannot be trusted (the fit did not converge, or fewer than
+half of the points lie within 1% of the nominal's size of its surface: the measurement is not of
+this part), whatever the deviations say.
 """
 
 from __future__ import annotations
@@ -176,8 +176,8 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         q = measured @ F[:3, :3].T + F[:3, 3]
         reg = register_2d(index, q[:, :2])
         if best is None or reg.score < best[1].score:
-            best = (F, reg, q)
-    F, reg, q = best
+            best = (F, reg)
+    F, reg = best
     E = np.eye(4)
     E[:2, :2] = reg.T[:2, :2]
     E[:2, 3] = reg.T[:2, 2]
