@@ -10,7 +10,6 @@ import argparse
 import math
 import os
 import sys
-import time
 
 EXIT = {"ACCEPT": 0, "REJECT": 1, "INCONCLUSIVE": 2}
 EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 70, 73
@@ -65,7 +64,54 @@ def build_parser() -> argparse.ArgumentParser:
                    help="airfoil ordinate template (.dat): chord length in mm")
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE", help="write one CSV row per measured point")
+    c = i.add_argument_group("certificate")
+    c.add_argument("--report", metavar="FILE.pdf",
+                   help="write the inspection certificate (PDF; an UNSIGNED DRAFT without "
+                        "--sign)")
+    c.add_argument("--sign", metavar="IDENTITY.p12",
+                   help="sign the certificate with this PKCS#12 identity (PAdES)")
+    c.add_argument("--sign-pass-env", metavar="VAR",
+                   help="read the PKCS#12 passphrase from environment variable VAR (default: "
+                        "ask without echo)")
+    for name, text in (("part-number", "part number"), ("part-name", "part name"),
+                       ("revision", "drawing/part revision"), ("serial", "serial number"),
+                       ("order", "order or job number"), ("inspector", "inspector's name"),
+                       ("organisation", "inspecting organisation"),
+                       ("device", "measuring device (CMM, scanner)"),
+                       ("notes", "free text printed on the certificate")):
+        c.add_argument(f"--{name}", metavar="TEXT", help=text)
+
+    k = sub.add_parser("keygen", help="make a DEMONSTRATION CA and inspector signing identity",
+                       description="Write DIR/ca.pem (the trust anchor to give verifiers) and "
+                       "DIR/inspector.p12 (the inspector's key and certificate, passphrase-"
+                       "protected). For trials and demonstrations only: real users sign with "
+                       "the PKCS#12 identity their organisation issues.")
+    k.add_argument("--name", required=True, help="the inspector's name")
+    k.add_argument("--organisation", default="", help="the organisation's name")
+    k.add_argument("--out", required=True, metavar="DIR", help="folder to write into")
+    k.add_argument("--pass-env", metavar="VAR",
+                   help="read the passphrase from environment variable VAR (default: ask "
+                        "twice without echo)")
+
+    v = sub.add_parser("verify", help="verify a signed certificate",
+                       description="Exit 0 only if every signature is intact, the signer "
+                       "chains to a trusted CA and nothing was changed after signing (and, "
+                       "with --nominal/--measured, the files match the certificate and the "
+                       "inspection re-run gives the same verdict); 1 otherwise.")
+    v.add_argument("certificate", metavar="CERTIFICATE.pdf")
+    v.add_argument("--trust", required=True, action="append", metavar="CA.pem",
+                   help="trusted CA certificate(s), PEM or DER (repeatable); nothing else is "
+                        "trusted")
+    v.add_argument("--nominal", metavar="FILE", help="the nominal file, to check and re-run")
+    v.add_argument("--measured", metavar="FILE", help="the measured file, to check and re-run")
     return p
+
+
+USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
+                  [--json FILE|-] [--csv FILE] [--layer NAME] [--units U] [--scale CHORD]
+                  [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
+       qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
+       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]"""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,14 +120,11 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
         if args.command is None:
             raise UsageError("qa-inspect: a command is required (try 'qa-inspect inspect --help')")
-        if args.command == "inspect":
-            return _cmd_inspect(args)
-        raise UsageError(f"qa-inspect: unknown command {args.command}")
+        command = {"inspect": _cmd_inspect, "keygen": _cmd_keygen, "verify": _cmd_verify}
+        return _guarded(command[args.command], args)
     except UsageError as e:
         print(str(e), file=sys.stderr)
-        print("usage: qa-inspect inspect NOMINAL MEASURED --tol T "
-              "[--tol-lower L --tol-upper U] [--json FILE|-] [--csv FILE] "
-              "[--layer NAME] [--units U] [--scale CHORD]", file=sys.stderr)
+        print(USAGE, file=sys.stderr)
         return EX_USAGE
     except KeyboardInterrupt:
         print("qa-inspect: interrupted; no result was written", file=sys.stderr)
@@ -110,13 +153,15 @@ def _tolerance(args):
                      "--tol-upper U)")
 
 
-def _cmd_inspect(args) -> int:
+def _guarded(command, args) -> int:
+    """Run a command; user mistakes become one-line messages and exit codes, never tracebacks."""
     from engine.errors import InputError, InputNotFoundError
 
-    tol = _tolerance(args)
+    from .signing import OutputExistsError
+
     try:
-        return _run_inspect(args, tol)
-    except UsageError:
+        return command(args)
+    except (UsageError, KeyboardInterrupt):
         raise
     except InputNotFoundError as e:
         print(f"qa-inspect: error: {e}", file=sys.stderr)
@@ -124,6 +169,9 @@ def _cmd_inspect(args) -> int:
     except InputError as e:
         print(f"qa-inspect: error: {e}", file=sys.stderr)
         return EX_DATAERR
+    except OutputExistsError as e:
+        print(f"qa-inspect: error: {e}", file=sys.stderr)
+        return EX_CANTCREAT
     except OSError as e:
         print(f"qa-inspect: error: cannot write {e.filename or 'output'}: {e.strerror}",
               file=sys.stderr)
@@ -136,74 +184,178 @@ def _cmd_inspect(args) -> int:
         return EX_SOFTWARE
 
 
-def _run_inspect(args, tol) -> int:
-    from engine.errors import InputError
-    from engine.inspection import inspect, inspect_2d
-    from engine.nominal import Nominal
+def _cmd_inspect(args) -> int:
+    from .loading import is_template
 
-    from .loading import load_point_set, sha256_of
-    from .results import (InputRecord, points_csv, result_document, result_json,
-                          write_atomic)
+    renderer = None
+    if args.report and not is_template(args.nominal):
+        from .figures import RenderProcess
 
-    t0 = time.perf_counter()
-    is_template = os.path.splitext(args.nominal)[1].lower() in (".dxf", ".dat")
-    if is_template:
-        from .template2d import read_airfoil_template, read_dxf_template
+        renderer = RenderProcess()  # pyvista/OpenGL start-up overlaps all the work below
+    try:
+        return _run_inspect(args, _tolerance(args), renderer)
+    finally:
+        if renderer is not None:
+            renderer.close()
 
-        if args.nominal.lower().endswith(".dxf"):
-            if args.scale is not None:
-                raise UsageError("qa-inspect inspect: --scale applies to airfoil ordinate "
-                                 "templates (.dat) only")
-            tpl = read_dxf_template(args.nominal, layers=args.layer, units=args.units)
+
+def _cmd_keygen(args) -> int:
+    from .signing import make_demo_identity
+
+    if not args.name.strip():
+        raise UsageError("qa-inspect keygen: --name must not be empty")
+    passphrase = _passphrase(args.pass_env, "Passphrase for the new inspector.p12: ",
+                             confirm=True)
+    if not passphrase:
+        raise UsageError("qa-inspect keygen: the passphrase must not be empty")
+    ca, p12 = make_demo_identity(args.name, args.organisation, args.out, passphrase)
+    print(f"DEMONSTRATION identity for {args.name}"
+          f"{' (' + args.organisation + ')' if args.organisation else ''}, not for production:"
+          f"\n  trust anchor (give to verifiers): {os.path.abspath(ca)}"
+          f"\n  signing identity (keep private):  {os.path.abspath(p12)}")
+    return 0
+
+
+def _cmd_verify(args) -> int:
+    import json
+
+    from .certificate import VERDICT_WORD
+    from .signing import read_trust_roots, verify_pdf
+
+    if (args.nominal is None) != (args.measured is None):
+        raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
+    roots = [c for path in args.trust for c in read_trust_roots(path)]
+    try:
+        with open(args.certificate, "rb") as f:
+            pdf = f.read()
+    except FileNotFoundError:
+        from engine.errors import InputNotFoundError
+
+        raise InputNotFoundError("no such file", args.certificate) from None
+    v = verify_pdf(pdf, roots)
+    problems = list(v.problems)
+    doc = None
+    if v.valid:
+        try:
+            doc = json.loads(v.attachments["results.json"])
+            cert = doc["certificate"]
+        except (KeyError, ValueError) as e:
+            problems.append(f"the certificate carries no readable results.json ({e})")
+    if doc is not None and args.nominal:
+        problems += _recheck(doc, args.nominal, args.measured)
+    ok = not problems
+    print(f"{'VALID' if ok else 'INVALID'}: {args.certificate}")
+    for s in v.signatures:
+        when = s.signed_at.strftime("%Y-%m-%d %H:%M:%S %Z") if s.signed_at else "time unknown"
+        print(f"  signature '{s.field}': {s.signer}"
+              f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
+              f"{'intact' if s.intact else 'NOT INTACT'}, "
+              f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
+    if doc is not None:
+        print(f"  certificate {cert.get('number')}: {VERDICT_WORD.get(doc['verdict'], '?')} — "
+              f"{'; '.join(doc.get('reasons', []))}")
+    for p in problems:
+        print(f"  problem: {p}")
+    return 0 if ok else 1
+
+
+def _recheck(doc: dict, nominal: str, measured: str) -> list[str]:
+    """Compare the files with the certificate's SHA-256s and re-run the inspection."""
+    from .loading import sha256_of
+    from .pipeline import InspectionSettings, run_files
+
+    from engine.errors import InputNotFoundError
+
+    problems = []
+    for role, path in (("nominal", nominal), ("measured", measured)):
+        if not os.path.isfile(path):
+            raise InputNotFoundError("no such file", path)
+        want = next((r["sha256"] for r in doc["inputs"] if r["role"] == role), None)
+        got = sha256_of(path)
+        if got != want:
+            problems.append(f"{role} file {path} is not the certified one (SHA-256 {got[:16]}… "
+                            f"≠ {str(want)[:16]}…)")
         else:
-            if args.scale is None:
-                raise UsageError("qa-inspect inspect: an airfoil ordinate template needs "
-                                 "--scale CHORD (the chord length in mm)")
-            if args.layer or args.units:
-                raise UsageError("qa-inspect inspect: --layer and --units apply to DXF "
-                                 "templates only")
-            tpl = read_airfoil_template(args.nominal, args.scale)
-        nominal_record = InputRecord("nominal", args.nominal, sha256_of(args.nominal), None,
-                                     tpl.template.n_primitives)
+            print(f"  {role} file matches: {path}")
+    if problems:
+        return problems
+    run = run_files(nominal, measured, InspectionSettings.from_json(doc["settings"]))
+    got = run.doc["deviations"]["max_abs"]
+    want = doc["deviations"]["max_abs"]
+    if run.result.verdict != doc["verdict"]:
+        problems.append(f"re-run verdict {run.result.verdict} differs from the certified "
+                        f"{doc['verdict']}")
+    elif want is None or abs(got - want) > 1e-6:
+        problems.append(f"re-run max |deviation| {got:.6f} mm differs from the certified "
+                        f"{want} mm")
     else:
-        if args.layer or args.units or args.scale is not None:
-            raise UsageError("qa-inspect inspect: --layer, --units and --scale apply to 2D "
-                             "templates (.dxf, .dat) only")
-        nominal_ps = load_point_set(args.nominal)
-        nominal_record = InputRecord("nominal", args.nominal, sha256_of(args.nominal),
-                                     nominal_ps.n)
-    measured_ps = load_point_set(args.measured)
-    if not is_template:
-        if measured_ps.dim != 3:
-            raise InputError("measured points have 2 columns (x y) but the nominal is a 3D "
-                             "surface", measured_ps.path)
-        nominal = Nominal.from_point_set(nominal_ps)
-    inputs = [nominal_record,
-              InputRecord("measured", args.measured, sha256_of(args.measured), measured_ps.n)]
-    t1 = time.perf_counter()
-    if is_template:
-        result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol)
-        result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
-                                        flattened_curves=tpl.flattened,
-                                        ignored_entities=tpl.ignored)
-    else:
-        result = inspect(nominal, measured_ps.points, tol)
-    t2 = time.perf_counter()
-    timings = {"load": t1 - t0, "register": result.timings_s["register"],
-               "deviation": result.timings_s["deviation"], "total": t2 - t0}
-    doc = result_document(result, inputs, timings)
+        print(f"  re-run: {run.result.verdict}, max |deviation| {got:.6f} mm, as certified")
+    return problems
+
+
+def _run_inspect(args, tol, renderer) -> int:
+    from engine.errors import SettingsError
+
+    from .pipeline import InspectionSettings, run_files
+    from .results import points_csv, result_json, write_atomic
+
+    identity = None
+    if args.sign:
+        if not args.report:
+            raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
+        from .signing import load_identity
+
+        # The key first: a wrong passphrase must not cost an inspection.
+        identity = load_identity(args.sign, _passphrase(args.sign_pass_env, "PKCS#12 passphrase "
+                                                       f"for {args.sign}: ", confirm=False))
+    elif args.sign_pass_env:
+        raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
+    settings = InspectionSettings(tol.lower, tol.upper,
+                                  None if args.layer is None else tuple(args.layer), args.units,
+                                  args.scale)
+    try:
+        run = run_files(args.nominal, args.measured, settings)
+    except SettingsError as e:
+        raise UsageError(f"qa-inspect inspect: {e}") from e
+    result = run.result
     written = []
+    if args.report:
+        from .certificate import CertificateInfo, make_certificate
+
+        info = CertificateInfo(**{k: getattr(args, k) for k in (
+            "part_number", "part_name", "revision", "serial", "order", "inspector",
+            "organisation", "device", "notes")})
+        write_atomic(args.report, make_certificate(run, info, identity, renderer=renderer))
+        written.append(args.report)
     if args.csv:
-        write_atomic(args.csv, points_csv(result, measured_ps.points, measured_ps.labels))
+        write_atomic(args.csv, points_csv(result, run.measured.points, run.measured.labels))
         written.append(args.csv)
     if args.json and args.json != "-":
-        write_atomic(args.json, result_json(doc))
+        write_atomic(args.json, result_json(run.doc))
         written.append(args.json)
     if args.json == "-":
-        sys.stdout.write(result_json(doc))
+        sys.stdout.write(result_json(run.doc))
     else:
         print(_summary(result, written))
     return EXIT[result.verdict]
+
+
+def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
+    """The passphrase from the environment variable ``env_var``, else asked without echo."""
+    import getpass
+
+    if env_var:
+        value = os.environ.get(env_var)
+        if value is None:
+            raise UsageError(f"qa-inspect: the environment variable {env_var} is not set")
+        return value.encode("utf-8")
+    if not sys.stdin.isatty():
+        raise UsageError("qa-inspect: no terminal to ask for the passphrase; give it in an "
+                         "environment variable with --pass-env/--sign-pass-env VAR")
+    value = getpass.getpass(prompt)
+    if confirm and getpass.getpass("Repeat the passphrase: ") != value:
+        raise UsageError("qa-inspect: the two passphrases differ")
+    return value.encode("utf-8")
 
 
 def _summary(result, written) -> str:

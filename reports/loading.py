@@ -21,6 +21,12 @@ from engine.pointio import TEXT_SUFFIXES, PointSet, finish_point_set, read_point
 
 MESH_SUFFIXES = (".ply", ".stl", ".obj", ".vtk", ".vtp", ".vts")
 ALL_SUFFIXES = TEXT_SUFFIXES + (".npy",) + MESH_SUFFIXES
+TEMPLATE_SUFFIXES = (".dxf", ".dat")
+"""2D contour templates: DXF drawings and airfoil ordinates (see reports.template2d)."""
+
+
+def is_template(path: str) -> bool:
+    return os.path.splitext(path)[1].lower() in TEMPLATE_SUFFIXES
 
 
 def load_point_set(path: str | os.PathLike) -> PointSet:

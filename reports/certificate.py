@@ -1,0 +1,564 @@
+"""The inspection certificate: a PDF laid out after ISO/IEC 17025 §7.8 and AS9102 Form 3.
+
+:func:`make_certificate` builds it from one :class:`reports.pipeline.Run`: the figures, the
+evidence files embedded in it (per-point CSV, QIF 3.0 results, the JSON results with the settings
+needed to re-run the inspection) and, given an identity, a PAdES signature over all of it.
+Without an identity every page says UNSIGNED DRAFT.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import io
+import json
+import math
+import os
+from dataclasses import asdict, dataclass
+
+
+from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
+
+from . import figures
+from .pipeline import Run, worst_order
+from .qif import qif_results_document
+from .results import SOFTWARE_NAME, points_csv, result_json, software_version
+from .signing import (APPROVER_FIELD, INSPECTOR_FIELD, Attachment, Identity, SignatureSlot,
+                      finish_pdf)
+
+TITLE = "Dimensional Inspection Certificate"
+VERDICT_WORD = {ACCEPT: "ACCEPTED", REJECT: "REJECTED", INCONCLUSIVE: "INCONCLUSIVE"}
+VERDICT_RGB = {ACCEPT: (0.11, 0.49, 0.22), REJECT: (0.72, 0.11, 0.11),
+               INCONCLUSIVE: (0.80, 0.52, 0.0)}
+WORST_ROWS = 25
+"""In-tolerance points listed after every out-of-tolerance point, worst first."""
+MAX_OUT_ROWS = 1000
+"""Out-of-tolerance rows printed; the attached CSV always holds every point."""
+
+
+@dataclass(frozen=True)
+class CertificateInfo:
+    """What the inspector states about the part and the inspection (all optional text)."""
+
+    part_number: str | None = None
+    part_name: str | None = None
+    revision: str | None = None
+    serial: str | None = None
+    order: str | None = None
+    inspector: str | None = None
+    organisation: str | None = None
+    device: str | None = None
+    notes: str | None = None
+
+
+def certificate_number(run: Run, issued: dt.datetime) -> str:
+    """QA-YYYYMMDD-XXXXXXXX: the date and a hash of the inputs, settings and issue time."""
+    h = hashlib.sha256()
+    for r in run.inputs:
+        h.update(r.sha256.encode())
+    h.update(json.dumps(run.doc.get("settings"), sort_keys=True).encode())
+    h.update(issued.isoformat().encode())
+    return f"QA-{issued:%Y%m%d}-{h.hexdigest()[:8].upper()}"
+
+
+def check_trustworthy(run: Run) -> None:
+    """A certificate may say ACCEPTED only from a converged registration whose pose the
+    judge trusted; anything else here is a bug upstream, and no certificate is made."""
+    reg = run.result.registration
+    if run.result.verdict == ACCEPT and not (reg.converged and reg.near_fraction >= 0.5
+                                             and run.result.statistics.n_out == 0):
+        raise RuntimeError("refusing to certify ACCEPTED: the registration is not trustworthy")
+
+
+def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
+                     issued: dt.datetime | None = None, renderer=None) -> bytes:
+    """The finished certificate PDF (signed when ``identity`` is given).
+
+    renderer : a :class:`reports.figures.RenderProcess` started earlier (default: render in
+        this process).
+    """
+    check_trustworthy(run)
+    res = run.result
+    views = None
+    if run.template is None:  # 3D: the renders run while the evidence files are written
+        nom = run.nominal
+        pending = (renderer or figures.InProcessRenderer()).submit(
+            nom.points, nom.triangles, res.deviations.foot, res.deviations.normal,
+            res.deviations.signed, res.tolerance, _worst_labels(run))
+    issued = (issued or dt.datetime.now(dt.timezone.utc)).replace(microsecond=0)
+    number = certificate_number(run, issued)
+    cert_doc = {k: v for k, v in asdict(info).items()}
+    cert_doc.update(number=number, issued=issued.isoformat().replace("+00:00", "Z"),
+                    signed_by=None if identity is None else identity.common_name)
+    doc = dict(run.doc, certificate=cert_doc)
+    outlier = ~res.registration.inlier if res.registration.inlier is not None else None
+    attachments = [
+        Attachment("points.csv", points_csv(res, run.measured.points,
+                                            run.measured.labels).encode(),
+                   "text/csv", "Every measured point: input and registered coordinates (mm), "
+                               "signed deviation, in tolerance"),
+        Attachment("results.qif", qif_results_document(
+            doc, res.registered, res.deviations.signed, res.in_tolerance,
+            run.measured.labels, outlier), "application/xml",
+            "QIF 3.0 results document"),
+        Attachment("results.json", result_json(doc).encode(), "application/json",
+                   "qa-inspect results with the settings to re-run the inspection"),
+    ]
+    if identity is not None:
+        identity.signer  # the pyHanko import overlaps the render
+    if run.template is None:
+        views = pending.result()
+    pdf, slots = build_pdf(run, info, number, issued, identity, attachments, views)
+    return finish_pdf(pdf, attachments, slots, identity,
+                      reason=f"Inspection certificate {number}: {VERDICT_WORD[res.verdict]}",
+                      location=info.organisation or "")
+
+
+# ---------------------------------------------------------------------------- layout
+def _fonts():
+    from reportlab import rl_config
+    from reportlab.pdfbase import pdfmetrics
+    from reportlab.pdfbase.ttfonts import TTFont
+    from reportlab.lib.fonts import addMapping
+
+    # Binary streams: ASCII85 would triple the time spent on the embedded renders.
+    rl_config.useA85 = 0
+    if "Vera" in pdfmetrics.getRegisteredFontNames():
+        return
+    folder = os.path.join(os.path.dirname(rl_config.__file__), "fonts")
+    for name, file in (("Vera", "Vera.ttf"), ("Vera-Bold", "VeraBd.ttf"),
+                       ("Vera-Italic", "VeraIt.ttf"), ("Vera-BoldItalic", "VeraBI.ttf")):
+        pdfmetrics.registerFont(TTFont(name, os.path.join(folder, file)))
+    addMapping("Vera", 0, 0, "Vera")
+    addMapping("Vera", 1, 0, "Vera-Bold")
+    addMapping("Vera", 0, 1, "Vera-Italic")
+    addMapping("Vera", 1, 1, "Vera-BoldItalic")
+
+
+def _styles():
+    from reportlab.lib.styles import ParagraphStyle
+
+    base = ParagraphStyle("base", fontName="Vera", fontSize=8.5, leading=11)
+    return {
+        "base": base,
+        "small": ParagraphStyle("small", parent=base, fontSize=7.5, leading=9.5),
+        "h": ParagraphStyle("h", parent=base, fontName="Vera-Bold", fontSize=10.5, leading=13,
+                            spaceBefore=9, spaceAfter=4,
+                            textColor=(0.10, 0.20, 0.36)),
+        "cell": ParagraphStyle("cell", parent=base, fontSize=7.5, leading=9.2),
+        "cellb": ParagraphStyle("cellb", parent=base, fontName="Vera-Bold", fontSize=7.5,
+                                leading=9.2),
+        "mono": ParagraphStyle("mono", parent=base, fontName="Courier", fontSize=7, leading=8.6),
+        "verdict": ParagraphStyle("verdict", parent=base, fontName="Vera-Bold", fontSize=22,
+                                  leading=26, textColor=(1, 1, 1)),
+        "verdict_sub": ParagraphStyle("verdict_sub", parent=base, fontSize=8.5, leading=11,
+                                      textColor=(1, 1, 1)),
+    }
+
+
+def _esc(text) -> str:
+    from xml.sax.saxutils import escape
+
+    return escape("" if text is None else str(text))
+
+
+class _Slot:
+    """Factory of a flowable that reserves a signature box and records where it landed."""
+
+    def __new__(cls, name, caption, width, height, slots, unsigned_text=None):
+        from reportlab.platypus import Flowable
+
+        class Slot(Flowable):
+            def wrap(self, aw, ah):
+                return width, height + 12
+
+            def draw(self):
+                c = self.canv
+                c.setFont("Vera-Bold", 7.5)
+                c.setFillColorRGB(0.2, 0.2, 0.2)
+                c.drawString(0, height + 3, caption)
+                c.setStrokeColorRGB(0.6, 0.6, 0.65)
+                c.setLineWidth(0.6)
+                c.rect(0, 0, width, height)
+                if unsigned_text:
+                    c.setFont("Vera-Italic", 8)
+                    c.setFillColorRGB(0.55, 0.1, 0.1)
+                    c.drawCentredString(width / 2, height / 2 - 3, unsigned_text)
+                x, y = c.absolutePosition(0, 0)
+                slots[name] = SignatureSlot(c.getPageNumber() - 1, (x, y, x + width, y + height))
+
+        return Slot()
+
+
+def _numbered_canvas(number: str, verdict: str, draft: bool):
+    from reportlab.pdfgen.canvas import Canvas
+
+    class NumberedCanvas(Canvas):
+        """Defers pages so each can say 'page x of y'."""
+
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            self._pages = []
+
+        def showPage(self):
+            self._pages.append(dict(self.__dict__))
+            self._startPage()
+
+        def save(self):
+            n = len(self._pages)
+            for k, state in enumerate(self._pages):
+                self.__dict__.update(state)
+                self._decorate(k + 1, n)
+                super().showPage()
+            super().save()
+
+        def _decorate(self, page, pages):
+            from reportlab.lib.pagesizes import A4
+
+            w, h = A4
+            self.saveState()
+            self.setFillColorRGB(0.10, 0.20, 0.36)
+            self.rect(0, h - 16 * 2.8346, w, 16 * 2.8346, stroke=0, fill=1)
+            self.setFillColorRGB(1, 1, 1)
+            self.setFont("Vera-Bold", 13)
+            self.drawString(18 * 2.8346, h - 9.5 * 2.8346, TITLE)
+            self.setFont("Vera", 8)
+            self.drawString(18 * 2.8346, h - 13.5 * 2.8346, f"Certificate No. {number}")
+            # verdict chip
+            word = VERDICT_WORD[verdict]
+            self.setFillColorRGB(*VERDICT_RGB[verdict])
+            cw = 40 * 2.8346
+            self.roundRect(w - 18 * 2.8346 - cw, h - 13 * 2.8346, cw, 9 * 2.8346, 3, stroke=0,
+                           fill=1)
+            self.setFillColorRGB(1, 1, 1)
+            self.setFont("Vera-Bold", 11)
+            self.drawCentredString(w - 18 * 2.8346 - cw / 2, h - 9.9 * 2.8346, word)
+            # footer
+            self.setFillColorRGB(0.35, 0.35, 0.38)
+            self.setFont("Vera", 7)
+            self.drawString(18 * 2.8346, 10 * 2.8346,
+                            f"{SOFTWARE_NAME} {software_version()}  ·  Certificate No. {number}"
+                            f"  ·  {word}")
+            self.drawRightString(w - 18 * 2.8346, 10 * 2.8346, f"Page {page} of {pages}")
+            if page == pages:
+                self.setFont("Vera-Bold", 7.5)
+                self.drawCentredString(w / 2, 14.5 * 2.8346, "— End of certificate —")
+            if draft:
+                self.setFillColorRGB(0.75, 0.1, 0.1)
+                self.setFont("Vera-Bold", 8)
+                self.drawCentredString(w / 2, h - 20 * 2.8346,
+                                       "UNSIGNED DRAFT — not a valid certificate")
+                self.setFillColorRGB(0.85, 0.15, 0.15, alpha=0.13)
+                self.translate(w / 2, h / 2)
+                self.rotate(52)
+                self.setFont("Vera-Bold", 70)
+                self.drawCentredString(0, -20, "UNSIGNED DRAFT")
+            self.restoreState()
+
+    return NumberedCanvas
+
+
+def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
+              identity: Identity | None, attachments: list[Attachment],
+              views: list[figures.View] | None) -> tuple[bytes, dict[str, SignatureSlot]]:
+    """Lay out the certificate; return the PDF and where the signature boxes are.
+
+    views : the 3D renders (None for a 2D template, whose map is drawn here).
+    """
+    from reportlab.lib import colors
+    from reportlab.lib.pagesizes import A4
+    from reportlab.lib.units import mm
+    from reportlab.platypus import (CondPageBreak, Image, KeepTogether, PageBreak, Paragraph,
+                                    SimpleDocTemplate, Spacer, Table, TableStyle)
+
+    _fonts()
+    S = _styles()
+    res = run.result
+    doc = run.doc
+    st = res.statistics
+    tol = res.tolerance
+    reg = res.registration
+    is_2d = run.template is not None
+    W = A4[0] - 36 * mm
+    P = Paragraph
+    grid = colors.Color(0.78, 0.80, 0.84)
+    head_bg = colors.Color(0.91, 0.93, 0.96)
+
+    def table(rows, widths, header=True, zebra=False, styles=()):
+        t = Table(rows, colWidths=widths, repeatRows=1 if header else 0)
+        cmds = [("GRID", (0, 0), (-1, -1), 0.4, grid), ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+                ("TOPPADDING", (0, 0), (-1, -1), 2), ("BOTTOMPADDING", (0, 0), (-1, -1), 2),
+                ("LEFTPADDING", (0, 0), (-1, -1), 4), ("RIGHTPADDING", (0, 0), (-1, -1), 4),
+                ("FONT", (0, 0), (-1, -1), "Vera", 7.5)]
+        if header:
+            cmds += [("BACKGROUND", (0, 0), (-1, 0), head_bg),
+                     ("FONT", (0, 0), (-1, 0), "Vera-Bold", 7.5)]
+        if zebra:
+            for r in range(2 if header else 1, len(rows), 2):
+                cmds.append(("BACKGROUND", (0, r), (-1, r), colors.Color(0.97, 0.975, 0.98)))
+        t.setStyle(TableStyle(cmds + list(styles)))
+        return t
+
+    def kv(pairs, widths):
+        rows = [[P(_esc(k), S["cellb"]), P(_esc(v) if v not in (None, "") else "—", S["cell"])]
+                for k, v in pairs]
+        return table(rows, widths, header=False,
+                     styles=[("BACKGROUND", (0, 0), (0, -1), head_bg)])
+
+    story = []
+    # 1-2. identification
+    left = kv([("Organisation", info.organisation), ("Part number", info.part_number),
+               ("Part name", info.part_name), ("Revision", info.revision),
+               ("Serial number", info.serial), ("Order", info.order)], [28 * mm, 58 * mm])
+    right = kv([("Inspector", info.inspector or (identity.common_name if identity else None)),
+                ("Device", info.device),
+                ("Date and time", f"{issued:%Y-%m-%d %H:%M:%S} UTC"),
+                ("Software", f"{SOFTWARE_NAME} {software_version()}"),
+                ("Certificate No.", number),
+                ("Status", "signed (PAdES)" if identity else "UNSIGNED DRAFT")],
+               [28 * mm, 56 * mm])
+    story.append(P("1  Identification", S["h"]))
+    story.append(Table([[left, right]], colWidths=[W / 2, W / 2],
+                       style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                              ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                              ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+    # 7. verdict block (placed early: the answer comes first)
+    story.append(P("2  Result", S["h"]))
+    reasons = "; ".join(res.reasons)
+    vb = Table([[P(VERDICT_WORD[res.verdict], S["verdict"]),
+                 P(_esc(reasons[:1].upper() + reasons[1:]), S["verdict_sub"])]],
+               colWidths=[62 * mm, W - 62 * mm],
+               style=[("BACKGROUND", (0, 0), (-1, -1), colors.Color(*VERDICT_RGB[res.verdict])),
+                      ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+                      ("TOPPADDING", (0, 0), (-1, -1), 8), ("BOTTOMPADDING", (0, 0), (-1, -1), 8),
+                      ("LEFTPADDING", (0, 0), (-1, -1), 10)])
+    story.append(vb)
+    story.append(Spacer(1, 3 * mm))
+    stats_rows = [["Points", "Out of tol.", "Min", "Max", "Mean", "Std dev", "RMS",
+                   "Max |d|"],
+                  [f"{st.count}", f"{st.n_out}", *(figures.fmt_mm(v) for v in
+                                                   (st.min, st.max, st.mean)),
+                   *(figures.fmt_mm(v, False) for v in (st.std, st.rms, st.max_abs))]]
+    story.append(table(stats_rows, [W / 8] * 8,
+                       styles=[("ALIGN", (0, 0), (-1, -1), "CENTER"),
+                               ("FONT", (0, 1), (-1, 1), "Vera-Bold", 8.5)]))
+    story.append(P("Deviations in mm; statistics over every measured point, outliers of the "
+                   "fit included.", S["small"]))
+    # 3. requirement
+    story.append(P("3  Requirement", S["h"]))
+    zone = (f"±{tol.upper:.3f} mm" if math.isclose(-tol.lower, tol.upper) else
+            f"{tol.lower:+.3f} mm … {tol.upper:+.3f} mm")
+    story.append(kv([
+        ("Tolerance zone", f"{'Line' if is_2d else 'Surface'} profile, deviation from the "
+                           f"nominal {zone} (lower limit {tol.lower:+.3f}, upper limit "
+                           f"{tol.upper:+.3f}); limits are in tolerance"),
+        ("Sign", "Positive along the nominal's outward normal (excess material), negative "
+                 "into the material (missing material)"),
+        ("Decision rule", "Pointwise, simple acceptance: ACCEPTED only if every measured point "
+                          "lies inside the zone; REJECTED if any point lies outside; "
+                          "INCONCLUSIVE when the registration cannot be trusted. Measurement "
+                          "uncertainty is not deducted from the zone."),
+        ("Units", "millimetres"),
+    ], [28 * mm, W - 28 * mm]))
+    # 4. method
+    story.append(P("4  Method", S["h"]))
+    story.append(kv([
+        ("Registration", "Soft registration without fixture: global search over "
+                         f"{reg.hypotheses} pose hypotheses, then modified ICP with "
+                         "coarse-to-fine sampling of the nominal" +
+                         (" (template plane fitted to the points; both faces tried)"
+                          if is_2d and "flatness" in doc else "")),
+        ("Fit criterion", "Least squares of point-to-" + ("contour" if is_2d else "surface") +
+                          " distances; gross outliers beyond a robust cut of "
+                          f"{reg.outlier_cut:.4f} mm are left out of the fit but still judged"),
+        ("Deviation method", doc["deviations"]["method"]),
+        ("Normals", {"file": "from the nominal file (I J K)", "mesh": "from the mesh faces",
+                     "grid": "from the grid cells", "estimated": "estimated from the nominal "
+                     "points (no normals in the file)", "contour": "contour normals"}.get(
+                         res.normals_source, res.normals_source)),
+        ("Device", info.device), ("Inspector", info.inspector),
+    ], [28 * mm, W - 28 * mm]))
+    if info.notes:
+        story.append(Spacer(1, 2 * mm))
+        story.append(kv([("Notes", info.notes)], [28 * mm, W - 28 * mm]))
+    # 5. inputs
+    story.append(CondPageBreak(45 * mm))
+    story.append(P("5  Inputs", S["h"]))
+    rows = [["Role", "File", "Size", "SHA-256"]]
+    for r in run.inputs:
+        size = (f"{r.n_points} points" if r.n_points is not None else
+                f"{r.n_primitives} primitives")
+        rows.append([r.role, P(_esc(os.path.basename(r.path)), S["cell"]), size,
+                     P(r.sha256, S["mono"])])
+    story.append(table(rows, [18 * mm, 50 * mm, 24 * mm, W - 92 * mm]))
+    # 6. registration
+    story.append(P("6  Registration", S["h"]))
+    T = reg.T_nominal_measured
+    mat = table([[f"{v:+.6f}" if j < 3 else f"{v:+.4f}" for j, v in enumerate(row)]
+                 for row in T], [20 * mm] * 4, header=False,
+                styles=[("FONT", (0, 0), (-1, -1), "Courier", 7), ("ALIGN", (0, 0), (-1, -1),
+                                                                   "RIGHT")])
+    reg_rows = [("Converged", f"{'yes' if reg.converged else 'NO'} after {reg.iterations} "
+                              "iterations"),
+                ("RMS", f"{reg.rms:.4f} mm over {reg.n_inliers} inlier points"),
+                ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
+                               f"{'—' if reg.runner_up_score is None else f'{reg.runner_up_score:.4f} mm'})"),
+                ("Near the nominal", f"{100 * reg.near_fraction:.1f}% of points within "
+                                     f"{reg.near_distance:.3g} mm")]
+    if "flatness" in doc:
+        f = doc["flatness"]
+        reg_rows.append(("Flatness", f"{f['peak_to_valley']:.4f} mm peak to valley "
+                                     f"(measured plane)"))
+    story.append(Table([[[P("T_nominal_measured (maps measured coordinates into the nominal "
+                            "frame, mm)", S["small"]), Spacer(1, 1 * mm), mat],
+                         kv(reg_rows, [26 * mm, W - 26 * mm - 86 * mm])]],
+                       colWidths=[84 * mm, W - 84 * mm],
+                       style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                              ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                              ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+    # 8-9. maps and histogram
+    story.append(PageBreak())
+    order = worst_order(res)
+
+    def name_of(i):
+        return _point_name(run, i)
+
+    legend = figures.legend(tol, res.deviations.signed, 50 * mm, 62 * mm)
+    hist = figures.histogram(res.deviations.signed, tol, W - 56 * mm, 62 * mm)
+    story.append(P("7  Deviation map", S["h"]))
+    if is_2d:
+        drawing, factor = figures.contour_map(run.template.template, res.deviations.foot,
+                                              res.deviations.normal, res.deviations.signed, tol,
+                                              _worst_labels(run), W, 128 * mm)
+        story.append(drawing)
+        story.append(P(f"Template (dark lines) and every measured point at its foot on the "
+                       f"contour, with its deviation drawn as a whisker magnified {factor:g} "
+                       "times; labels on the five worst points.", S["small"]))
+    else:
+        iw = (W - 4 * mm) / 2
+        ih = iw * figures.RENDER_SIZE[1] / figures.RENDER_SIZE[0]
+        cells = [Image(io.BytesIO(v.png), width=iw, height=ih) for v in views]
+        story.append(Table([cells], colWidths=[W / 2, W / 2],
+                           style=[("BOX", (0, 0), (0, 0), 0.4, grid),
+                                  ("BOX", (1, 0), (1, 0), 0.4, grid),
+                                  ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                                  ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+        story.append(P(f"Left: face-on, camera along {_vec(views[0].direction)}; right: "
+                       f"oblique, camera along {_vec(views[1].direction)} (nominal frame, "
+                       "parallel projection). Every measured point drawn at its foot on the "
+                       "nominal surface, coloured by deviation; labels on the five worst "
+                       "points.", S["small"]))
+    story.append(P("8  Colour scale and histogram of deviations", S["h"]))
+    story.append(Table([[legend, hist]], colWidths=[54 * mm, W - 54 * mm],
+                       style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                              ("LEFTPADDING", (0, 0), (-1, -1), 0)]))
+    story.append(P("Green bands: inside the tolerance zone; blue: below the lower limit "
+                   "(missing material); red: above the upper limit (excess material). Dashed "
+                   "lines: the tolerance limits (LTL, UTL).", S["small"]))
+    # 10. characteristic table
+    story.append(PageBreak())
+    story.append(P("9  Characteristic accountability (AS9102 Form 3 style)", S["h"]))
+    d = res.deviations.signed
+    out_idx = order[: min(st.n_out, MAX_OUT_ROWS)]
+    rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + WORST_ROWS]]
+    req = zone
+    rows = [["Char. No.", "Point", "Requirement", "X (mm)", "Y (mm)", "Z (mm)",
+             "Deviation", "Result"]]
+    res_styles = []
+    for k, i in enumerate(rows_idx):
+        p = res.registered[i]
+        ok = bool(res.in_tolerance[i])
+        rows.append([f"{k + 1}", name_of(i), req, f"{p[0]:.3f}", f"{p[1]:.3f}", f"{p[2]:.3f}",
+                     f"{d[i]:+.4f}", "PASS" if ok else "FAIL"])
+        if not ok:
+            res_styles.append(("TEXTCOLOR", (7, k + 1), (7, k + 1), colors.Color(0.72, 0.1, 0.1)))
+            res_styles.append(("FONT", (7, k + 1), (7, k + 1), "Vera-Bold", 7.5))
+    intro = (f"Every point out of tolerance ({st.n_out}"
+             + (f"; the worst {MAX_OUT_ROWS} are listed" if st.n_out > MAX_OUT_ROWS else "")
+             + f"), then the {len(rows_idx) - len(out_idx)} in-tolerance points nearest to a "
+             "limit, worst first. Coordinates of the registered points in the nominal frame. "
+             "Every point is in the attached points.csv.")
+    story.append(P(_esc(intro), S["small"]))
+    story.append(Spacer(1, 2 * mm))
+    story.append(table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,
+                              W - 157 * mm], zebra=True,
+                       styles=[("ALIGN", (3, 1), (6, -1), "RIGHT"),
+                               ("ALIGN", (7, 0), (7, -1), "CENTER"), *res_styles]))
+    # attachments
+    story.append(P("10  Attached evidence (embedded in this PDF, covered by the signature)",
+                   S["h"]))
+    rows = [["File", "Content", "SHA-256"]]
+    for a in attachments:
+        rows.append([a.name, P(_esc(a.description), S["cell"]),
+                     P(hashlib.sha256(a.data).hexdigest(), S["mono"])])
+    story.append(table(rows, [22 * mm, 62 * mm, W - 84 * mm]))
+    story.append(P("Extract them with any PDF reader's attachment panel or "
+                   "<font name='Courier'>pdfdetach -saveall</font>.", S["small"]))
+    # 11. statement + signatures
+    slots: dict[str, SignatureSlot] = {}
+    if res.verdict == ACCEPT:
+        statement = (f"The part identified above conforms to the stated requirement: all "
+                     f"{st.count} measured points lie within the tolerance zone {zone}, "
+                     "under the decision rule stated in section 3.")
+    elif res.verdict == REJECT:
+        statement = (f"The part identified above does not conform to the stated requirement: "
+                     f"{st.n_out} of {st.count} measured points lie outside the tolerance zone "
+                     f"{zone} (largest excursion {figures.fmt_mm(_worst_excess(res))} mm beyond "
+                     "a limit).")
+    else:
+        statement = ("No statement of conformity can be made: " + "; ".join(res.reasons) +
+                     ". The part is neither accepted nor rejected by this certificate.")
+    sig_text = (f"Signed digitally by {_esc(identity.common_name)}"
+                f"{', ' + _esc(identity.organisation) if identity.organisation else ''}; "
+                f"issuing CA SHA-256 fingerprint "
+                f"<font name='Courier'>{_esc(identity.ca_fingerprint or 'not in the file')}"
+                f"</font>." + (" <b>Demonstration identity (qa-inspect keygen), not for "
+                               "production use.</b>" if identity.demonstration else "")
+                if identity else "<b>UNSIGNED DRAFT</b>: this document carries no signature "
+                "and is not a valid certificate.")
+    bw = (W - 8 * mm) / 2
+    block = [P("11  Statement of conformity and signatures", S["h"]),
+             P(_esc(statement), S["base"]), Spacer(1, 2 * mm),
+             P(sig_text, S["small"]),
+             P("Verify the signature and the evidence: <font name='Courier'>qa-inspect verify "
+               "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE]</font> or any "
+               "PAdES-capable reader with the issuing CA as trust anchor.", S["small"]),
+             Spacer(1, 3 * mm),
+             Table([[_Slot(INSPECTOR_FIELD, "Inspector signature", bw, 24 * mm, slots,
+                           None if identity else "UNSIGNED DRAFT"),
+                     _Slot(APPROVER_FIELD, "Approver signature (optional, second signature)",
+                           bw, 24 * mm, slots)]],
+                   colWidths=[bw + 4 * mm, bw + 4 * mm],
+                   style=[("LEFTPADDING", (0, 0), (-1, -1), 0)])]
+    story.append(KeepTogether(block))
+
+    buf = io.BytesIO()
+    pdf = SimpleDocTemplate(buf, pagesize=A4, leftMargin=18 * mm, rightMargin=18 * mm,
+                            topMargin=(26 if identity else 30) * mm, bottomMargin=22 * mm,
+                            title=f"{TITLE} {number}", author=info.inspector or "",
+                            subject=f"{VERDICT_WORD[res.verdict]}: "
+                                    f"{info.part_number or ''} {info.serial or ''}".strip(),
+                            creator=f"{SOFTWARE_NAME} {software_version()}",
+                            pageCompression=0)
+    pdf.build(story, canvasmaker=_numbered_canvas(number, res.verdict, identity is None))
+    if set(slots) != {INSPECTOR_FIELD, APPROVER_FIELD}:
+        raise RuntimeError("signature boxes were not laid out")
+    return buf.getvalue(), slots
+
+
+def _point_name(run: Run, i: int) -> str:
+    labels = run.measured.labels
+    return str(labels[i]) if labels is not None and str(labels[i]) else f"#{i + 1}"
+
+
+def _worst_labels(run: Run, n: int = 5) -> list[tuple[int, str]]:
+    d = run.result.deviations.signed
+    return [(int(i), f"{_point_name(run, i)}\n{d[i]:+.3f}") for i in worst_order(run.result)[:n]]
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{x:+.2f}" for x in v) + ")"
+
+
+def _worst_excess(res) -> float:
+    return float(res.tolerance.excess(res.deviations.signed).max())

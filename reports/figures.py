@@ -1,0 +1,491 @@
+"""Figures of an inspection: the tolerance-banded colour scale, 3D deviation maps (pyvista,
+rendered off-screen), the 2D contour with magnified deviation whiskers and the histogram
+(reportlab vector drawings). No Qt: the desktop app reuses the colour scale.
+
+Colour scale: the tolerance zone [lower, upper] is split into four green bands (teal towards the
+lower limit, yellow-green towards the upper); beyond the zone, three bands of a quarter zone width
+each: blues below the lower limit (material missing), reds above the upper limit (excess
+material), darkest for the farthest. A deviation exactly on a limit is in tolerance.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # the render process should not pay for importing the engine
+    from engine.inspection import Tolerance
+
+BELOW = ((0.03, 0.19, 0.42), (0.13, 0.40, 0.67), (0.26, 0.57, 0.78))
+INSIDE = ((0.17, 0.63, 0.55), (0.24, 0.70, 0.29), (0.42, 0.75, 0.29), (0.71, 0.83, 0.20))
+ABOVE = ((0.94, 0.40, 0.28), (0.84, 0.19, 0.12), (0.50, 0.0, 0.0))
+
+
+@dataclass(frozen=True)
+class Band:
+    """One colour band: deviations in [lower, upper) (in-zone bands include the limits)."""
+
+    lower: float
+    upper: float
+    rgb: tuple[float, float, float]
+    in_tolerance: bool
+
+
+def bands(tol: "Tolerance") -> list[Band]:
+    """The seven bands from the most negative to the most positive deviation."""
+    lo, hi = tol.lower, tol.upper
+    s = (hi - lo) / 4.0
+    edges = [-math.inf, lo - 2 * s, lo - s, lo, lo + s, lo + 2 * s, lo + 3 * s, hi, hi + s,
+             hi + 2 * s, math.inf]
+    colours = BELOW + INSIDE + ABOVE
+    return [Band(edges[k], edges[k + 1], colours[k], 3 <= k <= 6) for k in range(10)]
+
+
+def band_index(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
+    """Index into :func:`bands` of each deviation (mm)."""
+    d = np.asarray(d, dtype=float)
+    lo, hi = tol.lower, tol.upper
+    s = (hi - lo) / 4.0
+    below = 2 - np.clip(np.floor((lo - d) / s), 0, 2).astype(int)
+    inside = 3 + np.clip(np.floor((d - lo) / s), 0, 3).astype(int)
+    above = 7 + np.clip(np.floor((d - hi) / s), 0, 2).astype(int)
+    return np.where(d < lo, below, np.where(d > hi, above, inside))
+
+
+def band_rgb(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
+    """(n, 3) uint8 colours of deviations ``d``."""
+    table = (np.array([b.rgb for b in bands(tol)]) * 255).round().astype(np.uint8)
+    return table[band_index(d, tol)]
+
+
+def fmt_mm(v: float, signed: bool = True) -> str:
+    return f"{v:+.3f}" if signed else f"{v:.3f}"
+
+
+# ---------------------------------------------------------------------------- 3D maps
+@dataclass(frozen=True)
+class View:
+    name: str
+    direction: tuple[float, float, float]
+    """Unit vector from the part towards the camera, nominal frame."""
+    png: bytes
+
+
+@dataclass(frozen=True)
+class Zone:
+    """Tolerance limits, mm (what the colour scale needs of an engine Tolerance)."""
+
+    lower: float
+    upper: float
+
+
+RENDER_SIZE = (960, 720)
+
+
+def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np.ndarray,
+              normals: np.ndarray, d: np.ndarray, tol: "Tolerance | Zone",
+              worst: list[tuple[int, str]], size: tuple[int, int] = RENDER_SIZE) -> list[View]:
+    """Two views (face-on and oblique, parallel projection) of the nominal surface with each
+    measured point drawn at its foot on the surface, coloured by band.
+
+    nominal_points : (m, 3), triangles : (k, 3) or None (bare points are drawn as a grey cloud);
+    feet, normals : (n, 3) foot points and outward unit normals, nominal frame; d : (n,) mm;
+    worst : (point index, label text) of the points to annotate.
+    """
+    if not os.environ.get("DISPLAY"):
+        # VTK's wheels try X first and fall back to EGL only after a slow failure.
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    face = _face_on_direction(feet, normals)
+    diagonal = float(np.linalg.norm(np.ptp(nominal_points, axis=0)))
+    lift = 1e-3 * diagonal
+    surf = None
+    if triangles is not None:
+        surf = pv.PolyData.from_regular_faces(nominal_points, triangles)
+        if surf.n_cells > DISPLAY_TRIANGLES:
+            surf = _simplified(surf)
+            lift = max(lift, 0.5 * diagonal / CLUSTER_DIVISIONS)
+    shown = feet + lift * normals  # just outside the surface, so the surface never hides them
+    pl = pv.Plotter(off_screen=True, window_size=list(size))
+    try:
+        pl.set_background("white")
+        if surf is not None:
+            pl.add_mesh(surf, color=(0.80, 0.81, 0.83), smooth_shading=True, specular=0.2,
+                        ambient=0.25)
+        else:
+            step = max(1, nominal_points.shape[0] // 200_000)
+            pl.add_points(nominal_points[::step], color=(0.72, 0.73, 0.75), point_size=2)
+        n = d.shape[0]
+        pl.add_points(shown, scalars=band_rgb(d, tol), rgb=True, render_points_as_spheres=True,
+                      point_size=float(np.clip(300.0 / math.sqrt(max(n, 1)), 3, 12)))
+        if worst:
+            idx = [i for i, _ in worst]
+            pl.add_point_labels(shown[idx], [t for _, t in worst], font_size=30, point_size=1,
+                                shape_color="white", shape_opacity=0.85, text_color="black",
+                                always_visible=True, margin=3)
+        pl.enable_parallel_projection()
+        up = _any_perpendicular(face)
+        oblique = _rotate(face, np.cross(face, up), math.radians(50.0))
+        views = []
+        for name, direction in (("face-on", face), ("oblique", oblique)):
+            _frame(pl, shown, direction, up, size[0] / size[1])
+            pl.render()
+            views.append(View(name, tuple(float(v) for v in direction),
+                              _png(pl.screenshot(return_img=True))))
+        return views
+    finally:
+        pl.close()
+
+
+DISPLAY_TRIANGLES = 40_000
+"""Nominal meshes with more triangles are simplified for the picture (software OpenGL renders
+time in proportion); the deviations themselves never see this."""
+CLUSTER_DIVISIONS = 150
+
+
+def _simplified(surf):
+    """Quadric clustering (linear time) to about CLUSTER_DIVISIONS cells along the longest
+    side."""
+    import pyvista as pv
+    from vtkmodules.vtkFiltersCore import vtkQuadricClustering
+
+    q = vtkQuadricClustering()
+    q.SetInputData(surf)
+    q.SetNumberOfDivisions(CLUSTER_DIVISIONS, CLUSTER_DIVISIONS, CLUSTER_DIVISIONS)
+    q.AutoAdjustNumberOfDivisionsOn()
+    q.Update()
+    return pv.wrap(q.GetOutput())
+
+
+def _frame(pl, pts: np.ndarray, direction: np.ndarray, up: np.ndarray, aspect: float) -> None:
+    """Point the parallel-projection camera along -direction so ``pts`` fill the picture."""
+    up = up - (up @ direction) * direction
+    up /= np.linalg.norm(up)
+    right = np.cross(up, direction)
+    u, v = pts @ right, pts @ up
+    cu, cv = 0.5 * (u.max() + u.min()), 0.5 * (v.max() + v.min())
+    depth = float(np.ptp(pts @ direction)) + float(np.ptp(u)) + float(np.ptp(v))
+    centre = cu * right + cv * up + float(np.mean(pts @ direction)) * direction
+    pl.camera_position = [tuple(centre + depth * direction), tuple(centre), tuple(up)]
+    pl.camera.parallel_scale = 0.56 * max(float(np.ptp(v)), float(np.ptp(u)) / aspect)
+    pl.renderer.reset_camera_clipping_range()
+
+
+class RenderProcess:
+    """Runs :func:`render_3d` in a worker process (``python -m reports.figures``) started at
+    once, so that importing pyvista/VTK and starting OpenGL (about 1 s) overlap the inspection on
+    another core. Requests and replies are pickled over the worker's stdin/stdout."""
+
+    def __init__(self):
+        import subprocess
+        import sys
+
+        self._proc = subprocess.Popen([sys.executable, "-m", "reports.figures"],
+                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                      stderr=subprocess.DEVNULL, cwd=_project_root())
+
+    def submit(self, nominal_points, triangles, feet, normals, d, tol, worst, **kw):
+        """Send a :func:`render_3d` request; the returned object's ``result()`` waits for the
+        views. The request (megabytes for a big nominal) is written by a thread: the worker may
+        still be warming up, and the caller works on meanwhile."""
+        import pickle
+        import threading
+
+        request = (nominal_points, triangles, feet, normals, d,
+                   Zone(float(tol.lower), float(tol.upper)), worst, kw)
+        failure = []
+
+        def send():
+            try:
+                pickle.dump(request, self._proc.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+                self._proc.stdin.flush()
+            except OSError as e:
+                failure.append(e)
+
+        sender = threading.Thread(target=send, daemon=True)
+        sender.start()
+        return _Reply(self._proc, sender, failure)
+
+    def close(self):
+        try:
+            self._proc.stdin.close()
+            self._proc.wait(timeout=10)
+        except Exception:  # closing must never mask the caller's own outcome
+            self._proc.kill()
+
+
+class _Reply:
+    def __init__(self, proc, sender, failure):
+        self._proc, self._sender, self._failure = proc, sender, failure
+
+    def result(self) -> list[View]:
+        import pickle
+
+        self._sender.join()
+        try:
+            if self._failure:
+                raise self._failure[0]
+            ok, value = pickle.load(self._proc.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError) as e:
+            raise RuntimeError(f"the 3D rendering process failed "
+                               f"(exit code {self._proc.poll()})") from e
+        if not ok:
+            raise RuntimeError(f"3D rendering failed: {value}")
+        return value
+
+
+class InProcessRenderer:
+    """:class:`RenderProcess`'s interface, rendering in this process when asked."""
+
+    def submit(self, *args, **kw):
+        import concurrent.futures
+
+        f = concurrent.futures.Future()
+        f.set_result(render_3d(*args, **kw))
+        return f
+
+    def close(self):
+        pass
+
+
+def _project_root() -> str:
+    return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _serve() -> None:
+    """The worker's loop: warm up, then answer requests until stdin closes."""
+    import pickle
+    import sys
+    import traceback
+
+    z = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    try:
+        render_3d(z, np.array([[0, 1, 2]]), z, np.tile([0.0, 0.0, 1.0], (3, 1)), np.zeros(3),
+                  Zone(-1.0, 1.0), [], size=(64, 48))
+    except Exception:
+        pass  # the real request will report the problem
+    inp, out = sys.stdin.buffer, sys.stdout.buffer
+    while True:
+        try:
+            pts, tris, feet, normals, d, zone, worst, kw = pickle.load(inp)
+        except EOFError:
+            out.flush()
+            os._exit(0)  # skip VTK's slow teardown; nothing is left to write
+        try:
+            reply = (True, render_3d(pts, tris, feet, normals, d, zone, worst, **kw))
+        except Exception as e:
+            reply = (False, f"{type(e).__name__}: {e}\n{traceback.format_exc(limit=3)}")
+        pickle.dump(reply, out, protocol=pickle.HIGHEST_PROTOCOL)
+        out.flush()
+
+
+def _face_on_direction(p: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Look along the measured patch's least-spread axis, from the side most normals face."""
+    c = p - p.mean(axis=0)
+    _, _, vt = np.linalg.svd(c[:: max(1, len(c) // 20000)], full_matrices=False)
+    axis = vt[2]
+    if normals @ axis @ np.ones(len(normals)) < 0:
+        axis = -axis
+    return axis / np.linalg.norm(axis)
+
+
+def _any_perpendicular(v: np.ndarray) -> np.ndarray:
+    """The world axis least aligned with ``v``, made perpendicular: the screen's up."""
+    a = np.eye(3)[int(np.argmin(np.abs(v)))]
+    u = a - (a @ v) * v
+    return u / np.linalg.norm(u)
+
+
+def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
+    k = axis / np.linalg.norm(axis)
+    return v * math.cos(angle) + np.cross(k, v) * math.sin(angle) + k * (k @ v) * (
+        1 - math.cos(angle))
+
+
+def _png(img: np.ndarray) -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(img).save(buf, format="PNG", optimize=False, compress_level=1)
+    return buf.getvalue()
+
+
+# ---------------------------------------------------------------------------- vector drawings
+def nice_step(span: float, target: int = 6) -> float:
+    """A 1-2-5 step that divides ``span`` into about ``target`` intervals."""
+    raw = span / max(target, 1)
+    mag = 10 ** math.floor(math.log10(raw))
+    for m in (1, 2, 5, 10):
+        if m * mag >= raw:
+            return m * mag
+    return 10 * mag
+
+
+def histogram(d: np.ndarray, tol: "Tolerance", width: float, height: float):
+    """Histogram of deviations (bars coloured by band) with the tolerance limits drawn."""
+    from reportlab.graphics.shapes import Drawing, Line, Rect, String
+    from reportlab.lib import colors
+
+    lo, hi = tol.lower, tol.upper
+    s = (hi - lo) / 4
+    x0, x1 = min(float(d.min()), lo - s), max(float(d.max()), hi + s)
+    nb = 48
+    counts, edges = np.histogram(d, bins=nb, range=(x0, x1))
+    ml, mb, mr, mt = 46, 34, 10, 22
+    pw, ph = width - ml - mr, height - mb - mt
+    ymax = max(int(counts.max()), 1)
+    ystep = nice_step(ymax, 4)
+    ytop = math.ceil(ymax / ystep) * ystep
+
+    def X(v):
+        return ml + (v - x0) / (x1 - x0) * pw
+
+    def Y(c):
+        return mb + c / ytop * ph
+
+    g = Drawing(width, height)
+    grey = colors.Color(0.55, 0.55, 0.55)
+    for k in range(0, int(round(ytop / ystep)) + 1):
+        y = Y(k * ystep)
+        g.add(Line(ml, y, ml + pw, y, strokeColor=colors.Color(0.9, 0.9, 0.9), strokeWidth=0.5))
+        g.add(String(ml - 4, y - 3, f"{int(k * ystep)}", fontName="Helvetica", fontSize=7,
+                     textAnchor="end"))
+    band_of = band_index(0.5 * (edges[:-1] + edges[1:]), tol)
+    table = bands(tol)
+    for k in range(nb):
+        if counts[k]:
+            c = colors.Color(*table[band_of[k]].rgb)
+            # A single point must stay visible next to a bin of thousands.
+            g.add(Rect(X(edges[k]), mb, X(edges[k + 1]) - X(edges[k]),
+                       max(Y(counts[k]) - mb, 1.5),
+                       fillColor=c, strokeColor=colors.white, strokeWidth=0.3))
+    g.add(Line(ml, mb, ml + pw, mb, strokeColor=grey, strokeWidth=0.8))
+    step = nice_step(x1 - x0, 7)
+    v = math.ceil(x0 / step) * step
+    while v <= x1 + 1e-12:
+        g.add(Line(X(v), mb, X(v), mb - 3, strokeColor=grey, strokeWidth=0.8))
+        g.add(String(X(v), mb - 12, f"{v:+.3g}" if abs(v) > 1e-12 else "0",
+                     fontName="Helvetica", fontSize=7, textAnchor="middle"))
+        v += step
+    for val, name in ((lo, "LTL"), (hi, "UTL")):
+        g.add(Line(X(val), mb, X(val), mb + ph + 4, strokeColor=colors.black, strokeWidth=1.1,
+                   strokeDashArray=[3, 2]))
+        g.add(String(X(val), mb + ph + 8, f"{name} {val:+.3f}", fontName="Helvetica-Bold",
+                     fontSize=7.5, textAnchor="middle"))
+    g.add(String(ml + pw / 2, 3, "deviation (mm)", fontName="Helvetica", fontSize=8,
+                 textAnchor="middle"))
+    g.add(String(4, height - 10, "points", fontName="Helvetica", fontSize=8))
+    return g
+
+
+def legend(tol: "Tolerance", d: np.ndarray, width: float, height: float):
+    """The colour scale as a vertical stack of bands, with limits and point counts."""
+    from reportlab.graphics.shapes import Drawing, Line, Rect, String
+    from reportlab.lib import colors
+
+    table = bands(tol)
+    counts = np.bincount(band_index(d, tol), minlength=len(table))
+    g = Drawing(width, height)
+    top, bottom = height - 14, 6
+    h = (top - bottom) / len(table)
+    g.add(String(0, height - 8, "Deviation (mm)", fontName="Helvetica-Bold", fontSize=8))
+    for k, b in enumerate(reversed(table)):
+        kk = len(table) - 1 - k
+        y = top - (k + 1) * h
+        g.add(Rect(0, y, 16, h, fillColor=colors.Color(*b.rgb), strokeColor=colors.white,
+                   strokeWidth=0.5))
+        if math.isinf(b.upper):
+            text = f"> {b.lower:+.3f}"
+        elif math.isinf(b.lower):
+            text = f"< {b.upper:+.3f}"
+        else:
+            text = f"{b.lower:+.3f} … {b.upper:+.3f}"
+        g.add(String(21, y + h / 2 - 3, text, fontName="Helvetica", fontSize=7))
+        g.add(String(width - 2, y + h / 2 - 3, f"{int(counts[kk])}", fontName="Helvetica",
+                     fontSize=7, textAnchor="end"))
+    # Bracket the in-tolerance bands.
+    y_hi = top - 3 * h
+    y_lo = top - 7 * h
+    for y in (y_hi, y_lo):
+        g.add(Line(0, y, width, y, strokeColor=colors.black, strokeWidth=1.0))
+    g.add(String(width - 2, top + 1, "points", fontName="Helvetica", fontSize=6.5,
+                 textAnchor="end"))
+    return g
+
+
+def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
+                tol: "Tolerance", worst: list[tuple[int, str]], width: float, height: float):
+    """The 2D template with each point's deviation as a whisker from its foot along the
+    contour normal, magnified by a stated 1-2-5 factor. Returns (drawing, factor)."""
+    from reportlab.graphics.shapes import Circle, Drawing, Line, PolyLine, String
+    from reportlab.lib import colors
+
+    from engine.contour import SEGMENT
+
+    polylines = []
+    for c in range(template.closed.size):
+        pts = []
+        for i in np.flatnonzero(template.contour == c):
+            if template.kind[i] == SEGMENT:
+                seg = np.array([template.start[i], template.end[i]])
+            else:
+                n = max(4, int(abs(template.sweep[i]) / math.radians(3)) + 1)
+                a = template.angle0[i] + np.linspace(0, template.sweep[i], n)
+                seg = template.centre[i] + template.radius[i] * np.column_stack(
+                    [np.cos(a), np.sin(a)])
+            pts.append(seg if not pts else seg[1:])
+        polylines.append(np.vstack(pts))
+    allp = np.vstack(polylines + [feet[:, :2]])
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    extent = float(max(hi - lo))
+    max_d = float(np.abs(d).max()) if d.size else 0.0
+    factor = 1.0
+    if max_d > 0:
+        raw = 0.06 * extent / max_d
+        factor = 10 ** math.floor(math.log10(raw))
+        for m in (5, 2, 1):
+            if m * factor <= raw:
+                factor *= m
+                break
+    pad = 0.08 * extent + factor * max_d
+    lo, hi = lo - pad, hi + pad
+    k = min((width - 4) / (hi[0] - lo[0]), (height - 16) / (hi[1] - lo[1]))
+    ox = (width - k * (hi[0] - lo[0])) / 2
+    oy = 14 + (height - 16 - k * (hi[1] - lo[1])) / 2
+
+    def P(xy):
+        return ox + k * (xy[..., 0] - lo[0]), oy + k * (xy[..., 1] - lo[1])
+
+    g = Drawing(width, height)
+    for pl in polylines:
+        x, y = P(pl)
+        g.add(PolyLine(list(np.column_stack([x, y]).ravel()), strokeColor=colors.Color(
+            0.25, 0.25, 0.28), strokeWidth=0.9))
+    tips = feet[:, :2] + factor * d[:, None] * normals[:, :2]
+    rgb = band_rgb(d, tol) / 255.0
+    fx, fy = P(feet[:, :2])
+    tx, ty = P(tips)
+    for i in range(d.size):
+        c = colors.Color(*rgb[i])
+        g.add(Line(fx[i], fy[i], tx[i], ty[i], strokeColor=c, strokeWidth=0.8))
+        g.add(Circle(tx[i], ty[i], 1.1, fillColor=c, strokeColor=None))
+    for i, text in worst:
+        g.add(String(tx[i] + 3, ty[i] + 2, text.replace("\n", " "), fontName="Helvetica",
+                     fontSize=6.5))
+    g.add(String(2, 2, f"Whiskers: deviation × {factor:g} along the contour normal "
+                       "(outward = excess material)", fontName="Helvetica-Oblique",
+                 fontSize=7.5))
+    return g, factor
+
+
+if __name__ == "__main__":
+    # Serve from the imported module, so replies pickle as reports.figures.View.
+    from reports.figures import _serve as serve
+
+    serve()

@@ -1,0 +1,139 @@
+"""One inspection from files: read the nominal and the measured points, register, judge.
+
+The command line, the certificate's ``verify --nominal/--measured`` re-run and the desktop app all
+go through :func:`run_files`, so one set of settings gives one answer everywhere.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from engine.errors import InputError, SettingsError
+from engine.inspection import InspectionResult, Tolerance, inspect, inspect_2d
+from engine.nominal import Nominal
+from engine.pointio import PointSet
+
+from .loading import is_template, load_point_set, sha256_of
+from .results import InputRecord, result_document
+
+
+@dataclass(frozen=True)
+class InspectionSettings:
+    """Everything besides the two files that decides an inspection's outcome.
+
+    Stored in the results document (``settings``) so that a certificate can be re-checked.
+    """
+
+    tol_lower: float
+    """Lower limit of the tolerance zone, mm."""
+    tol_upper: float
+    """Upper limit of the tolerance zone, mm."""
+    layers: tuple[str, ...] | None = None
+    """DXF template: the layers taken (None: every layer)."""
+    units: str | None = None
+    """DXF template: its units, overriding the drawing's $INSUNITS."""
+    scale: float | None = None
+    """Airfoil ordinate template: chord length, mm."""
+
+    @property
+    def tolerance(self) -> Tolerance:
+        return Tolerance(self.tol_lower, self.tol_upper)
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["layers"] = None if self.layers is None else list(self.layers)
+        return d
+
+    @classmethod
+    def from_json(cls, d: dict) -> "InspectionSettings":
+        layers = d.get("layers")
+        return cls(float(d["tol_lower"]), float(d["tol_upper"]),
+                   None if layers is None else tuple(str(x) for x in layers),
+                   d.get("units"), None if d.get("scale") is None else float(d["scale"]))
+
+
+@dataclass
+class Run:
+    """One inspection and what its outputs need.
+
+    nominal : the 3D nominal (None for a 2D template); template : the 2D template file (None for
+    a 3D nominal); measured : the measured point set as read; doc : the JSON results document.
+    """
+
+    settings: InspectionSettings
+    result: InspectionResult
+    inputs: list[InputRecord]
+    measured: PointSet
+    nominal: Nominal | None
+    template: object | None
+    doc: dict
+
+
+def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
+    """Raise SettingsError for options that do not apply to this kind of nominal."""
+    suffix = os.path.splitext(nominal_path)[1].lower()
+    if suffix == ".dxf":
+        if settings.scale is not None:
+            raise SettingsError("--scale applies to airfoil ordinate templates (.dat) only")
+    elif suffix == ".dat":
+        if settings.scale is None:
+            raise SettingsError("an airfoil ordinate template needs --scale CHORD (the chord "
+                                "length in mm)")
+        if settings.layers or settings.units:
+            raise SettingsError("--layer and --units apply to DXF templates only")
+    elif settings.layers or settings.units or settings.scale is not None:
+        raise SettingsError("--layer, --units and --scale apply to 2D templates (.dxf, .dat) "
+                            "only")
+
+
+def run_files(nominal_path: str, measured_path: str, settings: InspectionSettings) -> Run:
+    """Read both files and inspect. Raises InputError / InputNotFoundError for bad files and
+    SettingsError for options that do not fit the files."""
+    check_settings(nominal_path, settings)
+    tol = settings.tolerance
+    t0 = time.perf_counter()
+    nominal = tpl = None
+    if is_template(nominal_path):
+        from .template2d import read_airfoil_template, read_dxf_template
+
+        if nominal_path.lower().endswith(".dxf"):
+            tpl = read_dxf_template(nominal_path, layers=settings.layers, units=settings.units)
+        else:
+            tpl = read_airfoil_template(nominal_path, settings.scale)
+        nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path), None,
+                                     tpl.template.n_primitives)
+    else:
+        nominal_ps = load_point_set(nominal_path)
+        nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path),
+                                     nominal_ps.n)
+    measured_ps = load_point_set(measured_path)
+    if tpl is None:
+        if measured_ps.dim != 3:
+            raise InputError("measured points have 2 columns (x y) but the nominal is a 3D "
+                             "surface", measured_ps.path)
+        nominal = Nominal.from_point_set(nominal_ps)
+    inputs = [nominal_record,
+              InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
+    t1 = time.perf_counter()
+    if tpl is not None:
+        result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol)
+        result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
+                                        flattened_curves=tpl.flattened,
+                                        ignored_entities=tpl.ignored)
+    else:
+        result = inspect(nominal, measured_ps.points, tol)
+    t2 = time.perf_counter()
+    timings = {"load": t1 - t0, "register": result.timings_s["register"],
+               "deviation": result.timings_s["deviation"], "total": t2 - t0}
+    doc = result_document(result, inputs, timings)
+    doc["settings"] = settings.to_json()
+    return Run(settings, result, inputs, measured_ps, nominal, tpl, doc)
+
+
+def worst_order(result: InspectionResult) -> np.ndarray:
+    """Point indices ordered from farthest outside the zone to deepest inside (stable)."""
+    return np.argsort(-result.tolerance.excess(result.deviations.signed), kind="stable")
