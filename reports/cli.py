@@ -241,8 +241,9 @@ def _cmd_verify(args) -> int:
             cert = doc["certificate"]
         except (KeyError, ValueError) as e:
             problems.append(f"the certificate carries no readable results.json ({e})")
+    notes = []
     if doc is not None and args.nominal:
-        problems += _recheck(doc, args.nominal, args.measured)
+        problems += _recheck(doc, args.nominal, args.measured, notes)
     ok = not problems
     print(f"{'VALID' if ok else 'INVALID'}: {args.certificate}")
     for s in v.signatures:
@@ -254,13 +255,16 @@ def _cmd_verify(args) -> int:
     if doc is not None:
         print(f"  certificate {cert.get('number')}: {VERDICT_WORD.get(doc['verdict'], '?')} — "
               f"{'; '.join(doc.get('reasons', []))}")
+    for n in notes:
+        print(f"  {n}")
     for p in problems:
         print(f"  problem: {p}")
     return 0 if ok else 1
 
 
-def _recheck(doc: dict, nominal: str, measured: str) -> list[str]:
-    """Compare the files with the certificate's SHA-256s and re-run the inspection."""
+def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[str]:
+    """Compare the files with the certificate's SHA-256s and re-run the inspection; return the
+    problems (and append what was confirmed to ``notes``)."""
     from .loading import sha256_of
     from .pipeline import InspectionSettings, run_files
 
@@ -276,7 +280,7 @@ def _recheck(doc: dict, nominal: str, measured: str) -> list[str]:
             problems.append(f"{role} file {path} is not the certified one (SHA-256 {got[:16]}… "
                             f"≠ {str(want)[:16]}…)")
         else:
-            print(f"  {role} file matches: {path}")
+            notes.append(f"{role} file matches the certified SHA-256: {path}")
     if problems:
         return problems
     run = run_files(nominal, measured, InspectionSettings.from_json(doc["settings"]))
@@ -289,7 +293,7 @@ def _recheck(doc: dict, nominal: str, measured: str) -> list[str]:
         problems.append(f"re-run max |deviation| {got:.6f} mm differs from the certified "
                         f"{want} mm")
     else:
-        print(f"  re-run: {run.result.verdict}, max |deviation| {got:.6f} mm, as certified")
+        notes.append(f"re-run: {run.result.verdict}, max |deviation| {got:.6f} mm, as certified")
     return problems
 
 

@@ -122,8 +122,13 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
             step = max(1, nominal_points.shape[0] // 200_000)
             pl.add_points(nominal_points[::step], color=(0.72, 0.73, 0.75), point_size=2)
         n = d.shape[0]
-        pl.add_points(shown, scalars=band_rgb(d, tol), rgb=True, render_points_as_spheres=True,
-                      point_size=float(np.clip(300.0 / math.sqrt(max(n, 1)), 3, 12)))
+        size_in = float(np.clip(300.0 / math.sqrt(max(n, 1)), 3, 12))
+        out = (d < tol.lower) | (d > tol.upper)
+        rgb = band_rgb(d, tol)
+        for mask, px in ((~out, size_in), (out, 1.7 * size_in)):  # the rejects stand out
+            if mask.any():
+                pl.add_points(shown[mask], scalars=rgb[mask], rgb=True,
+                              render_points_as_spheres=True, point_size=px)
         if worst:
             idx = [i for i, _ in worst]
             pl.add_point_labels(shown[idx], [t for _, t in worst], font_size=30, point_size=1,
@@ -456,8 +461,9 @@ def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
     pad = 0.08 * extent + factor * max_d
     lo, hi = lo - pad, hi + pad
     k = min((width - 4) / (hi[0] - lo[0]), (height - 16) / (hi[1] - lo[1]))
+    height = k * (hi[1] - lo[1]) + 16  # no empty band above and below a wide part
     ox = (width - k * (hi[0] - lo[0])) / 2
-    oy = 14 + (height - 16 - k * (hi[1] - lo[1])) / 2
+    oy = 14
 
     def P(xy):
         return ox + k * (xy[..., 0] - lo[0]), oy + k * (xy[..., 1] - lo[1])
@@ -475,9 +481,12 @@ def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
         c = colors.Color(*rgb[i])
         g.add(Line(fx[i], fy[i], tx[i], ty[i], strokeColor=c, strokeWidth=0.8))
         g.add(Circle(tx[i], ty[i], 1.1, fillColor=c, strokeColor=None))
-    for i, text in worst:
-        g.add(String(tx[i] + 3, ty[i] + 2, text.replace("\n", " "), fontName="Helvetica",
-                     fontSize=6.5))
+    placed = []
+    for i, text in worst:  # worst first; a label that would overlap an earlier one is left out
+        if all(abs(tx[i] - x) > 60 or abs(ty[i] - y) > 9 for x, y in placed):
+            placed.append((tx[i], ty[i]))
+            g.add(String(tx[i] + 3, ty[i] + 2, text.replace("\n", " "), fontName="Helvetica",
+                         fontSize=6.5))
     g.add(String(2, 2, f"Whiskers: deviation × {factor:g} along the contour normal "
                        "(outward = excess material)", fontName="Helvetica-Oblique",
                  fontSize=7.5))

@@ -1,8 +1,27 @@
 #!/usr/bin/env bash
-# Set up everything the project needs on a fresh machine: a virtual environment in .venv with the
-# pinned versions of constraints.txt (so a certificate issued today can be reproduced).
+# Set up everything the project needs on a fresh machine: the system tools the tests use (poppler's
+# pdfsig/pdftoppm/pdftotext and NSS's certutil, to check certificates with independent software;
+# installed with apt-get when run as root) and a virtual environment in .venv with the pinned
+# versions of constraints.txt (so a certificate issued today can be reproduced).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+need_apt=()
+command -v pdfsig >/dev/null 2>&1 || need_apt+=(poppler-utils)
+command -v certutil >/dev/null 2>&1 || need_apt+=(libnss3-tools)
+if [ ${#need_apt[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+        echo "setup: installing ${need_apt[*]} (apt-get)" >&2
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get install -y -q --no-install-recommends "${need_apt[@]}" >/dev/null 2>&1 || {
+            apt-get update -q >/dev/null
+            apt-get install -y -q --no-install-recommends "${need_apt[@]}" >/dev/null
+        }
+    else
+        echo "setup: note: ${need_apt[*]} missing; the certificate tests need them" \
+             "(run this script as root, or: sudo apt-get install ${need_apt[*]})" >&2
+    fi
+fi
 
 PYTHON=${PYTHON:-python3}
 if ! "$PYTHON" -c 'import sys; sys.exit(sys.version_info < (3, 11))'; then
