@@ -354,10 +354,11 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                            f"{tol.upper:+.3f}); limits are in tolerance"),
         ("Sign", "Positive along the nominal's outward normal (excess material), negative "
                  "into the material (missing material)"),
-        ("Decision rule", "Pointwise, simple acceptance: ACCEPTED only if every measured point "
-                          "lies inside the zone; REJECTED if any point lies outside; "
-                          "INCONCLUSIVE when the registration cannot be trusted. Measurement "
-                          "uncertainty is not deducted from the zone."),
+        # Lower case on purpose: the verdict words appear on a certificate only as its verdict.
+        ("Decision rule", "Pointwise, simple acceptance: the part is accepted only if every "
+                          "measured point lies inside the zone, rejected if any point lies "
+                          "outside, and the result is inconclusive when the registration cannot "
+                          "be trusted. Measurement uncertainty is not deducted from the zone."),
         ("Units", "millimetres"),
     ], [28 * mm, W - 28 * mm]))
     # 4. method

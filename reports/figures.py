@@ -223,6 +223,9 @@ class RenderProcess:
             self._proc.wait(timeout=10)
         except Exception:  # closing must never mask the caller's own outcome
             self._proc.kill()
+            self._proc.wait()
+        finally:
+            self._proc.stdout.close()
 
 
 class _Reply:

@@ -17,12 +17,17 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import io
+import logging
 import os
 from dataclasses import dataclass, field
 
 from engine.errors import InputError
 
 from .results import write_atomic
+
+# pyHanko logs what it finds wrong with a document (with tracebacks); verify_pdf reports the
+# same findings itself, so the log stays quiet unless an application configures logging.
+logging.getLogger("pyhanko").addHandler(logging.NullHandler())
 
 INSPECTOR_FIELD, APPROVER_FIELD = "Inspector", "Approver"
 DEMO_MARK = "DEMONSTRATION identity made by qa-inspect keygen - not for production use"

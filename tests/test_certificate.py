@@ -1,0 +1,612 @@
+"""Signed inspection certificates, end to end through the command line.
+
+One demonstration PKI and one signed ACCEPT certificate of the bundled belly-fairing sample are
+made once for the module and reused. What the tests hold against is independent of reports/:
+poppler's pdfsig (with an NSS trust database built by certutil), pdftotext, pdfdetach and pdfinfo,
+pyHanko used directly for the approver signature and the incremental edits, hashlib for the input
+fingerprints, lxml with the official QIF 3.0 schema, and a separate command-line run of the same
+inspection. pdfsig/certutil/pdftotext are required (poppler-utils, libnss3-tools): a machine
+without them fails here instead of silently skipping the signature checks.
+"""
+
+import contextlib
+import csv
+import gc
+import hashlib
+import io
+import json
+import os
+import re
+import shutil
+import subprocess
+import warnings
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from reports.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BELLY_NOMINAL = os.path.join(ROOT, "samples", "belly_fairing", "nominal.csv")
+BELLY_MEASURED = os.path.join(ROOT, "samples", "belly_fairing", "measured.csv")
+FRAME_TEMPLATE = os.path.join(ROOT, "samples", "fuselage_frame", "template.dxf")
+FRAME_MEASURED = os.path.join(ROOT, "samples", "fuselage_frame", "measured.csv")
+BRACKET_NOMINAL = os.path.join(ROOT, "samples", "seat_bracket", "nominal.xyz")
+XSD = os.path.join(ROOT, "tests", "data", "qif-3.0-xsd", "QIFDocument.xsd")
+
+PASS_VAR = "QA_TEST_CERTIFICATE_PASSPHRASE"
+PASSPHRASE = "Kalibrier-Passwort 42!"
+INSPECTOR = "Ann Inspector"
+APPROVER = "Bob Approver"
+ORGANISATION = "ACME Aero QA"
+INFO = {"--part-number": "D52-1100-7", "--serial": "SN-0815-X", "--inspector": INSPECTOR,
+        "--organisation": ORGANISATION, "--device": "Laser tracker LT-3"}
+INFO_ARGS = [a for kv in INFO.items() for a in kv]
+CSV_COLUMNS = ["index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
+               "in_tolerance"]
+
+
+# ---------------------------------------------------------------------------- helpers
+def tool(name: str) -> str:
+    path = shutil.which(name)
+    if path is None:
+        pytest.fail(f"{name} is not installed. The certificate tests need poppler-utils (pdfsig, "
+                    "pdftotext, pdfdetach, pdfinfo) and libnss3-tools (certutil): run "
+                    "scripts/setup.sh as root, or 'sudo apt-get install poppler-utils "
+                    "libnss3-tools' (CI installs them).", pytrace=False)
+    return path
+
+
+def run_tool(name: str, *args) -> str:
+    p = subprocess.run([tool(name), *map(str, args)], capture_output=True, text=True,
+                       timeout=60)
+    assert p.returncode == 0, f"{name} {args} failed ({p.returncode}): {p.stderr}"
+    return p.stdout
+
+
+def pdfsig(pdf, nssdir=None) -> str:
+    args = ([] if nssdir is None else ["-nssdir", f"sql:{nssdir}"]) + [pdf]
+    p = subprocess.run([tool("pdfsig"), *map(str, args)], capture_output=True, text=True,
+                       timeout=60)
+    return p.stdout + p.stderr
+
+
+def page_texts(pdf, layout=True) -> list[str]:
+    """The text of each page (pdftotext), checked against the page count pdfinfo reports."""
+    n = int(re.search(r"^Pages:\s+(\d+)", run_tool("pdfinfo", pdf), re.M).group(1))
+    text = run_tool("pdftotext", *(["-layout"] if layout else ["-raw"]), pdf, "-")
+    pages = text.split("\f")
+    if pages and not pages[-1].strip():
+        pages.pop()
+    assert len(pages) == n
+    return pages
+
+
+def squeeze(text: str) -> str:
+    return " ".join(text.split())
+
+
+def cli(*args):
+    """Run the command line outside capsys (fixtures): (exit code, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return code, out.getvalue(), err.getvalue()
+
+
+def verify(capsys, pdf, *args):
+    capsys.readouterr()
+    code = main(["verify", str(pdf), *map(str, args)])
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+def byte_range(pdf: bytes) -> tuple[int, int, int, int]:
+    found = re.findall(rb"/ByteRange\s*\[\s*(\d+)\s+(\d+)\s+(\d+)\s+(\d+)\s*\]", pdf)
+    assert len(found) == 1, f"expected one signature, found {len(found)} /ByteRange entries"
+    r = tuple(int(v) for v in found[0])
+    assert r[0] == 0 and r[2] + r[3] == len(pdf)  # covers everything but /Contents
+    return r
+
+
+def read_text(path) -> str:
+    with open(path) as f:
+        return f.read()
+
+
+def sha256_file(path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
+def make_identity(ca_cert, ca_key, name: str, path, passphrase: bytes) -> None:
+    """A document-signing PKCS#12 issued by ``ca_cert`` (written with cryptography directly)."""
+    import datetime as dt
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.hazmat.primitives.serialization import pkcs12
+    from cryptography.x509.oid import NameOID
+
+    now = dt.datetime.now(dt.timezone.utc)
+    key = ec.generate_private_key(ec.SECP256R1())
+    subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name),
+                         x509.NameAttribute(NameOID.ORGANIZATION_NAME, ORGANISATION)])
+    cert = (x509.CertificateBuilder().subject_name(subject).issuer_name(ca_cert.subject)
+            .public_key(key.public_key()).serial_number(x509.random_serial_number())
+            .not_valid_before(now - dt.timedelta(hours=1))
+            .not_valid_after(now + dt.timedelta(days=30))
+            .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
+            .add_extension(x509.KeyUsage(digital_signature=True, content_commitment=True,
+                                         key_encipherment=False, data_encipherment=False,
+                                         key_agreement=False, key_cert_sign=False,
+                                         crl_sign=False, encipher_only=False,
+                                         decipher_only=False), critical=True)
+            .add_extension(x509.AuthorityKeyIdentifier.from_issuer_public_key(
+                ca_key.public_key()), critical=False)
+            .sign(ca_key, hashes.SHA256()))
+    with open(path, "wb") as f:
+        f.write(pkcs12.serialize_key_and_certificates(
+            name.encode(), key, cert, [ca_cert],
+            serialization.BestAvailableEncryption(passphrase)))
+
+
+def incremental_edit(pdf: bytes, text: bytes = b"REJECTED BY QA") -> bytes:
+    """Append a revision that draws ``text`` in red on page 1 and retitles the document."""
+    from pyhanko.pdf_utils import generic
+    from pyhanko.pdf_utils.incremental_writer import IncrementalPdfFileWriter
+
+    w = IncrementalPdfFileWriter(io.BytesIO(pdf))
+    font = w.add_object(generic.DictionaryObject({
+        generic.NameObject("/Type"): generic.NameObject("/Font"),
+        generic.NameObject("/Subtype"): generic.NameObject("/Type1"),
+        generic.NameObject("/BaseFont"): generic.NameObject("/Helvetica")}))
+    stream = generic.StreamObject(stream_data=b"q 1 0 0 rg BT /QaForge 40 Tf 150 450 Td ("
+                                  + text + b") Tj ET Q")
+    w.add_stream_to_page(0, w.add_object(stream), resources=generic.DictionaryObject({
+        generic.NameObject("/Font"): generic.DictionaryObject({
+            generic.NameObject("/QaForge"): font})}))
+    w.document_meta.title = "Forged"
+    out = io.BytesIO()
+    w.write(out)
+    return out.getvalue()
+
+
+# ---------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope="module")
+def signed(tmp_path_factory):
+    """keygen (the inspector's demonstration PKI), a second unrelated PKI, an approver issued by
+    the inspector's CA, and one signed ACCEPT certificate of the belly-fairing sample."""
+    from cryptography import x509
+    from cryptography.hazmat.primitives import serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+
+    for name in ("pdfsig", "pdftotext", "pdfinfo", "pdfdetach", "certutil"):
+        tool(name)
+    d = tmp_path_factory.mktemp("certificate")
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        # keygen keeps no CA key; record the keys it makes so that the test can issue the
+        # approver's certificate from the same CA.
+        made = []
+        with pytest.MonkeyPatch.context() as mp:
+            real = ec.generate_private_key
+
+            def recording(*a, **k):
+                made.append(real(*a, **k))
+                return made[-1]
+
+            mp.setattr(ec, "generate_private_key", recording)
+            code, out, err = cli("keygen", "--name", INSPECTOR, "--organisation", ORGANISATION,
+                                 "--out", d / "id", "--pass-env", PASS_VAR)
+        assert code == 0, err
+        assert os.path.isfile(d / "id" / "ca.pem") and os.path.isfile(d / "id" / "inspector.p12")
+        assert "DEMONSTRATION" in out and str(d / "id" / "ca.pem") in out
+        code, _, err = cli("keygen", "--name", "Mallory", "--organisation", "Other Org",
+                           "--out", d / "other", "--pass-env", PASS_VAR)
+        assert code == 0, err
+
+        ca_cert = x509.load_pem_x509_certificate((d / "id" / "ca.pem").read_bytes())
+
+        def spki(k):
+            return k.public_bytes(serialization.Encoding.DER,
+                                  serialization.PublicFormat.SubjectPublicKeyInfo)
+
+        ca_key = next((k for k in made if spki(k.public_key()) == spki(ca_cert.public_key())),
+                      None)
+        assert ca_key is not None, "could not capture the demonstration CA's key from keygen"
+        make_identity(ca_cert, ca_key, APPROVER, d / "approver.p12", PASSPHRASE.encode())
+
+        pdf = d / "cert.pdf"
+        code, out, err = cli("inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25",
+                             "--report", pdf, "--sign", d / "id" / "inspector.p12",
+                             "--sign-pass-env", PASS_VAR, *INFO_ARGS)
+        assert code == 0, out + err
+        assert out.startswith("ACCEPT") and os.path.isfile(pdf)
+        yield SimpleNamespace(dir=d, pdf=pdf, bytes=pdf.read_bytes(), ca=d / "id" / "ca.pem",
+                              p12=d / "id" / "inspector.p12", other_ca=d / "other" / "ca.pem",
+                              approver_p12=d / "approver.p12")
+
+
+@pytest.fixture(scope="module")
+def evidence(signed):
+    """The certificate's attachments, read by reports.signing against the CA."""
+    from reports.signing import read_trust_roots, verify_pdf
+
+    v = verify_pdf(signed.bytes, read_trust_roots(str(signed.ca)))
+    assert v.valid, v.problems
+    return v.attachments
+
+
+@pytest.fixture(scope="module")
+def number(evidence):
+    return json.loads(evidence["results.json"])["certificate"]["number"]
+
+
+@pytest.fixture(scope="module")
+def nss(tmp_path_factory, signed):
+    """Two NSS databases: one trusting the demonstration CA, one empty."""
+    trusted = tmp_path_factory.mktemp("nss-trusted")
+    empty = tmp_path_factory.mktemp("nss-empty")
+    for db in (trusted, empty):
+        run_tool("certutil", "-N", "-d", f"sql:{db}", "--empty-password")
+    run_tool("certutil", "-A", "-d", f"sql:{trusted}", "-n", "qa-demo-ca", "-t", "CT,C,C",
+             "-i", signed.ca)
+    return SimpleNamespace(trusted=trusted, empty=empty)
+
+
+@pytest.fixture(scope="module")
+def tampered(signed):
+    """Forged copies of the signed certificate: (a) one byte, (b) verdict, (c) new revision."""
+    pdf = signed.bytes
+    _, end1, _, _ = byte_range(pdf)
+    d = signed.dir / "tampered"
+    d.mkdir()
+    # (a) one digit of a text position in page 1's content, just before the verdict is drawn.
+    verdict = pdf.find(b"(ACCEPTED) Tj")
+    assert 0 < verdict < end1, "no uncompressed '(ACCEPTED) Tj' in the signed page content"
+    at = max(i for i in range(verdict - 200, verdict) if pdf[i:i + 1].isdigit())
+    assert 10_000 < at < end1 - 10_000
+    a = bytearray(pdf)
+    a[at] ^= 0x01  # a digit stays a digit: a silent, well-formed change
+    # (b) the verdict word in every page content stream, same length.
+    hits = [m.start() for m in re.finditer(rb"\(ACCEPTED\) Tj", pdf)]
+    assert hits and all(h < end1 for h in hits)
+    b = bytearray(pdf)
+    for h in hits:
+        b[h:h + 10] = b"(REJECTED)"
+    # (c) an incremental revision after the signature.
+    c = incremental_edit(pdf)
+    paths = {}
+    for key, data in (("a", a), ("b", b), ("c", c)):
+        paths[key] = d / f"tamper_{key}.pdf"
+        paths[key].write_bytes(bytes(data))
+    return SimpleNamespace(**paths)
+
+
+# ---------------------------------------------------------------------------- 1. verify
+def test_verify_signed_certificate(signed, number, capsys):
+    code, out, err = verify(capsys, signed.pdf, "--trust", signed.ca)
+    assert code == 0, out + err
+    lines = out.splitlines()
+    assert lines[0] == f"VALID: {signed.pdf}"
+    sig = [ln for ln in lines if ln.strip().startswith("signature ")]
+    assert len(sig) == 1
+    assert "'Inspector'" in sig[0] and INSPECTOR in sig[0] and ORGANISATION in sig[0]
+    assert "intact, trusted" in sig[0]
+    assert f"certificate {number}: ACCEPTED" in out
+    assert "problem" not in out and "INVALID" not in out
+
+
+def test_verify_with_the_input_files_reruns(signed, capsys):
+    code, out, err = verify(capsys, signed.pdf, "--trust", signed.ca,
+                            "--nominal", BELLY_NOMINAL, "--measured", BELLY_MEASURED)
+    assert code == 0, out + err
+    assert out.startswith("VALID")
+    for role, path in (("nominal", BELLY_NOMINAL), ("measured", BELLY_MEASURED)):
+        assert any(f"{role} file matches" in ln and ln.endswith(path) for ln in out.splitlines())
+    assert re.search(r"re-run: ACCEPT, max \|deviation\| \d+\.\d{6} mm, as certified", out)
+
+
+def test_verify_rejects_a_different_measured_file(signed, tmp_path, capsys):
+    lines = read_text(BELLY_MEASURED).splitlines(keepends=True)
+    row = lines[2].rstrip("\n").split(",")  # first data row: id,x,y,z
+    row[1] = f"{float(row[1]) + 0.001:.4f}"
+    lines[2] = ",".join(row) + "\n"
+    changed = tmp_path / "measured.csv"
+    changed.write_text("".join(lines))
+    assert sha256_file(changed) != sha256_file(BELLY_MEASURED)
+    code, out, err = verify(capsys, signed.pdf, "--trust", signed.ca,
+                            "--nominal", BELLY_NOMINAL, "--measured", changed)
+    assert code == 1
+    assert out.startswith("INVALID")
+    problem = [ln for ln in out.splitlines() if "problem:" in ln]
+    assert len(problem) == 1 and "measured" in problem[0] and "SHA-256" in problem[0]
+    assert sha256_file(changed)[:16] in problem[0]
+    assert "re-run" not in out
+
+
+# ---------------------------------------------------------------------------- 2. tampering
+def test_verify_detects_one_flipped_byte(signed, tampered, capsys):
+    code, out, err = verify(capsys, tampered.a, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "digest mismatch" in out or "NOT INTACT" in out
+
+
+def test_verify_detects_a_rewritten_verdict(signed, tampered, capsys):
+    # The forgery is visible: page 1's header and verdict block now say REJECTED.
+    head = page_texts(tampered.b)[0]
+    assert head.count("REJECTED") >= 2 and "ACCEPTED" not in head.split("Certificate No.")[0]
+    code, out, err = verify(capsys, tampered.b, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "NOT INTACT" in out
+
+
+def test_verify_detects_an_incremental_revision(signed, tampered, capsys):
+    assert "REJECTED BY QA" in page_texts(tampered.c)[0]  # the change is visible
+    code, out, err = verify(capsys, tampered.c, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "changed after the last signature" in out
+
+
+def test_verify_with_another_ca_is_not_trusted(signed, capsys):
+    code, out, err = verify(capsys, signed.pdf, "--trust", signed.other_ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "does not chain" in out and "NOT TRUSTED" in out
+
+
+@pytest.mark.parametrize("kind", ["truncated", "not-a-pdf"])
+def test_verify_broken_files_fail_cleanly(signed, tmp_path, capsys, kind):
+    path = tmp_path / "broken.pdf"
+    data = signed.bytes
+    path.write_bytes(data[:len(data) // 2] if kind == "truncated"
+                     else b"id,x,y,z\nP1,1,2,3\n")
+    code, out, err = verify(capsys, path, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "Traceback" not in out + err
+
+
+# ---------------------------------------------------------------------------- 3. pdfsig
+def test_pdfsig_agrees(signed, tampered, nss):
+    plain = pdfsig(signed.pdf)
+    assert "Signature is Valid" in plain and "Total document signed" in plain
+    assert f"Common Name: {INSPECTOR}" in plain
+    assert "Certificate is Trusted" in pdfsig(signed.pdf, nss.trusted)
+    assert "Certificate is Trusted" not in pdfsig(signed.pdf, nss.empty)  # control
+    a = pdfsig(tampered.a)
+    assert ("Digest Mismatch" in a or "Signature is Invalid" in a) and "Signature is Valid" not in a
+    b = pdfsig(tampered.b)
+    assert ("Digest Mismatch" in b or "Signature is Invalid" in b) and "Signature is Valid" not in b
+    assert "Not total document signed" in pdfsig(tampered.c)
+
+
+# ---------------------------------------------------------------------------- 4. attachments
+def test_attachments_are_the_evidence(signed, evidence, number, tmp_path):
+    assert set(evidence) == {"points.csv", "results.qif", "results.json"}
+    # pdfdetach extracts the same bytes.
+    run_tool("pdfdetach", "-saveall", "-o", tmp_path, signed.pdf)
+    for name, data in evidence.items():
+        assert (tmp_path / name).read_bytes() == data
+    # A separate run of the same inspection.
+    code, out, err = cli("inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25",
+                         "--json", tmp_path / "r.json", "--csv", tmp_path / "r.csv")
+    assert code == 0, out + err
+    separate = json.loads((tmp_path / "r.json").read_text())
+    with open(tmp_path / "r.csv", newline="") as f:
+        separate_rows = list(csv.DictReader(f))
+
+    rows = list(csv.DictReader(io.StringIO(evidence["points.csv"].decode())))
+    assert list(rows[0]) == CSV_COLUMNS
+    assert len(rows) == 1100 == len(read_text(BELLY_MEASURED).splitlines()) - 2
+    assert [r["label"] for r in rows] == [f"P{i:04d}" for i in range(1, 1101)]
+    assert [r["deviation"] for r in rows] == [r["deviation"] for r in separate_rows]
+    assert all(r["in_tolerance"] == "true" for r in rows)
+    dev = np.array([float(r["deviation"]) for r in rows])
+
+    doc = json.loads(evidence["results.json"])
+    assert doc["verdict"] == "ACCEPT"
+    st = doc["deviations"]
+    assert st["count"] == 1100 and st["n_out"] == 0
+    for key, value in (("min", dev.min()), ("max", dev.max()),
+                       ("max_abs", np.abs(dev).max()), ("mean", dev.mean()),
+                       ("rms", np.sqrt(np.mean(dev ** 2)))):
+        assert st[key] == pytest.approx(value, abs=1e-6), key
+    for w in st["worst"]:
+        assert float(rows[w["index"]]["deviation"]) == pytest.approx(w["deviation"], abs=5e-7)
+    for key in ("count", "min", "max", "mean", "rms", "max_abs", "n_out"):
+        assert st[key] == pytest.approx(separate["deviations"][key], abs=1e-9), key
+    assert {r["role"]: r["sha256"] for r in doc["inputs"]} == {
+        "nominal": sha256_file(BELLY_NOMINAL), "measured": sha256_file(BELLY_MEASURED)}
+    cert = doc["certificate"]
+    assert (cert["part_number"], cert["serial"], cert["inspector"], cert["device"],
+            cert["signed_by"]) == (INFO["--part-number"], INFO["--serial"], INSPECTOR,
+                                   INFO["--device"], INSPECTOR)
+    assert re.fullmatch(r"QA-\d{8}-[0-9A-F]{8}", number)
+    assert number in run_tool("pdftotext", signed.pdf, "-")
+
+
+def test_attached_qif_is_valid(evidence):
+    from lxml import etree
+
+    schema = etree.XMLSchema(etree.parse(XSD))
+    qif = etree.fromstring(evidence["results.qif"])
+    assert schema.validate(qif), schema.error_log
+
+
+# ---------------------------------------------------------------------------- 5. page content
+def test_every_page_identifies_the_certificate(signed, number):
+    pages = page_texts(signed.pdf)
+    n = len(pages)
+    assert n >= 2
+    for k, page in enumerate(pages, 1):
+        assert f"Page {k} of {n}" in page, k
+        assert number in page, k
+        assert "ACCEPTED" in page, k
+    assert "End of certificate" in pages[-1]
+    assert all("End of certificate" not in p for p in pages[:-1])
+    text = "\n".join(pages)
+    for value in INFO.values():
+        assert value in text, value
+    assert "T_nominal_measured" in text
+    assert "UNSIGNED DRAFT" not in text
+    raw = "".join("".join(page_texts(signed.pdf, layout=False)).split())
+    for path in (BELLY_NOMINAL, BELLY_MEASURED):
+        assert sha256_file(path) in raw, path
+
+
+# ---------------------------------------------------------------------------- 6. draft
+def test_unsigned_draft(signed, tmp_path, capsys):
+    draft = tmp_path / "draft.pdf"
+    code, out, err = cli("inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25",
+                         "--report", draft, *INFO_ARGS)
+    assert code == 0, out + err
+    pages = page_texts(draft)
+    assert all("UNSIGNED DRAFT" in p for p in pages)
+    code, out, err = verify(capsys, draft, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "no signature" in out
+
+
+# ---------------------------------------------------------------------------- 7. reject, 2D
+def test_reject_certificate_never_says_accepted(tmp_path):
+    pdf = tmp_path / "reject.pdf"
+    code, out, err = cli("inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.05",
+                         "--report", pdf, *INFO_ARGS)
+    assert code == 1 and out.startswith("REJECT"), out + err
+    pages = page_texts(pdf)
+    for page in pages:
+        assert "REJECTED" in page
+    text = squeeze("\n".join(pages))
+    assert "ACCEPTED" not in text
+    assert "does not conform" in text
+
+
+def test_signed_2d_certificate(signed, tmp_path, capsys):
+    pdf = tmp_path / "frame.pdf"
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        code, out, err = cli("inspect", FRAME_TEMPLATE, FRAME_MEASURED, "--tol", "0.05",
+                             "--report", pdf, "--sign", signed.p12, "--sign-pass-env", PASS_VAR,
+                             "--part-number", "FR-12", "--serial", "SN-2D")
+    assert code == 0 and out.startswith("ACCEPT"), out + err
+    pages = page_texts(pdf)
+    for k, page in enumerate(pages, 1):
+        assert f"Page {k} of {len(pages)}" in page
+        assert "ACCEPTED" in page
+    assert "Line profile" in squeeze("\n".join(pages))
+    code, out, err = verify(capsys, pdf, "--trust", signed.ca,
+                            "--nominal", FRAME_TEMPLATE, "--measured", FRAME_MEASURED)
+    assert code == 0, out + err
+    assert out.startswith("VALID") and "ACCEPTED" in out and "as certified" in out
+
+
+# ---------------------------------------------------------------------------- 8. inconclusive
+def test_inconclusive_certificate(tmp_path):
+    pdf = tmp_path / "wrong_part.pdf"
+    code, out, err = cli("inspect", BRACKET_NOMINAL, BELLY_MEASURED, "--tol", "0.25",
+                         "--report", pdf, "--json", tmp_path / "r.json")
+    assert code == 2, out + err
+    assert json.loads((tmp_path / "r.json").read_text())["verdict"] == "INCONCLUSIVE"
+    pages = page_texts(pdf)
+    for page in pages:
+        assert "INCONCLUSIVE" in page
+    text = squeeze("\n".join(pages))
+    assert "ACCEPTED" not in text and "REJECTED" not in text
+    assert "No statement of conformity" in text
+
+
+# ---------------------------------------------------------------------------- 9. approver
+def test_approver_signature(signed, nss, tmp_path, capsys):
+    from pyhanko.pdf_utils.incremental_writer import IncrementalPdfFileWriter
+    from pyhanko.sign import fields, signers
+
+    from reports.signing import load_identity
+
+    approver = load_identity(str(signed.approver_p12), PASSPHRASE.encode())
+    w = IncrementalPdfFileWriter(io.BytesIO(signed.bytes))
+    meta = signers.PdfSignatureMetadata(field_name="Approver", md_algorithm="sha256",
+                                        subfilter=fields.SigSeedSubFilter.PADES)
+    both = tmp_path / "approved.pdf"
+    both.write_bytes(signers.PdfSigner(meta, approver.signer).sign_pdf(w).getvalue())
+
+    code, out, err = verify(capsys, both, "--trust", signed.ca)
+    assert code == 0, out + err
+    sig = [ln for ln in out.splitlines() if ln.strip().startswith("signature ")]
+    assert len(sig) == 2
+    assert "'Inspector'" in sig[0] and INSPECTOR in sig[0] and "intact, trusted" in sig[0]
+    assert "'Approver'" in sig[1] and APPROVER in sig[1] and "intact, trusted" in sig[1]
+    assert pdfsig(both, nss.trusted).count("Signature is Valid") == 2
+
+    later = tmp_path / "approved_then_edited.pdf"
+    later.write_bytes(incremental_edit(both.read_bytes(), b"VOID"))
+    code, out, err = verify(capsys, later, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "changed after the last signature" in out
+
+
+# ---------------------------------------------------------------------------- 10. bad inputs
+def test_wrong_passphrase(signed, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv(PASS_VAR, "not the passphrase")
+    pdf = tmp_path / "c.pdf"
+    code = main(["inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25", "--report", str(pdf),
+                 "--sign", str(signed.p12), "--sign-pass-env", PASS_VAR])
+    err = capsys.readouterr().err
+    assert code == 65
+    assert str(signed.p12) in err and "passphrase" in err
+    assert not pdf.exists() and os.listdir(tmp_path) == []
+
+
+def test_report_closes_the_render_pipe(signed, tmp_path, monkeypatch):
+    """A --report run (here stopped early by a wrong passphrase, after the 3D render worker has
+    started) leaves no open file behind: the desktop app makes many certificates per process."""
+    monkeypatch.setenv(PASS_VAR, "not the passphrase")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ResourceWarning)
+        code, _, _ = cli("inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25",
+                         "--report", tmp_path / "c.pdf", "--sign", signed.p12,
+                         "--sign-pass-env", PASS_VAR)
+        gc.collect()
+    assert code == 65
+    leaks = [str(w.message) for w in caught if issubclass(w.category, ResourceWarning)]
+    assert leaks == []
+
+
+def test_missing_identity(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv(PASS_VAR, PASSPHRASE)
+    pdf = tmp_path / "c.pdf"
+    missing = tmp_path / "nobody.p12"
+    code = main(["inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25", "--report", str(pdf),
+                 "--sign", str(missing), "--sign-pass-env", PASS_VAR])
+    err = capsys.readouterr().err
+    assert code == 66 and str(missing) in err
+    assert not pdf.exists()
+
+
+def test_sign_needs_report(signed, monkeypatch, capsys):
+    monkeypatch.setenv(PASS_VAR, PASSPHRASE)
+    code = main(["inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25",
+                 "--sign", str(signed.p12), "--sign-pass-env", PASS_VAR])
+    assert code == 64
+    assert "--report" in capsys.readouterr().err
+
+
+def test_keygen_does_not_overwrite(signed, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv(PASS_VAR, PASSPHRASE)
+    shutil.copy(signed.ca, tmp_path / "ca.pem")
+    before = (tmp_path / "ca.pem").read_bytes()
+    code = main(["keygen", "--name", "X", "--out", str(tmp_path), "--pass-env", PASS_VAR])
+    err = capsys.readouterr().err
+    assert code == 73 and "ca.pem" in err
+    assert (tmp_path / "ca.pem").read_bytes() == before
+    assert os.listdir(tmp_path) == ["ca.pem"]
+
+
+def test_verify_trust_file_errors(signed, tmp_path, capsys):
+    code, out, err = verify(capsys, signed.pdf, "--trust", tmp_path / "missing.pem")
+    assert code == 66 and "missing.pem" in err and "VALID" not in out
+    garbage = tmp_path / "garbage.pem"
+    garbage.write_bytes(b"not a certificate \x00\x01\x02 just bytes\n")
+    code, out, err = verify(capsys, signed.pdf, "--trust", garbage)
+    assert code == 65 and "garbage.pem" in err and "VALID" not in out
