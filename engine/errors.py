@@ -34,3 +34,7 @@ class InputNotFoundError(InputError, FileNotFoundError):
 
 class SettingsError(QAError, ValueError):
     """Inconsistent settings (e.g. a tolerance zone whose lower limit exceeds the upper)."""
+
+
+class Cancelled(QAError):
+    """The user stopped the computation (raised from a progress callback)."""

@@ -16,12 +16,12 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, nogil=True, inline="always")
 def _dot(ax, ay, az, bx, by, bz):
     return ax * bx + ay * by + az * bz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _segment_t(px, py, pz, ax, ay, az, bx, by, bz):
     ex, ey, ez = bx - ax, by - ay, bz - az
     den = _dot(ex, ey, ez, ex, ey, ez)
@@ -31,7 +31,7 @@ def _segment_t(px, py, pz, ax, ay, az, bx, by, bz):
     return min(1.0, max(0.0, t))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def closest_bary(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Barycentrics (u, v, w) of the closest point to p on the solid triangle a b c.
 
@@ -98,7 +98,7 @@ def closest_bary(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     return 1.0 - v - w, v, w
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def closest_bary_batch(p, a, b, c, out):
     """Row-wise :func:`closest_bary`: p, a, b, c (n, 3) → out (n, 3)."""
     for i in range(p.shape[0]):
@@ -109,7 +109,7 @@ def closest_bary_batch(p, a, b, c, out):
         out[i, 2] = w
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def best_in_stars(pts, rows, samples, star_ptr, star_tri, triangles, points,
                   best_tri, best_d2, best_bary):
     """For each query ``rows[k]``, try every triangle around sample point ``samples[k]``.
@@ -142,7 +142,7 @@ def best_in_stars(pts, rows, samples, star_ptr, star_tri, triangles, points,
                 best_bary[i, 2] = w
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _phong(V, N, b0, b1, b2, fnx, fny, fnz):
     """Phong surface (shape factor 1/2) point, unit normal and flat point at barycentrics."""
     qx = b0 * V[0, 0] + b1 * V[1, 0] + b2 * V[2, 0]
@@ -167,7 +167,7 @@ def _phong(V, N, b0, b1, b2, fnx, fny, fnz):
     return sx, sy, sz, nx, ny, nz, qx, qy, qz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def phong_finish(pts, V, N, bary, curvature, cos_tilt, extrapolate,
                  signed, foot, normal, curved):
     """Lift each point's chosen facet to its Phong surface and measure the signed distance.

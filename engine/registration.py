@@ -34,9 +34,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .deviation import Deviations, point_to_surface
-from .geometry import (make_transform, rotation_angle_deg, rotation_from_rotvec, skew,
-                       uniform_rotations)
+from .geometry import (
+    make_transform,
+    rotation_angle_deg,
+    rotation_from_rotvec,
+    skew,
+    uniform_rotations,
+)
 from .nominal import Nominal
+from .progress import report
 
 _SEED = 7
 
@@ -141,6 +147,7 @@ def register(nominal: Nominal, measured: np.ndarray,
     lvl_shape = nominal.level_shape(coarse)
     h0 = _level_spacing(lvl_tree, lvl_pts)
 
+    report("global search: pose hypotheses", 0.02)
     sub = _spread_subset(measured, settings.coarse_measured)
     T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings)
     n_hyp = T.shape[0]
@@ -151,10 +158,12 @@ def register(nominal: Nominal, measured: np.ndarray,
     # poses are carried to the finer levels, where they can.
     first = sub[_spread_subset(measured[sub], settings.coarse_measured // 2)]
     T, score, _ = _icp_batch(T, measured[first], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=3,
-                             lam2=0.01, shape=lvl_shape)
+                             lam2=0.01, shape=lvl_shape,
+                             stage=(f"global search over {n_hyp} poses", 0.05, 0.25))
     T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2)
     T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=6,
-                             lam2=0.01, shape=lvl_shape)
+                             lam2=0.01, shape=lvl_shape,
+                             stage=(f"global search, best {T.shape[0]} poses", 0.25, 0.4))
     T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0])
 
     # Coarse to fine: the nominal sample grows x4 per level, the measured subset with it.
@@ -178,9 +187,12 @@ def register(nominal: Nominal, measured: np.ndarray,
         last = size >= nominal.n
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
             else None
+        frac = 0.4 + 0.35 * min(level, 4) / 4
         T, score, done = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h,
                                     iterations=8 if last else 4, stop_rad=1e-6 if last else 0.0,
-                                    reach=10 * h, shape=shape)
+                                    reach=10 * h, shape=shape,
+                                    stage=(f"ICP on {size:,} nominal samples", frac,
+                                           frac + 0.08))
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
         T = _best_distinct(T, score, measured[msub], keep)
@@ -191,6 +203,7 @@ def register(nominal: Nominal, measured: np.ndarray,
     # best distinct other one is the runner-up.
     floor = settings.outlier_floor * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
+    report("comparing the candidate poses", 0.8)
     devs = [point_to_surface(nominal, measured[ssub] @ Tc[:3, :3].T + Tc[:3, 3]).signed
             for Tc in refined]
     cut0 = min(robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
@@ -359,8 +372,11 @@ def _level_spacing(tree: cKDTree, pts: np.ndarray) -> float:
 
 def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, nrm: np.ndarray,
                spacing: float, iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
-               reach: float = np.inf, shape: np.ndarray | None = None):
+               reach: float = np.inf, shape: np.ndarray | None = None,
+               stage: tuple[str, float, float] | None = None):
     """Run ICP iterations for H poses at once; returns (poses, truncated scores, iterations run).
+
+    stage : (name, first fraction, last fraction) for progress reports, one per iteration.
 
     T : (H, 4, 4) poses; src : (m, 3) measured points; nrm : (L, 3) sample normals, or a function
     giving the normals of sample indices. Each iteration pairs every transformed
@@ -379,7 +395,10 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
     H, m = T.shape[0], src.shape[0]
     score = np.zeros(H)
     done = 0
-    for _ in range(iterations):
+    for k in range(iterations):
+        if stage is not None:
+            report(f"{stage[0]}, ICP iteration {k + 1}",
+                   stage[1] + (stage[2] - stage[1]) * k / iterations)
         X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
         dist, j = tree.query(X.reshape(-1, 3), workers=_workers(H * m),
                              distance_upper_bound=reach)
@@ -558,6 +577,8 @@ def _gauss_newton(nominal, pts, T, settings, floor, cut, max_iter):
     fixed = cut is not None
     inlier = None
     for it in range(1, max_iter + 1):
+        report(f"point-to-surface fit on {pts.shape[0]:,} points, iteration {it}",
+               0.85 + 0.1 * it / max_iter)
         X = pts @ T[:3, :3].T + T[:3, 3]
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, X)

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
+from .progress import report
 from .registration import robust_cut
 
 _SEED = 11
@@ -128,11 +129,15 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     n_hyp = T.shape[0]
     h = S.spacing
     Sc = S.coarse(1000)
+    report(f"global search over {n_hyp} poses", 0.1)
     T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], Sc, iterations=5)
     T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
+    report(f"global search, best {T.shape[0]} poses", 0.35)
     T, score = _icp2(T, p[sub], Sc, iterations=6)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
+    report("ICP on the full contour samples", 0.55)
     T, score = _icp2(T, p[_spread(p, 256)], S, iterations=8)
+    report("point-to-contour fit", 0.75)
     order = np.argsort(score, kind="stable")
     # Candidates clearly worse than the best (4x its score, beyond the sampling noise) are not
     # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).

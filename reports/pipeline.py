@@ -16,6 +16,7 @@ from engine.errors import InputError, SettingsError
 from engine.inspection import InspectionResult, Tolerance, inspect, inspect_2d
 from engine.nominal import Nominal
 from engine.pointio import PointSet
+from engine.progress import Callback, report, reporting
 
 from .loading import is_template, load_point_set, sha256_of
 from .results import InputRecord, result_document
@@ -90,10 +91,21 @@ def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
                             "only")
 
 
-def run_files(nominal_path: str, measured_path: str, settings: InspectionSettings) -> Run:
+def run_files(nominal_path: str, measured_path: str, settings: InspectionSettings,
+              progress: Callback | None = None) -> Run:
     """Read both files and inspect. Raises InputError / InputNotFoundError for bad files and
-    SettingsError for options that do not fit the files."""
+    SettingsError for options that do not fit the files.
+
+    progress : called as progress(stage, fraction) at each stage and iteration (see
+        engine.progress); it may raise engine.errors.Cancelled to stop the run.
+    """
+    with reporting(progress):
+        return _run_files(nominal_path, measured_path, settings)
+
+
+def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettings) -> Run:
     check_settings(nominal_path, settings)
+    report("loading the nominal", 0.0)
     tol = settings.tolerance
     t0 = time.perf_counter()
     nominal = tpl = None
@@ -110,11 +122,13 @@ def run_files(nominal_path: str, measured_path: str, settings: InspectionSetting
         nominal_ps = load_point_set(nominal_path)
         nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path),
                                      nominal_ps.n)
+    report("loading the measured points", 0.0)
     measured_ps = load_point_set(measured_path)
     if tpl is None:
         if measured_ps.dim != 3:
             raise InputError("measured points have 2 columns (x y) but the nominal is a 3D "
                              "surface", measured_ps.path)
+        report("preparing the nominal", 0.0)
         nominal = Nominal.from_point_set(nominal_ps)
     inputs = [nominal_record,
               InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
@@ -126,6 +140,7 @@ def run_files(nominal_path: str, measured_path: str, settings: InspectionSetting
                                         ignored_entities=tpl.ignored)
     else:
         result = inspect(nominal, measured_ps.points, tol)
+    report("judging", 1.0)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
