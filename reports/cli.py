@@ -157,29 +157,22 @@ def _guarded(command, args) -> int:
     """Run a command; user mistakes become one-line messages and exit codes, never tracebacks."""
     from engine.errors import InputError, InputNotFoundError
 
+    from .messages import user_message
     from .signing import OutputExistsError
 
     try:
         return command(args)
     except (UsageError, KeyboardInterrupt):
         raise
-    except InputNotFoundError as e:
-        print(f"qa-inspect: error: {e}", file=sys.stderr)
-        return EX_NOINPUT
-    except InputError as e:
-        print(f"qa-inspect: error: {e}", file=sys.stderr)
-        return EX_DATAERR
-    except OutputExistsError as e:
-        print(f"qa-inspect: error: {e}", file=sys.stderr)
-        return EX_CANTCREAT
-    except OSError as e:
-        print(f"qa-inspect: error: cannot write {e.filename or 'output'}: {e.strerror}",
-              file=sys.stderr)
-        return EX_CANTCREAT
-    except Exception as e:  # a bug: say so, give no result that could be taken for one
-        print(f"qa-inspect: internal error ({type(e).__name__}: {e}); no result was written. "
-              "Please report this with the input files.", file=sys.stderr)
-        if os.environ.get("QA_DEBUG"):
+    except Exception as e:
+        print(f"qa-inspect: error: {user_message(e)}", file=sys.stderr)
+        if isinstance(e, InputNotFoundError):
+            return EX_NOINPUT
+        if isinstance(e, InputError):
+            return EX_DATAERR
+        if isinstance(e, (OutputExistsError, OSError)):
+            return EX_CANTCREAT
+        if os.environ.get("QA_DEBUG"):  # a bug: say so, give no result that could be taken
             raise
         return EX_SOFTWARE
 

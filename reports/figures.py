@@ -102,15 +102,8 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    face = _face_on_direction(feet, normals)
-    diagonal = float(np.linalg.norm(np.ptp(nominal_points, axis=0)))
-    lift = 1e-3 * diagonal
-    surf = None
-    if triangles is not None:
-        surf = pv.PolyData.from_regular_faces(nominal_points, triangles)
-        if surf.n_cells > DISPLAY_TRIANGLES:
-            surf = _simplified(surf)
-            lift = max(lift, 0.5 * diagonal / CLUSTER_DIVISIONS)
+    face = face_on_direction(feet, normals)
+    surf, lift = display_surface(nominal_points, triangles)
     shown = feet + lift * normals  # just outside the surface, so the surface never hides them
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
@@ -135,7 +128,7 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
                                 shape_color="white", shape_opacity=0.85, text_color="black",
                                 always_visible=True, margin=3)
         pl.enable_parallel_projection()
-        up = _any_perpendicular(face)
+        up = any_perpendicular(face)
         oblique = _rotate(face, np.cross(face, up), math.radians(50.0))
         views = []
         for name, direction in (("face-on", face), ("oblique", oblique)):
@@ -152,6 +145,24 @@ DISPLAY_TRIANGLES = 40_000
 """Nominal meshes with more triangles are simplified for the picture (software OpenGL renders
 time in proportion); the deviations themselves never see this."""
 CLUSTER_DIVISIONS = 150
+
+
+def display_surface(nominal_points: np.ndarray, triangles: np.ndarray | None,
+                    max_triangles: int = DISPLAY_TRIANGLES):
+    """The nominal as a pyvista surface for display (None for bare points), simplified above
+    ``max_triangles``, and how far (mm) to lift points off it along their normals so that the
+    surface never hides them."""
+    import pyvista as pv
+
+    diagonal = float(np.linalg.norm(np.ptp(nominal_points, axis=0)))
+    lift = 1e-3 * diagonal
+    if triangles is None:
+        return None, lift
+    surf = pv.PolyData.from_regular_faces(nominal_points, triangles)
+    if surf.n_cells > max_triangles:
+        surf = _simplified(surf)
+        lift = max(lift, 0.5 * diagonal / CLUSTER_DIVISIONS)
+    return surf, lift
 
 
 def _simplified(surf):
@@ -293,7 +304,7 @@ def _serve() -> None:
         out.flush()
 
 
-def _face_on_direction(p: np.ndarray, normals: np.ndarray) -> np.ndarray:
+def face_on_direction(p: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Look along the measured patch's least-spread axis, from the side most normals face."""
     c = p - p.mean(axis=0)
     _, _, vt = np.linalg.svd(c[:: max(1, len(c) // 20000)], full_matrices=False)
@@ -303,7 +314,7 @@ def _face_on_direction(p: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return axis / np.linalg.norm(axis)
 
 
-def _any_perpendicular(v: np.ndarray) -> np.ndarray:
+def any_perpendicular(v: np.ndarray) -> np.ndarray:
     """The world axis least aligned with ``v``, made perpendicular: the screen's up."""
     a = np.eye(3)[int(np.argmin(np.abs(v)))]
     u = a - (a @ v) * v
@@ -427,13 +438,8 @@ def legend(tol: "Tolerance", d: np.ndarray, width: float, height: float):
     return g
 
 
-def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
-                tol: "Tolerance", worst: list[tuple[int, str]], width: float, height: float):
-    """The 2D template with each point's deviation as a whisker from its foot along the
-    contour normal, magnified by a stated 1-2-5 factor. Returns (drawing, factor)."""
-    from reportlab.graphics.shapes import Circle, Drawing, Line, PolyLine, String
-    from reportlab.lib import colors
-
+def template_polylines(template) -> list[np.ndarray]:
+    """Each contour of a 2D template as one (k, 2) polyline (arcs in steps of at most 3°)."""
     from engine.contour import SEGMENT
 
     polylines = []
@@ -449,18 +455,35 @@ def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
                     [np.cos(a), np.sin(a)])
             pts.append(seg if not pts else seg[1:])
         polylines.append(np.vstack(pts))
+    return polylines
+
+
+def whisker_factor(extent: float, max_d: float, share: float = 0.06) -> float:
+    """The 1-2-5 magnification that draws the largest deviation as about ``share`` of the
+    part's extent (1 when there is nothing to magnify)."""
+    if not max_d > 0:
+        return 1.0
+    raw = share * extent / max_d
+    factor = 10 ** math.floor(math.log10(raw))
+    for m in (5, 2, 1):
+        if m * factor <= raw:
+            return m * factor
+    return factor
+
+
+def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
+                tol: "Tolerance", worst: list[tuple[int, str]], width: float, height: float):
+    """The 2D template with each point's deviation as a whisker from its foot along the
+    contour normal, magnified by a stated 1-2-5 factor. Returns (drawing, factor)."""
+    from reportlab.graphics.shapes import Circle, Drawing, Line, PolyLine, String
+    from reportlab.lib import colors
+
+    polylines = template_polylines(template)
     allp = np.vstack(polylines + [feet[:, :2]])
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     extent = float(max(hi - lo))
     max_d = float(np.abs(d).max()) if d.size else 0.0
-    factor = 1.0
-    if max_d > 0:
-        raw = 0.06 * extent / max_d
-        factor = 10 ** math.floor(math.log10(raw))
-        for m in (5, 2, 1):
-            if m * factor <= raw:
-                factor *= m
-                break
+    factor = whisker_factor(extent, max_d)
     pad = 0.08 * extent + factor * max_d
     lo, hi = lo - pad, hi + pad
     k = min((width - 4) / (hi[0] - lo[0]), (height - 16) / (hi[1] - lo[1]))

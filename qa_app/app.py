@@ -1,0 +1,49 @@
+"""``qa-app [NOMINAL [MEASURED]] [--tol T]``: open the main window; with both files given, load
+them and inspect at once."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+import traceback
+
+
+def install_excepthooks(session) -> None:
+    """Unexpected errors, in the GUI thread or a worker, reach the user in the message bar
+    instead of killing the window (napari's way)."""
+    from reports.messages import user_message
+
+    def show(exc_type, exc, tb):
+        traceback.print_exception(exc_type, exc, tb)
+        session.tell("error", user_message(exc))
+
+    sys.excepthook = show
+    threading.excepthook = lambda args: show(args.exc_type, args.exc_value, args.exc_traceback)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="qa-app", description=__doc__)
+    p.add_argument("nominal", nargs="?", help="the nominal (points, mesh, grid or DXF template)")
+    p.add_argument("measured", nargs="?", help="the measured points")
+    p.add_argument("--tol", type=float, help="symmetric tolerance ±T mm to start with")
+    args = p.parse_args(argv)
+
+    from PySide6.QtWidgets import QApplication
+
+    from .window import MainWindow
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    app.setApplicationName("qa-app")
+    app.setOrganizationName("qa-inspect")
+    win = MainWindow()
+    install_excepthooks(win.session)
+    if args.tol is not None and args.tol > 0:
+        win.tolerance.set_zone(-args.tol, args.tol)
+    files = [f for f in (args.nominal, args.measured) if f]
+    if files:
+        win.controller.open_files(files)
+    win.show()
+    if win.session.can_inspect:
+        win.inspect()
+    return app.exec()

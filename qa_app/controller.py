@@ -1,0 +1,293 @@
+"""The controller: turns the inspector's actions into engine runs and exports, and their outcomes
+into changes of the :class:`qa_app.model.Session`. No Qt here.
+
+Work runs in a worker thread (``synchronous=False``); what it produces is handed back through
+``post`` (the window passes a function that queues the call into the GUI thread), so the session
+and its views only ever change in the GUI thread. Tests run it with ``synchronous=True``.
+Failures become one message in the session, worded as the command line words them.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import threading
+from collections.abc import Callable
+
+from engine.errors import Cancelled, InputError, SettingsError
+
+from .model import Session, Settings
+
+SESSION_FORMAT = "qa-inspect session"
+SESSION_SUFFIX = ".qasession"
+
+
+class Controller:
+    def __init__(self, session: Session, synchronous: bool = False,
+                 post: Callable[[Callable[[], None]], None] | None = None):
+        self.session = session
+        self.synchronous = synchronous
+        self._post = post or (lambda f: f())
+        self._cancel = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.busy = False
+
+    # ------------------------------------------------------------------ inputs
+    def open_nominal(self, path: str) -> None:
+        if not self._check_file(path):
+            return
+        self.session.set_nominal(os.path.abspath(path))
+        self.session.tell("info", f"Nominal: {os.path.basename(path)}")
+
+    def open_measured(self, path: str) -> None:
+        if not self._check_file(path):
+            return
+        self.session.set_measured(os.path.abspath(path))
+        self.session.tell("info", f"Measured points: {os.path.basename(path)}")
+
+    def open_files(self, paths: list[str]) -> None:
+        """Dropped or command-line files: a template or the first file is the nominal when none
+        is set yet, the next one the measured points; a session file opens the session."""
+        from reports.loading import is_template
+
+        for p in paths:
+            if p.endswith(SESSION_SUFFIX):
+                self.open_session(p)
+            elif self.session.nominal_path is None or is_template(p):
+                self.open_nominal(p)
+            else:
+                self.open_measured(p)
+
+    def _check_file(self, path: str) -> bool:
+        from reports.loading import ALL_SUFFIXES, TEMPLATE_SUFFIXES
+
+        if not os.path.isfile(path):
+            self.session.tell("error", f"{path}: no such file")
+            return False
+        suffix = os.path.splitext(path)[1].lower()
+        if suffix not in ALL_SUFFIXES + TEMPLATE_SUFFIXES:
+            self.session.tell("error", f"{path}: unsupported file type '{suffix or '(none)'}'; "
+                                       f"supported: {' '.join(ALL_SUFFIXES + TEMPLATE_SUFFIXES)}")
+            return False
+        return True
+
+    def set_tolerance(self, lower: float, upper: float) -> bool:
+        from engine.inspection import Tolerance
+
+        try:
+            Tolerance(lower, upper)
+        except SettingsError as e:
+            self.session.tell("error", str(e))
+            return False
+        self.session.set_settings(tol_lower=float(lower), tol_upper=float(upper))
+        return True
+
+    # ------------------------------------------------------------------ inspection
+    def inspect(self) -> None:
+        """Run the inspection of the session's files with its settings (in the worker)."""
+        from reports.pipeline import InspectionSettings, run_files
+
+        s = self.session
+        if not s.can_inspect or self.busy:
+            return
+        st = s.settings
+        settings = InspectionSettings(st.tol_lower, st.tol_upper, st.layers, st.units, st.scale)
+        nominal, measured = s.nominal_path, s.measured_path
+        s.set_run(None)
+        s.set_running(True)
+
+        def job():
+            return run_files(nominal, measured, settings, progress=self._progress)
+
+        def done(run):
+            s.set_running(False)
+            s.set_run(run)
+            st = run.result.statistics
+            s.tell("info", f"{run.result.verdict}: {'; '.join(run.result.reasons)} "
+                           f"(max |d| {st.max_abs:.4f} mm)")
+
+        self._start(job, done, lambda: s.set_running(False))
+
+    def cancel(self) -> None:
+        self._cancel.set()
+
+    def _progress(self, stage: str, fraction: float) -> None:
+        if self._cancel.is_set():
+            raise Cancelled()
+        self._post(lambda: self.session.progress.emit(stage, fraction))
+
+    # ------------------------------------------------------------------ exports
+    def export_certificate(self, path: str, info, p12: str | None, passphrase: bytes | None,
+                           on_done: Callable[[str], None] | None = None) -> None:
+        """Write the certificate exactly as ``qa-inspect inspect … --report`` does (signed with
+        ``p12`` when given). The passphrase is used here and not kept."""
+        run = self.session.run
+        if run is None:
+            return
+
+        def job():
+            from reports.certificate import make_certificate
+            from reports.figures import RenderProcess
+            from reports.results import write_atomic
+            from reports.signing import load_identity
+
+            identity = load_identity(p12, passphrase) if p12 else None
+            self._progress("rendering the deviation maps", 0.2)
+            renderer = RenderProcess() if run.template is None else None
+            try:
+                pdf = make_certificate(run, info, identity, renderer=renderer)
+            finally:
+                if renderer is not None:
+                    renderer.close()
+            self._progress("writing the certificate", 0.95)
+            write_atomic(path, pdf)
+            return path
+
+        def done(p):
+            self.session.set_running(False)
+            signed = "signed" if p12 else "UNSIGNED DRAFT"
+            self.session.tell("info", f"Certificate written ({signed}): {p}")
+            if on_done:
+                on_done(p)
+
+        self.session.set_running(True)
+        self._start(job, done, lambda: self.session.set_running(False))
+
+    def export_csv(self, path: str) -> None:
+        from reports.results import points_csv
+
+        run = self.session.run
+        if run is not None:
+            self._export(path, lambda: points_csv(run.result, run.measured.points,
+                                                  run.measured.labels), "CSV")
+
+    def export_qif(self, path: str) -> None:
+        from reports.qif import qif_results_document
+
+        run = self.session.run
+        if run is None:
+            return
+        res = run.result
+        self._export(path, lambda: qif_results_document(
+            run.doc, res.registered, res.deviations.signed, res.in_tolerance, run.measured.labels,
+            ~res.registration.inlier), "QIF")
+
+    def _export(self, path: str, make: Callable, what: str) -> None:
+        from reports.results import write_atomic
+
+        def job():
+            write_atomic(path, make())
+            return path
+
+        def done(p):
+            self.session.set_running(False)
+            self.session.tell("info", f"{what} written: {p}")
+
+        self.session.set_running(True)
+        self._start(job, done, lambda: self.session.set_running(False))
+
+    # ------------------------------------------------------------------ sessions
+    def save_session(self, path: str) -> None:
+        """Inputs by path with SHA-256, the settings, and the results document."""
+        from dataclasses import asdict
+
+        from reports.loading import sha256_of
+        from reports.results import write_atomic
+
+        s = self.session
+        doc = {"format": SESSION_FORMAT, "version": 1,
+               "saved": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+               "inputs": [{"role": role, "path": p, "sha256": sha256_of(p) if p else None}
+                          for role, p in (("nominal", s.nominal_path),
+                                          ("measured", s.measured_path))],
+               "settings": {k: (list(v) if isinstance(v, tuple) else v)
+                            for k, v in asdict(s.settings).items()},
+               "results": None if s.run is None else s.run.doc}
+        try:
+            write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+        except OSError as e:
+            from reports.messages import user_message
+
+            s.tell("error", user_message(e))
+            return
+        s.tell("info", f"Session saved: {path}")
+
+    def open_session(self, path: str) -> None:
+        """Reopen a saved session: its inputs and settings; warns about any input changed since
+        (by SHA-256), and re-runs the inspection when all are unchanged."""
+        from reports.loading import sha256_of
+
+        s = self.session
+        try:
+            with open(path, encoding="utf-8") as f:
+                doc = json.load(f)
+            if doc.get("format") != SESSION_FORMAT:
+                raise InputError("not a qa-inspect session file", path)
+            inputs = {i["role"]: i for i in doc["inputs"]}
+            st = doc["settings"]
+            settings = Settings(float(st["tol_lower"]), float(st["tol_upper"]),
+                                None if st.get("layers") is None else tuple(st["layers"]),
+                                st.get("units"),
+                                None if st.get("scale") is None else float(st["scale"]))
+        except FileNotFoundError:
+            s.tell("error", f"{path}: no such file")
+            return
+        except (ValueError, KeyError, TypeError, InputError) as e:
+            s.tell("error", e.__str__() if isinstance(e, InputError) else
+                   f"{path}: not a readable session file ({type(e).__name__}: {e})")
+            return
+        changed = []
+        for role in ("nominal", "measured"):
+            rec = inputs.get(role) or {}
+            p = rec.get("path")
+            if p and not os.path.isfile(p):
+                changed.append(f"{role} file {p} no longer exists")
+            elif p and sha256_of(p) != rec.get("sha256"):
+                changed.append(f"{role} file {p} changed since the session was saved")
+        s.settings = settings
+        s.settings_changed.emit()
+        s.set_nominal(inputs.get("nominal", {}).get("path"))
+        s.set_measured(inputs.get("measured", {}).get("path"))
+        if changed:
+            s.tell("warning", "Session reopened, but " + "; ".join(changed) +
+                   ". Inspect again to get results for the files as they are now.")
+            return
+        s.tell("info", f"Session reopened: {path}")
+        if doc.get("results") is not None and s.can_inspect:
+            self.inspect()
+
+    # ------------------------------------------------------------------ worker
+    def _start(self, job: Callable, on_done: Callable, on_fail: Callable) -> None:
+        from reports.messages import user_message
+
+        self._cancel.clear()
+        self.busy = True
+
+        def finish(ok: bool, value) -> None:
+            self.busy = False
+            if ok:
+                on_done(value)
+            else:
+                on_fail()
+                level = "warning" if isinstance(value, Cancelled) else "error"
+                self.session.tell(level, user_message(value))
+
+        def work():
+            try:
+                value = job()
+            except Exception as e:  # every failure reaches the user as one message
+                self._post(lambda err=e: finish(False, err))
+            else:
+                self._post(lambda v=value: finish(True, v))
+
+        if self.synchronous:
+            work()
+            return
+        self._thread = threading.Thread(target=work, name="qa-inspect worker", daemon=True)
+        self._thread.start()
+
+    def wait(self, timeout: float | None = None) -> None:
+        """Block until the worker thread ends (tests, shutdown)."""
+        if self._thread is not None:
+            self._thread.join(timeout)

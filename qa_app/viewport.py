@@ -1,0 +1,165 @@
+"""The 3D viewport (pyvistaqt): the nominal surface with the registered points coloured by
+deviation on the tolerance-banded scale, standard views, point picking and the selected point's
+marker. Where OpenGL cannot show a window (Qt's offscreen platform), a notice takes its place and
+the rest of the window works on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+
+from reports import figures
+
+from .model import Session
+
+STANDARD_VIEWS = ("Face-on", "Iso", "Top", "Front", "Side")
+
+
+def can_render_3d() -> bool:
+    from PySide6.QtGui import QGuiApplication
+
+    return QGuiApplication.platformName() not in ("offscreen", "minimal")
+
+
+class Viewport3D(QWidget):
+    def __init__(self, session: Session, enable_3d: bool | None = None):
+        super().__init__()
+        self.session = session
+        self.plotter = None
+        self._shown = None  # (n, 3) displayed point positions
+        self._home = None  # (view vector, view up) of the face-on view
+        self._tree = None
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        bar = QHBoxLayout()
+        self.view_buttons = {}
+        for name in STANDARD_VIEWS:
+            b = QPushButton(name)
+            b.setToolTip(f"{name} view")
+            b.clicked.connect(lambda _=False, n=name: self.standard_view(n))
+            bar.addWidget(b)
+            self.view_buttons[name] = b
+        bar.addStretch(1)
+        self.readout = QLabel("Click a point to see its label and deviation")
+        bar.addWidget(self.readout)
+        lay.addLayout(bar)
+        if enable_3d if enable_3d is not None else can_render_3d():
+            from pyvistaqt import QtInteractor
+
+            self.plotter = QtInteractor(self)
+            self.plotter.set_background("white")
+            self.plotter.enable_point_picking(callback=self._picked, show_message=False,
+                                              left_clicking=True, show_point=False,
+                                              use_picker=True)
+            lay.addWidget(self.plotter.interactor, 1)
+        else:
+            notice = QLabel("The 3D view needs an OpenGL display; the table, 2D view and "
+                            "certificate work without it.")
+            notice.setWordWrap(True)
+            lay.addWidget(notice, 1)
+        session.result_changed.connect(self.show_run)
+        session.selection_changed.connect(self._selected)
+
+    def close_plotter(self) -> None:
+        if self.plotter is not None:
+            self.plotter.close()
+            self.plotter = None
+
+    def show_run(self, run) -> None:
+        self._shown = self._tree = None
+        if self.plotter is not None:
+            # Remove our actors by name: Plotter.clear() would also remove the lights.
+            for name in list(self.plotter.renderer.actors):
+                if name.startswith("qa-"):
+                    self.plotter.remove_actor(name, render=False)
+        if run is None:
+            if self.plotter is not None:
+                self.plotter.render()
+            return
+        res = run.result
+        d = res.deviations.signed
+        if run.template is not None:
+            self._shown = res.registered.copy()
+        else:
+            _, lift = figures.display_surface(run.nominal.points, None)
+            self._shown = res.deviations.foot + lift * res.deviations.normal
+        from scipy.spatial import cKDTree
+
+        self._tree = cKDTree(self._shown)
+        if self.plotter is None:
+            return
+        import pyvista as pv
+
+        pl = self.plotter
+        if run.template is not None:
+            for k, poly in enumerate(figures.template_polylines(run.template.template)):
+                pts = np.column_stack([poly, np.zeros(len(poly))])
+                pl.add_mesh(pv.lines_from_points(pts), color=(0.25, 0.25, 0.28), line_width=2,
+                            name=f"qa-contour-{k}", pickable=False)
+        else:
+            surf, _ = figures.display_surface(run.nominal.points, run.nominal.triangles,
+                                              max_triangles=400_000)
+            if surf is not None:
+                pl.add_mesh(surf, color=(0.80, 0.81, 0.83), smooth_shading=True, specular=0.2,
+                            ambient=0.25, pickable=False, name="qa-nominal")
+            else:
+                step = max(1, run.nominal.points.shape[0] // 500_000)
+                pl.add_points(run.nominal.points[::step], color=(0.72, 0.73, 0.75),
+                              point_size=2, pickable=False, name="qa-nominal")
+        n = d.size
+        rgb = figures.band_rgb(d, res.tolerance)
+        out = ~res.in_tolerance
+        size = float(np.clip(300.0 / np.sqrt(max(n, 1)), 3, 10))
+        for name, mask, px in (("qa-in", ~out, size), ("qa-out", out, 1.7 * size)):
+            if mask.any():
+                pl.add_points(self._shown[mask], scalars=rgb[mask], rgb=True,
+                              render_points_as_spheres=True, point_size=px, name=name)
+        if run.template is not None:
+            self._home = ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0))
+        else:  # face-on to the measured patch, from outside the material
+            face = figures.face_on_direction(res.deviations.foot, res.deviations.normal)
+            self._home = (tuple(face), tuple(figures.any_perpendicular(face)))
+        self.home_view()
+
+    def home_view(self) -> None:
+        if self.plotter is None or self._home is None:
+            return
+        self.plotter.view_vector(*self._home)
+        self.plotter.reset_camera()
+        self.plotter.camera.zoom(1.4)
+        self.plotter.render()
+
+    def standard_view(self, name: str) -> None:
+        if self.plotter is None:
+            return
+        if name == "Face-on":
+            self.home_view()
+            return
+        {"Iso": self.plotter.view_isometric, "Top": self.plotter.view_xy,
+         "Front": self.plotter.view_xz, "Side": self.plotter.view_yz}[name]()
+        self.plotter.render()
+
+    def _picked(self, point, *args) -> None:
+        if self._tree is None or point is None:
+            return
+        _, i = self._tree.query(np.asarray(point, float))
+        self.session.select(int(i))
+
+    def _selected(self, index) -> None:
+        run = self.session.run
+        if index is None or run is None or self._shown is None:
+            return
+        labels = run.measured.labels
+        name = str(labels[index]) if labels is not None else f"#{index + 1}"
+        d = run.result.deviations.signed[index]
+        ok = "in tolerance" if run.result.in_tolerance[index] else "OUT OF TOLERANCE"
+        self.readout.setText(f"<b>{name}</b>: deviation {d:+.4f} mm ({ok})")
+        if self.plotter is not None:
+            import pyvista as pv
+
+            p = self._shown[index]
+            r = 0.015 * float(np.linalg.norm(np.ptp(self._shown, axis=0)) or 1.0)
+            self.plotter.add_mesh(pv.Sphere(radius=r, center=p), color="magenta",
+                                  name="qa-selection", pickable=False)
+            self.plotter.render()

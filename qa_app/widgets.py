@@ -1,0 +1,509 @@
+"""The window's 2D widgets: message bar, verdict banner, colour legend, histogram, 2D contour view,
+point table, tolerance form. Each takes the session and subscribes to its events; colours and
+bands come from reports.figures, so the window and the certificate show the same scale.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPointF, QRectF, Qt, Signal
+from PySide6.QtGui import QColor, QPainter, QPainterPath, QPen
+from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QFormLayout,
+                               QFrame, QHBoxLayout, QHeaderView, QInputDialog, QLabel,
+                               QPushButton, QRadioButton, QTableView, QToolButton, QVBoxLayout,
+                               QWidget)
+
+from reports import figures
+
+from .model import Session
+
+VERDICT_COLOURS = {"ACCEPT": "#1c7d38", "REJECT": "#b81c1c", "INCONCLUSIVE": "#cc8500"}
+VERDICT_WORDS = {"ACCEPT": "ACCEPTED", "REJECT": "REJECTED", "INCONCLUSIVE": "INCONCLUSIVE"}
+
+
+def qcolor(rgb) -> QColor:
+    return QColor.fromRgbF(float(rgb[0]), float(rgb[1]), float(rgb[2]))
+
+
+class MessageBar(QFrame):
+    """The one place where errors, warnings and notes appear (the same text the command line
+    prints)."""
+
+    STYLE = {"error": ("#fde8e8", "#8a1111", "Error"), "warning": ("#fff4dc", "#7a4b00",
+                                                                 "Warning"),
+             "info": ("#eef3fa", "#1a3a5c", "")}
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.setObjectName("messageBar")
+        self.label = QLabel()
+        self.label.setWordWrap(True)
+        self.label.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        close = QToolButton(text="✕")
+        close.setAutoRaise(True)
+        close.clicked.connect(self.hide)
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(10, 6, 6, 6)
+        lay.addWidget(self.label, 1)
+        lay.addWidget(close)
+        self.level = None
+        self.hide()
+        session.message.connect(self.show_message)
+
+    def show_message(self, level: str, text: str) -> None:
+        if level == "info":  # notes go to the status bar; this bar is for what needs attention
+            return
+        bg, fg, title = self.STYLE.get(level, self.STYLE["info"])
+        self.level = level
+        self.setStyleSheet(f"#messageBar {{ background: {bg}; border: 1px solid {fg}; "
+                           f"border-radius: 4px; }} QLabel {{ color: {fg}; }}")
+        self.label.setText(f"<b>{title}:</b> {text}" if title else text)
+        self.label.setToolTip(text)
+        self.text = text
+        self.show()
+
+
+class VerdictBanner(QFrame):
+    """The verdict in large type with its reason and the statistics."""
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.setObjectName("verdictBanner")
+        self.word = QLabel()
+        self.word.setObjectName("verdictWord")
+        self.detail = QLabel()
+        self.detail.setWordWrap(True)
+        self.setMinimumHeight(78)
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(14, 8, 14, 8)
+        lay.addWidget(self.word)
+        lay.addWidget(self.detail, 1)
+        session.result_changed.connect(self.update_from)
+        session.step_changed.connect(lambda step: self.update_from(session.run, step))
+        self.update_from(None)
+
+    def update_from(self, run, step=None) -> None:
+        if run is None:
+            text = step.value if step is not None else "Open the nominal and the measured points"
+            self.setStyleSheet("#verdictBanner { background: #e9edf2; border-radius: 4px; }")
+            self.word.setText(f"<span style='font-size:15pt; color:#445'>{text}</span>")
+            self.detail.setText("")
+            self.verdict = None
+            return
+        res = run.result
+        st = res.statistics
+        self.verdict = res.verdict
+        self.setStyleSheet(f"#verdictBanner {{ background: {VERDICT_COLOURS[res.verdict]}; "
+                           "border-radius: 4px; } QLabel { color: white; }")
+        self.word.setText(f"<span style='font-size:22pt; font-weight:bold'>"
+                          f"{VERDICT_WORDS[res.verdict]}</span>")
+        tol = res.tolerance
+        self.detail.setText(
+            f"{'; '.join(res.reasons)}<br>"
+            f"{st.count} points · {st.n_out} out of tolerance · zone {tol.lower:+.3f} … "
+            f"{tol.upper:+.3f} mm<br>min {st.min:+.4f} · max {st.max:+.4f} · mean "
+            f"{st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · max |d| {st.max_abs:.4f} mm")
+
+
+class Legend(QWidget):
+    """The tolerance-banded colour scale with the number of points in each band."""
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.session = session
+        self.setMinimumWidth(170)
+        self.setMinimumHeight(200)
+        session.result_changed.connect(lambda run: self.update())
+
+    def paintEvent(self, event):
+        run = self.session.run
+        if run is None:
+            return
+        tol = run.result.tolerance
+        table = figures.bands(tol)
+        counts = np.bincount(figures.band_index(run.result.deviations.signed, tol),
+                             minlength=len(table))
+        p = QPainter(self)
+        p.setRenderHint(QPainter.Antialiasing)
+        p.drawText(4, 14, "Deviation (mm)")
+        h = (self.height() - 26) / len(table)
+        for k, b in enumerate(reversed(table)):
+            kk = len(table) - 1 - k
+            y = 22 + k * h
+            p.fillRect(QRectF(4, y, 18, h - 1), qcolor(b.rgb))
+            if math.isinf(b.upper):
+                text = f"> {b.lower:+.3f}"
+            elif math.isinf(b.lower):
+                text = f"< {b.upper:+.3f}"
+            else:
+                text = f"{b.lower:+.3f} … {b.upper:+.3f}"
+            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter, text)
+            p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
+                       str(int(counts[kk])))
+        p.setPen(QPen(Qt.black, 1.5))
+        for y in (22 + 3 * h, 22 + 7 * h):  # the limits of the zone
+            p.drawLine(QPointF(2, y), QPointF(self.width() - 2, y))
+        p.end()
+
+
+class Histogram(QWidget):
+    """Histogram of the deviations, bars coloured by band, tolerance limits dashed."""
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.session = session
+        self.setMinimumHeight(150)
+        session.result_changed.connect(lambda run: self.update())
+
+    def paintEvent(self, event):
+        run = self.session.run
+        p = QPainter(self)
+        p.fillRect(self.rect(), Qt.white)
+        if run is None:
+            p.end()
+            return
+        d = run.result.deviations.signed
+        tol = run.result.tolerance
+        s = (tol.upper - tol.lower) / 4
+        x0, x1 = min(float(d.min()), tol.lower - s), max(float(d.max()), tol.upper + s)
+        counts, edges = np.histogram(d, bins=48, range=(x0, x1))
+        ml, mb, mt = 40, 22, 18
+        pw, ph = self.width() - ml - 10, self.height() - mb - mt
+        top = max(int(counts.max()), 1)
+
+        def X(v):
+            return ml + (v - x0) / (x1 - x0) * pw
+
+        table = figures.bands(tol)
+        band_of = figures.band_index(0.5 * (edges[:-1] + edges[1:]), tol)
+        for k in range(len(counts)):
+            if counts[k]:
+                bh = max(counts[k] / top * ph, 2.0)
+                p.fillRect(QRectF(X(edges[k]), mt + ph - bh, X(edges[k + 1]) - X(edges[k]) - 1,
+                                  bh), qcolor(table[band_of[k]].rgb))
+        p.setPen(QPen(QColor("#777"), 1))
+        p.drawLine(QPointF(ml, mt + ph), QPointF(ml + pw, mt + ph))
+        p.drawText(QRectF(0, mt - 6, ml - 4, 14), Qt.AlignRight, str(top))
+        p.drawText(QRectF(0, mt + ph - 8, ml - 4, 14), Qt.AlignRight, "0")
+        step = figures.nice_step(x1 - x0, 6)
+        v = math.ceil(x0 / step) * step
+        while v <= x1 + 1e-12:
+            p.drawText(QRectF(X(v) - 30, mt + ph + 3, 60, 14), Qt.AlignHCenter,
+                       f"{v:+.3g}" if abs(v) > 1e-12 else "0")
+            v += step
+        pen = QPen(Qt.black, 1.2, Qt.DashLine)
+        p.setPen(pen)
+        for val, name in ((tol.lower, "LTL"), (tol.upper, "UTL")):
+            p.drawLine(QPointF(X(val), mt), QPointF(X(val), mt + ph))
+            p.drawText(QRectF(X(val) - 50, 0, 100, 14), Qt.AlignHCenter, f"{name} {val:+.3f}")
+        p.end()
+
+
+class ContourView(QWidget):
+    """A 2D template with every point's deviation as a magnified whisker; click a point to select
+    it."""
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.session = session
+        self.setMinimumSize(300, 200)
+        self._cache = None
+        session.result_changed.connect(self._result)
+        session.selection_changed.connect(lambda i: self.update())
+
+    def _result(self, run) -> None:
+        self._cache = None
+        if run is not None and run.template is not None:
+            res = run.result
+            polylines = figures.template_polylines(run.template.template)
+            feet = res.deviations.foot[:, :2]
+            allp = np.vstack(polylines + [feet])
+            d = res.deviations.signed
+            extent = float(np.ptp(allp, axis=0).max())
+            factor = figures.whisker_factor(extent, float(np.abs(d).max()))
+            tips = feet + factor * d[:, None] * res.deviations.normal[:, :2]
+            self._cache = (polylines, feet, tips, figures.band_rgb(d, res.tolerance), factor,
+                           allp.min(axis=0) - 0.1 * extent, allp.max(axis=0) + 0.1 * extent)
+        self.update()
+
+    def _transform(self):
+        polylines, feet, tips, rgb, factor, lo, hi = self._cache
+        k = min((self.width() - 20) / (hi[0] - lo[0]), (self.height() - 40) / (hi[1] - lo[1]))
+        ox = (self.width() - k * (hi[0] - lo[0])) / 2
+        oy = (self.height() - 20 + k * (hi[1] - lo[1])) / 2
+
+        def P(xy):
+            return ox + k * (xy[..., 0] - lo[0]), oy - k * (xy[..., 1] - lo[1])
+
+        return P
+
+    def paintEvent(self, event):
+        p = QPainter(self)
+        p.fillRect(self.rect(), Qt.white)
+        if self._cache is None:
+            p.drawText(self.rect(), Qt.AlignCenter, "The 2D view shows contour templates (DXF)")
+            p.end()
+            return
+        p.setRenderHint(QPainter.Antialiasing)
+        polylines, feet, tips, rgb, factor, lo, hi = self._cache
+        P = self._transform()
+        p.setPen(QPen(QColor("#3a3a44"), 1.3))
+        for pl in polylines:
+            x, y = P(pl)
+            path = QPainterPath(QPointF(x[0], y[0]))
+            for xi, yi in zip(x[1:], y[1:]):
+                path.lineTo(xi, yi)
+            p.drawPath(path)
+        fx, fy = P(feet)
+        tx, ty = P(tips)
+        for i in range(len(fx)):
+            c = QColor(int(rgb[i, 0]), int(rgb[i, 1]), int(rgb[i, 2]))
+            p.setPen(QPen(c, 1.2))
+            p.drawLine(QPointF(fx[i], fy[i]), QPointF(tx[i], ty[i]))
+        sel = self.session.selected
+        if sel is not None:
+            p.setPen(QPen(QColor("#ff00ff"), 2.5))
+            p.drawEllipse(QPointF(tx[sel], ty[sel]), 6, 6)
+        p.setPen(Qt.black)
+        p.drawText(QRectF(6, self.height() - 18, self.width() - 12, 16), Qt.AlignLeft,
+                   f"Whiskers: deviation × {factor:g} along the contour normal (outward = excess "
+                   "material)")
+        p.end()
+
+    def mousePressEvent(self, event):
+        if self._cache is None:
+            return
+        P = self._transform()
+        tx, ty = P(self._cache[2])
+        pos = event.position()
+        d2 = (tx - pos.x()) ** 2 + (ty - pos.y()) ** 2
+        i = int(np.argmin(d2))
+        if d2[i] <= 12 ** 2:
+            self.session.select(i)
+
+
+class PointTableModel(QAbstractTableModel):
+    """Every measured point; sorting is done with numpy (200,000 rows sort at once)."""
+
+    COLUMNS = ("#", "Label", "X (mm)", "Y (mm)", "Z (mm)", "Deviation (mm)", "Result",
+               "Outlier")
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.session = session
+        self.run = None
+        self.order = np.zeros(0, dtype=np.int64)
+        session.result_changed.connect(self._reset)
+
+    def _reset(self, run) -> None:
+        self.beginResetModel()
+        self.run = run
+        self.order = np.arange(0 if run is None else run.result.deviations.signed.size)
+        self.endResetModel()
+
+    def rowCount(self, parent=QModelIndex()):
+        return 0 if parent.isValid() else int(self.order.size)
+
+    def columnCount(self, parent=QModelIndex()):
+        return 0 if parent.isValid() else len(self.COLUMNS)
+
+    def headerData(self, section, orientation, role=Qt.DisplayRole):
+        if role == Qt.DisplayRole and orientation == Qt.Horizontal:
+            return self.COLUMNS[section]
+        return None
+
+    def point(self, row: int) -> int:
+        return int(self.order[row])
+
+    def row_of(self, index: int) -> int:
+        return int(np.flatnonzero(self.order == index)[0])
+
+    def data(self, index, role=Qt.DisplayRole):
+        if not index.isValid():
+            return None
+        i = int(self.order[index.row()])
+        res = self.run.result
+        c = index.column()
+        if role == Qt.DisplayRole:
+            if c == 0:
+                return str(i + 1)
+            if c == 1:
+                labels = self.run.measured.labels
+                return "" if labels is None else str(labels[i])
+            if 2 <= c <= 4:
+                return f"{res.registered[i, c - 2]:.3f}"
+            if c == 5:
+                return f"{res.deviations.signed[i]:+.4f}"
+            if c == 6:
+                return "PASS" if res.in_tolerance[i] else "FAIL"
+            if c == 7:
+                return "" if res.registration.inlier[i] else "outlier"
+        if role == Qt.TextAlignmentRole and 2 <= c <= 5:
+            return int(Qt.AlignRight | Qt.AlignVCenter)
+        if role == Qt.ForegroundRole and c == 6 and not res.in_tolerance[i]:
+            return QColor("#b81c1c")
+        if role == Qt.DecorationRole and c == 5:
+            return QColor(*(int(v) for v in figures.band_rgb(
+                res.deviations.signed[i:i + 1], res.tolerance)[0]))
+        return None
+
+    def sort(self, column, order=Qt.AscendingOrder):
+        if self.run is None:
+            return
+        res = self.run.result
+        n = res.deviations.signed.size
+        keys = {0: np.arange(n), 2: res.registered[:, 0], 3: res.registered[:, 1],
+                4: res.registered[:, 2], 5: res.deviations.signed,
+                6: res.in_tolerance.astype(int), 7: res.registration.inlier.astype(int)}
+        if column == 1:
+            labels = self.run.measured.labels
+            key = np.arange(n) if labels is None else np.asarray(labels, dtype=str)
+        else:
+            key = keys.get(column, np.arange(n))
+        self.layoutAboutToBeChanged.emit()
+        o = np.argsort(key, kind="stable")
+        self.order = o[::-1] if order == Qt.DescendingOrder else o
+        self.layoutChanged.emit()
+
+
+class PointTable(QTableView):
+    """The point table; selecting a row selects the point in the views, and back."""
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.session = session
+        self.model_ = PointTableModel(session)
+        self.setModel(self.model_)
+        self.setSortingEnabled(True)
+        self.setSelectionBehavior(QAbstractItemView.SelectRows)
+        self.setSelectionMode(QAbstractItemView.SingleSelection)
+        self.setAlternatingRowColors(True)
+        self.verticalHeader().setVisible(False)
+        self.horizontalHeader().setSectionResizeMode(QHeaderView.Interactive)
+        self.horizontalHeader().setStretchLastSection(True)
+        self.selectionModel().currentRowChanged.connect(self._row_changed)
+        session.selection_changed.connect(self._select)
+        session.result_changed.connect(lambda run: run is not None and self.sortByColumn(
+            5, Qt.AscendingOrder))
+
+    def _row_changed(self, current, previous):
+        if current.isValid():
+            self.session.select(self.model_.point(current.row()))
+
+    def _select(self, index):
+        if index is None:
+            return
+        row = self.model_.row_of(index)
+        if self.currentIndex().row() != row:
+            self.selectRow(row)
+        self.scrollTo(self.model_.index(row, 0))
+
+
+class ToleranceForm(QWidget):
+    """Symmetric or asymmetric zone, per-part presets, and the Inspect / Cancel buttons."""
+
+    inspect_clicked = Signal()
+    cancel_clicked = Signal()
+    preset_saved = Signal(str, float, float)
+
+    def __init__(self, session: Session, presets: dict[str, tuple[float, float]]):
+        super().__init__()
+        self.session = session
+        self.presets = presets
+        self.sym = QRadioButton("Symmetric ±")
+        self.asym = QRadioButton("Asymmetric")
+        self.sym.setChecked(True)
+        self.tol = self._spin(0.1, 0.0001)
+        self.lower = self._spin(-0.1, -1e6)
+        self.upper = self._spin(0.1, -1e6)
+        self.preset = QComboBox()
+        self.preset.setToolTip("Per-part tolerance presets")
+        self._fill_presets()
+        save = QPushButton("Save preset…")
+        save.clicked.connect(self._save_preset)
+        self.inspect_button = QPushButton("Inspect")
+        self.inspect_button.setObjectName("inspectButton")
+        self.inspect_button.setDefault(True)
+        self.cancel_button = QPushButton("Cancel")
+        self.inspect_button.clicked.connect(self.inspect_clicked)
+        self.cancel_button.clicked.connect(self.cancel_clicked)
+        form = QFormLayout()
+        row = QHBoxLayout()
+        row.addWidget(self.sym)
+        row.addWidget(self.tol, 1)
+        form.addRow("Zone", row)
+        form.addRow("", self.asym)
+        row2 = QHBoxLayout()
+        row2.addWidget(QLabel("lower"))
+        row2.addWidget(self.lower, 1)
+        row2.addWidget(QLabel("upper"))
+        row2.addWidget(self.upper, 1)
+        form.addRow("", row2)
+        row3 = QHBoxLayout()
+        row3.addWidget(self.preset, 1)
+        row3.addWidget(save)
+        form.addRow("Preset", row3)
+        buttons = QHBoxLayout()
+        buttons.addWidget(self.inspect_button, 1)
+        buttons.addWidget(self.cancel_button)
+        lay = QVBoxLayout(self)
+        lay.addLayout(form)
+        lay.addLayout(buttons)
+        for w in (self.sym, self.asym):
+            w.toggled.connect(self._mode)
+        self.preset.activated.connect(self._apply_preset)
+        self._mode()
+        session.settings_changed.connect(self.load)
+        self.load()
+
+    @staticmethod
+    def _spin(value, minimum):
+        s = QDoubleSpinBox()
+        s.setDecimals(4)
+        s.setRange(minimum, 1e6)
+        s.setSingleStep(0.01)
+        s.setValue(value)
+        s.setSuffix(" mm")
+        return s
+
+    def _mode(self):
+        self.tol.setEnabled(self.sym.isChecked())
+        self.lower.setEnabled(self.asym.isChecked())
+        self.upper.setEnabled(self.asym.isChecked())
+
+    def zone(self) -> tuple[float, float]:
+        if self.sym.isChecked():
+            return -self.tol.value(), self.tol.value()
+        return self.lower.value(), self.upper.value()
+
+    def set_zone(self, lower: float, upper: float) -> None:
+        symmetric = abs(lower + upper) < 1e-12
+        (self.sym if symmetric else self.asym).setChecked(True)
+        self.tol.setValue(upper if symmetric else self.tol.value())
+        self.lower.setValue(lower)
+        self.upper.setValue(upper)
+
+    def load(self):
+        st = self.session.settings
+        self.set_zone(st.tol_lower, st.tol_upper)
+
+    def _fill_presets(self):
+        self.preset.clear()
+        self.preset.addItem("(choose a preset)")
+        for name, (lo, hi) in sorted(self.presets.items()):
+            self.preset.addItem(f"{name}: {lo:+.3f} … {hi:+.3f} mm", name)
+
+    def _apply_preset(self, i):
+        name = self.preset.itemData(i)
+        if name in self.presets:
+            self.set_zone(*self.presets[name])
+
+    def _save_preset(self):
+        name, ok = QInputDialog.getText(self, "Save tolerance preset", "Part number or name:")
+        if ok and name.strip():
+            lo, hi = self.zone()
+            self.presets[name.strip()] = (lo, hi)
+            self._fill_presets()
+            self.preset_saved.emit(name.strip(), lo, hi)

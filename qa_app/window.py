@@ -1,0 +1,343 @@
+"""The main window: files, tolerance, inspect, review, export — in that order, with each action
+enabled only when it makes sense."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+
+from PySide6.QtCore import QObject, QSettings, Qt, Signal, Slot
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import (QFileDialog, QFormLayout, QGroupBox, QLabel,
+                               QMainWindow, QProgressBar, QPushButton, QSplitter, QTabWidget,
+                               QVBoxLayout, QWidget)
+
+from .controller import SESSION_SUFFIX, Controller
+from .dialogs import CertificateDialog
+from .model import Session, Step
+from .viewport import Viewport3D
+from .widgets import (ContourView, Histogram, Legend, MessageBar, PointTable, ToleranceForm,
+                      VerdictBanner)
+
+NOMINAL_FILTER = ("Nominals (*.csv *.txt *.xyz *.asc *.npy *.stl *.ply *.obj *.vtk *.vtp *.vts "
+                  "*.dxf *.dat);;All files (*)")
+MEASURED_FILTER = "Measured points (*.csv *.txt *.xyz *.asc *.npy *.ply);;All files (*)"
+MAX_RECENT = 8
+
+
+class _Invoker(QObject):
+    """Queues callables from worker threads into the GUI thread."""
+
+    call = Signal(object)
+
+    def __init__(self):
+        super().__init__()
+        self.call.connect(self._run, Qt.QueuedConnection)
+
+    @Slot(object)
+    def _run(self, fn: Callable[[], None]) -> None:
+        fn()
+
+
+class MainWindow(QMainWindow):
+    def __init__(self, session: Session | None = None, synchronous: bool = False,
+                 settings: QSettings | None = None, enable_3d: bool | None = None):
+        super().__init__()
+        self.session = session or Session()
+        self._invoker = _Invoker()
+        self.controller = Controller(self.session, synchronous=synchronous,
+                                     post=self._invoker.call.emit)
+        self.qsettings = settings or QSettings("qa-inspect", "qa-app")
+        self.setWindowTitle("qa-inspect — dimensional inspection")
+        self.resize(1400, 900)
+        self.setAcceptDrops(True)
+        s = self.session
+
+        self.message_bar = MessageBar(s)
+        self.banner = VerdictBanner(s)
+        self.viewport = Viewport3D(s, enable_3d)
+        self.contour = ContourView(s)
+        self.legend = Legend(s)
+        self.histogram = Histogram(s)
+        self.table = PointTable(s)
+        self.tolerance = ToleranceForm(s, self._load_presets())
+        self.tolerance.inspect_clicked.connect(self.inspect)
+        self.tolerance.cancel_clicked.connect(self.controller.cancel)
+        self.tolerance.preset_saved.connect(self._save_presets)
+
+        # files panel
+        self.nominal_label = QLabel("—")
+        self.measured_label = QLabel("—")
+        for lab in (self.nominal_label, self.measured_label):
+            lab.setWordWrap(True)
+        open_nom = QPushButton("Open nominal…")
+        open_mea = QPushButton("Open measured…")
+        open_nom.clicked.connect(self.open_nominal)
+        open_mea.clicked.connect(self.open_measured)
+        files = QGroupBox("1  Files")
+        ff = QFormLayout(files)
+        ff.addRow(open_nom, self.nominal_label)
+        ff.addRow(open_mea, self.measured_label)
+        tol_box = QGroupBox("2  Tolerance and inspection")
+        QVBoxLayout(tol_box).addWidget(self.tolerance)
+        self.progress_bar = QProgressBar()
+        self.progress_bar.setRange(0, 1000)
+        self.stage_label = QLabel("")
+        self.stage_label.setWordWrap(True)
+        tl = tol_box.layout()
+        tl.addWidget(self.progress_bar)
+        tl.addWidget(self.stage_label)
+        legend_box = QGroupBox("Colour scale")
+        QVBoxLayout(legend_box).addWidget(self.legend)
+        self.export_button = QPushButton("3  Export certificate…")
+        self.export_button.setObjectName("exportButton")
+        self.export_button.clicked.connect(self.export_certificate)
+        left = QWidget()
+        ll = QVBoxLayout(left)
+        ll.addWidget(files)
+        ll.addWidget(tol_box)
+        ll.addWidget(legend_box, 1)
+        ll.addWidget(self.export_button)
+        left.setMaximumWidth(440)
+        left.setMinimumWidth(380)
+
+        self.views = QTabWidget()
+        self.views.addTab(self.viewport, "3D view")
+        self.views.addTab(self.contour, "2D contour")
+        self.bottom = QTabWidget()
+        self.bottom.addTab(self.table, "Points")
+        self.bottom.addTab(self.histogram, "Histogram")
+        right = QSplitter(Qt.Vertical)
+        right.addWidget(self.views)
+        right.addWidget(self.bottom)
+        right.setSizes([560, 260])
+        main = QSplitter(Qt.Horizontal)
+        main.addWidget(left)
+        main.addWidget(right)
+        main.setStretchFactor(1, 1)
+        central = QWidget()
+        cl = QVBoxLayout(central)
+        cl.addWidget(self.message_bar)
+        cl.addWidget(self.banner)
+        cl.addWidget(main, 1)
+        self.setCentralWidget(central)
+        self._make_actions()
+        self.statusBar()
+
+        s.inputs_changed.connect(self._inputs)
+        s.step_changed.connect(self._step)
+        s.progress.connect(self._progress)
+        s.result_changed.connect(self._result)
+        s.message.connect(lambda level, text: self.statusBar().showMessage(text, 8000))
+        self._inputs()
+        self._step(s.step)
+
+    # ------------------------------------------------------------------ actions
+    def _make_actions(self) -> None:
+        def act(text, slot, shortcut=None, tip=None):
+            a = QAction(text, self)
+            a.triggered.connect(slot)
+            if shortcut:
+                a.setShortcut(QKeySequence(shortcut))
+            a.setStatusTip(tip or text)
+            return a
+
+        self.act_open_nominal = act("Open &nominal…", self.open_nominal, "Ctrl+N",
+                                    "Open the nominal: CAD points, mesh, grid or DXF template")
+        self.act_open_measured = act("Open &measured…", self.open_measured, "Ctrl+M",
+                                     "Open the measured points")
+        self.act_open_session = act("Open session…", self.open_session, "Ctrl+O")
+        self.act_save_session = act("Save session…", self.save_session, "Ctrl+S")
+        self.act_inspect = act("&Inspect", self.inspect, "F5", "Register and judge")
+        self.act_cancel = act("Cancel", self.controller.cancel, "Esc")
+        self.act_certificate = act("Export &certificate…", self.export_certificate, "Ctrl+E")
+        self.act_csv = act("Export CSV…", self.export_csv)
+        self.act_qif = act("Export QIF…", self.export_qif)
+        self.act_quit = act("Quit", self.close, "Ctrl+Q")
+        file_menu = self.menuBar().addMenu("&File")
+        for a in (self.act_open_nominal, self.act_open_measured):
+            file_menu.addAction(a)
+        self.recent_menu = file_menu.addMenu("Recent files")
+        file_menu.addSeparator()
+        for a in (self.act_open_session, self.act_save_session):
+            file_menu.addAction(a)
+        file_menu.addSeparator()
+        for a in (self.act_certificate, self.act_csv, self.act_qif):
+            file_menu.addAction(a)
+        file_menu.addSeparator()
+        file_menu.addAction(self.act_quit)
+        run_menu = self.menuBar().addMenu("&Inspection")
+        run_menu.addAction(self.act_inspect)
+        run_menu.addAction(self.act_cancel)
+        view_menu = self.menuBar().addMenu("&View")
+        for name in self.viewport.view_buttons:
+            view_menu.addAction(act(f"{name} view", lambda _=False, n=name: (
+                self.views.setCurrentWidget(self.viewport), self.viewport.standard_view(n))))
+        tb = self.addToolBar("Main")
+        tb.setObjectName("mainToolBar")
+        for a in (self.act_open_nominal, self.act_open_measured, self.act_inspect,
+                  self.act_cancel, self.act_certificate):
+            tb.addAction(a)
+        self._fill_recent()
+
+    def _step(self, step: Step) -> None:
+        s = self.session
+        busy = step == Step.RUNNING
+        self.act_open_nominal.setEnabled(not busy)
+        self.act_open_measured.setEnabled(not busy and s.nominal_path is not None)
+        self.act_open_session.setEnabled(not busy)
+        self.act_save_session.setEnabled(not busy and s.nominal_path is not None)
+        self.act_inspect.setEnabled(s.can_inspect)
+        self.tolerance.inspect_button.setEnabled(s.can_inspect)
+        self.act_cancel.setEnabled(busy)
+        self.tolerance.cancel_button.setEnabled(busy)
+        for a in (self.act_certificate, self.act_csv, self.act_qif):
+            a.setEnabled(s.can_export)
+        self.export_button.setEnabled(s.can_export)
+        self.progress_bar.setVisible(busy)
+        if not busy:
+            self.stage_label.setText(step.value)
+
+    def _progress(self, stage: str, fraction: float) -> None:
+        self.progress_bar.setValue(int(1000 * fraction))
+        self.stage_label.setText(stage)
+
+    def _inputs(self) -> None:
+        s = self.session
+        self.nominal_label.setText(os.path.basename(s.nominal_path) if s.nominal_path else "—")
+        self.nominal_label.setToolTip(s.nominal_path or "")
+        self.measured_label.setText(os.path.basename(s.measured_path) if s.measured_path
+                                    else "—")
+        self.measured_label.setToolTip(s.measured_path or "")
+        for p in (s.nominal_path, s.measured_path):
+            if p:
+                self._remember(p)
+
+    def _result(self, run) -> None:
+        if run is not None:
+            self.views.setCurrentWidget(self.contour if run.template is not None
+                                        else self.viewport)
+
+    # ------------------------------------------------------------------ workflow
+    def open_nominal(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getOpenFileName(self, "Open nominal", self._folder(),
+                                                   NOMINAL_FILTER)[0]
+        if path:
+            self.controller.open_nominal(path)
+
+    def open_measured(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getOpenFileName(self, "Open measured points", self._folder(),
+                                                   MEASURED_FILTER)[0]
+        if path:
+            self.controller.open_measured(path)
+
+    def inspect(self) -> None:
+        lo, hi = self.tolerance.zone()
+        if self.controller.set_tolerance(lo, hi):
+            self.controller.inspect()
+
+    def export_certificate(self, path: str | None = None, dialog: CertificateDialog | None = None
+                           ) -> CertificateDialog | None:
+        """Ask for the certificate's fields and identity, then export. Tests pass a prepared
+        ``dialog`` (accepted) to drive it without a modal loop."""
+        if not self.session.can_export:
+            return None
+        default = path or os.path.join(self._folder(), os.path.splitext(
+            os.path.basename(self.session.measured_path))[0] + "_certificate.pdf")
+        defaults = {k: self.qsettings.value(f"certificate/{k}") for k in (
+            "inspector", "organisation", "device", "p12")}
+        if dialog is None:
+            dialog = CertificateDialog(self, defaults, default)
+            if dialog.exec() != CertificateDialog.Accepted:
+                return None
+        info = dialog.info()
+        p12 = dialog.identity_path()
+        for k in ("inspector", "organisation", "device"):
+            self.qsettings.setValue(f"certificate/{k}", getattr(info, k) or "")
+        self.qsettings.setValue("certificate/p12", p12 or "")
+        self.controller.export_certificate(dialog.output_path(), info, p12,
+                                           dialog.take_passphrase())
+        return dialog
+
+    def export_csv(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getSaveFileName(self, "Export CSV", self._folder(),
+                                                   "CSV (*.csv)")[0]
+        if path:
+            self.controller.export_csv(path)
+
+    def export_qif(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getSaveFileName(self, "Export QIF", self._folder(),
+                                                   "QIF (*.qif)")[0]
+        if path:
+            self.controller.export_qif(path)
+
+    def save_session(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getSaveFileName(
+            self, "Save session", self._folder(), f"Sessions (*{SESSION_SUFFIX})")[0]
+        if path:
+            if not path.endswith(SESSION_SUFFIX):
+                path += SESSION_SUFFIX
+            self.controller.save_session(path)
+
+    def open_session(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getOpenFileName(
+            self, "Open session", self._folder(), f"Sessions (*{SESSION_SUFFIX})")[0]
+        if path:
+            self.controller.open_session(path)
+
+    def _folder(self) -> str:
+        for p in (self.session.measured_path, self.session.nominal_path):
+            if p:
+                return os.path.dirname(p)
+        return os.getcwd()
+
+    # ------------------------------------------------------------------ recent files, presets
+    def _remember(self, path: str) -> None:
+        recent = [p for p in self._recent() if p != path]
+        self.qsettings.setValue("recent", [path] + recent[:MAX_RECENT - 1])
+        self._fill_recent()
+
+    def _recent(self) -> list[str]:
+        v = self.qsettings.value("recent") or []
+        return [v] if isinstance(v, str) else list(v)
+
+    def _fill_recent(self) -> None:
+        self.recent_menu.clear()
+        for p in self._recent():
+            a = self.recent_menu.addAction(p)
+            a.triggered.connect(lambda _=False, p=p: self.controller.open_files([p]))
+        self.recent_menu.setEnabled(bool(self._recent()))
+
+    def _load_presets(self) -> dict[str, tuple[float, float]]:
+        out = {}
+        for name in self.qsettings.value("presets/names") or []:
+            v = self.qsettings.value(f"presets/{name}")
+            try:
+                out[name] = (float(v[0]), float(v[1]))
+            except (TypeError, ValueError, IndexError):
+                continue
+        return out
+
+    def _save_presets(self, name: str, lo: float, hi: float) -> None:
+        names = list(self.qsettings.value("presets/names") or [])
+        if name not in names:
+            names.append(name)
+        self.qsettings.setValue("presets/names", names)
+        self.qsettings.setValue(f"presets/{name}", [lo, hi])
+
+    # ------------------------------------------------------------------ drag and drop
+    def dragEnterEvent(self, event):
+        if event.mimeData().hasUrls():
+            event.acceptProposedAction()
+
+    def dropEvent(self, event):
+        paths = [u.toLocalFile() for u in event.mimeData().urls() if u.isLocalFile()]
+        if paths:
+            self.controller.open_files(paths)
+            event.acceptProposedAction()
+
+    def closeEvent(self, event):
+        self.controller.cancel()
+        self.controller.wait(5)
+        self.viewport.close_plotter()
+        super().closeEvent(event)
