@@ -46,7 +46,7 @@ class MainWindow(QMainWindow):
         self.session = session or Session()
         self._invoker = _Invoker()
         self.controller = Controller(self.session, synchronous=synchronous,
-                                     post=self._invoker.call.emit)
+                                     post=None if synchronous else self._invoker.call.emit)
         self.qsettings = settings or QSettings("qa-inspect", "qa-app")
         self.setWindowTitle("qa-inspect — dimensional inspection")
         self.resize(1400, 900)

@@ -1,0 +1,184 @@
+"""The app's session model and controller, without Qt (synchronous controller)."""
+
+import json
+import os
+import shutil
+
+import pytest
+
+from qa_app.controller import Controller
+from qa_app.model import Session, Step
+from reports.cli import main as cli_main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BELLY = os.path.join(ROOT, "samples", "belly_fairing")
+FRAME = os.path.join(ROOT, "samples", "fuselage_frame")
+
+
+def make():
+    s = Session()
+    messages = []
+    s.message.connect(lambda level, text: messages.append((level, text)))
+    return s, Controller(s, synchronous=True), messages
+
+
+def test_workflow_steps_and_result():
+    s, c, messages = make()
+    steps = []
+    s.step_changed.connect(steps.append)
+    assert s.step == Step.NEED_NOMINAL and not s.can_inspect and not s.can_export
+    c.open_nominal(os.path.join(BELLY, "nominal.csv"))
+    assert s.step == Step.NEED_MEASURED
+    c.open_measured(os.path.join(BELLY, "measured.csv"))
+    assert s.step == Step.READY and s.can_inspect and not s.can_export
+    progress = []
+    s.progress.connect(lambda stage, f: progress.append(stage))
+    assert c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    assert s.step == Step.INSPECTED and s.can_export
+    assert s.run.result.verdict == "REJECT" and s.run.result.statistics.n_out == 21
+    assert Step.RUNNING in steps
+    assert any("ICP iteration" in p for p in progress)
+    assert messages[-1][0] == "info" and messages[-1][1].startswith("REJECT")
+    # Changing the tolerance invalidates the result: it belongs to the old settings.
+    c.set_tolerance(-0.25, 0.25)
+    assert s.run is None and s.step == Step.READY
+
+
+def test_bad_input_gives_the_command_lines_message(tmp_path, capsys):
+    bad = tmp_path / "measured.csv"
+    bad.write_text("x,y,z\n1,2,3\n4,five,6\n")
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), str(bad)])
+    c.set_tolerance(-0.1, 0.1)
+    c.inspect()
+    assert s.run is None and s.step == Step.READY and not c.busy
+    level, text = messages[-1]
+    assert level == "error"
+    assert cli_main(["inspect", os.path.join(BELLY, "nominal.csv"), str(bad), "--tol", "0.1"]) \
+        == 65
+    assert capsys.readouterr().err.strip() == f"qa-inspect: error: {text}"
+    assert f"{bad}:3:" in text
+
+
+def test_missing_and_unsupported_files_and_bad_zone(tmp_path):
+    s, c, messages = make()
+    c.open_nominal(str(tmp_path / "nope.csv"))
+    assert s.nominal_path is None and messages[-1] == ("error", f"{tmp_path / 'nope.csv'}: "
+                                                                "no such file")
+    odd = tmp_path / "part.docx"
+    odd.write_text("x")
+    c.open_nominal(str(odd))
+    assert s.nominal_path is None and "unsupported file type '.docx'" in messages[-1][1]
+    assert not c.set_tolerance(0.2, -0.2)
+    assert messages[-1][0] == "error" and "zone is empty" in messages[-1][1]
+
+
+def test_cancel_leaves_no_result():
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")])
+    s.progress.connect(lambda stage, f: "ICP iteration" in stage and c.cancel())
+    c.inspect()
+    assert s.run is None and s.step == Step.READY
+    assert messages[-1] == ("warning", "cancelled; no result was written")
+    # The next run is not cancelled by the old request.
+    s.progress._callbacks.clear()
+    c.inspect()
+    assert s.run is not None
+
+
+def test_template_run_and_exports(tmp_path):
+    s, c, messages = make()
+    c.open_files([os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")])
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT" and s.run.template is not None
+    c.export_csv(str(tmp_path / "p.csv"))
+    c.export_qif(str(tmp_path / "r.qif"))
+    rows = (tmp_path / "p.csv").read_text().splitlines()
+    assert len(rows) == 501 and rows[0].startswith("index,label,x,y,z")
+    assert b"QIFDocument" in (tmp_path / "r.qif").read_bytes()[:400]
+
+
+def test_session_round_trip_and_changed_input_warning(tmp_path):
+    nominal = tmp_path / "nominal.csv"
+    measured = tmp_path / "measured.csv"
+    shutil.copy(os.path.join(BELLY, "nominal.csv"), nominal)
+    shutil.copy(os.path.join(BELLY, "measured.csv"), measured)
+    s, c, messages = make()
+    c.open_files([str(nominal), str(measured)])
+    c.set_tolerance(-0.1, 0.3)
+    c.inspect()
+    path = tmp_path / "part.qasession"
+    c.save_session(str(path))
+    saved = json.loads(path.read_text())
+    assert saved["settings"]["tol_lower"] == -0.1 and saved["settings"]["tol_upper"] == 0.3
+    assert saved["results"]["verdict"] == s.run.result.verdict
+
+    s2, c2, messages2 = make()
+    c2.open_session(str(path))
+    assert s2.settings.tol_lower == -0.1 and s2.settings.tol_upper == 0.3
+    assert s2.nominal_path == str(nominal) and s2.run is not None
+    assert s2.run.doc["deviations"]["max_abs"] == s.run.doc["deviations"]["max_abs"]
+
+    with open(measured, "a") as f:
+        f.write("P9999,0,0,0\n")
+    s3, c3, messages3 = make()
+    c3.open_session(str(path))
+    level, text = messages3[-1]
+    assert level == "warning" and "measured file" in text and "changed" in text
+    assert s3.run is None and s3.measured_path == str(measured)
+
+
+def test_unreadable_session_file(tmp_path):
+    bad = tmp_path / "x.qasession"
+    bad.write_text("{not json")
+    s, c, messages = make()
+    c.open_session(str(bad))
+    assert messages[-1][0] == "error" and str(bad) in messages[-1][1]
+    assert s.step == Step.NEED_NOMINAL
+
+
+@pytest.mark.parametrize("signed", [False, True])
+def test_certificate_export_matches_the_command_line(tmp_path, monkeypatch, signed):
+    from reports.certificate import CertificateInfo
+    from reports.signing import read_trust_roots, verify_pdf
+
+    monkeypatch.setenv("QA_APP_TEST_PASS", "pw")
+    ident = tmp_path / "id"
+    if signed:
+        assert cli_main(["keygen", "--name", "Ann", "--out", str(ident), "--pass-env",
+                         "QA_APP_TEST_PASS"]) == 0
+    s, c, messages = make()
+    c.open_files([os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")])
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    out = tmp_path / "cert.pdf"
+    done = []
+    c.export_certificate(str(out), CertificateInfo(part_number="FR-1"),
+                         str(ident / "inspector.p12") if signed else None,
+                         b"pw" if signed else None, on_done=done.append)
+    assert done == [str(out)] and out.is_file()
+    if signed:
+        v = verify_pdf(out.read_bytes(), read_trust_roots(str(ident / "ca.pem")))
+        assert v.valid, v.problems
+        doc = json.loads(v.attachments["results.json"])
+        assert doc["verdict"] == "ACCEPT" and doc["certificate"]["part_number"] == "FR-1"
+    else:
+        assert b"UNSIGNED DRAFT" in out.read_bytes()
+
+
+def test_wrong_passphrase_is_one_error_and_no_file(tmp_path, monkeypatch):
+    from reports.certificate import CertificateInfo
+
+    monkeypatch.setenv("QA_APP_TEST_PASS", "pw")
+    assert cli_main(["keygen", "--name", "Ann", "--out", str(tmp_path / "id"), "--pass-env",
+                     "QA_APP_TEST_PASS"]) == 0
+    s, c, messages = make()
+    c.open_files([os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")])
+    c.inspect()
+    out = tmp_path / "cert.pdf"
+    c.export_certificate(str(out), CertificateInfo(), str(tmp_path / "id" / "inspector.p12"),
+                         b"wrong")
+    assert not out.exists() and s.step == Step.INSPECTED
+    assert messages[-1][0] == "error" and "inspector.p12" in messages[-1][1]

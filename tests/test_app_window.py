@@ -1,0 +1,142 @@
+"""The main window's widget logic on Qt's offscreen platform (no 3D viewport here; it has its
+own tests under Xvfb): actions enabled when they make sense, verdict banner, table and views in
+step, errors in the message bar, drag and drop, presets, recent files."""
+
+import os
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QMimeData, QPointF, QSettings, Qt, QUrl
+from PySide6.QtGui import QDropEvent
+
+from qa_app.model import Step
+from qa_app.window import MainWindow
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BELLY = os.path.join(ROOT, "samples", "belly_fairing")
+FRAME = os.path.join(ROOT, "samples", "fuselage_frame")
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    w = MainWindow(synchronous=True, settings=QSettings(str(tmp_path / "qa-app.ini"),
+                                                        QSettings.IniFormat))
+    qtbot.addWidget(w)
+    w.show()
+    return w
+
+
+def load_belly(w, tol=0.05):
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.tolerance.set_zone(-tol, tol)
+
+
+def test_actions_follow_the_workflow(window, qtbot):
+    w = window
+    assert w.viewport.plotter is None  # offscreen: the notice instead of the 3D view
+    assert not w.act_inspect.isEnabled() and not w.act_certificate.isEnabled()
+    assert not w.act_open_measured.isEnabled()
+    w.controller.open_nominal(os.path.join(BELLY, "nominal.csv"))
+    assert w.act_open_measured.isEnabled() and not w.act_inspect.isEnabled()
+    w.controller.open_measured(os.path.join(BELLY, "measured.csv"))
+    assert w.act_inspect.isEnabled() and w.tolerance.inspect_button.isEnabled()
+    assert not w.export_button.isEnabled() and not w.act_cancel.isEnabled()
+    w.tolerance.set_zone(-0.05, 0.05)
+    qtbot.mouseClick(w.tolerance.inspect_button, Qt.LeftButton)
+    assert w.session.step == Step.INSPECTED
+    assert w.export_button.isEnabled() and w.act_certificate.isEnabled()
+    assert w.act_csv.isEnabled() and w.act_qif.isEnabled()
+
+
+def test_banner_table_and_selection(window, qtbot):
+    w = window
+    load_belly(w, 0.05)
+    w.act_inspect.trigger()
+    run = w.session.run
+    assert w.banner.verdict == "REJECT"
+    assert "REJECTED" in w.banner.word.text() and "21 out of tolerance" in w.banner.detail.text()
+    model = w.table.model()
+    assert model.rowCount() == 1100
+    # Sorted by deviation, most negative first; every row's result agrees with the zone.
+    devs = [float(model.data(model.index(r, 5))) for r in range(model.rowCount())]
+    assert devs == sorted(devs) and devs[0] == pytest.approx(run.result.statistics.min, abs=1e-4)
+    w.table.sortByColumn(5, Qt.DescendingOrder)
+    assert float(model.data(model.index(0, 5))) == pytest.approx(run.result.statistics.max,
+                                                                 abs=1e-4)
+    fails = [r for r in range(model.rowCount()) if model.data(model.index(r, 6)) == "FAIL"]
+    assert len(fails) == 21
+    # Row → selection → viewport readout, and selection → row.
+    w.table.selectRow(fails[0])
+    i = w.session.selected
+    assert i == model.point(fails[0])
+    label = str(run.measured.labels[i])
+    assert label in w.viewport.readout.text() and "OUT OF TOLERANCE" in w.viewport.readout.text()
+    w.session.select(7)
+    assert model.point(w.table.currentIndex().row()) == 7
+
+
+def test_contour_view_whiskers_and_click_selects(window, qtbot):
+    w = window
+    w.controller.open_files([os.path.join(FRAME, "template.dxf"),
+                             os.path.join(FRAME, "measured.csv")])
+    w.act_inspect.trigger()
+    assert w.session.run.result.verdict in ("ACCEPT", "REJECT")
+    assert w.views.currentWidget() is w.contour
+    w.contour.resize(800, 500)
+    P = w.contour._transform()
+    tx, ty = P(w.contour._cache[2])
+    qtbot.mouseClick(w.contour, Qt.LeftButton, pos=QPointF(tx[42], ty[42]).toPoint())
+    sel = w.session.selected
+    # The nearest whisker tip to the click is 42's (or one drawn within a pixel of it).
+    assert np.hypot(tx[sel] - tx[42], ty[sel] - ty[42]) <= 1.5
+    img = w.contour.grab().toImage()
+    assert not img.isNull()
+
+
+def test_bad_file_shows_the_error_and_the_window_survives(window, tmp_path):
+    w = window
+    bad = tmp_path / "broken.csv"
+    bad.write_text("x,y,z\n1,2,3\n4,five,6\n")
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"), str(bad)])
+    w.act_inspect.trigger()
+    assert w.message_bar.isVisible() and w.message_bar.level == "error"
+    assert f"{bad}:3:" in w.message_bar.text
+    assert w.session.step == Step.READY and w.act_inspect.isEnabled()
+    # A good file afterwards works in the same window.
+    w.controller.open_measured(os.path.join(BELLY, "measured.csv"))
+    w.act_inspect.trigger()
+    assert w.session.run is not None
+
+
+def test_drop_files_onto_the_window(window):
+    w = window
+    mime = QMimeData()
+    mime.setUrls([QUrl.fromLocalFile(os.path.join(BELLY, "nominal.csv")),
+                  QUrl.fromLocalFile(os.path.join(BELLY, "measured.csv"))])
+    ev = QDropEvent(QPointF(10, 10), Qt.CopyAction, mime, Qt.LeftButton, Qt.NoModifier)
+    w.dropEvent(ev)
+    assert w.session.nominal_path.endswith("nominal.csv")
+    assert w.session.measured_path.endswith("measured.csv")
+    assert w.nominal_label.text() == "nominal.csv"
+
+
+def test_presets_and_recent_files_persist(window, qtbot, tmp_path, monkeypatch):
+    w = window
+    w.tolerance.asym.setChecked(True)
+    w.tolerance.lower.setValue(-0.1)
+    w.tolerance.upper.setValue(0.3)
+    from PySide6.QtWidgets import QInputDialog
+
+    monkeypatch.setattr(QInputDialog, "getText", lambda *a, **k: ("BF-2231", True))
+    w.tolerance._save_preset()
+    load_belly(w)
+    w2 = MainWindow(synchronous=True, settings=w.qsettings)
+    qtbot.addWidget(w2)
+    assert w2.tolerance.presets["BF-2231"] == (-0.1, 0.3)
+    i = w2.tolerance.preset.findData("BF-2231")
+    w2.tolerance.preset.activated.emit(i)
+    assert w2.tolerance.zone() == (-0.1, 0.3)
+    recent = [a.text() for a in w2.recent_menu.actions()]
+    assert recent[:2] == [os.path.join(BELLY, "measured.csv"), os.path.join(BELLY,
+                                                                          "nominal.csv")]

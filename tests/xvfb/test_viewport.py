@@ -1,0 +1,150 @@
+"""The real 3D viewport and the whole workflow, in a window on an X display (Xvfb)."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings
+
+from qa_app.dialogs import CertificateDialog
+from qa_app.model import Step
+from qa_app.window import MainWindow
+from reports import figures
+from reports.cli import main as cli_main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BELLY = os.path.join(ROOT, "samples", "belly_fairing")
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    made = []
+
+    def make(synchronous=True):
+        w = MainWindow(synchronous=synchronous,
+                       settings=QSettings(str(tmp_path / "qa-app.ini"), QSettings.IniFormat))
+        qtbot.addWidget(w)
+        w.show()
+        qtbot.waitExposed(w)
+        made.append(w)
+        return w
+
+    yield make
+    for w in made:
+        w.close()
+
+
+def _screen_of(plotter, xyz):
+    r = plotter.renderer
+    r.SetWorldPoint(*xyz, 1.0)
+    r.WorldToDisplay()
+    return r.GetDisplayPoint()[:2]
+
+
+def test_viewport_shows_the_deviation_colours(window, qtbot):
+    w = window()
+    assert w.viewport.plotter is not None
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.tolerance.set_zone(-0.05, 0.05)
+    w.act_inspect.trigger()
+    qtbot.wait(100)
+    img = w.viewport.plotter.screenshot(return_img=True).astype(int)
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    green = (g > r + 40) & (g > b + 40)
+    blue = (b > r + 60) & (b > g + 20)
+    grey = (abs(r - g) < 8) & (abs(g - b) < 12) & (r > 90) & (r < 235)
+    # In-tolerance points (greens) dominate; the 20 points below the zone show blue; the nominal
+    # surface shows grey between the points.
+    assert green.sum() > 20 * blue.sum() > 0
+    assert blue.sum() > 200
+    assert grey.sum() > 2000
+    # No out-of-tolerance colour where there is no such point: the reds appear only at the one
+    # point above the zone.
+    red = (r > g + 60) & (r > b + 60)
+    assert 0 < red.sum() < blue.sum()
+
+
+def test_pick_a_point_in_the_view(window, qtbot):
+    w = window()
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.tolerance.set_zone(-0.25, 0.25)
+    w.act_inspect.trigger()
+    qtbot.wait(100)
+    pl = w.viewport.plotter
+    target = int(np.argmin(np.linalg.norm(w.viewport._shown - w.viewport._shown.mean(0),
+                                          axis=1)))
+    x, y = _screen_of(pl, w.viewport._shown[target])
+    pl.iren._mouse_left_button_click(int(round(x)), int(round(y)))
+    qtbot.wait(50)
+    sel = w.session.selected
+    assert sel is not None
+    # The picked point is the one under the cursor (or a neighbour drawn within a few pixels).
+    sx, sy = _screen_of(pl, w.viewport._shown[sel])
+    assert np.hypot(sx - x, sy - y) < 8
+    label = str(w.session.run.measured.labels[sel])
+    assert label in w.viewport.readout.text()
+    assert w.table.model().point(w.table.currentIndex().row()) == sel
+    assert "qa-selection" in pl.renderer.actors
+
+
+def test_standard_views_move_the_camera(window, qtbot):
+    w = window()
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.act_inspect.trigger()
+    pl = w.viewport.plotter
+    seen = set()
+    for name in ("Top", "Front", "Side", "Iso", "Face-on"):
+        w.viewport.view_buttons[name].click()
+        d = np.subtract(pl.camera.position, pl.camera.focal_point)
+        seen.add(tuple(np.round(d / np.linalg.norm(d), 3)))
+    assert len(seen) == 5
+    assert np.allclose(np.subtract(pl.camera.position, pl.camera.focal_point)
+                       / np.linalg.norm(np.subtract(pl.camera.position, pl.camera.focal_point)),
+                       figures.face_on_direction(w.session.run.result.deviations.foot,
+                                                 w.session.run.result.deviations.normal),
+                       atol=1e-6)
+
+
+def test_workflow_from_files_to_a_verified_signed_certificate(window, qtbot, tmp_path,
+                                                              monkeypatch):
+    """Through the window's own actions, with the engine in its worker thread."""
+    monkeypatch.setenv("QA_XVFB_PASS", "s3cret")
+    assert cli_main(["keygen", "--name", "Ann Inspector", "--organisation", "ACME",
+                     "--out", str(tmp_path / "id"), "--pass-env", "QA_XVFB_PASS"]) == 0
+    w = window(synchronous=False)
+    stages = []
+    w.session.progress.connect(lambda stage, f: stages.append(stage))
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.tolerance.set_zone(-0.25, 0.25)
+    w.act_inspect.trigger()
+    assert w.session.step == Step.RUNNING and w.act_cancel.isEnabled()
+    qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=120_000)
+    assert any("ICP iteration" in s for s in stages)
+    assert w.banner.verdict == "ACCEPT"
+
+    out = tmp_path / "certificate.pdf"
+    dialog = CertificateDialog(w, {}, str(out))
+    dialog.edits["part_number"].setText("BF-2231-001")
+    dialog.edits["serial"].setText("SN-7")
+    dialog.edits["inspector"].setText("Ann Inspector")
+    dialog.p12.setText(str(tmp_path / "id" / "inspector.p12"))
+    dialog.passphrase.setText("s3cret")
+    w.export_certificate(dialog=dialog)
+    assert dialog.passphrase.text() == ""  # handed over once, not kept
+    qtbot.waitUntil(lambda: out.exists() and w.session.step == Step.INSPECTED,
+                    timeout=120_000)
+    assert not w.message_bar.isVisible() or w.message_bar.level != "error"
+    from reports.signing import read_trust_roots, verify_pdf
+
+    v = verify_pdf(out.read_bytes(), read_trust_roots(str(tmp_path / "id" / "ca.pem")))
+    assert v.valid, v.problems
+    doc = json.loads(v.attachments["results.json"])
+    assert doc["verdict"] == "ACCEPT" and doc["certificate"]["serial"] == "SN-7"
+    assert cli_main(["verify", str(out), "--trust", str(tmp_path / "id" / "ca.pem"),
+                     "--nominal", os.path.join(BELLY, "nominal.csv"),
+                     "--measured", os.path.join(BELLY, "measured.csv")]) == 0
