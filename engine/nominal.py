@@ -246,7 +246,8 @@ class Nominal:
         # Vertex -> triangles in CSR form; scipy's COO -> CSR conversion is a counting sort.
         nt = tris.shape[0]
         incidence = coo_matrix((np.ones(3 * nt, dtype=np.int8),
-                                (tris.ravel(), np.repeat(np.arange(nt, dtype=np.int64), 3))),
+                                (tris.ravel(), np.broadcast_to(
+                                    np.arange(nt, dtype=np.int64)[:, None], (nt, 3)).ravel())),
                                shape=(self.n, nt)).tocsr()
         star_ptr = np.zeros(self.n + len(extra_tri_arr) + 1, np.int64)
         star_ptr[: self.n + 1] = incidence.indptr

@@ -25,8 +25,12 @@ SESSION_SUFFIX = ".qasession"
 
 class Controller:
     def __init__(self, session: Session, synchronous: bool = False,
-                 post: Callable[[Callable[[], None]], None] | None = None):
+                 post: Callable[[Callable[[], None]], None] | None = None,
+                 prepare: Callable | None = None):
+        """prepare : called in the worker with each finished run; what it returns is attached
+        as ``run.display`` (the views' heavy preparation, kept off the GUI thread)."""
         self.session = session
+        self._prepare = prepare
         self.synchronous = synchronous
         self._post = post or (lambda f: f())
         self._cancel = threading.Event()
@@ -98,7 +102,11 @@ class Controller:
         s.set_running(True)
 
         def job():
-            return run_files(nominal, measured, settings, progress=self._progress)
+            run = run_files(nominal, measured, settings, progress=self._progress)
+            if self._prepare is not None:
+                self._progress("preparing the views", 1.0)
+                run.display = self._prepare(run)
+            return run
 
         def done(run):
             s.set_running(False)

@@ -47,7 +47,9 @@ class Viewport3D(QWidget):
         if enable_3d if enable_3d is not None else can_render_3d():
             from pyvistaqt import QtInteractor
 
-            self.plotter = QtInteractor(self)
+            # No auto-update timer: with 200,000 points a frame costs ~0.3 s of the GUI thread,
+            # so frames are drawn only when something changed.
+            self.plotter = QtInteractor(self, auto_update=False)
             self.plotter.set_background("white")
             self.plotter.enable_point_picking(callback=self._picked, show_message=False,
                                               left_clicking=True, show_point=False,
@@ -66,6 +68,33 @@ class Viewport3D(QWidget):
             self.plotter.close()
             self.plotter = None
 
+    @staticmethod
+    def prepare(run) -> dict:
+        """What the view needs of a run, computed in the worker thread (no OpenGL here): the
+        display surface (simplified when big), point positions, colours, the pick tree and the
+        face-on view. Keeps the GUI thread free for drawing."""
+        from scipy.spatial import cKDTree
+
+        res = run.result
+        d = res.deviations.signed
+        out = {"rgb": figures.band_rgb(d, res.tolerance), "surface": None, "contours": None}
+        if run.template is not None:
+            out["shown"] = res.registered.copy()
+            out["contours"] = [np.column_stack([p, np.zeros(len(p))])
+                               for p in figures.template_polylines(run.template.template)]
+            out["home"] = ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0))
+        else:
+            surf, lift = figures.display_surface(run.nominal.points, run.nominal.triangles,
+                                                 max_triangles=400_000)
+            if surf is not None:
+                surf = surf.compute_normals(split_vertices=False, auto_orient_normals=False)
+            out["surface"] = surf
+            out["shown"] = res.deviations.foot + lift * res.deviations.normal
+            face = figures.face_on_direction(res.deviations.foot, res.deviations.normal)
+            out["home"] = (tuple(face), tuple(figures.any_perpendicular(face)))
+        out["tree"] = cKDTree(out["shown"])
+        return out
+
     def show_run(self, run) -> None:
         self._shown = self._tree = None
         if self.plotter is not None:
@@ -75,60 +104,53 @@ class Viewport3D(QWidget):
                     self.plotter.remove_actor(name, render=False)
         if run is None:
             if self.plotter is not None:
-                self.plotter.render()
+                self._redraw()
             return
-        res = run.result
-        d = res.deviations.signed
-        if run.template is not None:
-            self._shown = res.registered.copy()
-        else:
-            _, lift = figures.display_surface(run.nominal.points, None)
-            self._shown = res.deviations.foot + lift * res.deviations.normal
-        from scipy.spatial import cKDTree
-
-        self._tree = cKDTree(self._shown)
+        disp = getattr(run, "display", None) or self.prepare(run)
+        self._shown, self._tree, self._home = disp["shown"], disp["tree"], disp["home"]
         if self.plotter is None:
             return
         import pyvista as pv
 
         pl = self.plotter
-        if run.template is not None:
-            for k, poly in enumerate(figures.template_polylines(run.template.template)):
-                pts = np.column_stack([poly, np.zeros(len(poly))])
+        res = run.result
+        if disp["contours"] is not None:
+            for k, pts in enumerate(disp["contours"]):
                 pl.add_mesh(pv.lines_from_points(pts), color=(0.25, 0.25, 0.28), line_width=2,
-                            name=f"qa-contour-{k}", pickable=False)
+                            name=f"qa-contour-{k}", pickable=False, render=False)
+        elif disp["surface"] is not None:
+            pl.add_mesh(disp["surface"], color=(0.80, 0.81, 0.83), smooth_shading=True,
+                        specular=0.2, ambient=0.25, pickable=False, name="qa-nominal",
+                        render=False)
         else:
-            surf, _ = figures.display_surface(run.nominal.points, run.nominal.triangles,
-                                              max_triangles=400_000)
-            if surf is not None:
-                pl.add_mesh(surf, color=(0.80, 0.81, 0.83), smooth_shading=True, specular=0.2,
-                            ambient=0.25, pickable=False, name="qa-nominal")
-            else:
-                step = max(1, run.nominal.points.shape[0] // 500_000)
-                pl.add_points(run.nominal.points[::step], color=(0.72, 0.73, 0.75),
-                              point_size=2, pickable=False, name="qa-nominal")
-        n = d.size
-        rgb = figures.band_rgb(d, res.tolerance)
+            step = max(1, run.nominal.points.shape[0] // 500_000)
+            pl.add_points(run.nominal.points[::step], color=(0.72, 0.73, 0.75), point_size=2,
+                          pickable=False, name="qa-nominal", render=False)
+        n = res.deviations.signed.size
+        rgb = disp["rgb"]
         out = ~res.in_tolerance
         size = float(np.clip(300.0 / np.sqrt(max(n, 1)), 3, 10))
         for name, mask, px in (("qa-in", ~out, size), ("qa-out", out, 1.7 * size)):
             if mask.any():
                 pl.add_points(self._shown[mask], scalars=rgb[mask], rgb=True,
-                              render_points_as_spheres=True, point_size=px, name=name)
-        if run.template is not None:
-            self._home = ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0))
-        else:  # face-on to the measured patch, from outside the material
-            face = figures.face_on_direction(res.deviations.foot, res.deviations.normal)
-            self._home = (tuple(face), tuple(figures.any_perpendicular(face)))
+                              render_points_as_spheres=True, point_size=px, name=name,
+                              render=False)
         self.home_view()
 
     def home_view(self) -> None:
         if self.plotter is None or self._home is None:
             return
-        self.plotter.view_vector(*self._home)
-        self.plotter.reset_camera()
+        # One render at the end: each costs ~0.3 s for 200,000 points in software OpenGL.
+        # The renderer's own methods: the Plotter's reset_camera always renders.
+        self.plotter.renderer.view_vector(*self._home, render=False)
+        self.plotter.renderer.reset_camera(render=False)
         self.plotter.camera.zoom(1.4)
-        self.plotter.render()
+        self._redraw()
+
+    def _redraw(self) -> None:
+        """Ask Qt for a repaint (which renders once) instead of rendering now and again when Qt
+        paints the widget."""
+        QWidget.update(self.plotter.interactor)
 
     def standard_view(self, name: str) -> None:
         if self.plotter is None:
@@ -161,5 +183,5 @@ class Viewport3D(QWidget):
             p = self._shown[index]
             r = 0.015 * float(np.linalg.norm(np.ptp(self._shown, axis=0)) or 1.0)
             self.plotter.add_mesh(pv.Sphere(radius=r, center=p), color="magenta",
-                                  name="qa-selection", pickable=False)
-            self.plotter.render()
+                                  name="qa-selection", pickable=False, render=False)
+            self._redraw()

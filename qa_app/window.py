@@ -46,7 +46,8 @@ class MainWindow(QMainWindow):
         self.session = session or Session()
         self._invoker = _Invoker()
         self.controller = Controller(self.session, synchronous=synchronous,
-                                     post=None if synchronous else self._invoker.call.emit)
+                                     post=None if synchronous else self._invoker.call.emit,
+                                     prepare=Viewport3D.prepare)
         self.qsettings = settings or QSettings("qa-inspect", "qa-app")
         self.setWindowTitle("qa-inspect — dimensional inspection")
         self.resize(1400, 900)

@@ -72,6 +72,8 @@ class Run:
     nominal: Nominal | None
     template: object | None
     doc: dict
+    display: dict | None = None
+    """What a viewer prepared for showing this run (the desktop app's worker fills it)."""
 
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
