@@ -206,7 +206,9 @@ class Controller:
         s = self.session
         doc = {"format": SESSION_FORMAT, "version": 1,
                "saved": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-               "inputs": [{"role": role, "path": p, "sha256": sha256_of(p) if p else None}
+               "inputs": [{"role": role, "path": p,
+                           "relative_path": _relative(p, path) if p else None,
+                           "sha256": sha256_of(p) if p else None}
                           for role, p in (("nominal", s.nominal_path),
                                           ("measured", s.measured_path))],
                "settings": {k: (list(v) if isinstance(v, tuple) else v)
@@ -223,7 +225,8 @@ class Controller:
 
     def open_session(self, path: str) -> None:
         """Reopen a saved session: its inputs and settings; warns about any input changed since
-        (by SHA-256), and re-runs the inspection when all are unchanged."""
+        (by SHA-256), and re-runs the inspection when all are unchanged (the engine is
+        deterministic: the same results)."""
         from reports.loading import sha256_of
 
         s = self.session
@@ -248,6 +251,13 @@ class Controller:
         changed = []
         for role in ("nominal", "measured"):
             rec = inputs.get(role) or {}
+            # A session moved together with its files (a sample, a copied job folder) finds
+            # them beside it.
+            rel = rec.get("relative_path")
+            here = os.path.join(os.path.dirname(os.path.abspath(path)), rel) if rel else None
+            if here and (not rec.get("path") or not os.path.isfile(rec["path"])) \
+                    and os.path.isfile(here):
+                rec["path"] = os.path.normpath(here)
             p = rec.get("path")
             if p and not os.path.isfile(p):
                 changed.append(f"{role} file {p} no longer exists")
@@ -262,7 +272,7 @@ class Controller:
                    ". Inspect again to get results for the files as they are now.")
             return
         s.tell("info", f"Session reopened: {path}")
-        if doc.get("results") is not None and s.can_inspect:
+        if s.can_inspect:  # the files are as they were: bring the results back
             self.inspect()
 
     # ------------------------------------------------------------------ worker
@@ -299,3 +309,10 @@ class Controller:
         """Block until the worker thread ends (tests, shutdown)."""
         if self._thread is not None:
             self._thread.join(timeout)
+
+
+def _relative(p: str, session_path: str) -> str | None:
+    try:
+        return os.path.relpath(p, os.path.dirname(os.path.abspath(session_path)))
+    except ValueError:  # another drive
+        return None

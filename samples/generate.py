@@ -105,6 +105,7 @@ def make_fairing(out: str) -> dict:
         "expected_verdict": "ACCEPT",
     }
     _write_json(os.path.join(out, "truth.json"), truth)
+    _write_session(out, "nominal.csv", "measured.csv", 0.25)
     return truth
 
 
@@ -224,6 +225,7 @@ def make_bracket(out: str) -> dict:
         "expected_verdict": "ACCEPT",
     }
     _write_json(os.path.join(out, "truth.json"), truth)
+    _write_session(out, "nominal.xyz", "measured.csv", 0.05)
     return truth
 
 
@@ -319,6 +321,7 @@ def make_frame(out: str) -> dict:
         "expected_verdict": "ACCEPT",
     }
     _write_json(os.path.join(out, "truth.json"), truth)
+    _write_session(out, "template.dxf", "measured.csv", 0.05)
     return truth
 
 
@@ -329,6 +332,24 @@ def _write_cmm(path, comment, labels, points):
         f.write("id,x,y,z\n")
         for lab, p in zip(labels, points):
             f.write(f"{lab},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f}\n")
+
+
+def _write_session(out, nominal, measured, tol):
+    """inspection.qasession: the sample as a desktop-app session (files beside it, the zone),
+    so that ``qa-app samples/NAME/inspection.qasession`` opens and inspects it."""
+    import hashlib
+
+    def sha(f):
+        with open(os.path.join(out, f), "rb") as fh:
+            return hashlib.sha256(fh.read()).hexdigest()
+
+    _write_json(os.path.join(out, "inspection.qasession"), {
+        "format": "qa-inspect session", "version": 1, "saved": None,
+        "inputs": [{"role": role, "path": None, "relative_path": f, "sha256": sha(f)}
+                   for role, f in (("nominal", nominal), ("measured", measured))],
+        "settings": {"tol_lower": -tol, "tol_upper": tol, "layers": None, "units": None,
+                     "scale": None},
+        "results": None})
 
 
 def _write_json(path, obj):

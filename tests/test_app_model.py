@@ -182,3 +182,13 @@ def test_wrong_passphrase_is_one_error_and_no_file(tmp_path, monkeypatch):
                          b"wrong")
     assert not out.exists() and s.step == Step.INSPECTED
     assert messages[-1][0] == "error" and "inspector.p12" in messages[-1][1]
+
+
+def test_sample_session_opens_and_inspects_with_its_zone():
+    """`qa-app samples/belly_fairing/inspection.qasession`: files found beside it, zone ±0.25."""
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "inspection.qasession")])
+    assert s.settings.tol_lower == -0.25 and s.settings.tol_upper == 0.25
+    assert s.nominal_path == os.path.join(BELLY, "nominal.csv")
+    assert s.run is not None and s.run.result.verdict == "ACCEPT"
+    assert all(level != "warning" for level, _ in messages)

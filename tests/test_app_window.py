@@ -140,3 +140,51 @@ def test_presets_and_recent_files_persist(window, qtbot, tmp_path, monkeypatch):
     recent = [a.text() for a in w2.recent_menu.actions()]
     assert recent[:2] == [os.path.join(BELLY, "measured.csv"), os.path.join(BELLY,
                                                                           "nominal.csv")]
+
+
+def test_cancel_button_stops_a_running_inspection(qtbot, tmp_path):
+    import time
+
+    w = MainWindow(synchronous=False, settings=QSettings(str(tmp_path / "s.ini"),
+                                                        QSettings.IniFormat))
+    qtbot.addWidget(w)
+    slow = w.controller._progress
+
+    def slowed(stage, fraction):  # a long run, so that Cancel surely lands inside it
+        time.sleep(0.05)
+        slow(stage, fraction)
+
+    w.controller._progress = slowed
+    load_belly(w)
+    w.act_inspect.trigger()
+    assert w.session.step == Step.RUNNING and w.tolerance.cancel_button.isEnabled()
+    qtbot.waitUntil(lambda: "ICP" in w.stage_label.text(), timeout=30_000)
+    qtbot.mouseClick(w.tolerance.cancel_button, Qt.LeftButton)
+    qtbot.waitUntil(lambda: w.session.step == Step.READY, timeout=30_000)
+    assert w.session.run is None
+    assert w.message_bar.level == "warning" and "cancelled" in w.message_bar.text
+    assert w.act_inspect.isEnabled() and not w.act_cancel.isEnabled()
+
+
+def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_path):
+    import sys
+
+    from PySide6.QtWidgets import QApplication
+
+    from qa_app import app as qa_app_main
+
+    monkeypatch.setattr(QApplication, "exec", lambda self: 0)
+    monkeypatch.setattr(sys, "excepthook", sys.excepthook)
+    import threading
+
+    monkeypatch.setattr(threading, "excepthook", threading.excepthook)
+    monkeypatch.setattr("qa_app.window.QSettings", lambda *a: QSettings(
+        str(tmp_path / "s.ini"), QSettings.IniFormat))
+    assert qa_app_main.main([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv"), "--tol", "0.25"]) == 0
+    w = next(x for x in QApplication.topLevelWidgets() if isinstance(x, MainWindow)
+             and x.isVisible() and x.session.measured_path)
+    qtbot.addWidget(w)
+    qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=60_000)
+    assert w.banner.verdict == "ACCEPT"
+    assert w.tolerance.zone() == (-0.25, 0.25)
