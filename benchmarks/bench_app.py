@@ -79,6 +79,7 @@ def run_case(app, name, nominal, measured, tol):
     folder = tempfile.mkdtemp()
     w = MainWindow(settings=QSettings(os.path.join(folder, "s.ini"), QSettings.IniFormat))
     w.show()
+    w.warm_up.join()  # the app loads the engine while the inspector picks the files
     for _ in range(20):
         app.processEvents()
     gaps = {"run": 0.0, "show": 0.0}

@@ -16,41 +16,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .deviation import Deviations
-from .errors import SettingsError
 from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
+from .tolerance import Tolerance
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
 
 ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
 MIN_NEAR_FRACTION = 0.5
-
-
-@dataclass(frozen=True)
-class Tolerance:
-    """Tolerance zone of the deviation, mm: ``lower`` <= d <= ``upper`` is in tolerance."""
-
-    lower: float
-    upper: float
-
-    def __post_init__(self):
-        if not (np.isfinite(self.lower) and np.isfinite(self.upper)):
-            raise SettingsError("tolerance limits must be finite numbers")
-        if not self.lower < self.upper:
-            raise SettingsError(f"tolerance zone is empty: lower limit {self.lower:g} mm is not "
-                                f"below upper limit {self.upper:g} mm")
-
-    @classmethod
-    def symmetric(cls, t: float) -> "Tolerance":
-        if not t > 0:
-            raise SettingsError(f"--tol must be positive, got {t:g}")
-        return cls(-float(t), float(t))
-
-    def excess(self, d: np.ndarray) -> np.ndarray:
-        """How far each deviation lies outside the zone (mm; <= 0 inside)."""
-        return np.maximum(d - self.upper, self.lower - d)
 
 
 @dataclass(frozen=True)

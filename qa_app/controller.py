@@ -37,6 +37,28 @@ class Controller:
         self._thread: threading.Thread | None = None
         self.busy = False
 
+    def warm_up(self) -> threading.Thread:
+        """Import the engine and load its compiled kernels in the background while the inspector
+        picks files, so the first inspection does not hold the GUI thread with imports."""
+
+        def work():
+            import numpy as np
+
+            from engine.inspection import inspect
+            from engine.nominal import Nominal
+            from engine.pointio import PointSet
+            from engine.tolerance import Tolerance
+
+            g = PointSet(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]]),
+                         grid_shape=(2, 2))
+            nominal = Nominal.from_point_set(g)
+            inspect(nominal, nominal.points + [0, 0, 0.01], Tolerance.symmetric(1.0))
+            import reports.pipeline  # noqa: F401
+
+        t = threading.Thread(target=work, name="qa-inspect warm-up", daemon=True)
+        t.start()
+        return t
+
     # ------------------------------------------------------------------ inputs
     def open_nominal(self, path: str) -> None:
         if not self._check_file(path):
@@ -77,7 +99,7 @@ class Controller:
         return True
 
     def set_tolerance(self, lower: float, upper: float) -> bool:
-        from engine.inspection import Tolerance
+        from engine.tolerance import Tolerance
 
         try:
             Tolerance(lower, upper)
@@ -90,18 +112,20 @@ class Controller:
     # ------------------------------------------------------------------ inspection
     def inspect(self) -> None:
         """Run the inspection of the session's files with its settings (in the worker)."""
-        from reports.pipeline import InspectionSettings, run_files
-
         s = self.session
         if not s.can_inspect or self.busy:
             return
         st = s.settings
-        settings = InspectionSettings(st.tol_lower, st.tol_upper, st.layers, st.units, st.scale)
         nominal, measured = s.nominal_path, s.measured_path
         s.set_run(None)
         s.set_running(True)
 
         def job():
+            # Imported here, in the worker: the engine's first import holds the interpreter.
+            from reports.pipeline import InspectionSettings, run_files
+
+            settings = InspectionSettings(st.tol_lower, st.tol_upper, st.layers, st.units,
+                                          st.scale)
             run = run_files(nominal, measured, settings, progress=self._progress)
             if self._prepare is not None:
                 self._progress("preparing the views", 1.0)

@@ -132,6 +132,7 @@ class MainWindow(QMainWindow):
         s.message.connect(lambda level, text: self.statusBar().showMessage(text, 8000))
         self._inputs()
         self._step(s.step)
+        self.warm_up = None if synchronous else self.controller.warm_up()
 
     # ------------------------------------------------------------------ actions
     def _make_actions(self) -> None:
