@@ -1,10 +1,25 @@
-"""The inspection pipeline: register → measure deviations → judge, with the verdict rules.
+"""The inspection pipeline: register → (minimax refit) → measure deviations → judge, with the
+verdict rules.
 
-Decision rule (pointwise, the paper's L-infinity argument): ACCEPT only when every measured point
-lies inside the tolerance zone [lower, upper]; REJECT when any point, outliers included, lies
-outside; INCONCLUSIVE when the pose cannot be trusted (the fit did not converge, or fewer than
-half of the points lie within 1% of the nominal's size of its surface: the measurement is not of
-this part), whatever the deviations say.
+Decision rules (the paper's L-infinity argument: one point out is a reject):
+
+* ``simple``: ACCEPT only when every measured point lies inside the tolerance zone
+  [lower, upper]; REJECT when any point, outliers of the fit included, lies outside.
+* ``guarded`` (ISO 14253-1 style): each point's nominal-sampling margin m (facets through sampled
+  nominal points can miss the true surface by about curvature x spacing^2 / 8) guards the limits:
+  ACCEPT only when every point lies inside the zone shrunk by its m, REJECT only when a point
+  lies outside the zone grown by its m, INCONCLUSIVE otherwise.
+
+Whatever the deviations say, the verdict is INCONCLUSIVE when the pose cannot be trusted: the fit
+did not converge; fewer than half of the points lie within 1% of the nominal's size of its
+surface (the measurement is not of this part); the measured points leave a rigid direction
+unconstrained (the pose is arbitrary along it); or another pose fits about as well but gives
+materially different deviations (an ambiguous pose, not merely a symmetry).
+
+Fits: ``lsq`` (least squares of point-to-surface distances over the inliers) or ``minimax`` (the
+pose minimising the largest normalised excursion from the zone's centre: "can this part be
+placed inside its zone?"), started from the least-squares pose, gross outliers left out of the
+objective but judged.
 """
 
 from __future__ import annotations
@@ -16,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .deviation import Deviations
+from .errors import SettingsError
 from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
@@ -23,6 +39,7 @@ from .tolerance import Tolerance
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
+    from .trust import Conditioning
 
 ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
 MIN_NEAR_FRACTION = 0.5
@@ -77,29 +94,143 @@ class InspectionResult:
     normals_source: str
     timings_s: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
-    """Kind-specific facts for the outputs (2D: the template's contours, symmetry, flatness)."""
+    """Kind-specific facts for the outputs (2D: the template's contours, symmetry, flatness;
+    the minimax fit's excursions)."""
+    fit: str = "lsq"
+    decision_rule: str = "simple"
+    conditioning: "Conditioning | None" = None
+    """How well the points constrain the pose (engine.trust)."""
+    ambiguous: bool = False
+    ambiguity_spread: float = 0.0
+    """Largest deviation change (mm) between the chosen pose and a nearly-as-good runner-up."""
+    margin: np.ndarray | None = None
+    """(n,) nominal-sampling margin per point, mm (the guarded decision rule only)."""
+
+    @property
+    def outlier(self) -> np.ndarray:
+        """(n,) bool: points the fit left out as gross outliers (they are judged all the same)."""
+        return ~self.registration.inlier
+
+
+FITS = ("lsq", "minimax")
+DECISION_RULES = ("simple", "guarded")
+AMBIGUITY_SCORE_RATIO = 1.5
+"""A runner-up pose scoring within this factor of the best one is a competitor …"""
+AMBIGUITY_DEVIATION = 0.1
+"""… and it is a material one when it moves some point's deviation by more than this fraction
+of the zone's width."""
+
+
+def _check_options(fit: str, decision_rule: str) -> None:
+    if fit not in FITS:
+        raise SettingsError(f"unknown fit '{fit}'; choose one of {', '.join(FITS)}")
+    if decision_rule not in DECISION_RULES:
+        raise SettingsError(f"unknown decision rule '{decision_rule}'; choose one of "
+                            f"{', '.join(DECISION_RULES)}")
 
 
 def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
-            settings: RegistrationSettings = RegistrationSettings()) -> InspectionResult:
-    """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``."""
+            settings: RegistrationSettings = RegistrationSettings(), fit: str = "lsq",
+            decision_rule: str = "simple") -> InspectionResult:
+    """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
+    with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded")."""
+    from .deviation import point_to_surface
+    from .progress import report
+    from .trust import conditioning, minimax_pose
+
+    _check_options(fit, decision_rule)
     t0 = time.perf_counter()
     reg = register(nominal, measured, settings)
     t1 = time.perf_counter()
-    registered = apply_transform(reg.T_nominal_measured, measured)
     dev = reg.deviations  # the fit's last evaluation: every point at the final pose
-    verdict, reasons, inside = judge(dev.signed, tolerance, reg)
+    T = reg.T_nominal_measured
+    registered = apply_transform(T, measured)
+    cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms)
+    ambiguous, spread = False, 0.0
+    if reg.runner_up_T is not None and reg.runner_up_score is not None and \
+            reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score:
+        d_r = point_to_surface(nominal, apply_transform(reg.runner_up_T, measured)).signed
+        spread = float(np.max(np.abs(d_r - dev.signed)))
+        ambiguous = spread > AMBIGUITY_DEVIATION * (tolerance.upper - tolerance.lower)
+    extra: dict = {}
+    if fit == "minimax":
+        report("minimax fit (linear programs)", 0.97)
+
+        def evaluate(Tc):
+            X = apply_transform(Tc, measured)
+            dv = point_to_surface(nominal, X)
+            return X, dv.signed, dv.normal
+
+        mm = minimax_pose(evaluate, T, tolerance.lower, tolerance.upper,
+                          use=_minimax_points(dev.signed, reg.outlier_cut, tolerance))
+        T = mm.T
+        registered = apply_transform(T, measured)
+        dev = point_to_surface(nominal, registered)
+        extra["minimax"] = _minimax_facts(mm)
+    margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
+    verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
+                                     margin)
     stats = Statistics.of(dev.signed, tolerance)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
     timings = {"register": t1 - t0 - reg.deviation_s, "deviation": reg.deviation_s + t2 - t1}
+    if T is not reg.T_nominal_measured:
+        reg = _with_pose(reg, T, dev)
     return InspectionResult(verdict, reasons, tolerance, reg, registered, dev, inside, stats,
-                            nominal.normals_source, timings)
+                            nominal.normals_source, timings, extra, fit=fit,
+                            decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
+                            ambiguity_spread=spread, margin=margin)
 
 
-def judge(d: np.ndarray, tol: Tolerance, reg: RegistrationResult):
-    """Verdict, reasons and per-point in-tolerance mask for deviations ``d`` at pose ``reg``."""
+GROSS_ZONES = 5.0
+"""The minimax fit leaves out gross outliers only (a mis-probed point): farther from the zone's
+centre than this many zone widths and beyond the least-squares fit's robust cut. A local defect
+of a few tenths of a millimetre stays in: it is what the minimax fit has to place."""
+
+
+def _minimax_points(d: np.ndarray, cut: float, tol: Tolerance) -> np.ndarray:
+    centre = 0.5 * (tol.lower + tol.upper)
+    return np.abs(d - centre) <= max(cut, GROSS_ZONES * (tol.upper - tol.lower))
+
+
+def _minimax_facts(mm) -> dict:
+    return {"excursion": mm.excursion, "least_squares_excursion": mm.start_excursion,
+            "iterations": mm.iterations, "linear_programs": mm.linear_programs,
+            "excursion_definition": "max over the fitted points (all but gross outliers: beyond "
+                                    "5 zone widths and the least-squares cut) of "
+                                    "|d - (lower + upper)/2| / ((upper - lower)/2): <= 1 means "
+                                    "they fit the zone"}
+
+
+def _with_pose(reg, T, dev):
+    from dataclasses import replace
+
+    return replace(reg, T_nominal_measured=T, deviations=dev)
+
+
+def _margins_3d(nominal: Nominal, feet: np.ndarray) -> np.ndarray:
+    """Per point: the largest principal curvature at the nearest nominal sample times the local
+    facet size (sqrt 2 x the distance to the 4th nearest sample) squared, over 8."""
+    from .trust import sampling_margin
+
+    k = min(4, nominal.n)
+    dist, idx = nominal.tree.query(feet, k=k)
+    dist = dist.reshape(len(feet), -1)
+    idx = idx.reshape(len(feet), -1)
+    S = nominal.shape_operators(idx[:, 0])
+    curvature = np.max(np.abs(np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, 1, 2)))), axis=1)
+    return sampling_margin(curvature, np.sqrt(2.0) * dist[:, -1])
+
+
+def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
+          spread: float = 0.0, margin: np.ndarray | None = None):
+    """Verdict, reasons and per-point in-tolerance mask for deviations ``d`` at pose ``reg``.
+
+    weak : unconstrained directions (engine.trust.WeakDirection); ambiguous : another pose fits
+    about as well with deviations up to ``spread`` mm apart; margin : per-point sampling margin,
+    mm, for the guarded decision rule (None: the simple rule).
+    """
     inside = (d >= tol.lower) & (d <= tol.upper)
     reasons = []
     if not reg.converged:
@@ -108,16 +239,37 @@ def judge(d: np.ndarray, tol: Tolerance, reg: RegistrationResult):
         reasons.append(f"only {100 * reg.near_fraction:.0f}% of the {d.size} points lie within "
                        f"{reg.near_distance:.3g} mm (1% of the nominal's size) of the nominal at "
                        "the best pose found; the pose cannot be trusted")
+    if ambiguous:
+        reasons.append(f"the pose is ambiguous: another pose fits nearly as well (score "
+                       f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm) and moves "
+                       f"deviations by up to {spread:.4g} mm")
+    if weak:
+        names = "; ".join(f"{w.type} {'along' if w.type == 'translation' else 'about'} "
+                          f"({', '.join(f'{a:+.3f}' for a in w.axis)})" for w in weak)
+        reasons.append(f"the measured points do not constrain the pose: {names}")
     if reasons:
         return INCONCLUSIVE, tuple(reasons), inside
-    n_out = int((~inside).sum())
-    if n_out:
-        return REJECT, (f"{n_out} of {d.size} points lie outside the tolerance zone",), inside
-    return ACCEPT, (f"all {d.size} points lie inside the tolerance zone",), inside
+    if margin is None:
+        n_out = int((~inside).sum())
+        if n_out:
+            return REJECT, (f"{n_out} of {d.size} points lie outside the tolerance zone",), inside
+        return ACCEPT, (f"all {d.size} points lie inside the tolerance zone",), inside
+    out_grown = (d < tol.lower - margin) | (d > tol.upper + margin)
+    in_shrunk = (d >= tol.lower + margin) & (d <= tol.upper - margin)
+    if out_grown.any():
+        return REJECT, (f"{int(out_grown.sum())} of {d.size} points lie outside the tolerance "
+                        "zone by more than their nominal-sampling margin",), inside
+    if in_shrunk.all():
+        return ACCEPT, (f"all {d.size} points lie inside the tolerance zone by more than their "
+                        "nominal-sampling margin",), inside
+    k = int((~in_shrunk).sum())
+    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their nominal-sampling margin of a "
+                          "tolerance limit (guarded decision rule)",), inside
 
 
 def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
-               index: "ContourIndex | None" = None) -> InspectionResult:
+               index: "ContourIndex | None" = None, fit: str = "lsq",
+               decision_rule: str = "simple") -> InspectionResult:
     """Register measured points to a 2D contour template and judge them.
 
     measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
@@ -127,9 +279,12 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     The result's ``T_nominal_measured`` is the full 4x4 (measured → template frame, the template
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     """
-    from .contour import ContourIndex
-    from .registration2d import fit_plane, register_2d
+    from .contour import ContourIndex, deviations_2d
+    from .progress import report
+    from .registration2d import apply2, fit_plane, register_2d
+    from .trust import conditioning, minimax_pose
 
+    _check_options(fit, decision_rule)
     t0 = time.perf_counter()
     index = index or ContourIndex(template)
     extra: dict = {"template": {"contours": int(template.closed.size),
@@ -153,16 +308,39 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         if best is None or reg.score < best[1].score:
             best = (F, reg)
     F, reg = best
+    q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
+    dev2, T2 = reg.deviations, reg.T
+    fitted = apply2(T2, q2)
+    cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms)
+    ambiguous, spread = False, 0.0
+    if reg.runner_up_T is not None and not reg.symmetric and \
+            reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score:
+        d_r = deviations_2d(index, apply2(reg.runner_up_T, q2)).signed
+        spread = float(np.max(np.abs(d_r - dev2.signed)))
+        ambiguous = spread > AMBIGUITY_DEVIATION * (tolerance.upper - tolerance.lower)
+    if fit == "minimax":
+        report("minimax fit (linear programs)", 0.97)
+
+        def evaluate(Tc):
+            X = apply2(Tc, q2)
+            dv = deviations_2d(index, X)
+            return X, dv.signed, dv.normal
+
+        mm = minimax_pose(evaluate, T2, tolerance.lower, tolerance.upper,
+                          use=_minimax_points(dev2.signed, reg.outlier_cut, tolerance))
+        T2 = mm.T
+        dev2 = deviations_2d(index, apply2(T2, q2))
+        extra["minimax"] = _minimax_facts(mm)
     E = np.eye(4)
-    E[:2, :2] = reg.T[:2, :2]
-    E[:2, 3] = reg.T[:2, 2]
+    E[:2, :2] = T2[:2, :2]
+    E[:2, 3] = T2[:2, 2]
     T = E @ F
     t1 = time.perf_counter()
     registered = measured @ T[:3, :3].T + T[:3, 3]
-    d = reg.deviations.signed
+    d = dev2.signed
     zeros = np.zeros(d.size)
-    dev = Deviations(d, np.column_stack([reg.deviations.foot, zeros]),
-                     np.column_stack([reg.deviations.normal, zeros]), zeros.astype(bool))
+    dev = Deviations(d, np.column_stack([dev2.foot, zeros]),
+                     np.column_stack([dev2.normal, zeros]), zeros.astype(bool))
     reg3 = RegistrationResult(
         T_nominal_measured=T, converged=reg.converged, iterations=reg.iterations, rms=reg.rms,
         n_inliers=reg.n_inliers, inlier=reg.inlier, outlier_cut=reg.outlier_cut,
@@ -172,8 +350,12 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         rms_definition="RMS of signed point-to-contour deviations over the inlier points used "
                        "by the final fit (mm)")
     extra["template"]["symmetric"] = reg.symmetric
-    verdict, reasons, inside = judge(d, tolerance, reg3)
+    # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
+    margin = np.zeros(d.size) if decision_rule == "guarded" else None
+    verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin)
     stats = Statistics.of(d, tolerance)
     t2 = time.perf_counter()
     return InspectionResult(verdict, reasons, tolerance, reg3, registered, dev, inside, stats,
-                            "contour", {"register": t1 - t0, "deviation": t2 - t1}, extra)
+                            "contour", {"register": t1 - t0, "deviation": t2 - t1}, extra,
+                            fit=fit, decision_rule=decision_rule, conditioning=cond,
+                            ambiguous=ambiguous, ambiguity_spread=spread, margin=margin)

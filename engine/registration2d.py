@@ -53,6 +53,8 @@ class Registration2D:
     near_fraction: float
     near_distance: float
     message: str = ""
+    runner_up_T: np.ndarray | None = None
+    """The runner-up pose (3x3), after its short fit."""
 
 
 def rot2(theta) -> np.ndarray:
@@ -181,7 +183,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
         symmetric=symmetric, deviations=dev,
         near_fraction=float(np.mean(np.abs(dev.signed) <= near)), near_distance=near,
-        message=message)
+        message=message, runner_up_T=None if runner is None else short[runner][0])
 
 
 def _spread(p: np.ndarray, m: int) -> np.ndarray:

@@ -62,6 +62,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="DXF template: its units, overriding the file's $INSUNITS")
     i.add_argument("--scale", type=_finite_float, metavar="CHORD",
                    help="airfoil ordinate template (.dat): chord length in mm")
+    i.add_argument("--fit", choices=["lsq", "minimax"], default="lsq",
+                   help="lsq: least-squares best fit (default); minimax: the pose minimising the "
+                        "largest excursion from the zone's centre ('can the part be placed "
+                        "inside its zone?')")
+    i.add_argument("--decision-rule", choices=["simple", "guarded"], default="simple",
+                   help="simple: every point inside the zone (default); guarded: limits guarded "
+                        "by each point's nominal-sampling margin, INCONCLUSIVE between")
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE", help="write one CSV row per measured point")
     c = i.add_argument_group("certificate")
@@ -309,7 +316,7 @@ def _run_inspect(args, tol, renderer) -> int:
         raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
     settings = InspectionSettings(tol.lower, tol.upper,
                                   None if args.layer is None else tuple(args.layer), args.units,
-                                  args.scale)
+                                  args.scale, args.fit, args.decision_rule)
     try:
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:

@@ -39,6 +39,10 @@ class InspectionSettings:
     """DXF template: its units, overriding the drawing's $INSUNITS."""
     scale: float | None = None
     """Airfoil ordinate template: chord length, mm."""
+    fit: str = "lsq"
+    """"lsq" (least squares) or "minimax" (smallest largest excursion from the zone's centre)."""
+    decision_rule: str = "simple"
+    """"simple" or "guarded" (limits guarded by each point's nominal-sampling margin)."""
 
     @property
     def tolerance(self) -> Tolerance:
@@ -54,7 +58,8 @@ class InspectionSettings:
         layers = d.get("layers")
         return cls(float(d["tol_lower"]), float(d["tol_upper"]),
                    None if layers is None else tuple(str(x) for x in layers),
-                   d.get("units"), None if d.get("scale") is None else float(d["scale"]))
+                   d.get("units"), None if d.get("scale") is None else float(d["scale"]),
+                   d.get("fit", "lsq"), d.get("decision_rule", "simple"))
 
 
 @dataclass
@@ -136,12 +141,14 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
               InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
     t1 = time.perf_counter()
     if tpl is not None:
-        result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol)
+        result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol,
+                            fit=settings.fit, decision_rule=settings.decision_rule)
         result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
                                         flattened_curves=tpl.flattened,
                                         ignored_entities=tpl.ignored)
     else:
-        result = inspect(nominal, measured_ps.points, tol)
+        result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
+                         decision_rule=settings.decision_rule)
     report("judging", 1.0)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],

@@ -18,7 +18,8 @@ from engine.inspection import InspectionResult
 
 SOFTWARE_NAME = "qa-inspect"
 CSV_COLUMNS = ("index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
-               "in_tolerance")
+               "in_tolerance", "outlier")
+"""Columns of every per-point CSV; with the guarded decision rule a ``margin`` column follows."""
 
 
 def software_version() -> str:
@@ -65,6 +66,13 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "score": _num(reg.score),
             "hypotheses": int(reg.hypotheses),
             "runner_up_score": None if reg.runner_up_score is None else _num(reg.runner_up_score),
+            "ambiguous": bool(result.ambiguous),
+            "ambiguity_spread_mm": _num(result.ambiguity_spread),
+            "ambiguity_definition": "true when the best distinct other pose scores within 1.5x "
+                                    "of the chosen one and moves some point's deviation by more "
+                                    "than 10% of the zone width (a symmetry that leaves the "
+                                    "deviations unchanged is not ambiguous)",
+            **_conditioning(result.conditioning),
             "score_definition": "truncated RMS sqrt(mean(min(d^2, cut^2))) in mm over a seeded "
                                 "subset of at most 4096 measured points, the same for the "
                                 "runner-up pose; lower is better",
@@ -85,14 +93,50 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
                        "with the nominal normals"),
             "units": "mm",
         },
-        "tolerance": {"lower": result.tolerance.lower, "upper": result.tolerance.upper,
-                      "decision_rule": "simple: every point inside the zone"},
+        "tolerance": {"lower": result.tolerance.lower, "upper": result.tolerance.upper},
+        "fit": result.fit,
+        "fit_definition": FIT_DEFINITIONS[result.fit],
+        "decision_rule": result.decision_rule,
+        "decision_rule_definition": RULE_DEFINITIONS[result.decision_rule],
+        **({} if result.margin is None else {"margin": {
+            "max": _num(float(result.margin.max())) if result.margin.size else 0.0,
+            "mean": _num(float(result.margin.mean())) if result.margin.size else 0.0,
+            "definition": "per point: largest principal curvature at the nearest nominal sample "
+                          "x (sqrt 2 x distance to the 4th nearest sample)^2 / 8, mm; 0 for a 2D "
+                          "template's exact lines and arcs"}}),
         "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points,
                     **({} if r.n_primitives is None else {"n_primitives": r.n_primitives})}
                    for r in inputs],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},
         **_json_safe(result.extra),
+    }
+
+
+FIT_DEFINITIONS = {
+    "lsq": "least squares of point-to-surface distances over the fit's inliers (a best fit: "
+           "it spreads the error and can hide a local defect in the pose)",
+    "minimax": "the rigid pose minimising the largest |deviation - zone centre| / half-width "
+               "over the fit's inliers (Chebyshev), from the least-squares pose: answers 'can "
+               "the part be placed inside its zone?'"}
+RULE_DEFINITIONS = {
+    "simple": "accept only if every point lies inside the zone; reject if any lies outside",
+    "guarded": "accept only if every point lies inside the zone shrunk by its nominal-sampling "
+               "margin; reject only if a point lies outside the zone grown by it; otherwise "
+               "inconclusive (ISO 14253-1 style)"}
+
+
+def _conditioning(cond) -> dict:
+    if cond is None:
+        return {"weak_directions": [], "pose_uncertainty_mm": None}
+    return {
+        "weak_directions": [{"type": w.type, "axis": list(w.axis), "strength": w.strength}
+                            for w in cond.weak],
+        "conditioning": {"strengths": list(cond.strengths), "length_mm": cond.length,
+                         "definition": "eigenvalues of the point-to-surface normal matrix at "
+                                       "the final pose (rotations scaled by length_mm), over "
+                                       "the largest; below 0.001 a direction is unconstrained"},
+        "pose_uncertainty_mm": None if cond.pose_sigma_mm is None else _num(cond.pose_sigma_mm),
     }
 
 
@@ -121,17 +165,24 @@ def result_json(doc: dict) -> str:
 
 def points_csv(result: InspectionResult, measured: np.ndarray,
                labels: np.ndarray | None) -> str:
-    """One row per measured point in input order (columns: CSV_COLUMNS)."""
+    """One row per measured point in input order (columns: CSV_COLUMNS, plus ``margin`` with the
+    guarded decision rule)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(CSV_COLUMNS)
+    margin = result.margin
+    w.writerow(CSV_COLUMNS + (() if margin is None else ("margin",)))
     reg = result.registered
     d = result.deviations.signed
     inside = result.in_tolerance
+    outlier = result.outlier
     for i in range(measured.shape[0]):
         label = str(labels[i]) if labels is not None else ""
-        w.writerow((i, label, *(f"{v:.6f}" for v in measured[i]), *(f"{v:.6f}" for v in reg[i]),
-                    f"{d[i]:.6f}", "true" if inside[i] else "false"))
+        row = [i, label, *(f"{v:.6f}" for v in measured[i]), *(f"{v:.6f}" for v in reg[i]),
+               f"{d[i]:.6f}", "true" if inside[i] else "false",
+               "true" if outlier[i] else "false"]
+        if margin is not None:
+            row.append(f"{margin[i]:.6f}")
+        w.writerow(row)
     return buf.getvalue()
 
 

@@ -209,15 +209,24 @@ def make_bracket(out: str) -> dict:
     nrm = np.vstack([face_a_normal(xa, ya), face_b_normal(yb, zb)])
     # Machined: a small uniform offset of 15 um plus noise, like the paper's 0.0004-0.023 mm.
     planted = 0.012 + rng.normal(0.0, 0.004, 100)
+    # Two faces at right angles leave the pose free along their common edge direction (y): an
+    # inspector also probes the end face y = W, 10 points on each leg of its L, away from edges.
+    xe = np.concatenate([rng.uniform(25, 105, 10), rng.uniform(2.5, 6.0, 10)])
+    ze = np.concatenate([rng.uniform(2.5, 6.0, 10), rng.uniform(25, 80, 10)])
+    on = np.vstack([on, np.column_stack([xe, np.full(20, W), ze])])
+    nrm = np.vstack([nrm, np.tile([0.0, 1.0, 0.0], (20, 1))])
+    planted = np.concatenate([planted, 0.012 + rng.normal(0.0, 0.004, 20)])
     pts = on + planted[:, None] * nrm
     R = rotation([-0.5, 0.2, 1.0], 73.0)
     t = np.array([402.0, 618.5, -55.25])
     measured = pts @ R.T + t
     _write_cmm(os.path.join(out, "measured.csv"),
-               "CMM points on faces A (P001-P050) and B (P051-P100), machine coordinates",
+               "CMM points on faces A (P001-P050), B (P051-P100) and the end face (P101-P120), "
+               "machine coordinates",
                [f"P{i + 1:03d}" for i in range(len(measured))], measured)
     truth = {
-        "description": "seat bracket: 200,000 nominal points, 100 CMM points on faces A and B",
+        "description": "seat bracket: 200,000 nominal points, 120 CMM points on faces A and B "
+                       "and the end face",
         "T_nominal_measured": np.linalg.inv(pose(R, t)).tolist(),
         "planted_deviation_mm": [round(float(d), 6) for d in planted],
         "defect": "uniform +0.012 mm excess with noise sigma 0.004 mm",

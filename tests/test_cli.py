@@ -56,11 +56,12 @@ def test_accept_json_and_csv(files, capsys):
     assert set(doc) >= {"verdict", "transform", "registration", "deviations", "tolerance",
                         "inputs", "software", "timings_s"}
     assert set(doc["registration"]) >= {"converged", "iterations", "rms", "hypotheses",
-                                        "runner_up_score"}
+                                        "runner_up_score", "ambiguous", "weak_directions"}
+    assert doc["registration"]["weak_directions"] == [] and not doc["registration"]["ambiguous"]
     assert set(doc["deviations"]) >= {"count", "min", "max", "mean", "std", "rms", "max_abs",
                                       "n_out", "fraction_in"}
-    assert doc["tolerance"] == {"lower": -0.05, "upper": 0.05,
-                                "decision_rule": "simple: every point inside the zone"}
+    assert doc["tolerance"] == {"lower": -0.05, "upper": 0.05}
+    assert doc["fit"] == "lsq" and doc["decision_rule"] == "simple" and "margin" not in doc
     assert set(doc["timings_s"]) == {"load", "register", "deviation", "total"}
     # transform maps measured into nominal: it undoes the pose the part was put in.
     T_nm = np.array(doc["transform"])
