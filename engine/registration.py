@@ -439,8 +439,8 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
             b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
             A = A + lam2 * A_pp
             b = b + lam2 * b_pp
-        reg = (1e-12 * np.trace(A, axis1=1, axis2=2) + 1e-300)[:, None, None] * np.eye(6)
-        delta = -np.linalg.solve(A + reg, b[..., None])[..., 0]
+        length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(sw, 1.0))
+        delta = -min_norm_solve(A, b, 3, length)
         T = _compose_update(T, delta, c)
         done += 1
         if stop_rad and np.all(np.linalg.norm(delta[:, :3], axis=1) < stop_rad) and \
@@ -555,8 +555,30 @@ def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):
     J = np.concatenate([np.cross(X - c, normals), normals], axis=1)
     A = J.T @ J
     b = J.T @ d
-    scale = np.trace(A) / 6.0
-    return -np.linalg.solve(A + 1e-12 * scale * np.eye(6), b), c
+    length = float(np.sqrt(np.mean(np.sum((X - c) ** 2, axis=1)))) if X.size else 1.0
+    return -min_norm_solve(A, b, 3, length), c
+
+
+def min_norm_solve(A: np.ndarray, b: np.ndarray, nrot: int, length) -> np.ndarray:
+    """Minimum-norm solution of the pose normal equations A x = b, (..., k, k) and (..., k),
+    whose first ``nrot`` unknowns are rotations about points spread ``length`` (mm; scalar or
+    (...,)) around the centre.
+
+    In units where rotations move points by millimetres, directions whose eigenvalue is below
+    1e-6 of the largest are left alone: along what the points do not constrain (a sphere's
+    rotations, a plane's slides, a circle's turn) the step is zero, instead of whatever
+    rounding and sampling noise make of a (nearly) singular system.
+    """
+    k = A.shape[-1]
+    s = np.ones(np.shape(length) + (k,))
+    s[..., :nrot] = 1.0 / np.maximum(np.asarray(length, float), 1e-12)[..., None]
+    As = A * s[..., :, None] * s[..., None, :]
+    w, V = np.linalg.eigh(As)
+    top = np.maximum(w[..., -1:], 1e-300)
+    ok = w > 1e-6 * top
+    inv = np.where(ok, 1.0 / np.where(ok, w, 1.0), 0.0)
+    coef = np.einsum("...ji,...j->...i", V, b * s) * inv
+    return np.einsum("...ij,...j->...i", V, coef) * s
 
 
 def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:

@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
 from .progress import report
-from .registration import robust_cut
+from .registration import min_norm_solve, robust_cut
 
 _SEED = 11
 
@@ -186,6 +186,10 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         message=message, runner_up_T=None if runner is None else short[runner][0])
 
 
+def _rms_radius(xt: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum(xt * xt, axis=1)))) if xt.size else 1.0
+
+
 def _spread(p: np.ndarray, m: int) -> np.ndarray:
     if p.shape[0] <= m:
         return np.arange(p.shape[0])
@@ -223,9 +227,10 @@ def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
         xt = X - c[:, None, :]
         J = np.stack([xt[..., 0] * n[..., 1] - xt[..., 1] * n[..., 0], n[..., 0], n[..., 1]], 2)
         Jw = J * w[..., None]
-        A = Jw.transpose(0, 2, 1) @ J + 1e-9 * np.eye(3)
+        A = Jw.transpose(0, 2, 1) @ J
         b = (Jw * rn[..., None]).sum(1)
-        delta = -np.linalg.solve(A, b[..., None])[..., 0]
+        length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(w.sum(1), 1.0))
+        delta = -min_norm_solve(A, b, 1, length)
         T = _compose(T, delta, c)
     return T, score
 
@@ -274,7 +279,7 @@ def _all_points_step(index: ContourIndex, p: np.ndarray, T: np.ndarray, cut: flo
     xt = X - c
     J = np.column_stack([xt[:, 0] * g[:, 1] - xt[:, 1] * g[:, 0], g[:, 0], g[:, 1]])
     A = J[inl].T @ J[inl]
-    delta = -np.linalg.solve(A + 1e-12 * np.trace(A) * np.eye(3), J[inl].T @ d[inl])
+    delta = -min_norm_solve(A, J[inl].T @ d[inl], 1, _rms_radius(xt[inl]))
     d_new = d + J @ delta
     T = _compose(T[None], delta[None], c[None])[0]
     X_new = apply2(T, p)
@@ -312,8 +317,8 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
         c = Xi.mean(axis=0)
         xt = Xi - c
         J = np.column_stack([xt[:, 0] * gi[:, 1] - xt[:, 1] * gi[:, 0], gi[:, 0], gi[:, 1]])
-        A = J.T @ J + 1e-12 * np.trace(J.T @ J) * np.eye(3)
-        delta = -np.linalg.solve(A, J.T @ di)
+        A = J.T @ J
+        delta = -min_norm_solve(A, J.T @ di, 1, _rms_radius(xt))
         reach = float(np.max(np.linalg.norm(xt, axis=1))) if xt.size else 0.0
         if abs(delta[0]) * reach + np.linalg.norm(delta[1:]) < 1e-7:
             return T, True, it, inlier, cut, dev

@@ -1,0 +1,215 @@
+"""Verdicts that can be trusted: the minimax fit, registration conditioning, outliers, and the
+guarded decision rule — against independent truths (analytic parts, a direct linear program on
+the exact linear model, hand-computed margins)."""
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from engine.geometry import apply_transform, make_transform
+from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT, Tolerance, inspect, judge
+from engine.nominal import Nominal
+from engine.trust import conditioning, minimax_pose
+from surfaces import height, height_grid, height_normal, point_set, random_rotation
+
+
+@pytest.fixture(scope="module")
+def fairing():
+    pts, nrm, grid = height_grid(300, 200)
+    return Nominal.from_point_set(point_set(pts, nrm, grid))
+
+
+def _part(rng, dev, m=None):
+    dev = np.asarray(dev, float)
+    m = len(dev)
+    x, y = rng.uniform(-245, 245, m), rng.uniform(-120, 120, m)
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    T = make_transform(random_rotation(rng), rng.uniform(-1000, 1000, 3))
+    return q, apply_transform(T, q)
+
+
+def _dented(rng, depth=-0.14, n=1100):
+    """A fairing with a local dent: 1% of the points sink by up to ``depth``."""
+    dev = rng.normal(0, 0.004, n)
+    x = rng.uniform(-245, 245, n)
+    y = rng.uniform(-120, 120, n)
+    dent = depth * np.exp(-((x - 120) ** 2 + (y + 40) ** 2) / (2 * 12.0 ** 2))
+    dev = dev + dent
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    T = make_transform(random_rotation(rng), rng.uniform(-1000, 1000, 3))
+    return dev, apply_transform(T, q)
+
+
+def test_lsq_statistics_look_fine_but_a_small_region_is_out(fairing):
+    rng = np.random.default_rng(3)
+    dev, measured = _dented(rng)
+    res = inspect(fairing, measured, Tolerance.symmetric(0.1))
+    assert res.statistics.rms < 0.02 and abs(res.statistics.mean) < 0.01
+    assert res.verdict == REJECT and 0 < res.statistics.n_out < 30
+
+
+def test_minimax_places_a_part_the_least_squares_pose_rejects(fairing):
+    rng = np.random.default_rng(3)
+    dev, measured = _dented(rng)
+    tol = Tolerance.symmetric(0.1)
+    lsq = inspect(fairing, measured, tol)
+    mm = inspect(fairing, measured, tol, fit="minimax")
+    assert lsq.verdict == REJECT and mm.verdict == ACCEPT
+    assert mm.statistics.max_abs < lsq.statistics.max_abs
+    assert mm.extra["minimax"]["excursion"] <= 1.0
+    assert mm.fit == "minimax" and mm.registration.converged
+    # The reported deviations belong to the reported pose.
+    from engine.deviation import point_to_surface
+
+    again = point_to_surface(fairing, apply_transform(mm.registration.T_nominal_measured,
+                                                      measured)).signed
+    np.testing.assert_allclose(again, mm.deviations.signed, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", [5, 6, 7, 8])
+def test_minimax_never_worse_than_least_squares(fairing, seed):
+    """The reverse (accepted by least squares, rejected by minimax) is impossible."""
+    rng = np.random.default_rng(seed)
+    dev, measured = _dented(rng, depth=rng.uniform(-0.2, 0.2))
+    for t in (0.06, 0.1, 0.2):
+        tol = Tolerance(-t, 1.5 * t)
+        lsq = inspect(fairing, measured, tol)
+        mm = inspect(fairing, measured, tol, fit="minimax")
+        e_l, e_m = (np.max(np.abs(r.deviations.signed - 0.25 * t)) for r in (lsq, mm))
+        assert e_m <= e_l + 1e-9
+        if lsq.verdict == ACCEPT:
+            assert mm.verdict == ACCEPT
+
+
+def test_minimax_matches_a_direct_linear_program():
+    """On a plane the deviations are exactly linear in (small) tilt and offset: the minimax pose
+    is the Chebyshev fit a x + b y + c, which one linear program gives independently."""
+    rng = np.random.default_rng(11)
+    n = 400
+    xy = rng.uniform(-100, 100, (n, 2))
+    d0 = rng.uniform(-0.05, 0.05, n) + 0.0004 * xy[:, 0]  # a tilt the fit can take out
+    lower, upper = -0.03, 0.07
+    centre, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
+
+    def evaluate(T):
+        # The part: points (x, y, d0) over the plane z = 0 with normal +z, moved by T.
+        P = np.column_stack([xy, d0]) @ T[:3, :3].T + T[:3, 3]
+        return P, P[:, 2].copy(), np.tile([0.0, 0.0, 1.0], (n, 1))
+
+    res = minimax_pose(evaluate, np.eye(4), lower, upper)
+    # Independent: min s s.t. |d0 + a x + b y + c - centre| <= s (small-angle model of the
+    # same rigid motion; the rotation's second-order term is below 1e-7 mm here).
+    A = np.column_stack([xy, np.ones(n)])
+    Aub = np.block([[A, -np.ones((n, 1))], [-A, -np.ones((n, 1))]])
+    bub = np.concatenate([centre - d0, d0 - centre])
+    lp = linprog([0, 0, 0, 1], A_ub=Aub, b_ub=bub, bounds=[(None, None)] * 3 + [(0, None)],
+                 method="highs")
+    assert res.excursion == pytest.approx(lp.fun / half, abs=1e-5)
+    assert res.excursion <= res.start_excursion
+
+
+def _cylinder(r=40.0, length=200.0, nu=160, nv=80):
+    a = np.linspace(0, 2 * np.pi, nu, endpoint=False)
+    z = np.linspace(-length / 2, length / 2, nv)
+    A, Z = np.meshgrid(a, z)
+    pts = np.column_stack([r * np.cos(A.ravel()), r * np.sin(A.ravel()), Z.ravel()])
+    nrm = np.column_stack([np.cos(A.ravel()), np.sin(A.ravel()), np.zeros(A.size)])
+    return pts, nrm
+
+
+def test_a_cylinder_only_measurement_is_unconstrained_along_and_about_its_axis():
+    pts, nrm = _cylinder()
+    R = random_rotation(np.random.default_rng(2))
+    axis = R[:, 2]
+    nominal = Nominal.from_point_set(point_set(pts @ R.T, nrm @ R.T))
+    rng = np.random.default_rng(4)
+    a = rng.uniform(0, 2 * np.pi, 300)
+    z = rng.uniform(-60, 60, 300)
+    q = np.column_stack([40 * np.cos(a), 40 * np.sin(a), z]) @ R.T
+    measured = apply_transform(make_transform(random_rotation(rng), [300.0, -20.0, 55.0]), q)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.05))
+    weak = res.conditioning.weak
+    kinds = sorted(w.type for w in weak)
+    assert kinds == ["rotation", "translation"]
+    for w in weak:
+        assert abs(abs(np.dot(w.axis, axis)) - 1.0) < 1e-3
+        assert w.strength < 1e-3
+    assert res.verdict == INCONCLUSIVE
+    assert any("do not constrain the pose" in r for r in res.reasons)
+    assert res.conditioning.pose_sigma_mm is None
+
+
+def test_conditioning_of_a_plane_and_of_a_well_constrained_part(fairing):
+    rng = np.random.default_rng(9)
+    X = np.column_stack([rng.uniform(-50, 50, (200, 2)), np.zeros(200)])
+    c = conditioning(X, np.tile([0.0, 0.0, 1.0], (200, 1)), 0.001)
+    assert sorted(w.type for w in c.weak) == ["rotation", "translation", "translation"]
+    rot = next(w for w in c.weak if w.type == "rotation")
+    assert np.allclose(np.abs(rot.axis), [0, 0, 1], atol=1e-9)
+    # The fairing measured all over: every direction constrained, a finite uncertainty.
+    _, measured = _part(rng, rng.normal(0, 0.003, 800))
+    res = inspect(fairing, measured, Tolerance.symmetric(0.05))
+    assert res.conditioning.weak == () and res.verdict == ACCEPT
+    # Sliding along a gently curved surface is constrained, weakly: a few micrometres.
+    assert min(res.conditioning.strengths) > 1e-3
+    assert 0 < res.conditioning.pose_sigma_mm < 0.02
+
+
+def test_a_planted_outlier_does_not_move_the_pose_but_counts(fairing):
+    rng = np.random.default_rng(12)
+    dev = rng.normal(0, 0.003, 600)
+    q, measured = _part(rng, dev)
+    bad = measured.copy()
+    bad[77] += 10.0 * np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
+    for fit in ("lsq", "minimax"):
+        clean = inspect(fairing, measured, Tolerance.symmetric(0.05), fit=fit)
+        dirty = inspect(fairing, bad, Tolerance.symmetric(0.05), fit=fit)
+        keep = np.arange(600) != 77
+        moved = np.abs(apply_transform(dirty.registration.T_nominal_measured, measured[keep])
+                       - apply_transform(clean.registration.T_nominal_measured, measured[keep]))
+        # A 10 mm outlier among 600 points would drag a plain least-squares pose by ~17 um;
+        # leaving it out moves the other points by less than 1 um (one point fewer in the fit).
+        assert moved.max() < 1e-3, fit
+        assert dirty.outlier[77] and dirty.outlier.sum() == 1
+        assert dirty.verdict == REJECT and dirty.statistics.n_out == 1
+
+
+class _Reg:
+    converged, near_fraction, near_distance, message = True, 1.0, 1.0, ""
+    score, runner_up_score = 0.01, None
+
+
+def test_guarded_rule_switches_to_inconclusive_near_the_limits():
+    tol = Tolerance(-0.1, 0.1)
+    m = np.full(4, 0.01)
+    inside_far = np.array([0.0, 0.05, -0.05, 0.08])
+    assert judge(inside_far, tol, _Reg(), margin=m)[0] == ACCEPT
+    just_inside = np.array([0.0, 0.05, -0.05, 0.095])  # inside, but within its margin
+    assert judge(just_inside, tol, _Reg())[0] == ACCEPT
+    assert judge(just_inside, tol, _Reg(), margin=m)[0] == INCONCLUSIVE
+    just_outside = np.array([0.0, 0.05, -0.105, 0.0])  # out, but within its margin
+    assert judge(just_outside, tol, _Reg())[0] == REJECT
+    assert judge(just_outside, tol, _Reg(), margin=m)[0] == INCONCLUSIVE
+    far_outside = np.array([0.0, 0.05, -0.2, 0.095])
+    assert judge(far_outside, tol, _Reg(), margin=m)[0] == REJECT
+
+
+def test_sampling_margin_is_curvature_times_spacing_squared_over_8():
+    """On a sphere of radius R sampled every h, the margin is about h^2 / (8 R)."""
+    from surfaces import sphere_points
+
+    R = 50.0
+    pts, nrm = sphere_points(60, 120, R)
+    nominal = Nominal.from_point_set(point_set(pts, nrm))
+    rng = np.random.default_rng(1)
+    v = rng.normal(size=(300, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    v = v[np.abs(v[:, 2]) < 0.5]  # away from the poles, where the sampling is even
+    res = inspect(nominal, v * R, Tolerance.symmetric(0.5), decision_rule="guarded")
+    h = R * np.pi / 60  # the sampling step along a meridian
+    assert res.margin is not None and res.decision_rule == "guarded"
+    ratio = res.margin / (h * h / (8 * R))
+    assert 0.5 < np.median(ratio) < 4.0
+    # A sphere measured all over leaves the three rotations free: no verdict.
+    assert res.verdict == INCONCLUSIVE
+    assert sorted(w.type for w in res.conditioning.weak) == ["rotation"] * 3
