@@ -147,7 +147,8 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     registered = apply_transform(T, measured)
     cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms)
     ambiguous, spread = False, 0.0
-    if reg.runner_up_T is not None and reg.runner_up_score is not None and \
+    if reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and \
+            reg.runner_up_T is not None and reg.runner_up_score is not None and \
             reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score:
         d_r = point_to_surface(nominal, apply_transform(reg.runner_up_T, measured)).signed
         spread = float(np.max(np.abs(d_r - dev.signed)))
@@ -313,7 +314,8 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     fitted = apply2(T2, q2)
     cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms)
     ambiguous, spread = False, 0.0
-    if reg.runner_up_T is not None and not reg.symmetric and \
+    if reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and \
+            reg.runner_up_T is not None and not reg.symmetric and \
             reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score:
         d_r = deviations_2d(index, apply2(reg.runner_up_T, q2)).signed
         spread = float(np.max(np.abs(d_r - dev2.signed)))

@@ -9,14 +9,16 @@ import threading
 import traceback
 
 
-def install_excepthooks(session) -> None:
+def install_excepthooks(session, post) -> None:
     """Unexpected errors, in the GUI thread or a worker, reach the user in the message bar
-    instead of killing the window (napari's way)."""
+    instead of killing the window (napari's way); ``post`` queues the message into the GUI
+    thread (widgets must not be touched from another thread)."""
     from reports.messages import user_message
 
     def show(exc_type, exc, tb):
         traceback.print_exception(exc_type, exc, tb)
-        session.tell("error", user_message(exc))
+        text = user_message(exc)
+        post(lambda: session.tell("error", text))
 
     sys.excepthook = show
     threading.excepthook = lambda args: show(args.exc_type, args.exc_value, args.exc_traceback)
@@ -37,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     app.setApplicationName("qa-app")
     app.setOrganizationName("qa-inspect")
     win = MainWindow()
-    install_excepthooks(win.session)
+    install_excepthooks(win.session, win._invoker.call.emit)
     if args.tol is not None and args.tol > 0:
         win.tolerance.set_zone(-args.tol, args.tol)
     files = [f for f in (args.nominal, args.measured) if f]

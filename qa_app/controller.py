@@ -60,14 +60,20 @@ class Controller:
         return t
 
     # ------------------------------------------------------------------ inputs
+    def _refuse_while_busy(self) -> bool:
+        if self.busy:
+            self.session.tell("warning", "an inspection or export is running: wait for it or "
+                                         "cancel it before opening other files")
+        return self.busy
+
     def open_nominal(self, path: str) -> None:
-        if not self._check_file(path):
+        if self._refuse_while_busy() or not self._check_file(path):
             return
         self.session.set_nominal(os.path.abspath(path))
         self.session.tell("info", f"Nominal: {os.path.basename(path)}")
 
     def open_measured(self, path: str) -> None:
-        if not self._check_file(path):
+        if self._refuse_while_busy() or not self._check_file(path):
             return
         self.session.set_measured(os.path.abspath(path))
         self.session.tell("info", f"Measured points: {os.path.basename(path)}")
@@ -125,7 +131,7 @@ class Controller:
             from reports.pipeline import InspectionSettings, run_files
 
             settings = InspectionSettings(st.tol_lower, st.tol_upper, st.layers, st.units,
-                                          st.scale)
+                                          st.scale, st.fit, st.decision_rule)
             run = run_files(nominal, measured, settings, progress=self._progress)
             if self._prepare is not None:
                 self._progress("preparing the views", 1.0)
@@ -222,13 +228,26 @@ class Controller:
     # ------------------------------------------------------------------ sessions
     def save_session(self, path: str) -> None:
         """Inputs by path with SHA-256, the settings, and the results document."""
-        from dataclasses import asdict
-
-        from reports.loading import sha256_of
         from reports.results import write_atomic
 
         s = self.session
-        doc = {"format": SESSION_FORMAT, "version": 1,
+        try:
+            doc = self._session_doc(path)
+            write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+        except (OSError, InputError) as e:
+            from reports.messages import user_message
+
+            s.tell("error", user_message(e))
+            return
+        s.tell("info", f"Session saved: {path}")
+
+    def _session_doc(self, path: str) -> dict:
+        from dataclasses import asdict
+
+        from reports.loading import sha256_of
+
+        s = self.session
+        return {"format": SESSION_FORMAT, "version": 1,
                "saved": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                "inputs": [{"role": role, "path": p,
                            "relative_path": _relative(p, path) if p else None,
@@ -238,14 +257,6 @@ class Controller:
                "settings": {k: (list(v) if isinstance(v, tuple) else v)
                             for k, v in asdict(s.settings).items()},
                "results": None if s.run is None else s.run.doc}
-        try:
-            write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
-        except OSError as e:
-            from reports.messages import user_message
-
-            s.tell("error", user_message(e))
-            return
-        s.tell("info", f"Session saved: {path}")
 
     def open_session(self, path: str) -> None:
         """Reopen a saved session: its inputs and settings; warns about any input changed since
@@ -254,6 +265,8 @@ class Controller:
         from reports.loading import sha256_of
 
         s = self.session
+        if self._refuse_while_busy():
+            return
         try:
             with open(path, encoding="utf-8") as f:
                 doc = json.load(f)
@@ -264,11 +277,18 @@ class Controller:
             settings = Settings(float(st["tol_lower"]), float(st["tol_upper"]),
                                 None if st.get("layers") is None else tuple(st["layers"]),
                                 st.get("units"),
-                                None if st.get("scale") is None else float(st["scale"]))
+                                None if st.get("scale") is None else float(st["scale"]),
+                                st.get("fit", "lsq"), st.get("decision_rule", "simple"))
+            from engine.tolerance import Tolerance
+
+            Tolerance(settings.tol_lower, settings.tol_upper)
         except FileNotFoundError:
             s.tell("error", f"{path}: no such file")
             return
-        except (ValueError, KeyError, TypeError, InputError) as e:
+        except SettingsError as e:
+            s.tell("error", f"{path}: {e}")
+            return
+        except (ValueError, KeyError, TypeError, AttributeError, OSError, InputError) as e:
             s.tell("error", e.__str__() if isinstance(e, InputError) else
                    f"{path}: not a readable session file ({type(e).__name__}: {e})")
             return

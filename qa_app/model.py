@@ -46,6 +46,8 @@ class Settings:
     layers: tuple[str, ...] | None = None
     units: str | None = None
     scale: float | None = None
+    fit: str = "lsq"
+    decision_rule: str = "simple"
 
     @property
     def symmetric(self) -> bool:

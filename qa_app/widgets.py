@@ -418,6 +418,22 @@ class ToleranceForm(QWidget):
         self.tol = self._spin(0.1, 0.0001)
         self.lower = self._spin(-0.1, -1e6)
         self.upper = self._spin(0.1, -1e6)
+        self.fit = QComboBox()
+        self.fit.addItem("Least squares (best fit)", "lsq")
+        self.fit.addItem("Minimax (fits the zone?)", "minimax")
+        self.fit.setToolTip("Least squares spreads the error; minimax finds the pose with the "
+                            "smallest largest excursion: can the part be placed in its zone?")
+        self.rule = QComboBox()
+        self.rule.addItem("Simple (every point in the zone)", "simple")
+        self.rule.addItem("Guarded (sampling margin)", "guarded")
+        self.rule.setToolTip("Guarded: accept only inside the zone shrunk by each point's "
+                             "nominal-sampling margin, reject only outside the zone grown by it")
+        self.chord = QDoubleSpinBox()
+        self.chord.setRange(0.0, 1e6)
+        self.chord.setDecimals(3)
+        self.chord.setSuffix(" mm")
+        self.chord.setSpecialValueText("(airfoil .dat only)")
+        self.chord.setToolTip("Chord length of an airfoil ordinate template (.dat)")
         self.preset = QComboBox()
         self.preset.setToolTip("Per-part tolerance presets")
         self._fill_presets()
@@ -445,6 +461,9 @@ class ToleranceForm(QWidget):
         row3.addWidget(self.preset, 1)
         row3.addWidget(save)
         form.addRow("Preset", row3)
+        form.addRow("Fit", self.fit)
+        form.addRow("Decision rule", self.rule)
+        form.addRow("Airfoil chord", self.chord)
         buttons = QHBoxLayout()
         buttons.addWidget(self.inspect_button, 1)
         buttons.addWidget(self.cancel_button)
@@ -488,6 +507,14 @@ class ToleranceForm(QWidget):
     def load(self):
         st = self.session.settings
         self.set_zone(st.tol_lower, st.tol_upper)
+        self.fit.setCurrentIndex(max(0, self.fit.findData(st.fit)))
+        self.rule.setCurrentIndex(max(0, self.rule.findData(st.decision_rule)))
+        self.chord.setValue(st.scale or 0.0)
+
+    def options(self) -> dict:
+        """Fit, decision rule and airfoil chord as Settings fields."""
+        return {"fit": self.fit.currentData(), "decision_rule": self.rule.currentData(),
+                "scale": self.chord.value() or None}
 
     def _fill_presets(self):
         self.preset.clear()

@@ -236,6 +236,10 @@ class MainWindow(QMainWindow):
     def inspect(self) -> None:
         lo, hi = self.tolerance.zone()
         if self.controller.set_tolerance(lo, hi):
+            options = self.tolerance.options()
+            if not (self.session.nominal_path or "").lower().endswith(".dat"):
+                options["scale"] = None  # the chord applies to airfoil ordinates only
+            self.session.set_settings(**options)
             self.controller.inspect()
 
     def export_certificate(self, path: str | None = None, dialog: CertificateDialog | None = None

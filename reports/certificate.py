@@ -64,9 +64,13 @@ def certificate_number(run: Run, issued: dt.datetime) -> str:
 def check_trustworthy(run: Run) -> None:
     """A certificate may say ACCEPTED only from a converged registration whose pose the
     judge trusted; anything else here is a bug upstream, and no certificate is made."""
-    reg = run.result.registration
-    if run.result.verdict == ACCEPT and not (reg.converged and reg.near_fraction >= 0.5
-                                             and run.result.statistics.n_out == 0):
+    from engine.inspection import MIN_NEAR_FRACTION
+
+    res = run.result
+    reg = res.registration
+    trusted = (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and not res.ambiguous
+               and (res.conditioning is None or not res.conditioning.weak))
+    if res.verdict == ACCEPT and not (trusted and res.statistics.n_out == 0):
         raise RuntimeError("refusing to certify ACCEPTED: the registration is not trustworthy")
 
 
@@ -151,6 +155,8 @@ def _styles():
         "mono": ParagraphStyle("mono", parent=base, fontName="Courier", fontSize=7, leading=8.6),
         "verdict": ParagraphStyle("verdict", parent=base, fontName="Vera-Bold", fontSize=22,
                                   leading=26, textColor=(1, 1, 1)),
+        "verdict_long": ParagraphStyle("verdict_long", parent=base, fontName="Vera-Bold",
+                                       fontSize=17, leading=21, textColor=(1, 1, 1)),
         "verdict_sub": ParagraphStyle("verdict_sub", parent=base, fontSize=8.5, leading=11,
                                       textColor=(1, 1, 1)),
     }
@@ -325,7 +331,8 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     # 7. verdict block (placed early: the answer comes first)
     story.append(P("2  Result", S["h"]))
     reasons = "; ".join(res.reasons)
-    vb = Table([[P(VERDICT_WORD[res.verdict], S["verdict"]),
+    vb = Table([[P(VERDICT_WORD[res.verdict],
+                   S["verdict_long" if res.verdict == INCONCLUSIVE else "verdict"]),
                  P(_esc(reasons[:1].upper() + reasons[1:]), S["verdict_sub"])]],
                colWidths=[62 * mm, W - 62 * mm],
                style=[("BACKGROUND", (0, 0), (-1, -1), colors.Color(*VERDICT_RGB[res.verdict])),
@@ -355,10 +362,19 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
         ("Sign", "Positive along the nominal's outward normal (excess material), negative "
                  "into the material (missing material)"),
         # Lower case on purpose: the verdict words appear on a certificate only as its verdict.
-        ("Decision rule", "Pointwise, simple acceptance: the part is accepted only if every "
-                          "measured point lies inside the zone, rejected if any point lies "
-                          "outside, and the result is inconclusive when the registration cannot "
-                          "be trusted. Measurement uncertainty is not deducted from the zone."),
+        ("Decision rule", ("Pointwise, simple acceptance: the part is accepted only if every "
+                           "measured point lies inside the zone, rejected if any point lies "
+                           "outside" if res.decision_rule == "simple" else
+                           "Pointwise, guarded (ISO 14253-1 style): the part is accepted only "
+                           "if every point lies inside the zone shrunk by its nominal-sampling "
+                           "margin (curvature x spacing² / 8 of the sampled nominal; largest "
+                           f"{float(res.margin.max()) if res.margin is not None and res.margin.size else 0.0:.4f} mm), "
+                           "rejected only if a point lies outside the zone grown by it, "
+                           "inconclusive in between")
+                          + "; the result is inconclusive when the registration cannot be "
+                            "trusted (not converged, ambiguous, or a direction the points do "
+                            "not constrain). Measurement uncertainty is not deducted from the "
+                            "zone."),
         ("Units", "millimetres"),
     ], [28 * mm, W - 28 * mm]))
     # 4. method
@@ -369,19 +385,29 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                          "coarse-to-fine sampling of the nominal" +
                          (" (template plane fitted to the points; both faces tried)"
                           if is_2d and "flatness" in doc else "")),
-        ("Fit criterion", "Least squares of point-to-" + ("contour" if is_2d else "surface") +
-                          " distances; gross outliers beyond a robust cut of "
-                          f"{reg.outlier_cut:.4f} mm are left out of the fit but still judged"),
+        ("Fit criterion", (
+            "Least squares of point-to-" + ("contour" if is_2d else "surface") + " distances "
+            "(a best fit: it spreads the error, and a local defect can pull the pose)"
+            if res.fit == "lsq" else
+            "Minimax (Chebyshev): the pose that minimises the largest excursion from the zone's "
+            "centre, started from the least-squares pose; it answers whether the part can be "
+            "placed inside its zone (largest normalised excursion "
+            f"{doc['minimax']['least_squares_excursion']:.3f} at the least-squares pose, "
+            f"{doc['minimax']['excursion']:.3f} at this pose; ≤ 1 fits)")
+            + f". Gross outliers (beyond a robust cut of {reg.outlier_cut:.4f} mm"
+            + (", and 5 zone widths for the minimax fit" if res.fit == "minimax" else "")
+            + ") are left out of the fit but judged, and flagged in the tables"),
         ("Deviation method", doc["deviations"]["method"]),
         ("Normals", {"file": "from the nominal file (I J K)", "mesh": "from the mesh faces",
                      "grid": "from the grid cells", "estimated": "estimated from the nominal "
                      "points (no normals in the file)", "contour": "contour normals"}.get(
                          res.normals_source, res.normals_source)),
-        ("Device", info.device), ("Inspector", info.inspector),
     ], [28 * mm, W - 28 * mm]))
     if info.notes:
-        story.append(Spacer(1, 2 * mm))
-        story.append(kv([("Notes", info.notes)], [28 * mm, W - 28 * mm]))
+        # Paragraphs of their own: a long note flows over pages (a table cell cannot).
+        story.append(P("Notes", S["cellb"]))
+        for para in str(info.notes).split("\n"):
+            story.append(P(_esc(para), S["base"]))
     # 5. inputs
     story.append(CondPageBreak(45 * mm))
     story.append(P("5  Inputs", S["h"]))
@@ -399,8 +425,19 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                  for row in T], [20 * mm] * 4, header=False,
                 styles=[("FONT", (0, 0), (-1, -1), "Courier", 7), ("ALIGN", (0, 0), (-1, -1),
                                                                    "RIGHT")])
+    cond = res.conditioning
+    weak = "none: every direction constrained" if cond is None or not cond.weak else "; ".join(
+        f"{w.type} {'along' if w.type == 'translation' else 'about'} {_vec(w.axis)}"
+        for w in cond.weak)
     reg_rows = [("Converged", f"{'yes' if reg.converged else 'NO'} after {reg.iterations} "
                               "iterations"),
+                ("Unconstrained", weak),
+                ("Pose uncertainty", "—" if cond is None or cond.pose_sigma_mm is None else
+                 f"{cond.pose_sigma_mm:.4f} mm (1σ at the worst point, from the residuals)"),
+                ("Ambiguity", (f"AMBIGUOUS: a runner-up pose moves deviations by up to "
+                               f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
+                 "none (no nearly-as-good pose with different deviations)"),
+                ("Outliers", f"{int(res.outlier.sum())} point(s) left out of the fit, judged"),
                 ("RMS", f"{reg.rms:.4f} mm over {reg.n_inliers} inlier points"),
                 ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
                                f"{'—' if reg.runner_up_score is None else f'{reg.runner_up_score:.4f} mm'})"),
@@ -463,22 +500,31 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     out_idx = order[: min(st.n_out, MAX_OUT_ROWS)]
     rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + WORST_ROWS]]
     req = zone
+    judged = res.verdict != INCONCLUSIVE
+    if not judged:  # no pose to trust: the points are listed, not judged
+        out_idx = []
+        rows_idx = list(order[:WORST_ROWS])
     rows = [["Char. No.", "Point", "Requirement", "X (mm)", "Y (mm)", "Z (mm)",
              "Deviation", "Result"]]
     res_styles = []
+    outlier = res.outlier
     for k, i in enumerate(rows_idx):
         p = res.registered[i]
         ok = bool(res.in_tolerance[i])
-        rows.append([f"{k + 1}", name_of(i), req, f"{p[0]:.3f}", f"{p[1]:.3f}", f"{p[2]:.3f}",
-                     f"{d[i]:+.4f}", "PASS" if ok else "FAIL"])
-        if not ok:
+        result = ("PASS" if ok else "FAIL") if judged else "not judged"
+        rows.append([f"{k + 1}", name_of(i) + (" (o)" if outlier[i] else ""), req,
+                     f"{p[0]:.3f}", f"{p[1]:.3f}", f"{p[2]:.3f}", f"{d[i]:+.4f}", result])
+        if judged and not ok:
             res_styles.append(("TEXTCOLOR", (7, k + 1), (7, k + 1), colors.Color(0.72, 0.1, 0.1)))
             res_styles.append(("FONT", (7, k + 1), (7, k + 1), "Vera-Bold", 7.5))
-    intro = (f"Every point out of tolerance ({st.n_out}"
-             + (f"; the worst {MAX_OUT_ROWS} are listed" if st.n_out > MAX_OUT_ROWS else "")
-             + f"), then the {len(rows_idx) - len(out_idx)} in-tolerance points nearest to a "
-             "limit, worst first. Coordinates of the registered points in the nominal frame. "
-             "Every point is in the attached points.csv.")
+    intro = ((f"Every point out of tolerance ({st.n_out}"
+              + (f"; the worst {MAX_OUT_ROWS} are listed" if st.n_out > MAX_OUT_ROWS else "")
+              + f"), then the {len(rows_idx) - len(out_idx)} in-tolerance points nearest to a "
+              "limit, worst first.") if judged else
+             f"The registration cannot be trusted, so no point is judged; the {len(rows_idx)} "
+             "largest deviations at the best pose found are listed for diagnosis.") + (
+             " Coordinates of the registered points in the nominal frame; (o) marks a gross "
+             "outlier left out of the fit. Every point is in the attached points.csv.")
     story.append(P(_esc(intro), S["small"]))
     story.append(Spacer(1, 2 * mm))
     story.append(table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,

@@ -187,13 +187,16 @@ def _guarded(command, args) -> int:
 def _cmd_inspect(args) -> int:
     from .loading import is_template
 
+    tol = _tolerance(args)  # usage errors first, before any process is started
+    if args.sign and not args.report:
+        raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
     renderer = None
     if args.report and not is_template(args.nominal):
         from .figures import RenderProcess
 
         renderer = RenderProcess()  # pyvista/OpenGL start-up overlaps all the work below
     try:
-        return _run_inspect(args, _tolerance(args), renderer)
+        return _run_inspect(args, tol, renderer)
     finally:
         if renderer is not None:
             renderer.close()
@@ -220,19 +223,12 @@ def _cmd_verify(args) -> int:
     import json
 
     from .certificate import VERDICT_WORD
-    from .signing import read_trust_roots, verify_pdf
+    from .signing import read_input, read_trust_roots, verify_pdf
 
     if (args.nominal is None) != (args.measured is None):
         raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
     roots = [c for path in args.trust for c in read_trust_roots(path)]
-    try:
-        with open(args.certificate, "rb") as f:
-            pdf = f.read()
-    except FileNotFoundError:
-        from engine.errors import InputNotFoundError
-
-        raise InputNotFoundError("no such file", args.certificate) from None
-    v = verify_pdf(pdf, roots)
+    v = verify_pdf(read_input(args.certificate), roots)
     problems = list(v.problems)
     doc = None
     if v.valid:
@@ -241,6 +237,15 @@ def _cmd_verify(args) -> int:
             cert = doc["certificate"]
         except (KeyError, ValueError) as e:
             problems.append(f"the certificate carries no readable results.json ({e})")
+        else:
+            # The PDF was made to be signed by the inspector it names: a draft signed later,
+            # or by someone else, is not that certificate.
+            if cert.get("signed_by") is None:
+                problems.append("the certificate was issued as an UNSIGNED DRAFT; a signature "
+                                "added afterwards does not make it a certificate")
+            elif v.signatures and v.signatures[0].signer != cert["signed_by"]:
+                problems.append(f"the inspector's signature is by {v.signatures[0].signer}, "
+                                f"but the certificate was issued for {cert['signed_by']}")
     notes = []
     if doc is not None and args.nominal:
         problems += _recheck(doc, args.nominal, args.measured, notes)
@@ -305,8 +310,6 @@ def _run_inspect(args, tol, renderer) -> int:
 
     identity = None
     if args.sign:
-        if not args.report:
-            raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
         from .signing import load_identity
 
         # The key first: a wrong passphrase must not cost an inspection.

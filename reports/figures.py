@@ -205,6 +205,7 @@ class RenderProcess:
         self._proc = subprocess.Popen([sys.executable, "-m", "reports.figures"],
                                       stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                       stderr=subprocess.DEVNULL, cwd=_project_root())
+        self._pending = 0
 
     def submit(self, nominal_points, triangles, feet, normals, d, tol, worst, **kw):
         """Send a :func:`render_3d` request; the returned object's ``result()`` waits for the
@@ -226,9 +227,14 @@ class RenderProcess:
 
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
-        return _Reply(self._proc, sender, failure)
+        self._pending += 1
+        return _Reply(self, sender, failure)
 
     def close(self):
+        if self._pending:
+            # A request nobody will read (the caller failed meanwhile): the worker would block
+            # writing its reply, so stop it now.
+            self._proc.kill()
         try:
             self._proc.stdin.close()
             self._proc.wait(timeout=10)
@@ -240,8 +246,8 @@ class RenderProcess:
 
 
 class _Reply:
-    def __init__(self, proc, sender, failure):
-        self._proc, self._sender, self._failure = proc, sender, failure
+    def __init__(self, owner, sender, failure):
+        self._owner, self._proc, self._sender, self._failure = owner, owner._proc, sender, failure
 
     def result(self) -> list[View]:
         import pickle
@@ -251,6 +257,7 @@ class _Reply:
             if self._failure:
                 raise self._failure[0]
             ok, value = pickle.load(self._proc.stdout)
+            self._owner._pending -= 1
         except (OSError, EOFError, pickle.UnpicklingError) as e:
             raise RuntimeError(f"the 3D rendering process failed "
                                f"(exit code {self._proc.poll()})") from e

@@ -100,9 +100,14 @@ def _read_vtk(path: str, suffix: str) -> PointSet:
 
 
 def sha256_of(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's bytes, hex."""
+    """SHA-256 of a file's bytes, hex. InputError (naming the file) when it cannot be read."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
+    try:
+        with open(path, "rb") as f:
+            for chunk in iter(lambda: f.read(1 << 20), b""):
+                h.update(chunk)
+    except FileNotFoundError:
+        raise InputNotFoundError("no such file", os.fspath(path)) from None
+    except OSError as e:
+        raise InputError(f"cannot be read ({e.strerror})", os.fspath(path)) from e
     return h.hexdigest()

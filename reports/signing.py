@@ -151,7 +151,7 @@ def make_demo_identity(name: str, organisation: str, out_dir: str,
         name.encode("utf-8"), key, cert, [ca],
         serialization.BestAvailableEncryption(passphrase))
     os.makedirs(out_dir, exist_ok=True)
-    write_atomic(p12_path, p12)
+    write_atomic(p12_path, p12, private=True)
     write_atomic(ca_path, ca.public_bytes(serialization.Encoding.PEM))
     return ca_path, p12_path
 
@@ -162,13 +162,7 @@ def load_identity(path: str, passphrase: bytes | None) -> Identity:
     from cryptography.hazmat.primitives.serialization import Encoding, pkcs12
     from cryptography.x509.oid import NameOID
 
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except FileNotFoundError:
-        from engine.errors import InputNotFoundError
-
-        raise InputNotFoundError("no such file", path) from None
+    data = read_input(path)
     try:
         key, cert, others = pkcs12.load_key_and_certificates(data, passphrase)
     except ValueError as e:
@@ -183,10 +177,13 @@ def load_identity(path: str, passphrase: bytes | None) -> Identity:
                          f"{cert.not_valid_after_utc:%Y-%m-%d})", path)
     try:
         ku = cert.extensions.get_extension_for_class(x509.KeyUsage).value
-        if not (ku.digital_signature or ku.content_commitment):
-            raise InputError("the certificate's key usage does not allow signing documents", path)
     except x509.ExtensionNotFound:
-        pass
+        ku = None
+    if ku is not None and not (ku.digital_signature and ku.content_commitment):
+        # Validators (pyHanko, Adobe) want nonRepudiation on a document signature: a
+        # certificate without it would sign here and then fail every verification.
+        raise InputError("the certificate's key usage must allow digitalSignature and "
+                         "nonRepudiation (content commitment) to sign certificates", path)
 
     def attr(n, oid):
         v = n.get_attributes_for_oid(oid)
@@ -280,13 +277,7 @@ def read_trust_roots(path: str) -> list:
     """Certificates (PEM, one or more, or DER) to trust; InputError if there are none."""
     from asn1crypto import pem, x509
 
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except FileNotFoundError:
-        from engine.errors import InputNotFoundError
-
-        raise InputNotFoundError("no such file", path) from None
+    data = read_input(path)
     try:
         if pem.detect(data):
             certs = [x509.Certificate.load(der) for kind, _, der in pem.unarmor(data, True)
@@ -299,6 +290,21 @@ def read_trust_roots(path: str) -> list:
     if not certs:
         raise InputError("holds no CERTIFICATE block", path)
     return certs
+
+
+def read_input(path: str) -> bytes:
+    """A file's bytes; InputError (not a bare OSError) when it cannot be read."""
+    from engine.errors import InputNotFoundError
+
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except FileNotFoundError:
+        raise InputNotFoundError("no such file", path) from None
+    except IsADirectoryError:
+        raise InputError("is a folder, not a file", path) from None
+    except OSError as e:
+        raise InputError(f"cannot be read ({e.strerror})", path) from e
 
 
 def verify_pdf(pdf: bytes, trust_roots: list) -> Verification:
@@ -332,7 +338,10 @@ def _verify(pdf: bytes, trust_roots: list) -> Verification:
         if not st.valid:
             problems.append("the signature value does not verify")
         if not st.trusted:
-            problems.append("the signer does not chain to the given trust anchor")
+            why = getattr(st, "trust_problem_indic", None)
+            problems.append("the signer's certificate is not trusted for document signatures "
+                            "by the given trust anchor"
+                            + (f" ({getattr(why, 'name', why)})" if why else ""))
         last = k == len(sigs) - 1
         if last and st.coverage != SignatureCoverageLevel.ENTIRE_FILE:
             problems.append("the file was changed after the last signature "
@@ -350,9 +359,24 @@ def _verify(pdf: bytes, trust_roots: list) -> Verification:
             st.signer_reported_dt, bool(st.intact and st.valid), bool(st.trusted),
             st.coverage.name if st.coverage else "NONE", problems))
         v.problems += [f"signature '{s.field_name}': {p}" for p in problems]
+    # The certificate is the inspector's certification signature; an approver can only add to
+    # it. A document whose first signature is anything else (an approver's signature on an
+    # unsigned draft, say) is not a certificate.
+    first = sigs[0]
+    if first.field_name != INSPECTOR_FIELD:
+        v.problems.append(f"the first signature is '{first.field_name}', not the inspector's "
+                          f"certification signature ('{INSPECTOR_FIELD}')")
+    elif read_certification_status(reader) is None:
+        v.problems.append("the inspector's signature is not a certification signature")
     v.attachments = embedded_files(reader)
     v.valid = not v.problems
     return v
+
+
+def read_certification_status(reader):
+    from pyhanko.sign.validation import read_certification_data
+
+    return read_certification_data(reader)
 
 
 def embedded_files(reader) -> dict[str, bytes]:

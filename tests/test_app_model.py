@@ -192,3 +192,52 @@ def test_sample_session_opens_and_inspects_with_its_zone():
     assert s.nominal_path == os.path.join(BELLY, "nominal.csv")
     assert s.run is not None and s.run.result.verdict == "ACCEPT"
     assert all(level != "warning" for level, _ in messages)
+
+
+@pytest.mark.parametrize("content, expected", [
+    ("[]", "not a readable session file"),
+    ('{"format": "qa-inspect session", "inputs": [], "settings": {"tol_lower": 0.1, '
+     '"tol_upper": -0.1}}', "zone is empty"),
+])
+def test_bad_session_files_are_one_error(tmp_path, content, expected):
+    bad = tmp_path / "x.qasession"
+    bad.write_text(content)
+    s, c, messages = make()
+    c.open_session(str(bad))
+    assert messages[-1][0] == "error" and expected in messages[-1][1]
+    c.open_session(str(tmp_path))  # a folder
+    assert messages[-1][0] == "error" and str(tmp_path) in messages[-1][1]
+    assert s.step == Step.NEED_NOMINAL
+
+
+def test_saving_a_session_whose_input_vanished_is_one_error(tmp_path):
+    m = tmp_path / "measured.csv"
+    shutil.copy(os.path.join(BELLY, "measured.csv"), m)
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), str(m)])
+    m.unlink()
+    c.save_session(str(tmp_path / "s.qasession"))
+    assert messages[-1] == ("error", f"{m}: no such file")
+
+
+def test_no_new_inputs_while_busy():
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")])
+    c.busy = True  # as while the worker runs
+    c.open_measured(os.path.join(FRAME, "measured.csv"))
+    assert s.measured_path == os.path.join(BELLY, "measured.csv")
+    assert messages[-1][0] == "warning" and "running" in messages[-1][1]
+
+
+def test_fit_and_decision_rule_reach_the_engine_and_the_session_file(tmp_path):
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")])
+    c.set_tolerance(-0.12, 0.12)
+    s.set_settings(fit="minimax", decision_rule="guarded")
+    c.inspect()
+    assert s.run.result.fit == "minimax" and s.run.result.decision_rule == "guarded"
+    assert s.run.result.verdict == "ACCEPT" and s.run.doc["fit"] == "minimax"
+    c.save_session(str(tmp_path / "s.qasession"))
+    s2, c2, _ = make()
+    c2.open_session(str(tmp_path / "s.qasession"))
+    assert s2.settings.fit == "minimax" and s2.settings.decision_rule == "guarded"

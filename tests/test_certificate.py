@@ -120,7 +120,8 @@ def sha256_file(path) -> str:
         return hashlib.sha256(f.read()).hexdigest()
 
 
-def make_identity(ca_cert, ca_key, name: str, path, passphrase: bytes) -> None:
+def make_identity(ca_cert, ca_key, name: str, path, passphrase: bytes,
+                  non_repudiation: bool = True) -> None:
     """A document-signing PKCS#12 issued by ``ca_cert`` (written with cryptography directly)."""
     import datetime as dt
 
@@ -139,7 +140,8 @@ def make_identity(ca_cert, ca_key, name: str, path, passphrase: bytes) -> None:
             .not_valid_before(now - dt.timedelta(hours=1))
             .not_valid_after(now + dt.timedelta(days=30))
             .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-            .add_extension(x509.KeyUsage(digital_signature=True, content_commitment=True,
+            .add_extension(x509.KeyUsage(digital_signature=True,
+                                         content_commitment=non_repudiation,
                                          key_encipherment=False, data_encipherment=False,
                                          key_agreement=False, key_cert_sign=False,
                                          crl_sign=False, encipher_only=False,
@@ -227,7 +229,7 @@ def signed(tmp_path_factory):
         assert out.startswith("ACCEPT") and os.path.isfile(pdf)
         yield SimpleNamespace(dir=d, pdf=pdf, bytes=pdf.read_bytes(), ca=d / "id" / "ca.pem",
                               p12=d / "id" / "inspector.p12", other_ca=d / "other" / "ca.pem",
-                              approver_p12=d / "approver.p12")
+                              approver_p12=d / "approver.p12", ca_cert=ca_cert, ca_key=ca_key)
 
 
 @pytest.fixture(scope="module")
@@ -354,7 +356,7 @@ def test_verify_detects_an_incremental_revision(signed, tampered, capsys):
 def test_verify_with_another_ca_is_not_trusted(signed, capsys):
     code, out, err = verify(capsys, signed.pdf, "--trust", signed.other_ca)
     assert code == 1 and out.startswith("INVALID")
-    assert "does not chain" in out and "NOT TRUSTED" in out
+    assert "not trusted" in out and "NOT TRUSTED" in out
 
 
 @pytest.mark.parametrize("kind", ["truncated", "not-a-pdf"])
@@ -610,3 +612,55 @@ def test_verify_trust_file_errors(signed, tmp_path, capsys):
     garbage.write_bytes(b"not a certificate \x00\x01\x02 just bytes\n")
     code, out, err = verify(capsys, signed.pdf, "--trust", garbage)
     assert code == 65 and "garbage.pem" in err and "VALID" not in out
+
+
+def _sign_approver(pdf_bytes: bytes, p12) -> bytes:
+    from pyhanko.pdf_utils.incremental_writer import IncrementalPdfFileWriter
+    from pyhanko.sign import fields, signers
+
+    from reports.signing import load_identity
+
+    approver = load_identity(str(p12), PASSPHRASE.encode())
+    w = IncrementalPdfFileWriter(io.BytesIO(pdf_bytes))
+    meta = signers.PdfSignatureMetadata(field_name="Approver", md_algorithm="sha256",
+                                        subfilter=fields.SigSeedSubFilter.PADES)
+    return signers.PdfSigner(meta, approver.signer).sign_pdf(w).getvalue()
+
+
+def test_a_draft_signed_by_an_approver_is_not_a_certificate(signed, tmp_path, capsys):
+    draft = tmp_path / "draft.pdf"
+    assert main(["inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25", "--report",
+                 str(draft)]) == 0
+    approved = tmp_path / "draft_approved.pdf"
+    approved.write_bytes(_sign_approver(draft.read_bytes(), signed.approver_p12))
+    code, out, err = verify(capsys, approved, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "not the inspector's certification signature" in out
+
+
+def test_identity_without_non_repudiation_is_refused_before_signing(signed, tmp_path,
+                                                                    monkeypatch, capsys):
+    weak = tmp_path / "ds_only.p12"
+    make_identity(signed.ca_cert, signed.ca_key, "Dee Signer", weak, PASSPHRASE.encode(),
+                  non_repudiation=False)
+    monkeypatch.setenv(PASS_VAR, PASSPHRASE)
+    pdf = tmp_path / "c.pdf"
+    code = main(["inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25", "--report",
+                 str(pdf), "--sign", str(weak), "--sign-pass-env", PASS_VAR])
+    err = capsys.readouterr().err
+    assert code == 65 and "nonRepudiation" in err and str(weak) in err
+    assert not pdf.exists()
+
+
+def test_identity_files_and_folders(signed, tmp_path, monkeypatch, capsys):
+    # The private key is the owner's alone; the trust anchor is for everyone.
+    assert os.stat(signed.p12).st_mode & 0o777 == 0o600
+    assert os.stat(signed.ca).st_mode & 0o044 == 0o044
+    monkeypatch.setenv(PASS_VAR, PASSPHRASE)
+    code = main(["inspect", BELLY_NOMINAL, BELLY_MEASURED, "--tol", "0.25", "--report",
+                 str(tmp_path / "c.pdf"), "--sign", str(tmp_path), "--sign-pass-env",
+                 PASS_VAR])
+    err = capsys.readouterr().err
+    assert code == 65 and "is a folder" in err and "cannot write" not in err
+    code = main(["verify", str(tmp_path), "--trust", str(signed.ca)])
+    assert code == 65 and "is a folder" in capsys.readouterr().err

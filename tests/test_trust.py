@@ -213,3 +213,33 @@ def test_sampling_margin_is_curvature_times_spacing_squared_over_8():
     # A sphere measured all over leaves the three rotations free: no verdict.
     assert res.verdict == INCONCLUSIVE
     assert sorted(w.type for w in res.conditioning.weak) == ["rotation"] * 3
+
+
+def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
+    import csv
+    import json
+    import os
+
+    from reports.cli import main
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    belly = os.path.join(root, "samples", "belly_fairing")
+    j, c = tmp_path / "r.json", tmp_path / "r.csv"
+    code = main(["inspect", os.path.join(belly, "nominal.csv"),
+                 os.path.join(belly, "measured.csv"), "--tol", "0.12", "--fit", "minimax",
+                 "--decision-rule", "guarded", "--json", str(j), "--csv", str(c)])
+    assert code == 0
+    doc = json.loads(j.read_text())
+    assert doc["fit"] == "minimax" and doc["decision_rule"] == "guarded"
+    assert doc["registration"]["weak_directions"] == []
+    assert doc["registration"]["ambiguous"] is False
+    assert doc["minimax"]["excursion"] <= 1.0 < doc["minimax"]["least_squares_excursion"]
+    with open(c) as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0])[-2:] == ["outlier", "margin"]
+    assert all(float(r["margin"]) >= 0 for r in rows)
+    assert max(float(r["margin"]) for r in rows) == pytest.approx(doc["margin"]["max"],
+                                                                  abs=1e-6)
+    # The same part at the least-squares pose is rejected.
+    assert main(["inspect", os.path.join(belly, "nominal.csv"),
+                 os.path.join(belly, "measured.csv"), "--tol", "0.12"]) == 1
