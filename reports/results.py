@@ -135,7 +135,7 @@ def _conditioning(cond) -> dict:
         "conditioning": {"strengths": list(cond.strengths), "length_mm": cond.length,
                          "definition": "eigenvalues of the point-to-surface normal matrix at "
                                        "the final pose (rotations scaled by length_mm), over "
-                                       "the largest; below 0.001 a direction is unconstrained"},
+                                       "the largest; below 0.0001 a direction is unconstrained"},
         "pose_uncertainty_mm": None if cond.pose_sigma_mm is None else _num(cond.pose_sigma_mm),
     }
 

@@ -133,7 +133,7 @@ def test_a_cylinder_only_measurement_is_unconstrained_along_and_about_its_axis()
     assert kinds == ["rotation", "translation"]
     for w in weak:
         assert abs(abs(np.dot(w.axis, axis)) - 1.0) < 1e-3
-        assert w.strength < 1e-3
+        assert w.strength < 1e-4
     assert res.verdict == INCONCLUSIVE
     assert any("do not constrain the pose" in r for r in res.reasons)
     assert res.conditioning.pose_sigma_mm is None
@@ -151,7 +151,7 @@ def test_conditioning_of_a_plane_and_of_a_well_constrained_part(fairing):
     res = inspect(fairing, measured, Tolerance.symmetric(0.05))
     assert res.conditioning.weak == () and res.verdict == ACCEPT
     # Sliding along a gently curved surface is constrained, weakly: a few micrometres.
-    assert min(res.conditioning.strengths) > 1e-3
+    assert min(res.conditioning.strengths) > 1e-4
     assert 0 < res.conditioning.pose_sigma_mm < 0.02
 
 
@@ -243,3 +243,42 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
     # The same part at the least-squares pose is rejected.
     assert main(["inspect", os.path.join(belly, "nominal.csv"),
                  os.path.join(belly, "measured.csv"), "--tol", "0.12"]) == 1
+
+
+def _symmetric_part(bump: float):
+    """A surface symmetric under a half turn about z, with an optional small bump on one side
+    only (an asymmetric feature a half-turned part would miss)."""
+
+    def h(x, y):
+        return -x ** 2 / 800.0 - y ** 2 / 300.0 + bump * np.exp(
+            -((x - 150) ** 2 + (y - 40) ** 2) / (2 * 15.0 ** 2))
+
+    def n(x, y, e=1e-4):
+        hx = (h(x + e, y) - h(x - e, y)) / (2 * e)
+        hy = (h(x, y + e) - h(x, y - e)) / (2 * e)
+        v = np.stack([-hx, -hy, np.ones_like(x)], axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    X, Y = np.meshgrid(np.linspace(-250, 250, 400), np.linspace(-125, 125, 200))
+    x, y = X.ravel(), Y.ravel()
+    nominal = Nominal.from_point_set(point_set(np.column_stack([x, y, h(x, y)]), n(x, y),
+                                               (400, 200)))
+    rng = np.random.default_rng(21)
+    mx, my = rng.uniform(-245, 245, 1500), rng.uniform(-120, 120, 1500)
+    q = np.column_stack([mx, my, h(mx, my)]) + rng.normal(0, 0.005, 1500)[:, None] * n(mx, my)
+    T = make_transform(random_rotation(rng), [300.0, 100.0, -50.0])
+    return nominal, apply_transform(T, q)
+
+
+def test_an_ambiguous_pose_is_inconclusive_a_symmetry_is_not():
+    nominal, measured = _symmetric_part(bump=0.0)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.1))
+    # The half-turned pose fits as well and gives the same deviations: a symmetry.
+    assert res.verdict == ACCEPT and not res.ambiguous
+
+    nominal, measured = _symmetric_part(bump=0.04)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.1))
+    reg = res.registration
+    assert reg.runner_up_score is not None and reg.runner_up_score <= 1.5 * reg.score
+    assert res.ambiguous and res.ambiguity_spread > 0.02
+    assert res.verdict == INCONCLUSIVE and any("ambiguous" in r for r in res.reasons)
