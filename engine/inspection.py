@@ -135,8 +135,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
     with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded")."""
     from .deviation import point_to_surface
-    from .progress import report
-    from .trust import conditioning, minimax_pose
+    from .trust import conditioning
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
@@ -146,28 +145,18 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     T = reg.T_nominal_measured
     registered = apply_transform(T, measured)
     cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms)
-    ambiguous, spread = False, 0.0
-    if reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and \
-            reg.runner_up_T is not None and reg.runner_up_score is not None and \
-            reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score:
-        d_r = point_to_surface(nominal, apply_transform(reg.runner_up_T, measured)).signed
-        spread = float(np.max(np.abs(d_r - dev.signed)))
-        ambiguous = spread > AMBIGUITY_DEVIATION * (tolerance.upper - tolerance.lower)
+
+    def evaluate(Tc):
+        X = apply_transform(Tc, measured)
+        dv = point_to_surface(nominal, X)
+        return X, dv.signed, dv.normal
+
+    ambiguous, spread = _ambiguity(reg, dev.signed, tolerance, evaluate)
     extra: dict = {}
     if fit == "minimax":
-        report("minimax fit (linear programs)", 0.97)
-
-        def evaluate(Tc):
-            X = apply_transform(Tc, measured)
-            dv = point_to_surface(nominal, X)
-            return X, dv.signed, dv.normal
-
-        mm = minimax_pose(evaluate, T, tolerance.lower, tolerance.upper,
-                          use=_minimax_points(dev.signed, reg.outlier_cut, tolerance))
-        T = mm.T
+        T = _minimax(evaluate, T, dev.signed, reg.outlier_cut, tolerance, extra)
         registered = apply_transform(T, measured)
         dev = point_to_surface(nominal, registered)
-        extra["minimax"] = _minimax_facts(mm)
     margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin)
@@ -193,6 +182,30 @@ of a few tenths of a millimetre stays in: it is what the minimax fit has to plac
 def _minimax_points(d: np.ndarray, cut: float, tol: Tolerance) -> np.ndarray:
     centre = 0.5 * (tol.lower + tol.upper)
     return np.abs(d - centre) <= max(cut, GROSS_ZONES * (tol.upper - tol.lower))
+
+
+def _ambiguity(reg, d: np.ndarray, tol: Tolerance, evaluate) -> tuple[bool, float]:
+    """(ambiguous, spread): a nearly-as-good distinct runner-up pose (not a symmetry of a 2D
+    template) that moves some deviation by more than a tenth of the zone width."""
+    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
+            and reg.runner_up_T is not None and reg.runner_up_score is not None
+            and not getattr(reg, "symmetric", False)
+            and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score):
+        return False, 0.0
+    spread = float(np.max(np.abs(evaluate(reg.runner_up_T)[1] - d)))
+    return spread > AMBIGUITY_DEVIATION * (tol.upper - tol.lower), spread
+
+
+def _minimax(evaluate, T: np.ndarray, d: np.ndarray, cut: float, tol: Tolerance,
+             extra: dict) -> np.ndarray:
+    """The minimax pose from the least-squares one (its facts go into ``extra``)."""
+    from .progress import report
+    from .trust import minimax_pose
+
+    report("minimax fit (linear programs)", 0.97)
+    mm = minimax_pose(evaluate, T, tol.lower, tol.upper, use=_minimax_points(d, cut, tol))
+    extra["minimax"] = _minimax_facts(mm)
+    return mm.T
 
 
 def _minimax_facts(mm) -> dict:
@@ -281,9 +294,8 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     """
     from .contour import ContourIndex, deviations_2d
-    from .progress import report
     from .registration2d import apply2, fit_plane, register_2d
-    from .trust import conditioning, minimax_pose
+    from .trust import conditioning
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
@@ -313,26 +325,16 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     dev2, T2 = reg.deviations, reg.T
     fitted = apply2(T2, q2)
     cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms)
-    ambiguous, spread = False, 0.0
-    if reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and \
-            reg.runner_up_T is not None and not reg.symmetric and \
-            reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score:
-        d_r = deviations_2d(index, apply2(reg.runner_up_T, q2)).signed
-        spread = float(np.max(np.abs(d_r - dev2.signed)))
-        ambiguous = spread > AMBIGUITY_DEVIATION * (tolerance.upper - tolerance.lower)
+
+    def evaluate(Tc):
+        X = apply2(Tc, q2)
+        dv = deviations_2d(index, X)
+        return X, dv.signed, dv.normal
+
+    ambiguous, spread = _ambiguity(reg, dev2.signed, tolerance, evaluate)
     if fit == "minimax":
-        report("minimax fit (linear programs)", 0.97)
-
-        def evaluate(Tc):
-            X = apply2(Tc, q2)
-            dv = deviations_2d(index, X)
-            return X, dv.signed, dv.normal
-
-        mm = minimax_pose(evaluate, T2, tolerance.lower, tolerance.upper,
-                          use=_minimax_points(dev2.signed, reg.outlier_cut, tolerance))
-        T2 = mm.T
+        T2 = _minimax(evaluate, T2, dev2.signed, reg.outlier_cut, tolerance, extra)
         dev2 = deviations_2d(index, apply2(T2, q2))
-        extra["minimax"] = _minimax_facts(mm)
     E = np.eye(4)
     E[:2, :2] = T2[:2, :2]
     E[:2, 3] = T2[:2, 2]

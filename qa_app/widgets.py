@@ -133,13 +133,8 @@ class Legend(QWidget):
             kk = len(table) - 1 - k
             y = 22 + k * h
             p.fillRect(QRectF(4, y, 18, h - 1), qcolor(b.rgb))
-            if math.isinf(b.upper):
-                text = f"> {b.lower:+.3f}"
-            elif math.isinf(b.lower):
-                text = f"< {b.upper:+.3f}"
-            else:
-                text = f"{b.lower:+.3f} … {b.upper:+.3f}"
-            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter, text)
+            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter,
+                       figures.band_label(b))
             p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
                        str(int(counts[kk])))
         p.setPen(QPen(Qt.black, 1.5))

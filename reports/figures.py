@@ -46,6 +46,15 @@ def bands(tol: "Tolerance") -> list[Band]:
     return [Band(edges[k], edges[k + 1], colours[k], 3 <= k <= 6) for k in range(10)]
 
 
+def band_label(b: Band) -> str:
+    """The band's range as the legends print it, mm."""
+    if math.isinf(b.upper):
+        return f"> {b.lower:+.3f}"
+    if math.isinf(b.lower):
+        return f"< {b.upper:+.3f}"
+    return f"{b.lower:+.3f} … {b.upper:+.3f}"
+
+
 def band_index(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
     """Index into :func:`bands` of each deviation (mm)."""
     d = np.asarray(d, dtype=float)
@@ -426,13 +435,7 @@ def legend(tol: "Tolerance", d: np.ndarray, width: float, height: float):
         y = top - (k + 1) * h
         g.add(Rect(0, y, 16, h, fillColor=colors.Color(*b.rgb), strokeColor=colors.white,
                    strokeWidth=0.5))
-        if math.isinf(b.upper):
-            text = f"> {b.lower:+.3f}"
-        elif math.isinf(b.lower):
-            text = f"< {b.upper:+.3f}"
-        else:
-            text = f"{b.lower:+.3f} … {b.upper:+.3f}"
-        g.add(String(21, y + h / 2 - 3, text, fontName="Helvetica", fontSize=7))
+        g.add(String(21, y + h / 2 - 3, band_label(b), fontName="Helvetica", fontSize=7))
         g.add(String(width - 2, y + h / 2 - 3, f"{int(counts[kk])}", fontName="Helvetica",
                      fontSize=7, textAnchor="end"))
     # Bracket the in-tolerance bands.
