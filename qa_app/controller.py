@@ -16,8 +16,9 @@ import threading
 from collections.abc import Callable
 
 from engine.errors import Cancelled, InputError, SettingsError
+from reports.settings import InspectionSettings
 
-from .model import Session, Settings
+from .model import Session
 
 SESSION_FORMAT = "qa-inspect session"
 SESSION_SUFFIX = ".qasession"
@@ -128,11 +129,9 @@ class Controller:
 
         def job():
             # Imported here, in the worker: the engine's first import holds the interpreter.
-            from reports.pipeline import InspectionSettings, run_files
+            from reports.pipeline import run_files
 
-            settings = InspectionSettings(st.tol_lower, st.tol_upper, st.layers, st.units,
-                                          st.scale, st.fit, st.decision_rule)
-            run = run_files(nominal, measured, settings, progress=self._progress)
+            run = run_files(nominal, measured, st, progress=self._progress)
             if self._prepare is not None:
                 self._progress("preparing the views", 1.0)
                 run.display = self._prepare(run)
@@ -242,8 +241,6 @@ class Controller:
         s.tell("info", f"Session saved: {path}")
 
     def _session_doc(self, path: str) -> dict:
-        from dataclasses import asdict
-
         from reports.loading import sha256_of
 
         s = self.session
@@ -254,8 +251,7 @@ class Controller:
                            "sha256": sha256_of(p) if p else None}
                           for role, p in (("nominal", s.nominal_path),
                                           ("measured", s.measured_path))],
-               "settings": {k: (list(v) if isinstance(v, tuple) else v)
-                            for k, v in asdict(s.settings).items()},
+               "settings": s.settings.to_json(),
                "results": None if s.run is None else s.run.doc}
 
     def open_session(self, path: str) -> None:
@@ -274,14 +270,8 @@ class Controller:
                 raise InputError("not a qa-inspect session file", path)
             inputs = {i["role"]: i for i in doc["inputs"]}
             st = doc["settings"]
-            settings = Settings(float(st["tol_lower"]), float(st["tol_upper"]),
-                                None if st.get("layers") is None else tuple(st["layers"]),
-                                st.get("units"),
-                                None if st.get("scale") is None else float(st["scale"]),
-                                st.get("fit", "lsq"), st.get("decision_rule", "simple"))
-            from engine.tolerance import Tolerance
-
-            Tolerance(settings.tol_lower, settings.tol_upper)
+            settings = InspectionSettings.from_json(st)
+            settings.tolerance  # a zone that is no zone is refused here
         except FileNotFoundError:
             s.tell("error", f"{path}: no such file")
             return

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
+
+from reports.settings import InspectionSettings
 
 
 class Event:
@@ -37,23 +39,6 @@ class Step(enum.Enum):
     INSPECTED = "Review the result; export the certificate"
 
 
-@dataclass(frozen=True)
-class Settings:
-    """What the inspector sets besides the files (mm)."""
-
-    tol_lower: float = -0.1
-    tol_upper: float = 0.1
-    layers: tuple[str, ...] | None = None
-    units: str | None = None
-    scale: float | None = None
-    fit: str = "lsq"
-    decision_rule: str = "simple"
-
-    @property
-    def symmetric(self) -> bool:
-        return abs(self.tol_lower + self.tol_upper) < 1e-12
-
-
 class Session:
     """One inspection session.
 
@@ -65,7 +50,7 @@ class Session:
     def __init__(self):
         self.nominal_path: str | None = None
         self.measured_path: str | None = None
-        self.settings = Settings()
+        self.settings = InspectionSettings(-0.1, 0.1)
         self.run = None  # reports.pipeline.Run of the last inspection, or None
         self.running = False
         self.selected: int | None = None

@@ -8,16 +8,33 @@ from collections.abc import Callable
 
 from PySide6.QtCore import QObject, QSettings, Qt, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import (QFileDialog, QFormLayout, QGroupBox, QLabel,
-                               QMainWindow, QProgressBar, QPushButton, QSplitter, QTabWidget,
-                               QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (
+    QFileDialog,
+    QFormLayout,
+    QGroupBox,
+    QLabel,
+    QMainWindow,
+    QProgressBar,
+    QPushButton,
+    QSplitter,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
 
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
 from .model import Session, Step
 from .viewport import Viewport3D
-from .widgets import (ContourView, Histogram, Legend, MessageBar, PointTable, ToleranceForm,
-                      VerdictBanner)
+from .widgets import (
+    ContourView,
+    Histogram,
+    Legend,
+    MessageBar,
+    PointTable,
+    ToleranceForm,
+    VerdictBanner,
+)
 
 NOMINAL_FILTER = ("Nominals (*.csv *.txt *.xyz *.asc *.npy *.stl *.ply *.obj *.vtk *.vtp *.vts "
                   "*.dxf *.dat);;All files (*)")

@@ -1,0 +1,48 @@
+"""The settings of one inspection besides its two files (a light module: the desktop app's
+session holds them without loading the engine)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from engine.tolerance import Tolerance
+
+
+@dataclass(frozen=True)
+class InspectionSettings:
+    """Everything besides the two files that decides an inspection's outcome.
+
+    Stored in the results document (``settings``) so that a certificate can be re-checked.
+    """
+
+    tol_lower: float
+    """Lower limit of the tolerance zone, mm."""
+    tol_upper: float
+    """Upper limit of the tolerance zone, mm."""
+    layers: tuple[str, ...] | None = None
+    """DXF template: the layers taken (None: every layer)."""
+    units: str | None = None
+    """DXF template: its units, overriding the drawing's $INSUNITS."""
+    scale: float | None = None
+    """Airfoil ordinate template: chord length, mm."""
+    fit: str = "lsq"
+    """"lsq" (least squares) or "minimax" (smallest largest excursion from the zone's centre)."""
+    decision_rule: str = "simple"
+    """"simple" or "guarded" (limits guarded by each point's nominal-sampling margin)."""
+
+    @property
+    def tolerance(self) -> Tolerance:
+        return Tolerance(self.tol_lower, self.tol_upper)
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["layers"] = None if self.layers is None else list(self.layers)
+        return d
+
+    @classmethod
+    def from_json(cls, d: dict) -> "InspectionSettings":
+        layers = d.get("layers")
+        return cls(float(d["tol_lower"]), float(d["tol_upper"]),
+                   None if layers is None else tuple(str(x) for x in layers),
+                   d.get("units"), None if d.get("scale") is None else float(d["scale"]),
+                   d.get("fit", "lsq"), d.get("decision_rule", "simple"))
