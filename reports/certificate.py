@@ -419,6 +419,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                      P(r.sha256, S["mono"])])
     story.append(table(rows, [18 * mm, 50 * mm, 24 * mm, W - 92 * mm]))
     # 6. registration
+    story.append(CondPageBreak(75 * mm))  # the heading stays with its table
     story.append(P("6  Registration", S["h"]))
     T = reg.T_nominal_measured
     mat = table([[f"{v:+.6f}" if j < 3 else f"{v:+.4f}" for j, v in enumerate(row)]
@@ -433,7 +434,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                               "iterations"),
                 ("Unconstrained", weak),
                 ("Pose uncertainty", "—" if cond is None or cond.pose_sigma_mm is None else
-                 f"{cond.pose_sigma_mm:.4f} mm (1σ at the worst point, from the residuals)"),
+                 f"{cond.pose_sigma_mm:.4f} mm (1 sigma at the worst point, from the residuals)"),
                 ("Ambiguity", (f"AMBIGUOUS: a runner-up pose moves deviations by up to "
                                f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
                  "none (no nearly-as-good pose with different deviations)"),
@@ -454,8 +455,8 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                        style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
                               ("LEFTPADDING", (0, 0), (-1, -1), 0),
                               ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
-    # 8-9. maps and histogram
-    story.append(PageBreak())
+    # 8-9. maps and histogram: on the registration's page when they fit there
+    story.append(CondPageBreak(175 * mm))
     order = worst_order(res)
 
     def name_of(i):
