@@ -88,7 +88,7 @@ class VerdictBanner(QFrame):
         self.word.setObjectName("verdictWord")
         self.detail = QLabel()
         self.detail.setWordWrap(True)
-        self.setMinimumHeight(78)
+        self.setMinimumHeight(92)
         lay = QHBoxLayout(self)
         lay.setContentsMargins(14, 8, 14, 8)
         lay.addWidget(self.word)
@@ -113,11 +113,17 @@ class VerdictBanner(QFrame):
         self.word.setText(f"<span style='font-size:22pt; font-weight:bold'>"
                           f"{VERDICT_WORDS[res.verdict]}</span>")
         tol = res.tolerance
+        cond = res.conditioning
+        pose = ("pose ±" + f"{cond.pose_sigma_mm:.4f} mm" if cond is not None and
+                cond.pose_sigma_mm is not None else "pose not fully constrained")
         self.detail.setText(
             f"{'; '.join(res.reasons)}<br>"
             f"{st.count} points · {st.n_out} out of tolerance · zone {tol.lower:+.3f} … "
-            f"{tol.upper:+.3f} mm<br>min {st.min:+.4f} · max {st.max:+.4f} · mean "
-            f"{st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · max |d| {st.max_abs:.4f} mm")
+            f"{tol.upper:+.3f} mm · {int(res.outlier.sum())} fit outliers<br>min {st.min:+.4f} · "
+            f"max {st.max:+.4f} · mean {st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · "
+            f"max |d| {st.max_abs:.4f} mm<br>fit {res.fit} · decision rule {res.decision_rule} · "
+            f"registration rms {res.registration.rms:.4f} mm · {pose}"
+            + (" · AMBIGUOUS" if res.ambiguous else ""))
 
 
 class Legend(QWidget):
