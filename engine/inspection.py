@@ -223,18 +223,38 @@ def _with_pose(reg, T, dev):
     return replace(reg, T_nominal_measured=T, deviations=dev)
 
 
+MARGIN_NEIGHBOURS = 25
+"""Samples around a point that the margin looks at: enough to see the curvature and the spacing
+in every direction even where the sampling is 5:1 anisotropic."""
+
+
 def _margins_3d(nominal: Nominal, feet: np.ndarray) -> np.ndarray:
-    """Per point: the largest principal curvature at the nearest nominal sample times the local
-    facet size (sqrt 2 x the distance to the 4th nearest sample) squared, over 8."""
+    """Per point, at its nearest nominal sample: max over the principal directions of
+    curvature x (sample spacing along that direction)^2 / 8 — how far a chord between
+    neighbouring samples sags below the curved surface. The same for every point near a sample,
+    wherever its foot lies between them."""
     from .trust import sampling_margin
 
-    k = min(4, nominal.n)
-    dist, idx = nominal.tree.query(feet, k=k)
-    dist = dist.reshape(len(feet), -1)
-    idx = idx.reshape(len(feet), -1)
-    S = nominal.shape_operators(idx[:, 0])
-    curvature = np.max(np.abs(np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, 1, 2)))), axis=1)
-    return sampling_margin(curvature, np.sqrt(2.0) * dist[:, -1])
+    _, near = nominal.tree.query(feet)
+    near = np.atleast_1d(near)
+    uniq, back = np.unique(near, return_inverse=True)
+    k = min(MARGIN_NEIGHBOURS, nominal.n)
+    S = nominal.shape_operators(uniq, k=k)
+    curv, axes = np.linalg.eigh(0.5 * (S + np.swapaxes(S, 1, 2)))
+    _, nb = nominal.tree.query(nominal.points[uniq], k=k)
+    off = nominal.points[nb.reshape(len(uniq), -1)[:, 1:]] - nominal.points[uniq][:, None, :]
+    dist = np.linalg.norm(off, axis=2)
+    margin = np.zeros(len(uniq))
+    for j in range(3):
+        t = axes[:, :, j]
+        along = np.abs(np.einsum("mkc,mc->mk", off, t))
+        # The spacing along t: the nearest neighbour lying mostly in that direction (none in
+        # view: the farthest neighbour, a bound).
+        mostly = along >= 0.7 * np.maximum(dist, 1e-300)
+        h = np.where(mostly.any(axis=1), np.where(mostly, along, np.inf).min(axis=1),
+                     dist.max(axis=1))
+        margin = np.maximum(margin, sampling_margin(curv[:, j], h))
+    return margin[back]
 
 
 def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,

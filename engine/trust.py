@@ -108,7 +108,8 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float) -> Con
         r = X - c
         if dim == 3:
             G = np.zeros((n, 3, 6))
-            G[:, :, :3] = -np.einsum("ijk,nk->nij", _LEVI, r) / length
+            # A rotation w moves r by w x r = (eps_ijk r_k) w_j.
+            G[:, :, :3] = np.einsum("ijk,nk->nij", _LEVI, r) / length
             G[:, :, 3:] = np.eye(3)
         else:
             G = np.zeros((n, 2, 3))
@@ -147,9 +148,10 @@ def minimax_pose(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, 
     normals at pose T, exactly. ``use`` masks the points that take part (the fit's inliers: a
     gross outlier must not drag the pose; it is still judged). Each iteration solves the linear
     program of the linearised problem within a trust region on the points near the current
-    maximum (an active set, grown whenever a step uncovers another), accepts the step only if the
-    exact maximum went down, and otherwise shrinks the region; the result is never worse than
-    the start.
+    maximum (an active set, grown with the points a rejected step showed rising), accepts the
+    step only if the exact maximum went down (growing the region when the step was held back by
+    it), and otherwise shrinks the region; it stops at an interior optimum of the linear model
+    that the exact deviations confirm. The result is never worse than the start.
     """
     from scipy.optimize import linprog
 
@@ -171,13 +173,14 @@ def minimax_pose(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, 
     e = excursion(d)
     start = e
     radius = max(e, half)  # trust region, mm of motion at the points' scale
+    forced = np.zeros(0, dtype=np.int64)  # points a rejected step showed to matter
     lps = 0
     it = 0
     for it in range(1, max_iterations + 1):
         ex = np.abs(d[idx_all] - centre)
         k = min(idx_all.size, max(64, 4 * dof))
-        active = idx_all[np.unique(np.concatenate([
-            np.argpartition(-ex, k - 1)[:k], np.flatnonzero(ex >= 0.5 * e)]))]
+        active = np.unique(np.concatenate([
+            idx_all[np.argpartition(-ex, k - 1)[:k]], idx_all[ex >= 0.5 * e], forced]))
         c = X[active].mean(axis=0)
         length = float(np.sqrt(np.mean(np.sum((X[idx_all] - c) ** 2, axis=1)))) or 1.0
         J = _jacobian(X[active], nrm[active], c)
@@ -195,15 +198,22 @@ def minimax_pose(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, 
         if sol.status != 0:
             break
         p = sol.x[:dof].copy()
+        interior = bool(np.max(np.abs(p)) < 0.999 * radius)
         p[:nrot] /= length
         T_new = _apply_update(T, p, c)
         X_new, d_new, nrm_new = evaluate(T_new)
         e_new = excursion(d_new)
         if e_new < e - tol_mm:
             T, X, d, nrm, e = T_new, X_new, d_new, nrm_new, e_new
-            if sol.x[-1] >= e_new - tol_mm:  # the linear model is exact here: done
-                break
+            if interior and sol.x[-1] >= e_new - tol_mm:
+                break  # the linear model's optimum, and exact here: done
+            if not interior:
+                radius *= 2.0  # the region held the step back: let it grow again
         else:
+            # The linearisation missed points that rose above the model's bound: take them
+            # into the next program, and look closer.
+            rose = idx_all[np.abs(d_new[idx_all] - centre) > sol.x[-1] + tol_mm]
+            forced = np.unique(np.concatenate([forced, rose]))
             radius *= 0.25
             if radius < tol_mm:
                 break

@@ -16,6 +16,7 @@ import math
 import os
 from dataclasses import asdict, dataclass
 
+import numpy as np
 
 from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
 
@@ -23,8 +24,14 @@ from . import figures
 from .pipeline import Run, worst_order
 from .qif import qif_results_document
 from .results import SOFTWARE_NAME, points_csv, result_json, software_version
-from .signing import (APPROVER_FIELD, INSPECTOR_FIELD, Attachment, Identity, SignatureSlot,
-                      finish_pdf)
+from .signing import (
+    APPROVER_FIELD,
+    INSPECTOR_FIELD,
+    Attachment,
+    Identity,
+    SignatureSlot,
+    finish_pdf,
+)
 
 TITLE = "Dimensional Inspection Certificate"
 VERDICT_WORD = {ACCEPT: "ACCEPTED", REJECT: "REJECTED", INCONCLUSIVE: "INCONCLUSIVE"}
@@ -69,9 +76,13 @@ def check_trustworthy(run: Run) -> None:
     res = run.result
     reg = res.registration
     trusted = (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and not res.ambiguous
-               and (res.conditioning is None or not res.conditioning.weak))
-    if res.verdict == ACCEPT and not (trusted and res.statistics.n_out == 0):
-        raise RuntimeError("refusing to certify ACCEPTED: the registration is not trustworthy")
+               and res.conditioning is not None and not res.conditioning.weak)
+    d, tol = res.deviations.signed, res.tolerance
+    m = 0.0 if res.margin is None else res.margin
+    inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
+    if res.verdict == ACCEPT and not (trusted and inside):
+        raise RuntimeError("refusing to certify ACCEPTED: the registration is not trustworthy "
+                           "or a point is not inside its zone")
 
 
 def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
@@ -121,9 +132,9 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
 # ---------------------------------------------------------------------------- layout
 def _fonts():
     from reportlab import rl_config
+    from reportlab.lib.fonts import addMapping
     from reportlab.pdfbase import pdfmetrics
     from reportlab.pdfbase.ttfonts import TTFont
-    from reportlab.lib.fonts import addMapping
 
     # Binary streams: ASCII85 would triple the time spent on the embedded renders.
     rl_config.useA85 = 0
@@ -274,8 +285,17 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     from reportlab.lib import colors
     from reportlab.lib.pagesizes import A4
     from reportlab.lib.units import mm
-    from reportlab.platypus import (CondPageBreak, Image, KeepTogether, PageBreak, Paragraph,
-                                    SimpleDocTemplate, Spacer, Table, TableStyle)
+    from reportlab.platypus import (
+        CondPageBreak,
+        Image,
+        KeepTogether,
+        PageBreak,
+        Paragraph,
+        SimpleDocTemplate,
+        Spacer,
+        Table,
+        TableStyle,
+    )
 
     _fonts()
     S = _styles()

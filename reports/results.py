@@ -101,8 +101,9 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
         **({} if result.margin is None else {"margin": {
             "max": _num(float(result.margin.max())) if result.margin.size else 0.0,
             "mean": _num(float(result.margin.mean())) if result.margin.size else 0.0,
-            "definition": "per point: largest principal curvature at the nearest nominal sample "
-                          "x (sqrt 2 x distance to the 4th nearest sample)^2 / 8, mm; 0 for a 2D "
+            "definition": "per point, at its nearest nominal sample: max over the principal "
+                          "directions of curvature x (sample spacing along it)^2 / 8, mm (how far "
+                          "a chord between samples sags below the surface); 0 for a 2D "
                           "template's exact lines and arcs"}}),
         "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points,
                     **({} if r.n_primitives is None else {"n_primitives": r.n_primitives})}
