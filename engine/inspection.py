@@ -114,6 +114,9 @@ class InspectionResult:
 
 FITS = ("lsq", "minimax")
 DECISION_RULES = ("simple", "guarded")
+RESOLUTION_OF_ZONE = 0.25
+"""A weak direction whose implied 1-sigma motion exceeds this fraction of the zone width leaves
+the pose undetermined at the scale of the verdict (engine.trust.conditioning)."""
 AMBIGUITY_SCORE_RATIO = 1.5
 """A runner-up pose scoring within this factor of the best one is a competitor …"""
 AMBIGUITY_DEVIATION = 0.1
@@ -144,7 +147,8 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     dev = reg.deviations  # the fit's last evaluation: every point at the final pose
     T = reg.T_nominal_measured
     registered = apply_transform(T, measured)
-    cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms)
+    cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms,
+                        RESOLUTION_OF_ZONE * (tolerance.upper - tolerance.lower))
 
     def evaluate(Tc):
         X = apply_transform(Tc, measured)
@@ -344,7 +348,8 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
     dev2, T2 = reg.deviations, reg.T
     fitted = apply2(T2, q2)
-    cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms)
+    cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms,
+                        RESOLUTION_OF_ZONE * (tolerance.upper - tolerance.lower))
 
     def evaluate(Tc):
         X = apply2(Tc, q2)

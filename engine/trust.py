@@ -21,12 +21,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+DEGENERATE_STRENGTH = 1e-8
+"""Below this normalised eigenvalue a direction is unconstrained by the shape itself (a plane,
+cylinder or sphere: 1e-11, rounding)."""
 WEAK_STRENGTH = 1e-4
-"""A direction is unconstrained when its eigenvalue of the normalised normal matrix is below this
-fraction of the strongest one. Seen: a plane, cylinder or sphere 1e-11 (rounding); two flat
-faces of a bracket at right angles, along their common edge, 3e-5; a paraboloid panel 500 x 250
-mm (radii 400 and 150 mm) 3e-4; the belly-fairing sample 2e-3. The pose uncertainty the
-residuals imply along a constrained but weak direction is in ``pose_sigma_mm``."""
+"""Below this one a direction is nearly unconstrained by the shape (seen: two faces of a bracket
+at right angles, along their common edge, 3e-5; a 180 x 90 mm patch of a gently curved panel
+5.6e-5; a 500 x 250 mm paraboloid panel 3e-4; the belly-fairing sample 2e-3) and counts as
+unconstrained when the measurement leaves it uncertain: when the residuals imply a 1-sigma
+motion along it of more than ``resolution_mm`` (a quarter of the zone width, see
+engine.inspection), the pose along it is a guess at the scale that decides the verdict."""
 
 
 @dataclass(frozen=True)
@@ -37,6 +41,8 @@ class WeakDirection:
     """Unit vector in the nominal frame: the translation's direction or the rotation's axis."""
     strength: float
     """The direction's eigenvalue over the largest one (0: not constrained at all)."""
+    sigma_mm: float | None = None
+    """1-sigma motion along it that the fit's residuals imply (None: infinite)."""
 
 
 @dataclass(frozen=True)
@@ -48,8 +54,8 @@ class Conditioning:
     weak : the directions with strength below WEAK_STRENGTH.
     length : RMS distance of the fitted points from their centroid, mm (the rotation scale).
     pose_sigma_mm : the largest 1-sigma displacement, at any fitted point, that the residuals
-        (rms) imply through the well-constrained directions of the pose; None when there are
-        weak directions (the pose is undetermined along them) or too few points.
+        (rms) imply for the pose; None when a direction is unconstrained (the pose is
+        undetermined along it) or there are too few points.
     """
 
     strengths: tuple[float, ...]
@@ -67,8 +73,13 @@ def _jacobian(X: np.ndarray, normals: np.ndarray, c: np.ndarray) -> np.ndarray:
     return np.column_stack([rot, normals])
 
 
-def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float) -> Conditioning:
-    """Conditioning of fitting points ``X`` (registered, nominal frame) with surface ``normals``."""
+def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
+                 resolution_mm: float | None = None) -> Conditioning:
+    """Conditioning of fitting points ``X`` (registered, nominal frame) with surface ``normals``.
+
+    A direction is unconstrained when its normalised strength is below DEGENERATE_STRENGTH, or
+    below WEAK_STRENGTH while the residuals (rms, mm) imply a 1-sigma motion along it above
+    ``resolution_mm`` (None: any weak direction counts)."""
     X = np.asarray(X, float)
     n, dim = X.shape
     nrot = 3 if dim == 3 else 1
@@ -86,6 +97,12 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float) -> Con
     strengths = lam / top
     weak = []
     for k in np.flatnonzero(strengths < WEAK_STRENGTH):
+        # Normalised units are mm: the covariance along the eigenvector is s^2 / (n lambda).
+        sig = (float(residual_rms) / np.sqrt(n * lam[k])
+               if lam[k] > 0 and np.isfinite(residual_rms) else None)
+        if strengths[k] >= DEGENERATE_STRENGTH and resolution_mm is not None and \
+                sig is not None and sig <= resolution_mm:
+            continue  # weak, but the measurement pins it down finely enough
         v = V[:, k]
         rot, tr = v[:nrot], v[nrot:]
         if np.linalg.norm(rot) >= np.linalg.norm(tr):
@@ -99,9 +116,11 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float) -> Con
             axis = np.append(axis, 0.0)
         # Sign: the largest component positive, so the same direction reads the same way.
         axis = axis * (1.0 if axis[np.argmax(np.abs(axis))] >= 0 else -1.0)
-        weak.append(WeakDirection(kind, tuple(float(a) for a in axis), float(strengths[k])))
+        weak.append(WeakDirection(kind, tuple(float(a) for a in axis), float(strengths[k]),
+                                  None if sig is None or strengths[k] < DEGENERATE_STRENGTH
+                                  else float(sig)))
     sigma = None
-    if not weak and n > dof and np.isfinite(residual_rms):
+    if not weak and n > dof and np.isfinite(residual_rms) and lam[0] > 0:
         # Pose covariance s^2 (J^T J)^-1; a point moves by G dp, with G its own Jacobian of
         # position (not of distance) with respect to the pose.
         cov = residual_rms ** 2 * np.linalg.inv(A * n)

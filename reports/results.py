@@ -131,12 +131,15 @@ def _conditioning(cond) -> dict:
     if cond is None:
         return {"weak_directions": [], "pose_uncertainty_mm": None}
     return {
-        "weak_directions": [{"type": w.type, "axis": list(w.axis), "strength": w.strength}
+        "weak_directions": [{"type": w.type, "axis": list(w.axis), "strength": w.strength,
+                             "sigma_mm": None if w.sigma_mm is None else _num(w.sigma_mm)}
                             for w in cond.weak],
         "conditioning": {"strengths": list(cond.strengths), "length_mm": cond.length,
                          "definition": "eigenvalues of the point-to-surface normal matrix at "
                                        "the final pose (rotations scaled by length_mm), over "
-                                       "the largest; below 0.0001 a direction is unconstrained"},
+                                       "the largest; a direction is unconstrained below 1e-8, or below 1e-4 when the "
+                                       "residuals imply a 1-sigma motion along it above a "
+                                       "quarter of the zone width (sigma_mm)"},
         "pose_uncertainty_mm": None if cond.pose_sigma_mm is None else _num(cond.pose_sigma_mm),
     }
 

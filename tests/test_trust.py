@@ -357,3 +357,35 @@ def test_pose_uncertainty_matches_a_monte_carlo_of_refits():
         moves.append((X - c) @ R.T + c + p[3:] - X)
     rms = np.sqrt(np.mean(np.sum(np.array(moves) ** 2, axis=2), axis=0))
     assert pred == pytest.approx(rms.max(), rel=0.15)
+
+
+def test_a_weak_direction_counts_only_when_the_measurement_leaves_it_uncertain(fairing):
+    """Two flat-ish faces at right angles leave the slide along their edge to the noise (0.07
+    mm, above a quarter of a ±0.05 zone): unconstrained. A small patch of a gently curved panel
+    is as weak by shape, but its points pin the pose to a few micrometres: constrained."""
+    import samples.generate as gen
+    from engine.pointio import PointSet
+
+    rng = np.random.default_rng(77)
+    nom = gen.bracket_points(200_000, rng)
+    bracket = Nominal.from_point_set(PointSet(nom[:, :3], nom[:, 3:]))
+    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
+    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
+    on = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
+                    np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
+    nrm = np.vstack([gen.face_a_normal(xa, ya), gen.face_b_normal(yb, zb)])
+    pts = on + (0.012 + rng.normal(0, 0.004, 100))[:, None] * nrm
+    res = inspect(bracket, pts, Tolerance.symmetric(0.05))
+    (w,) = res.conditioning.weak
+    assert w.type == "translation" and abs(w.axis[1]) > 0.99 and w.strength < 1e-4
+    assert w.sigma_mm > 0.25 * 0.1 and res.verdict == INCONCLUSIVE
+
+    rng = np.random.default_rng(40)
+    x, y = rng.uniform(-90, 90, 400), rng.uniform(-45, 45, 400)
+    q = np.column_stack([x, y, height(x, y)]) + rng.normal(0, 0.003, 400)[:, None] * \
+        height_normal(x, y)
+    res = inspect(fairing, apply_transform(make_transform(random_rotation(rng), [5.0, 6, 7]), q),
+                  Tolerance.symmetric(0.1))
+    assert min(res.conditioning.strengths) < 1e-4  # weak by shape …
+    assert res.conditioning.weak == () and res.verdict == ACCEPT  # … pinned by the points
+    assert res.conditioning.pose_sigma_mm < 0.25 * 0.2  # within a quarter of the zone
