@@ -155,7 +155,8 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         dv = point_to_surface(nominal, X)
         return X, dv.signed, dv.normal
 
-    ambiguous, spread = _ambiguity(reg, dev.signed, tolerance, evaluate)
+    ambiguous, spread = _ambiguity(reg, dev.signed, tolerance, lambda Tc, idx: point_to_surface(
+        nominal, apply_transform(Tc, measured[idx])).signed)
     extra: dict = {}
     if fit == "minimax":
         T = _minimax(evaluate, T, dev.signed, reg.outlier_cut, tolerance, extra)
@@ -188,15 +189,26 @@ def _minimax_points(d: np.ndarray, cut: float, tol: Tolerance) -> np.ndarray:
     return np.abs(d - centre) <= max(cut, GROSS_ZONES * (tol.upper - tol.lower))
 
 
-def _ambiguity(reg, d: np.ndarray, tol: Tolerance, evaluate) -> tuple[bool, float]:
+AMBIGUITY_POINTS = 16384
+"""Points compared between the chosen and the runner-up pose (seeded subset beyond that): the
+difference of two rigid poses' deviations varies smoothly over the part, so a subset spread
+over it finds its largest value."""
+
+
+def _ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool, float]:
     """(ambiguous, spread): a nearly-as-good distinct runner-up pose (not a symmetry of a 2D
-    template) that moves some deviation by more than a tenth of the zone width."""
+    template) that moves some deviation by more than a tenth of the zone width.
+
+    deviations_at(T, idx) : signed deviations of measured points ``idx`` at pose T."""
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
             and reg.runner_up_T is not None and reg.runner_up_score is not None
             and not getattr(reg, "symmetric", False)
             and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score):
         return False, 0.0
-    spread = float(np.max(np.abs(evaluate(reg.runner_up_T)[1] - d)))
+    idx = np.arange(d.size)
+    if d.size > AMBIGUITY_POINTS:
+        idx = np.sort(np.random.default_rng(3).choice(d.size, AMBIGUITY_POINTS, replace=False))
+    spread = float(np.max(np.abs(deviations_at(reg.runner_up_T, idx) - d[idx])))
     return spread > AMBIGUITY_DEVIATION * (tol.upper - tol.lower), spread
 
 
@@ -356,7 +368,8 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         dv = deviations_2d(index, X)
         return X, dv.signed, dv.normal
 
-    ambiguous, spread = _ambiguity(reg, dev2.signed, tolerance, evaluate)
+    ambiguous, spread = _ambiguity(reg, dev2.signed, tolerance, lambda Tc, idx: deviations_2d(
+        index, apply2(Tc, q2[idx])).signed)
     if fit == "minimax":
         T2 = _minimax(evaluate, T2, dev2.signed, reg.outlier_cut, tolerance, extra)
         dev2 = deviations_2d(index, apply2(T2, q2))

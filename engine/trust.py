@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+CONDITIONING_POINTS = 16384
+"""Fitted points the normal matrix is formed from at most (a seeded subset beyond)."""
 DEGENERATE_STRENGTH = 1e-8
 """Below this normalised eigenvalue a direction is unconstrained by the shape itself (a plane,
 cylinder or sphere: 1e-11, rounding)."""
@@ -81,16 +83,22 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
     below WEAK_STRENGTH while the residuals (rms, mm) imply a 1-sigma motion along it above
     ``resolution_mm`` (None: any weak direction counts)."""
     X = np.asarray(X, float)
+    normals = np.asarray(normals, float)
     n, dim = X.shape
     nrot = 3 if dim == 3 else 1
     dof = nrot + dim
     if n < dof:
         return Conditioning(tuple([0.0] * dof), (), 0.0, None)
+    if n > CONDITIONING_POINTS:
+        # The normal matrix per point converges long before 200,000 points; the covariance
+        # still divides by all n.
+        sub = np.random.default_rng(5).choice(n, CONDITIONING_POINTS, replace=False)
+        X, normals = X[sub], normals[sub]
     c = X.mean(axis=0)
     length = float(np.sqrt(np.mean(np.sum((X - c) ** 2, axis=1)))) or 1.0
     J = _jacobian(X, normals, c)
     J[:, :nrot] /= length
-    A = J.T @ J / n
+    A = J.T @ J / X.shape[0]
     lam, V = np.linalg.eigh(A)
     lam = np.maximum(lam, 0.0)
     top = float(lam[-1]) or 1.0
@@ -125,13 +133,14 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
         # position (not of distance) with respect to the pose.
         cov = residual_rms ** 2 * np.linalg.inv(A * n)
         r = X - c
+        m = X.shape[0]
         if dim == 3:
-            G = np.zeros((n, 3, 6))
+            G = np.zeros((m, 3, 6))
             # A rotation w moves r by w x r = (eps_ijk r_k) w_j.
             G[:, :, :3] = np.einsum("ijk,nk->nij", _LEVI, r) / length
             G[:, :, 3:] = np.eye(3)
         else:
-            G = np.zeros((n, 2, 3))
+            G = np.zeros((m, 2, 3))
             G[:, 0, 0] = -r[:, 1] / length
             G[:, 1, 0] = r[:, 0] / length
             G[:, :, 1:] = np.eye(2)
