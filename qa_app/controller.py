@@ -208,7 +208,7 @@ class Controller:
         res = run.result
         self._export(path, lambda: qif_results_document(
             run.doc, res.registered, res.deviations.signed, res.in_tolerance, run.measured.labels,
-            ~res.registration.inlier), "QIF")
+            res.outlier), "QIF")
 
     def _export(self, path: str, make: Callable, what: str) -> None:
         from reports.results import write_atomic

@@ -29,11 +29,9 @@ from PySide6.QtWidgets import (
 )
 
 from reports import figures
+from reports.messages import VERDICT_RGB, VERDICT_WORD
 
 from .model import Session
-
-VERDICT_COLOURS = {"ACCEPT": "#1c7d38", "REJECT": "#b81c1c", "INCONCLUSIVE": "#cc8500"}
-VERDICT_WORDS = {"ACCEPT": "ACCEPTED", "REJECT": "REJECTED", "INCONCLUSIVE": "INCONCLUSIVE"}
 
 
 def qcolor(rgb) -> QColor:
@@ -108,10 +106,11 @@ class VerdictBanner(QFrame):
         res = run.result
         st = res.statistics
         self.verdict = res.verdict
-        self.setStyleSheet(f"#verdictBanner {{ background: {VERDICT_COLOURS[res.verdict]}; "
+        colour = qcolor(VERDICT_RGB[res.verdict]).name()
+        self.setStyleSheet(f"#verdictBanner {{ background: {colour}; "
                            "border-radius: 4px; } QLabel { color: white; }")
         self.word.setText(f"<span style='font-size:22pt; font-weight:bold'>"
-                          f"{VERDICT_WORDS[res.verdict]}</span>")
+                          f"{VERDICT_WORD[res.verdict]}</span>")
         tol = res.tolerance
         cond = res.conditioning
         pose = ("pose ±" + f"{cond.pose_sigma_mm:.4f} mm" if cond is not None and
@@ -353,7 +352,7 @@ class PointTableModel(QAbstractTableModel):
             if c == 6:
                 return "PASS" if res.in_tolerance[i] else "FAIL"
             if c == 7:
-                return "" if res.registration.inlier[i] else "outlier"
+                return "outlier" if res.outlier[i] else ""
         if role == Qt.TextAlignmentRole and 2 <= c <= 5:
             return int(Qt.AlignRight | Qt.AlignVCenter)
         if role == Qt.ForegroundRole and c == 6 and not res.in_tolerance[i]:
@@ -370,7 +369,7 @@ class PointTableModel(QAbstractTableModel):
         n = res.deviations.signed.size
         keys = {0: np.arange(n), 2: res.registered[:, 0], 3: res.registered[:, 1],
                 4: res.registered[:, 2], 5: res.deviations.signed,
-                6: res.in_tolerance.astype(int), 7: res.registration.inlier.astype(int)}
+                6: res.in_tolerance.astype(int), 7: res.outlier.astype(int)}
         if column == 1:
             labels = self.run.measured.labels
             key = np.arange(n) if labels is None else np.asarray(labels, dtype=str)

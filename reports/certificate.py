@@ -21,7 +21,8 @@ import numpy as np
 from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
 
 from . import figures
-from .pipeline import Run, worst_order
+from .messages import VERDICT_RGB, VERDICT_WORD
+from .pipeline import Run
 from .qif import qif_results_document
 from .results import SOFTWARE_NAME, points_csv, result_json, software_version
 from .signing import (
@@ -34,9 +35,6 @@ from .signing import (
 )
 
 TITLE = "Dimensional Inspection Certificate"
-VERDICT_WORD = {ACCEPT: "ACCEPTED", REJECT: "REJECTED", INCONCLUSIVE: "INCONCLUSIVE"}
-VERDICT_RGB = {ACCEPT: (0.11, 0.49, 0.22), REJECT: (0.72, 0.11, 0.11),
-               INCONCLUSIVE: (0.80, 0.52, 0.0)}
 WORST_ROWS = 25
 """In-tolerance points listed after every out-of-tolerance point, worst first."""
 MAX_OUT_ROWS = 1000
@@ -106,7 +104,6 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     cert_doc.update(number=number, issued=issued.isoformat().replace("+00:00", "Z"),
                     signed_by=None if identity is None else identity.common_name)
     doc = dict(run.doc, certificate=cert_doc)
-    outlier = ~res.registration.inlier if res.registration.inlier is not None else None
     attachments = [
         Attachment("points.csv", points_csv(res, run.measured.points,
                                             run.measured.labels).encode(),
@@ -114,7 +111,7 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
                                "signed deviation, in tolerance"),
         Attachment("results.qif", qif_results_document(
             doc, res.registered, res.deviations.signed, res.in_tolerance,
-            run.measured.labels, outlier), "application/xml",
+            run.measured.labels, res.outlier), "application/xml",
             "QIF 3.0 results document"),
         Attachment("results.json", result_json(doc).encode(), "application/json",
                    "qa-inspect results with the settings to re-run the inspection"),
@@ -477,7 +474,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                               ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
     # 8-9. maps and histogram: on the registration's page when they fit there
     story.append(CondPageBreak(175 * mm))
-    order = worst_order(res)
+    order = run.worst_order
 
     def name_of(i):
         return _point_name(run, i)
@@ -621,7 +618,7 @@ def _point_name(run: Run, i: int) -> str:
 
 def _worst_labels(run: Run, n: int = 5) -> list[tuple[int, str]]:
     d = run.result.deviations.signed
-    return [(int(i), f"{_point_name(run, i)}\n{d[i]:+.3f}") for i in worst_order(run.result)[:n]]
+    return [(int(i), f"{_point_name(run, i)}\n{d[i]:+.3f}") for i in run.worst_order[:n]]
 
 
 def _vec(v) -> str:

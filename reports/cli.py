@@ -222,7 +222,7 @@ def _cmd_keygen(args) -> int:
 def _cmd_verify(args) -> int:
     import json
 
-    from .certificate import VERDICT_WORD
+    from .messages import VERDICT_WORD
     from .signing import read_input, read_trust_roots, verify_pdf
 
     if (args.nominal is None) != (args.measured is None):
@@ -270,10 +270,10 @@ def _cmd_verify(args) -> int:
 def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[str]:
     """Compare the files with the certificate's SHA-256s and re-run the inspection; return the
     problems (and append what was confirmed to ``notes``)."""
+    from engine.errors import InputNotFoundError
+
     from .loading import sha256_of
     from .pipeline import InspectionSettings, run_files
-
-    from engine.errors import InputNotFoundError
 
     problems = []
     for role, path in (("nominal", nominal), ("measured", measured)):

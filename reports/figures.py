@@ -256,20 +256,21 @@ class RenderProcess:
 
 class _Reply:
     def __init__(self, owner, sender, failure):
-        self._owner, self._proc, self._sender, self._failure = owner, owner._proc, sender, failure
+        self._owner, self._sender, self._failure = owner, sender, failure
 
     def result(self) -> list[View]:
         import pickle
 
+        proc = self._owner._proc
         self._sender.join()
         try:
             if self._failure:
                 raise self._failure[0]
-            ok, value = pickle.load(self._proc.stdout)
+            ok, value = pickle.load(proc.stdout)
             self._owner._pending -= 1
         except (OSError, EOFError, pickle.UnpicklingError) as e:
             raise RuntimeError(f"the 3D rendering process failed "
-                               f"(exit code {self._proc.poll()})") from e
+                               f"(exit code {proc.poll()})") from e
         if not ok:
             raise RuntimeError(f"3D rendering failed: {value}")
         return value

@@ -1,8 +1,15 @@
-"""What a user is told about a failure: one wording for the command line and the desktop app."""
+"""What a user is told: the verdict's word and colour, and the wording of failures — one for the
+command line, the certificate and the desktop app."""
 
 from __future__ import annotations
 
 from engine.errors import Cancelled, InputError, SettingsError
+
+# Keyed by engine.inspection's verdicts (the JSON contract's strings; importing the engine here
+# would load it into the desktop app's start-up).
+VERDICT_WORD = {"ACCEPT": "ACCEPTED", "REJECT": "REJECTED", "INCONCLUSIVE": "INCONCLUSIVE"}
+VERDICT_RGB = {"ACCEPT": (0.11, 0.49, 0.22), "REJECT": (0.72, 0.11, 0.11),
+               "INCONCLUSIVE": (0.80, 0.52, 0.0)}
 
 
 def user_message(e: BaseException) -> str:

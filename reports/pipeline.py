@@ -6,6 +6,7 @@ go through :func:`run_files`, so one set of settings gives one answer everywhere
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from dataclasses import dataclass
@@ -40,6 +41,12 @@ class Run:
     doc: dict
     display: dict | None = None
     """What a viewer prepared for showing this run (the desktop app's worker fills it)."""
+
+    @functools.cached_property
+    def worst_order(self) -> np.ndarray:
+        """Point indices from farthest outside the zone to deepest inside (stable)."""
+        r = self.result
+        return np.argsort(-r.tolerance.excess(r.deviations.signed), kind="stable")
 
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
@@ -118,7 +125,3 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     doc["settings"] = settings.to_json()
     return Run(settings, result, inputs, measured_ps, nominal, tpl, doc)
 
-
-def worst_order(result: InspectionResult) -> np.ndarray:
-    """Point indices ordered from farthest outside the zone to deepest inside (stable)."""
-    return np.argsort(-result.tolerance.excess(result.deviations.signed), kind="stable")

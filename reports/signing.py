@@ -318,7 +318,7 @@ def verify_pdf(pdf: bytes, trust_roots: list) -> Verification:
 
 def _verify(pdf: bytes, trust_roots: list) -> Verification:
     from pyhanko.pdf_utils.reader import PdfFileReader
-    from pyhanko.sign.validation import validate_pdf_signature
+    from pyhanko.sign.validation import read_certification_data, validate_pdf_signature
     from pyhanko.sign.validation.status import ModificationLevel, SignatureCoverageLevel
     from pyhanko_certvalidator import ValidationContext
 
@@ -366,17 +366,12 @@ def _verify(pdf: bytes, trust_roots: list) -> Verification:
     if first.field_name != INSPECTOR_FIELD:
         v.problems.append(f"the first signature is '{first.field_name}', not the inspector's "
                           f"certification signature ('{INSPECTOR_FIELD}')")
-    elif read_certification_status(reader) is None:
+    elif read_certification_data(reader) is None:
         v.problems.append("the inspector's signature is not a certification signature")
     v.attachments = embedded_files(reader)
     v.valid = not v.problems
     return v
 
-
-def read_certification_status(reader):
-    from pyhanko.sign.validation import read_certification_data
-
-    return read_certification_data(reader)
 
 
 def embedded_files(reader) -> dict[str, bytes]:
