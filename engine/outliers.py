@@ -1,0 +1,103 @@
+"""Gross outliers: the only measured points a final fit may leave out of the alignment.
+
+A point is a *gross outlier* (a mis-probed point, a chip on the part, the fixture touched) when
+both hold at the pose being fitted:
+
+1. **Far beyond any plausible deviation of the part**: its signed deviation lies farther from the
+   median deviation than the gross threshold = the largest of
+   ``GROSS_ZONES`` zone widths (when the zone is known), ``ROBUST_SIGMAS`` robust standard
+   deviations (1.4826 x median absolute deviation) of all the deviations, and a floor (a small
+   fraction of the nominal's size, given by the caller);
+2. **isolated from the others**: its deviation also differs by more than the threshold from the
+   median deviation of its ``NEIGHBOURS`` nearest measured neighbours (in the measured
+   coordinates). A dent or a bump is a region whose points agree with their neighbours, so it is
+   never left out, however deep, in tolerance or not.
+
+Left-out points are still judged like every other point: leaving a point out of the alignment
+changes the pose, never the point's own verdict.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+GROSS_ZONES = 5.0
+"""A gross outlier lies farther than this many zone widths from the median deviation …"""
+ROBUST_SIGMAS = 6.0
+"""… and than this many robust standard deviations of all the deviations …"""
+NEIGHBOURS = 8
+"""… and differs by as much from the median deviation of this many nearest measured points."""
+
+
+@dataclass(frozen=True)
+class GrossRule:
+    """The gross-outlier rule as applied: its threshold and where the threshold came from.
+
+    threshold_mm : |d - median d| beyond this (and as far from the neighbours' median) is gross.
+    zone_width_mm : the tolerance zone's width the rule was given (None: not given).
+    robust_sigma_mm : 1.4826 x median absolute deviation of all the deviations.
+    floor_mm : the smallest threshold allowed.
+    centre_mm : median of all the deviations.
+    """
+
+    threshold_mm: float
+    zone_width_mm: float | None
+    robust_sigma_mm: float
+    floor_mm: float
+    centre_mm: float
+
+    def describe(self) -> str:
+        """The rule in words, with its numbers (for the JSON and the certificate)."""
+        parts = []
+        if self.zone_width_mm is not None:
+            parts.append(f"{GROSS_ZONES:g} zone widths ({GROSS_ZONES * self.zone_width_mm:.4g}"
+                         " mm)")
+        parts.append(f"{ROBUST_SIGMAS:g} robust standard deviations "
+                     f"({ROBUST_SIGMAS * self.robust_sigma_mm:.4g} mm)")
+        parts.append(f"a floor of {self.floor_mm:.4g} mm")
+        return (f"a point is excluded from the alignment only as a gross outlier: its deviation "
+                f"lies more than {self.threshold_mm:.4g} mm (the largest of "
+                + ", ".join(parts) + ") from the median deviation "
+                f"({self.centre_mm:+.4g} mm) and differs by as much from the median deviation "
+                f"of its {NEIGHBOURS} nearest measured points; it is judged like every other "
+                "point")
+
+
+def gross_rule(d: np.ndarray, zone_width: float | None, floor: float) -> GrossRule:
+    """The rule's threshold for signed deviations ``d`` (n,), mm.
+
+    zone_width : the tolerance zone's width, mm (None when the zone is not known); floor : the
+    smallest threshold, mm."""
+    d = np.asarray(d, float)
+    centre = float(np.median(d)) if d.size else 0.0
+    sigma = float(1.4826 * np.median(np.abs(d - centre))) if d.size else 0.0
+    threshold = max(ROBUST_SIGMAS * sigma, floor)
+    if zone_width is not None:
+        threshold = max(threshold, GROSS_ZONES * float(zone_width))
+    return GrossRule(float(threshold), None if zone_width is None else float(zone_width),
+                     sigma, float(floor), centre)
+
+
+def gross_outliers(d: np.ndarray, points: np.ndarray, rule: GrossRule) -> np.ndarray:
+    """(n,) bool: the points of ``rule`` that are gross outliers.
+
+    d : (n,) signed deviations, mm; points : (n, 2) or (n, 3) measured coordinates (any frame:
+    only distances between measured points are used)."""
+    d = np.asarray(d, float)
+    far = np.abs(d - rule.centre_mm) > rule.threshold_mm
+    gross = np.zeros(d.size, bool)
+    cand = np.flatnonzero(far)
+    if cand.size == 0:
+        return gross
+    k = min(NEIGHBOURS, d.size - 1)
+    if k < 1:
+        return gross
+    pts = np.asarray(points, float)
+    _, nb = cKDTree(pts).query(pts[cand], k=k + 1)
+    nb = nb[:, 1:]  # the point itself comes first (or a duplicate of it: no matter)
+    local = np.median(d[nb], axis=1)
+    gross[cand] = np.abs(d[cand] - local) > rule.threshold_mm
+    return gross
