@@ -8,10 +8,10 @@ both hold at the pose being fitted:
    ``GROSS_ZONES`` zone widths (when the zone is known), ``ROBUST_SIGMAS`` robust standard
    deviations (1.4826 x median absolute deviation) of all the deviations, and a floor (a small
    fraction of the nominal's size, given by the caller);
-2. **isolated from the others**: its deviation also differs by more than the threshold from the
-   median deviation of its ``NEIGHBOURS`` nearest measured neighbours (in the measured
-   coordinates). A dent or a bump is a region whose points agree with their neighbours, so it is
-   never left out, however deep, in tolerance or not.
+2. **isolated from the others**: fewer than ``COMPANIONS`` of its ``NEIGHBOURS`` nearest measured
+   points (in the measured coordinates) have a deviation within the threshold of its own. A dent
+   or a bump is a region whose points agree with some of their neighbours (even at a sharp rim),
+   so it is never left out, however deep, in tolerance or not.
 
 Left-out points are still judged like every other point: leaving a point out of the alignment
 changes the pose, never the point's own verdict.
@@ -29,7 +29,9 @@ GROSS_ZONES = 5.0
 ROBUST_SIGMAS = 6.0
 """… and than this many robust standard deviations of all the deviations …"""
 NEIGHBOURS = 8
-"""… and differs by as much from the median deviation of this many nearest measured points."""
+"""… and fewer than COMPANIONS of its this many nearest measured points …"""
+COMPANIONS = 2
+"""… have a deviation within the threshold of its own."""
 
 
 @dataclass(frozen=True)
@@ -61,9 +63,9 @@ class GrossRule:
         return (f"a point is excluded from the alignment only as a gross outlier: its deviation "
                 f"lies more than {self.threshold_mm:.4g} mm (the largest of "
                 + ", ".join(parts) + ") from the median deviation "
-                f"({self.centre_mm:+.4g} mm) and differs by as much from the median deviation "
-                f"of its {NEIGHBOURS} nearest measured points; it is judged like every other "
-                "point")
+                f"({self.centre_mm:+.4g} mm) and fewer than {COMPANIONS} of its {NEIGHBOURS} "
+                "nearest measured points deviate within that distance of it (a dent or bump is "
+                "never excluded); it is judged like every other point")
 
 
 def gross_rule(d: np.ndarray, zone_width: float | None, floor: float) -> GrossRule:
@@ -97,7 +99,7 @@ def gross_outliers(d: np.ndarray, points: np.ndarray, rule: GrossRule) -> np.nda
         return gross
     pts = np.asarray(points, float)
     _, nb = cKDTree(pts).query(pts[cand], k=k + 1)
-    nb = nb[:, 1:]  # the point itself comes first (or a duplicate of it: no matter)
-    local = np.median(d[nb], axis=1)
-    gross[cand] = np.abs(d[cand] - local) > rule.threshold_mm
+    nb = nb[:, 1:]  # the point itself comes first (or a duplicate of it: then a companion)
+    companions = np.sum(np.abs(d[nb] - d[cand][:, None]) <= rule.threshold_mm, axis=1)
+    gross[cand] = companions < COMPANIONS
     return gross
