@@ -138,3 +138,124 @@ def test_installed_console_script_runs():
     exe = os.path.join(os.path.dirname(sys.executable), "qa-inspect")
     r = subprocess.run([exe, "inspect"], capture_output=True, text=True)
     assert r.returncode == 64 and "usage: qa-inspect inspect" in r.stderr
+
+
+# ---------------------------------------------------------------------------- outputs (issue 10.6)
+def _snapshot(folder):
+    """{name: bytes} of every file in ``folder`` (temporary files included)."""
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+@pytest.fixture
+def work(files, tmp_path):
+    """Copies of the nominal and the measured file in a fresh folder (inputs a run may touch)."""
+    d = files[0]
+    for name in ("nominal.csv", "good.csv"):
+        (tmp_path / name).write_bytes((d / name).read_bytes())
+    return tmp_path
+
+
+@pytest.mark.parametrize("how", ["same", "dot", "symlink", "hardlink"])
+@pytest.mark.parametrize("option", ["--csv", "--json", "--report"])
+def test_an_output_never_replaces_an_input(work, capsys, monkeypatch, how, option):
+    monkeypatch.chdir(work)
+    alias = {"same": "good.csv", "dot": "./good.csv", "symlink": "link.csv",
+             "hardlink": "hard.csv"}[how]
+    if how == "symlink":
+        os.symlink("good.csv", work / "link.csv")
+    elif how == "hardlink":
+        os.link(work / "good.csv", work / "hard.csv")
+    before = _snapshot(work)
+    assert run("inspect", "nominal.csv", "good.csv", "--tol", "0.05", option, alias) == 64
+    err = capsys.readouterr().err
+    assert f"{option} {alias}" in err and "MEASURED" in err and "Traceback" not in err
+    assert _snapshot(work) == before
+
+
+def test_an_output_never_replaces_the_nominal_or_the_signing_identity(work, capsys):
+    before = _snapshot(work)
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--json", work / "nominal.csv") == 64
+    assert "NOMINAL" in capsys.readouterr().err
+    # The identity is an input too (checked before its passphrase is asked for).
+    (work / "id.p12").write_bytes(b"not read: the paths are checked first")
+    before = _snapshot(work)
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--report", work / "id.p12", "--sign", work / "id.p12") == 64
+    err = capsys.readouterr().err
+    assert "--report" in err and "--sign identity" in err
+    assert _snapshot(work) == before
+
+
+def test_two_outputs_on_one_file_are_a_usage_error(work, capsys):
+    before = _snapshot(work)
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--csv", work / "r.out", "--json", work / "sub" / ".." / "r.out") == 64
+    err = capsys.readouterr().err
+    assert "--csv and --json name the same file" in err
+    assert _snapshot(work) == before and not (work / "sub").exists()
+
+
+@pytest.mark.parametrize("option", ["--json", "--csv", "--report", "--sign"])
+@pytest.mark.parametrize("empty", ["", "  "])
+def test_empty_file_names_are_usage_errors(work, capsys, option, empty):
+    before = _snapshot(work)
+    extra = ["--report", work / "c.pdf"] if option == "--sign" else []
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               option, empty, *extra) == 64
+    assert f"{option} needs a file name" in capsys.readouterr().err
+    assert _snapshot(work) == before
+
+
+def test_empty_positional_and_verify_paths_are_usage_errors(work, capsys):
+    assert run("inspect", "", work / "good.csv", "--tol", "0.05") == 64
+    assert "NOMINAL needs a file name" in capsys.readouterr().err
+    assert run("verify", work / "c.pdf", "--trust", "") == 64
+    assert "--trust needs a file name" in capsys.readouterr().err
+    assert run("keygen", "--name", "A", "--out", "") == 64
+    assert "--out needs a file name" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_all_outputs_or_none(work, capsys, existing):
+    """The JSON cannot be written (its folder is a file): the CSV, written first before, is not
+    written either, and a CSV that was there keeps its content."""
+    (work / "blocker").write_text("")
+    if existing:
+        (work / "c.csv").write_text("the previous run's rows\n")
+    before = _snapshot(work)
+    code = run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--csv", work / "c.csv", "--json", work / "blocker" / "x.json")
+    cap = capsys.readouterr()
+    assert code == 73
+    assert f"cannot write {work / 'blocker' / 'x.json'}" in cap.err
+    assert _snapshot(work) == before  # no new, changed or temporary file
+    assert cap.out == ""
+
+
+def test_stdout_json_only_after_every_file(work, capsys):
+    (work / "blocker").write_text("")
+    code = run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--json", "-", "--csv", work / "blocker" / "c.csv")
+    cap = capsys.readouterr()
+    assert code == 73 and cap.out == ""
+
+
+def test_outputs_replace_their_previous_versions(work, capsys):
+    (work / "c.csv").write_text("old\n")
+    (work / "r.json").write_text("{}\n")
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--csv", work / "c.csv", "--json", work / "r.json") == 0
+    assert json.loads((work / "r.json").read_text())["verdict"] == "ACCEPT"
+    assert (work / "c.csv").read_text().startswith("index,label,")
+    assert sorted(p.name for p in work.iterdir()) == ["c.csv", "good.csv", "nominal.csv",
+                                                      "r.json"]
+
+
+# ---------------------------------------------------------------------------- --version (10.9)
+def test_version(capsys):
+    from importlib.metadata import version
+
+    assert run("--version") == 0
+    out = capsys.readouterr().out
+    assert out == f"qa-inspect {version('qa-inspect')}\n"
