@@ -76,9 +76,9 @@ def check_inspector(info: CertificateInfo, identity: Identity | None) -> None:
     if identity is not None and info.inspector and info.inspector.strip() and not same_person(
             info.inspector, identity.common_name):
         raise CertificationError(
-            f"the inspector named (--inspector '{info.inspector}') is not the signer: the "
-            f"signing identity {identity.path} belongs to '{identity.common_name}'. A certificate "
-            "names the person who signs it: leave --inspector out, or sign with that "
+            f"the inspector named, '{info.inspector}', is not the signer: the signing identity "
+            f"{identity.path} belongs to '{identity.common_name}'. A certificate names the "
+            "person who signs it: leave the inspector out (--inspector), or sign with that "
             "inspector's own identity")
 
 
@@ -95,12 +95,13 @@ def certified_info(info: CertificateInfo, identity: Identity | None,
     if identity is None:
         return info
     if verdict == ACCEPT:
-        missing = [opt for opt, v in (("--part-number", info.part_number),
-                                      ("--serial", info.serial)) if not (v and v.strip())]
+        missing = [what for what, v in (("its part number (--part-number)", info.part_number),
+                                        ("its serial number (--serial)", info.serial))
+                   if not (v and v.strip())]
         if missing:
             raise CertificationError(
                 f"the part is ACCEPTED, but a signed ACCEPTED certificate must identify the "
-                f"part it accepts: give {' and '.join(missing)} (nothing was written)")
+                f"part it accepts: give {' and '.join(missing)}; nothing was written")
     return replace(info, inspector=identity.common_name)
 
 

@@ -91,7 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "ask without echo)")
     for name, text in (("part-number", "part number"), ("part-name", "part name"),
                        ("revision", "drawing/part revision"), ("serial", "serial number"),
-                       ("order", "order or job number"), ("inspector", "inspector's name"),
+                       ("order", "order or job number"),
+                       ("inspector", "inspector's name (signed: the signer's, which is the "
+                                     "default)"),
                        ("organisation", "inspecting organisation"),
                        ("device", "measuring device (CMM, scanner)"),
                        ("notes", "free text printed on the certificate")):
