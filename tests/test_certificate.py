@@ -764,3 +764,18 @@ def test_a_signed_rejected_certificate_may_lack_part_and_serial(signed, tmp_path
     code, out, err = sign_frame(signed, tmp_path, tol="0.001")
     assert code == 1 and out.startswith("REJECT"), out + err
     assert sorted(os.listdir(tmp_path)) == ["c.pdf", "r.json"]
+
+
+def test_no_signed_certificate_is_left_when_another_output_fails(signed, tmp_path):
+    """The issue's case: the JSON cannot be written, so neither the signed PDF (which would
+    verify as VALID on its own) nor the CSV is left behind."""
+    (tmp_path / "blocker").write_text("")
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        code, out, err = cli("inspect", FRAME_TEMPLATE, FRAME_MEASURED, "--tol", "0.05",
+                             "--report", tmp_path / "c.pdf", "--csv", tmp_path / "c.csv",
+                             "--json", tmp_path / "blocker" / "x.json", "--sign", signed.p12,
+                             "--sign-pass-env", PASS_VAR, *FRAME_ID)
+    assert code == 73, out + err
+    assert "x.json" in err and "Traceback" not in err
+    assert os.listdir(tmp_path) == ["blocker"]
