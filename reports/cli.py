@@ -129,7 +129,8 @@ USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --t
                   [--json FILE|-] [--csv FILE] [--layer NAME] [--units U] [--scale CHORD]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
-       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]"""
+       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]
+       qa-inspect --version"""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -219,7 +220,6 @@ def _guarded(command, args) -> int:
 
 def _cmd_inspect(args) -> int:
     from .loading import is_template
-
     from .outputs import OutputConflictError, check_outputs
 
     _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
@@ -361,16 +361,19 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
 
-    from .certificate import CertificateInfo, CertificationError, certified_info, check_inspector
     from .outputs import Output, write_all
     from .pipeline import InspectionSettings, run_files
     from .results import points_csv, result_json
 
-    info = CertificateInfo(**{k: getattr(args, k) for k in (
-        "part_number", "part_name", "revision", "serial", "order", "inspector",
-        "organisation", "device", "notes")})
-    identity = None
+    info = identity = None
+    if args.report:
+        from .certificate import CertificateInfo
+
+        info = CertificateInfo(**{k: getattr(args, k) for k in (
+            "part_number", "part_name", "revision", "serial", "order", "inspector",
+            "organisation", "device", "notes")})
     if args.sign:
+        from .certificate import CertificationError, check_inspector
         from .signing import load_identity
 
         # The key first: a wrong passphrase or an unsuitable key must not cost an inspection.
@@ -392,7 +395,7 @@ def _run_inspect(args, tol, renderer) -> int:
     result = run.result
     outputs = []
     if args.report:
-        from .certificate import make_certificate
+        from .certificate import CertificationError, certified_info, make_certificate
 
         try:
             info = certified_info(info, identity, result.verdict)

@@ -779,3 +779,21 @@ def test_no_signed_certificate_is_left_when_another_output_fails(signed, tmp_pat
     assert code == 73, out + err
     assert "x.json" in err and "Traceback" not in err
     assert os.listdir(tmp_path) == ["blocker"]
+
+
+def test_make_certificate_keeps_the_rules_for_every_caller(signed):
+    """The desktop app calls make_certificate directly: the same rules hold there."""
+    from reports.certificate import CertificateInfo, CertificationError, make_certificate
+    from reports.pipeline import InspectionSettings, run_files
+    from reports.signing import load_identity
+
+    run = run_files(FRAME_TEMPLATE, FRAME_MEASURED, InspectionSettings(-0.05, 0.05))
+    assert run.result.verdict == "ACCEPT"
+    identity = load_identity(str(signed.p12), PASSPHRASE.encode())
+    with pytest.raises(CertificationError, match="'Carol Other', is not the signer"):
+        make_certificate(run, CertificateInfo(part_number="FR-12", serial="SN-2D",
+                                              inspector="Carol Other"), identity)
+    with pytest.raises(CertificationError, match=r"serial number \(--serial\)"):
+        make_certificate(run, CertificateInfo(part_number="FR-12", serial=" "), identity)
+    # An unsigned draft may name anyone and lack both.
+    assert make_certificate(run, CertificateInfo(inspector="Carol Other"), None)[:5] == b"%PDF-"
