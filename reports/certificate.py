@@ -14,10 +14,11 @@ import io
 import json
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from engine.errors import SettingsError
 from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
 
 from . import figures
@@ -56,6 +57,54 @@ class CertificateInfo:
     notes: str | None = None
 
 
+class CertificationError(SettingsError):
+    """What the certificate would state contradicts its signature (a usage error: nothing is
+    written)."""
+
+
+def same_person(a: str | None, b: str | None) -> bool:
+    """Whether two spellings of a name are the same name (case and spacing aside)."""
+    def norm(s):
+        return " ".join(str(s or "").split()).casefold()
+
+    return bool(norm(a)) and norm(a) == norm(b)
+
+
+def check_inspector(info: CertificateInfo, identity: Identity | None) -> None:
+    """Raise CertificationError when the inspector named is not the signer (known as soon as
+    the identity is loaded, before any inspection)."""
+    if identity is not None and info.inspector and info.inspector.strip() and not same_person(
+            info.inspector, identity.common_name):
+        raise CertificationError(
+            f"the inspector named, '{info.inspector}', is not the signer: the signing identity "
+            f"{identity.path} belongs to '{identity.common_name}'. A certificate names the "
+            "person who signs it: leave the inspector out (--inspector), or sign with that "
+            "inspector's own identity")
+
+
+def certified_info(info: CertificateInfo, identity: Identity | None,
+                   verdict: str) -> CertificateInfo:
+    """``info`` as a certificate of ``verdict`` states it: signed, its inspector is the signer
+    (the subject's common name of the signing certificate).
+
+    Raises CertificationError when the inspector named is another person, or when a signed
+    ACCEPTED certificate does not identify its part by part number and serial number (an
+    unsigned draft may lack them).
+    """
+    check_inspector(info, identity)
+    if identity is None:
+        return info
+    if verdict == ACCEPT:
+        missing = [what for what, v in (("its part number (--part-number)", info.part_number),
+                                        ("its serial number (--serial)", info.serial))
+                   if not (v and v.strip())]
+        if missing:
+            raise CertificationError(
+                f"the part is ACCEPTED, but a signed ACCEPTED certificate must identify the "
+                f"part it accepts: give {' and '.join(missing)}; nothing was written")
+    return replace(info, inspector=identity.common_name)
+
+
 def certificate_number(run: Run, issued: dt.datetime) -> str:
     """QA-YYYYMMDD-XXXXXXXX: the date and a hash of the inputs, settings and issue time."""
     h = hashlib.sha256()
@@ -92,6 +141,7 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     """
     check_trustworthy(run)
     res = run.result
+    info = certified_info(info, identity, res.verdict)
     views = None
     if run.template is None:  # 3D: the renders run while the evidence files are written
         nom = run.nominal
@@ -333,7 +383,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     left = kv([("Organisation", info.organisation), ("Part number", info.part_number),
                ("Part name", info.part_name), ("Revision", info.revision),
                ("Serial number", info.serial), ("Order", info.order)], [28 * mm, 58 * mm])
-    right = kv([("Inspector", info.inspector or (identity.common_name if identity else None)),
+    right = kv([("Inspector", identity.common_name if identity else info.inspector),
                 ("Device", info.device),
                 ("Date and time", f"{issued:%Y-%m-%d %H:%M:%S} UTC"),
                 ("Software", f"{SOFTWARE_NAME} {software_version()}"),

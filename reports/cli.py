@@ -2,6 +2,14 @@
 
 Exit codes (a contract): 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE, 64 usage error, 65 bad input data,
 66 input file not found, 73 an output could not be written, 70 internal error, 130 interrupted.
+
+Usage errors (64) include an empty file name, an output that is one of the run's inputs (NOMINAL,
+MEASURED, the --sign identity) or another output, an --inspector who is not the signer, and a
+signed ACCEPTED certificate without --part-number and --serial (found after the run; nothing is
+written). A signing identity that cannot sign certificates (wrong passphrase, not valid now, key
+usage without digitalSignature and nonRepudiation) is bad input (65), found before any work;
+``verify`` fails (1) a certificate signed with one. The outputs of one run are written all
+together or not at all (73 leaves every target as it was).
 """
 
 from __future__ import annotations
@@ -39,6 +47,7 @@ def _finite_float(text: str) -> float:
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="qa-inspect", description="Dimensional inspection of measured points "
                 "against a nominal, from any pose (soft registration).")
+    p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     i = sub.add_parser("inspect", help="register measured points to a nominal and judge them",
                        description="Register MEASURED to NOMINAL from any pose, measure every "
@@ -82,7 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "ask without echo)")
     for name, text in (("part-number", "part number"), ("part-name", "part name"),
                        ("revision", "drawing/part revision"), ("serial", "serial number"),
-                       ("order", "order or job number"), ("inspector", "inspector's name"),
+                       ("order", "order or job number"),
+                       ("inspector", "inspector's name (signed: the signer's, which is the "
+                                     "default)"),
                        ("organisation", "inspecting organisation"),
                        ("device", "measuring device (CMM, scanner)"),
                        ("notes", "free text printed on the certificate")):
@@ -118,13 +129,17 @@ USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --t
                   [--json FILE|-] [--csv FILE] [--layer NAME] [--units U] [--scale CHORD]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
-       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]"""
+       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]
+       qa-inspect --version"""
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
+        if args.version:
+            print(f"qa-inspect {_version()}")
+            return 0
         if args.command is None:
             raise UsageError("qa-inspect: a command is required (try 'qa-inspect inspect --help')")
         command = {"inspect": _cmd_inspect, "keygen": _cmd_keygen, "verify": _cmd_verify}
@@ -136,6 +151,25 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("qa-inspect: interrupted; no result was written", file=sys.stderr)
         return 130
+
+
+def _version() -> str:
+    # Not reports.results.software_version: that imports the engine, a second for --version.
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("qa-inspect")
+    except PackageNotFoundError:  # running from a source tree that was not installed
+        return "0+unknown"
+
+
+def _no_empty_paths(command: str, paths: dict[str, str | None]) -> None:
+    """An empty file name is a usage error (not 'no such file', nor a file named '')."""
+    for name, path in paths.items():
+        for p in path if isinstance(path, list) else [path]:
+            if p is not None and not p.strip():
+                raise UsageError(f"qa-inspect {command}: {name} needs a file name (got an "
+                                 "empty one)")
 
 
 def _tolerance(args):
@@ -186,10 +220,21 @@ def _guarded(command, args) -> int:
 
 def _cmd_inspect(args) -> int:
     from .loading import is_template
+    from .outputs import OutputConflictError, check_outputs
 
+    _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
+                                "--report": args.report, "--csv": args.csv, "--json": args.json,
+                                "--sign": args.sign})
     tol = _tolerance(args)  # usage errors first, before any process is started
     if args.sign and not args.report:
         raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
+    try:
+        check_outputs({"--report": args.report, "--csv": args.csv,
+                       "--json": None if args.json == "-" else args.json},
+                      {"NOMINAL": args.nominal, "MEASURED": args.measured,
+                       "--sign identity": args.sign})
+    except OutputConflictError as e:
+        raise UsageError(f"qa-inspect inspect: {e}") from e
     renderer = None
     if args.report and not is_template(args.nominal):
         from .figures import RenderProcess
@@ -207,6 +252,7 @@ def _cmd_keygen(args) -> int:
 
     if not args.name.strip():
         raise UsageError("qa-inspect keygen: --name must not be empty")
+    _no_empty_paths("keygen", {"--out": args.out})
     passphrase = _passphrase(args.pass_env, "Passphrase for the new inspector.p12: ",
                              confirm=True)
     if not passphrase:
@@ -222,9 +268,12 @@ def _cmd_keygen(args) -> int:
 def _cmd_verify(args) -> int:
     import json
 
+    from .certificate import same_person
     from .messages import VERDICT_WORD
     from .signing import read_input, read_trust_roots, verify_pdf
 
+    _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
+                               "--nominal": args.nominal, "--measured": args.measured})
     if (args.nominal is None) != (args.measured is None):
         raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
     roots = [c for path in args.trust for c in read_trust_roots(path)]
@@ -246,6 +295,13 @@ def _cmd_verify(args) -> int:
             elif v.signatures and v.signatures[0].signer != cert["signed_by"]:
                 problems.append(f"the inspector's signature is by {v.signatures[0].signer}, "
                                 f"but the certificate was issued for {cert['signed_by']}")
+            # The inspector named must be the signer (an older certificate may name none:
+            # its page then named the signer).
+            elif v.signatures and cert.get("inspector") and not same_person(
+                    cert["inspector"], v.signatures[0].signer):
+                problems.append(f"the certificate names the inspector "
+                                f"'{cert.get('inspector')}', but its certification signature "
+                                f"is by {v.signatures[0].signer}")
     notes = []
     if doc is not None and args.nominal:
         problems += _recheck(doc, args.nominal, args.measured, notes)
@@ -305,16 +361,28 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
 
+    from .outputs import Output, write_all
     from .pipeline import InspectionSettings, run_files
-    from .results import points_csv, result_json, write_atomic
+    from .results import points_csv, result_json
 
-    identity = None
+    info = identity = None
+    if args.report:
+        from .certificate import CertificateInfo
+
+        info = CertificateInfo(**{k: getattr(args, k) for k in (
+            "part_number", "part_name", "revision", "serial", "order", "inspector",
+            "organisation", "device", "notes")})
     if args.sign:
+        from .certificate import CertificationError, check_inspector
         from .signing import load_identity
 
-        # The key first: a wrong passphrase must not cost an inspection.
+        # The key first: a wrong passphrase or an unsuitable key must not cost an inspection.
         identity = load_identity(args.sign, _passphrase(args.sign_pass_env, "PKCS#12 passphrase "
                                                        f"for {args.sign}: ", confirm=False))
+        try:
+            check_inspector(info, identity)
+        except CertificationError as e:
+            raise UsageError(f"qa-inspect inspect: {e}") from e
     elif args.sign_pass_env:
         raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
     settings = InspectionSettings(tol.lower, tol.upper,
@@ -325,21 +393,23 @@ def _run_inspect(args, tol, renderer) -> int:
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
     result = run.result
-    written = []
+    outputs = []
     if args.report:
-        from .certificate import CertificateInfo, make_certificate
+        from .certificate import CertificationError, certified_info, make_certificate
 
-        info = CertificateInfo(**{k: getattr(args, k) for k in (
-            "part_number", "part_name", "revision", "serial", "order", "inspector",
-            "organisation", "device", "notes")})
-        write_atomic(args.report, make_certificate(run, info, identity, renderer=renderer))
-        written.append(args.report)
+        try:
+            info = certified_info(info, identity, result.verdict)
+        except CertificationError as e:
+            raise UsageError(f"qa-inspect inspect: {e}") from e
+        outputs.append(Output(args.report, make_certificate(run, info, identity,
+                                                            renderer=renderer)))
     if args.csv:
-        write_atomic(args.csv, points_csv(result, run.measured.points, run.measured.labels))
-        written.append(args.csv)
+        outputs.append(Output(args.csv, points_csv(result, run.measured.points,
+                                                   run.measured.labels)))
     if args.json and args.json != "-":
-        write_atomic(args.json, result_json(run.doc))
-        written.append(args.json)
+        outputs.append(Output(args.json, result_json(run.doc)))
+    write_all(outputs)  # every file or none; stdout only after they all succeeded
+    written = [o.path for o in outputs]
     if args.json == "-":
         sys.stdout.write(result_json(run.doc))
     else:

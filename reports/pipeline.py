@@ -6,6 +6,7 @@ go through :func:`run_files`, so one set of settings gives one answer everywhere
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import time
@@ -14,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import InputError, SettingsError
-from engine.inspection import InspectionResult, inspect, inspect_2d
+from engine.inspection import ACCEPT, InspectionResult, inspect, inspect_2d
 from engine.nominal import Nominal
 from engine.pointio import PointSet
 from engine.progress import Callback, report, reporting
@@ -78,8 +79,63 @@ def run_files(nominal_path: str, measured_path: str, settings: InspectionSetting
         return _run_files(nominal_path, measured_path, settings)
 
 
+SWAP_RATIO = 10
+"""A measured file with this many times the nominal's points, carrying what a nominal carries
+(normals, a grid, facets) while the nominal is a bare cloud, looks swapped."""
+NOT_PLANAR = 0.1
+"""3D points against a 2D template whose flatness exceeds this fraction of their extent in the
+plane are not a planar contour."""
+
+
+def _structure(ps: PointSet) -> str:
+    """What ``ps`` carries besides points, in words ("" for a bare cloud)."""
+    parts = []
+    if ps.triangles is not None:
+        parts.append(f"{ps.triangles.shape[0]:,} mesh facets")
+    if ps.grid_shape is not None:
+        parts.append(f"a {ps.grid_shape[0]} x {ps.grid_shape[1]} grid")
+    if ps.normals is not None:
+        parts.append("normals")
+    return " and ".join(parts)
+
+
+def swap_hint(nominal: PointSet, measured: PointSet) -> str | None:
+    """A sentence saying the two files look swapped, or None.
+
+    Only the files' make-up is used: a dense scan against a coarser nominal is normal, so the
+    measured file must also carry a nominal's structure (normals, grid, facets) while the nominal
+    carries none. The caller adds it only to a verdict that is not ACCEPT.
+    """
+    if measured.n < SWAP_RATIO * nominal.n or _structure(nominal) or not _structure(measured):
+        return None
+    return (f"the files look swapped: NOMINAL {nominal.path} has {nominal.n:,} points without "
+            f"normals, grid or facets, MEASURED {measured.path} has {measured.n:,} points with "
+            f"{_structure(measured)}; is the first argument the nominal?")
+
+
+def not_planar_hint(result: InspectionResult, measured: PointSet, template_path: str
+                    ) -> str | None:
+    """A sentence saying 3D measured points are no planar contour (2D template), or None."""
+    flat = result.extra.get("flatness")
+    if flat is None:
+        return None
+    xy = result.registered[:, :2]
+    extent = float(np.max(np.ptp(xy, axis=0))) if xy.shape[0] else 0.0
+    if not flat["peak_to_valley"] > NOT_PLANAR * extent:
+        return None
+    return (f"the measured points {measured.path} are not a planar contour: they lie "
+            f"{flat['peak_to_valley']:.4g} mm out of their best plane over {extent:.4g} mm "
+            f"across, but the nominal {template_path} is a 2D template; a 3D part needs a 3D "
+            "nominal")
+
+
 def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettings) -> Run:
     check_settings(nominal_path, settings)
+    if is_template(measured_path):
+        raise InputError("a 2D template cannot be the measured points: the template is the "
+                         "first argument (NOMINAL), the measured points the second"
+                         + ("; the files look swapped" if not is_template(nominal_path) else ""),
+                         measured_path)
     report("loading the nominal", 0.0)
     tol = settings.tolerance
     t0 = time.perf_counter()
@@ -95,14 +151,20 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
                                      tpl.template.n_primitives)
     else:
         nominal_ps = load_point_set(nominal_path)
+        if nominal_ps.dim != 3:
+            raise InputError("the nominal has 2 columns (x y): a 2D nominal must be a contour "
+                             "template (a .dxf drawing, or .dat airfoil ordinates with "
+                             "--scale); a 3D nominal needs x y z", nominal_path)
         nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path),
                                      nominal_ps.n)
     report("loading the measured points", 0.0)
     measured_ps = load_point_set(measured_path)
     if tpl is None:
         if measured_ps.dim != 3:
-            raise InputError("measured points have 2 columns (x y) but the nominal is a 3D "
-                             "surface", measured_ps.path)
+            raise InputError(f"the measured points have 2 columns (x y), but the nominal "
+                             f"{nominal_path} is a 3D surface: give the measured points as x y "
+                             "z, or a 2D template (.dxf, .dat) as NOMINAL for a 2D inspection",
+                             measured_ps.path)
         report("preparing the nominal", 0.0)
         nominal = Nominal.from_point_set(nominal_ps)
     inputs = [nominal_record,
@@ -117,6 +179,11 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     else:
         result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
                          decision_rule=settings.decision_rule)
+    if result.verdict != ACCEPT:
+        hint = (not_planar_hint(result, measured_ps, nominal_path) if tpl is not None
+                else swap_hint(nominal_ps, measured_ps))
+        if hint:
+            result = dataclasses.replace(result, reasons=result.reasons + (hint,))
     report("judging", 1.0)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],

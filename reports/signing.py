@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 from engine.errors import InputError
 
-from .results import write_atomic
+from .outputs import Output, write_all
 
 # pyHanko logs what it finds wrong with a document (with tracebacks); verify_pdf reports the
 # same findings itself, so the log stays quiet unless an application configures logging.
@@ -150,9 +150,8 @@ def make_demo_identity(name: str, organisation: str, out_dir: str,
     p12 = pkcs12.serialize_key_and_certificates(
         name.encode("utf-8"), key, cert, [ca],
         serialization.BestAvailableEncryption(passphrase))
-    os.makedirs(out_dir, exist_ok=True)
-    write_atomic(p12_path, p12, private=True)
-    write_atomic(ca_path, ca.public_bytes(serialization.Encoding.PEM))
+    write_all([Output(p12_path, p12, private=True),
+               Output(ca_path, ca.public_bytes(serialization.Encoding.PEM))])
     return ca_path, p12_path
 
 
@@ -179,11 +178,20 @@ def load_identity(path: str, passphrase: bytes | None) -> Identity:
         ku = cert.extensions.get_extension_for_class(x509.KeyUsage).value
     except x509.ExtensionNotFound:
         ku = None
-    if ku is not None and not (ku.digital_signature and ku.content_commitment):
-        # Validators (pyHanko, Adobe) want nonRepudiation on a document signature: a
-        # certificate without it would sign here and then fail every verification.
-        raise InputError("the certificate's key usage must allow digitalSignature and "
-                         "nonRepudiation (content commitment) to sign certificates", path)
+    if ku is None or not (ku.digital_signature and ku.content_commitment):
+        # Validators (pyHanko, Adobe) want nonRepudiation on a document signature, and read a
+        # certificate without the key-usage extension as having none: such a certificate
+        # would sign here and then fail every verification.
+        raise InputError("the signing certificate's key usage must allow digitalSignature and "
+                         "nonRepudiation (content commitment) to sign certificates; it "
+                         + ("has no key-usage extension" if ku is None else "allows " + (
+                             ", ".join(n for n, on in (
+                                 ("digitalSignature", ku.digital_signature),
+                                 ("nonRepudiation", ku.content_commitment),
+                                 ("keyEncipherment", ku.key_encipherment),
+                                 ("keyAgreement", ku.key_agreement),
+                                 ("keyCertSign", ku.key_cert_sign),
+                                 ("cRLSign", ku.crl_sign)) if on) or "nothing")), path)
 
     def attr(n, oid):
         v = n.get_attributes_for_oid(oid)

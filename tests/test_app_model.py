@@ -155,7 +155,7 @@ def test_certificate_export_matches_the_command_line(tmp_path, monkeypatch, sign
     c.inspect()
     out = tmp_path / "cert.pdf"
     done = []
-    c.export_certificate(str(out), CertificateInfo(part_number="FR-1"),
+    c.export_certificate(str(out), CertificateInfo(part_number="FR-1", serial="SN-1"),
                          str(ident / "inspector.p12") if signed else None,
                          b"pw" if signed else None, on_done=done.append)
     assert done == [str(out)] and out.is_file()

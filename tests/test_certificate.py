@@ -121,8 +121,10 @@ def sha256_file(path) -> str:
 
 
 def make_identity(ca_cert, ca_key, name: str, path, passphrase: bytes,
-                  non_repudiation: bool = True) -> None:
-    """A document-signing PKCS#12 issued by ``ca_cert`` (written with cryptography directly)."""
+                  non_repudiation: bool = True, digital_signature: bool = True,
+                  key_usage: bool = True) -> None:
+    """A document-signing PKCS#12 issued by ``ca_cert`` (written with cryptography directly);
+    ``key_usage=False``: without the key-usage extension."""
     import datetime as dt
 
     from cryptography import x509
@@ -135,20 +137,21 @@ def make_identity(ca_cert, ca_key, name: str, path, passphrase: bytes,
     key = ec.generate_private_key(ec.SECP256R1())
     subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name),
                          x509.NameAttribute(NameOID.ORGANIZATION_NAME, ORGANISATION)])
-    cert = (x509.CertificateBuilder().subject_name(subject).issuer_name(ca_cert.subject)
-            .public_key(key.public_key()).serial_number(x509.random_serial_number())
-            .not_valid_before(now - dt.timedelta(hours=1))
-            .not_valid_after(now + dt.timedelta(days=30))
-            .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-            .add_extension(x509.KeyUsage(digital_signature=True,
-                                         content_commitment=non_repudiation,
-                                         key_encipherment=False, data_encipherment=False,
-                                         key_agreement=False, key_cert_sign=False,
-                                         crl_sign=False, encipher_only=False,
-                                         decipher_only=False), critical=True)
-            .add_extension(x509.AuthorityKeyIdentifier.from_issuer_public_key(
-                ca_key.public_key()), critical=False)
-            .sign(ca_key, hashes.SHA256()))
+    b = (x509.CertificateBuilder().subject_name(subject).issuer_name(ca_cert.subject)
+         .public_key(key.public_key()).serial_number(x509.random_serial_number())
+         .not_valid_before(now - dt.timedelta(hours=1))
+         .not_valid_after(now + dt.timedelta(days=30))
+         .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
+         .add_extension(x509.AuthorityKeyIdentifier.from_issuer_public_key(
+             ca_key.public_key()), critical=False))
+    if key_usage:
+        b = b.add_extension(x509.KeyUsage(digital_signature=digital_signature,
+                                          content_commitment=non_repudiation,
+                                          key_encipherment=False, data_encipherment=False,
+                                          key_agreement=False, key_cert_sign=False,
+                                          crl_sign=False, encipher_only=False,
+                                          decipher_only=False), critical=True)
+    cert = b.sign(ca_key, hashes.SHA256())
     with open(path, "wb") as f:
         f.write(pkcs12.serialize_key_and_certificates(
             name.encode(), key, cert, [ca_cert],
@@ -664,3 +667,133 @@ def test_identity_files_and_folders(signed, tmp_path, monkeypatch, capsys):
     assert code == 65 and "is a folder" in err and "cannot write" not in err
     code = main(["verify", str(tmp_path), "--trust", str(signed.ca)])
     assert code == 65 and "is a folder" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------- 11. who signed
+FRAME_ID = ["--part-number", "FR-12", "--serial", "SN-2D"]
+
+
+def sign_frame(signed, out_dir, *args, p12=None, tol="0.05"):
+    """Sign a certificate of the 2D frame sample (fast: no 3D renders) into ``out_dir``."""
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        return cli("inspect", FRAME_TEMPLATE, FRAME_MEASURED, "--tol", tol,
+                   "--report", out_dir / "c.pdf", "--json", out_dir / "r.json",
+                   "--sign", p12 or signed.p12, "--sign-pass-env", PASS_VAR, *args)
+
+
+def test_an_inspector_who_is_not_the_signer_is_refused(signed, tmp_path):
+    code, out, err = sign_frame(signed, tmp_path, *FRAME_ID, "--inspector", "Carol Other")
+    assert code == 64, out + err
+    assert "'Carol Other'" in err and f"'{INSPECTOR}'" in err and "Traceback" not in err
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("named", [None, "ann  INSPECTOR"])
+def test_the_certificate_names_its_signer_as_inspector(signed, tmp_path, named):
+    from reports.signing import read_trust_roots, verify_pdf
+
+    code, out, err = sign_frame(signed, tmp_path, *FRAME_ID,
+                                *([] if named is None else ["--inspector", named]))
+    assert code == 0, out + err
+    v = verify_pdf((tmp_path / "c.pdf").read_bytes(), read_trust_roots(str(signed.ca)))
+    assert v.valid, v.problems
+    cert = json.loads(v.attachments["results.json"])["certificate"]
+    assert cert["inspector"] == cert["signed_by"] == v.signatures[0].signer == INSPECTOR
+    first = page_texts(tmp_path / "c.pdf")[0]
+    assert re.search(rf"Inspector\s+{INSPECTOR}\b", first)
+
+
+def test_verify_fails_a_certificate_naming_another_inspector(signed, tmp_path, capsys):
+    """Made the way a certificate was made before the signer was checked: Ann's signature over a
+    certificate that names Carol as its inspector (reports' own building blocks, so that every
+    other part of it is right)."""
+    import datetime as dt
+    from dataclasses import asdict
+
+    from reports.certificate import CertificateInfo, build_pdf, certificate_number
+    from reports.pipeline import InspectionSettings, run_files
+    from reports.results import result_json
+    from reports.signing import Attachment, finish_pdf, load_identity
+
+    run = run_files(FRAME_TEMPLATE, FRAME_MEASURED, InspectionSettings(-0.05, 0.05))
+    assert run.result.verdict == "ACCEPT"
+    identity = load_identity(str(signed.p12), PASSPHRASE.encode())
+    info = CertificateInfo(part_number="FR-12", serial="SN-2D", inspector="Carol Other")
+    issued = dt.datetime.now(dt.timezone.utc).replace(microsecond=0)
+    number = certificate_number(run, issued)
+    doc = dict(run.doc, certificate=dict(asdict(info), number=number, issued=issued.isoformat(),
+                                         signed_by=identity.common_name))
+    attachments = [Attachment("results.json", result_json(doc).encode(), "application/json",
+                              "results")]
+    pdf, slots = build_pdf(run, info, number, issued, identity, attachments, None)
+    forged = tmp_path / "forged.pdf"
+    forged.write_bytes(finish_pdf(pdf, attachments, slots, identity, reason="test"))
+    code, out, err = verify(capsys, forged, "--trust", signed.ca)
+    assert code == 1 and out.startswith("INVALID")
+    assert "intact, trusted" in out  # the signature itself is sound: the statement is not
+    problem = [ln for ln in out.splitlines() if "problem:" in ln]
+    assert len(problem) == 1 and "'Carol Other'" in problem[0] and INSPECTOR in problem[0]
+
+
+@pytest.mark.parametrize("usage", ["no key-usage extension", "nonRepudiation only"])
+def test_an_identity_that_cannot_sign_certificates_is_refused_before_any_work(signed, tmp_path,
+                                                                              usage):
+    weak = tmp_path / "weak.p12"
+    make_identity(signed.ca_cert, signed.ca_key, "Dee Signer", weak, PASSPHRASE.encode(),
+                  key_usage=usage == "nonRepudiation only", digital_signature=False)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    code, out, err = sign_frame(signed, out_dir, *FRAME_ID, p12=weak)
+    assert code == 65, out + err
+    assert str(weak) in err and "digitalSignature" in err and "nonRepudiation" in err
+    assert os.listdir(out_dir) == [] and out == ""
+
+
+@pytest.mark.parametrize("missing", ["--part-number", "--serial"])
+def test_a_signed_accepted_certificate_identifies_the_part(signed, tmp_path, missing):
+    given = {"--part-number": "FR-12", "--serial": "SN-2D"}
+    del given[missing]
+    code, out, err = sign_frame(signed, tmp_path, *[a for kv in given.items() for a in kv])
+    assert code == 64, out + err
+    assert f"({missing})" in err and "ACCEPTED" in err and "nothing was written" in err
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_signed_rejected_certificate_may_lack_part_and_serial(signed, tmp_path):
+    code, out, err = sign_frame(signed, tmp_path, tol="0.001")
+    assert code == 1 and out.startswith("REJECT"), out + err
+    assert sorted(os.listdir(tmp_path)) == ["c.pdf", "r.json"]
+
+
+def test_no_signed_certificate_is_left_when_another_output_fails(signed, tmp_path):
+    """The issue's case: the JSON cannot be written, so neither the signed PDF (which would
+    verify as VALID on its own) nor the CSV is left behind."""
+    (tmp_path / "blocker").write_text("")
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        code, out, err = cli("inspect", FRAME_TEMPLATE, FRAME_MEASURED, "--tol", "0.05",
+                             "--report", tmp_path / "c.pdf", "--csv", tmp_path / "c.csv",
+                             "--json", tmp_path / "blocker" / "x.json", "--sign", signed.p12,
+                             "--sign-pass-env", PASS_VAR, *FRAME_ID)
+    assert code == 73, out + err
+    assert "x.json" in err and "Traceback" not in err
+    assert os.listdir(tmp_path) == ["blocker"]
+
+
+def test_make_certificate_keeps_the_rules_for_every_caller(signed):
+    """The desktop app calls make_certificate directly: the same rules hold there."""
+    from reports.certificate import CertificateInfo, CertificationError, make_certificate
+    from reports.pipeline import InspectionSettings, run_files
+    from reports.signing import load_identity
+
+    run = run_files(FRAME_TEMPLATE, FRAME_MEASURED, InspectionSettings(-0.05, 0.05))
+    assert run.result.verdict == "ACCEPT"
+    identity = load_identity(str(signed.p12), PASSPHRASE.encode())
+    with pytest.raises(CertificationError, match="'Carol Other', is not the signer"):
+        make_certificate(run, CertificateInfo(part_number="FR-12", serial="SN-2D",
+                                              inspector="Carol Other"), identity)
+    with pytest.raises(CertificationError, match=r"serial number \(--serial\)"):
+        make_certificate(run, CertificateInfo(part_number="FR-12", serial=" "), identity)
+    # An unsigned draft may name anyone and lack both.
+    assert make_certificate(run, CertificateInfo(inspector="Carol Other"), None)[:5] == b"%PDF-"

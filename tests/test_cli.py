@@ -138,3 +138,220 @@ def test_installed_console_script_runs():
     exe = os.path.join(os.path.dirname(sys.executable), "qa-inspect")
     r = subprocess.run([exe, "inspect"], capture_output=True, text=True)
     assert r.returncode == 64 and "usage: qa-inspect inspect" in r.stderr
+
+
+# ---------------------------------------------------------------------------- outputs (issue 10.6)
+def _snapshot(folder):
+    """{name: bytes} of every file in ``folder`` (temporary files included)."""
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+@pytest.fixture
+def work(files, tmp_path):
+    """Copies of the nominal and the measured file in a fresh folder (inputs a run may touch)."""
+    d = files[0]
+    for name in ("nominal.csv", "good.csv"):
+        (tmp_path / name).write_bytes((d / name).read_bytes())
+    return tmp_path
+
+
+@pytest.mark.parametrize("how", ["same", "dot", "symlink", "hardlink"])
+@pytest.mark.parametrize("option", ["--csv", "--json", "--report"])
+def test_an_output_never_replaces_an_input(work, capsys, monkeypatch, how, option):
+    monkeypatch.chdir(work)
+    alias = {"same": "good.csv", "dot": "./good.csv", "symlink": "link.csv",
+             "hardlink": "hard.csv"}[how]
+    if how == "symlink":
+        os.symlink("good.csv", work / "link.csv")
+    elif how == "hardlink":
+        os.link(work / "good.csv", work / "hard.csv")
+    before = _snapshot(work)
+    assert run("inspect", "nominal.csv", "good.csv", "--tol", "0.05", option, alias) == 64
+    err = capsys.readouterr().err
+    assert f"{option} {alias}" in err and "MEASURED" in err and "Traceback" not in err
+    assert _snapshot(work) == before
+
+
+def test_an_output_never_replaces_the_nominal_or_the_signing_identity(work, capsys):
+    before = _snapshot(work)
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--json", work / "nominal.csv") == 64
+    assert "NOMINAL" in capsys.readouterr().err
+    # The identity is an input too (checked before its passphrase is asked for).
+    (work / "id.p12").write_bytes(b"not read: the paths are checked first")
+    before = _snapshot(work)
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--report", work / "id.p12", "--sign", work / "id.p12") == 64
+    err = capsys.readouterr().err
+    assert "--report" in err and "--sign identity" in err
+    assert _snapshot(work) == before
+
+
+def test_two_outputs_on_one_file_are_a_usage_error(work, capsys):
+    before = _snapshot(work)
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--csv", work / "r.out", "--json", work / "sub" / ".." / "r.out") == 64
+    err = capsys.readouterr().err
+    assert "--csv and --json name the same file" in err
+    assert _snapshot(work) == before and not (work / "sub").exists()
+
+
+@pytest.mark.parametrize("option", ["--json", "--csv", "--report", "--sign"])
+@pytest.mark.parametrize("empty", ["", "  "])
+def test_empty_file_names_are_usage_errors(work, capsys, option, empty):
+    before = _snapshot(work)
+    extra = ["--report", work / "c.pdf"] if option == "--sign" else []
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               option, empty, *extra) == 64
+    assert f"{option} needs a file name" in capsys.readouterr().err
+    assert _snapshot(work) == before
+
+
+def test_empty_positional_and_verify_paths_are_usage_errors(work, capsys):
+    assert run("inspect", "", work / "good.csv", "--tol", "0.05") == 64
+    assert "NOMINAL needs a file name" in capsys.readouterr().err
+    assert run("verify", work / "c.pdf", "--trust", "") == 64
+    assert "--trust needs a file name" in capsys.readouterr().err
+    assert run("keygen", "--name", "A", "--out", "") == 64
+    assert "--out needs a file name" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_all_outputs_or_none(work, capsys, existing):
+    """The JSON cannot be written (its folder is a file): the CSV, written first before, is not
+    written either, and a CSV that was there keeps its content."""
+    (work / "blocker").write_text("")
+    if existing:
+        (work / "c.csv").write_text("the previous run's rows\n")
+    before = _snapshot(work)
+    code = run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--csv", work / "c.csv", "--json", work / "blocker" / "x.json")
+    cap = capsys.readouterr()
+    assert code == 73
+    assert f"cannot write {work / 'blocker' / 'x.json'}" in cap.err
+    assert _snapshot(work) == before  # no new, changed or temporary file
+    assert cap.out == ""
+
+
+def test_stdout_json_only_after_every_file(work, capsys):
+    (work / "blocker").write_text("")
+    code = run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--json", "-", "--csv", work / "blocker" / "c.csv")
+    cap = capsys.readouterr()
+    assert code == 73 and cap.out == ""
+
+
+def test_outputs_replace_their_previous_versions(work, capsys):
+    (work / "c.csv").write_text("old\n")
+    (work / "r.json").write_text("{}\n")
+    assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+               "--csv", work / "c.csv", "--json", work / "r.json") == 0
+    assert json.loads((work / "r.json").read_text())["verdict"] == "ACCEPT"
+    assert (work / "c.csv").read_text().startswith("index,label,")
+    assert sorted(p.name for p in work.iterdir()) == ["c.csv", "good.csv", "nominal.csv",
+                                                      "r.json"]
+
+
+# ---------------------------------------------------------------------------- --version (10.9)
+def test_version(capsys):
+    from importlib.metadata import version
+
+    assert run("--version") == 0
+    out = capsys.readouterr().out
+    assert out == f"qa-inspect {version('qa-inspect')}\n"
+
+
+# ---------------------------------------------------------------------------- messages (10.9)
+def test_swapped_files_say_so(files, tmp_path, capsys):
+    """A grid nominal with normals given as MEASURED, 100 bare measured points as NOMINAL."""
+    d, _, _, _ = files
+    pts, nrm, (nu, nv) = height_grid(60, 40)
+    with open(tmp_path / "nominal.csv", "w") as f:
+        f.write(f"# grid: {nu} x {nv}\nx,y,z,i,j,k\n")
+        np.savetxt(f, np.hstack([pts, nrm]), fmt="%.9f", delimiter=",")
+    with open(d / "good.csv") as src, open(tmp_path / "measured.csv", "w") as f:
+        f.writelines(src.readlines()[:101])
+    code = run("inspect", tmp_path / "measured.csv", tmp_path / "nominal.csv", "--tol", "0.05",
+               "--json", "-")
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 2 and doc["verdict"] == "INCONCLUSIVE"
+    hint = [r for r in doc["reasons"] if "look swapped" in r]
+    assert len(hint) == 1
+    assert (f"NOMINAL {tmp_path / 'measured.csv'} has 100 points" in hint[0]
+            and f"MEASURED {tmp_path / 'nominal.csv'} has 2,400 points with a 60 x 40 grid and "
+                "normals" in hint[0])
+    # The same files the right way round: no such hint.
+    assert run("inspect", tmp_path / "nominal.csv", tmp_path / "measured.csv", "--tol", "0.05",
+               "--json", "-") in (0, 1, 2)
+    assert not any("swapped" in r for r in json.loads(capsys.readouterr().out)["reasons"])
+
+
+def test_swap_hint_spares_dense_scans():
+    """Only the files' make-up says 'swapped': a dense bare scan against a coarser nominal with
+    normals, or two bare clouds, are not."""
+    from engine.pointio import PointSet
+    from reports.pipeline import swap_hint
+
+    rng = np.random.default_rng(3)
+
+    def cloud(n, normals=False, grid=None, path="f.csv"):
+        p = rng.normal(size=(n, 3))
+        return PointSet(p, p / np.linalg.norm(p, axis=1)[:, None] if normals else None,
+                        grid_shape=grid, path=path)
+
+    coarse_cad = cloud(6_000, normals=True, path="cad.csv")
+    assert swap_hint(coarse_cad, cloud(60_000, path="scan.csv")) is None  # 10x denser scan
+    assert swap_hint(cloud(1_100), cloud(60_000)) is None  # two bare clouds
+    assert swap_hint(cloud(1_100), cloud(9_000, normals=True)) is None  # < 10x
+    hint = swap_hint(cloud(1_100, path="m.csv"), cloud(60_000, normals=True, grid=(300, 200),
+                                                        path="n.csv"))
+    assert hint.startswith("the files look swapped: NOMINAL m.csv has 1,100 points")
+    assert "MEASURED n.csv has 60,000 points with a 300 x 200 grid and normals" in hint
+
+
+FRAME = os.path.join(ROOT, "samples", "fuselage_frame")
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory):
+    """2D point files and a non-planar 3D cloud (a sphere) for the 2D/3D mix-ups."""
+    d = tmp_path_factory.mktemp("mixed")
+    t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    for name in ("flat.csv", "flat2.csv"):
+        np.savetxt(d / name, np.column_stack([50 * np.cos(t), 50 * np.sin(t)]),
+                   delimiter=",", header="x,y", comments="")
+    p = np.random.default_rng(5).normal(size=(300, 3))
+    np.savetxt(d / "sphere.csv", 50 * p / np.linalg.norm(p, axis=1)[:, None], delimiter=",",
+               header="x,y,z", comments="")
+    return d
+
+
+@pytest.mark.parametrize("nominal, measured, odd, other, says", [
+    ("files:nominal.csv", "mixed:flat.csv", "measured", "nominal", "2 columns"),
+    ("mixed:flat.csv", "files:good.csv", "nominal", None, "must be a contour template"),
+    ("mixed:flat.csv", "mixed:flat2.csv", "nominal", None, "must be a contour template"),
+    ("frame:measured.csv", "frame:template.dxf", "measured", None,
+     "template cannot be the measured points"),
+])
+def test_mixed_2d_3d_names_the_odd_file(files, mixed, capsys, nominal, measured, odd, other,
+                                        says):
+    folders = {"files": files[0], "mixed": mixed, "frame": FRAME}
+    paths = {}
+    for role, spec in (("nominal", nominal), ("measured", measured)):
+        where, name = spec.split(":")
+        paths[role] = os.path.join(folders[where], name)
+    assert run("inspect", paths["nominal"], paths["measured"], "--tol", "0.1") == 65
+    err = capsys.readouterr().err
+    assert err.startswith(f"qa-inspect: error: {paths[odd]}: ") and "Traceback" not in err
+    assert says in err
+    if other:
+        assert f"the {other} {paths[other]}" in err
+
+
+def test_a_2d_template_against_non_planar_points_names_them(mixed, capsys):
+    code = run("inspect", os.path.join(FRAME, "template.dxf"), mixed / "sphere.csv",
+               "--tol", "0.1", "--json", "-")
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 2 and doc["verdict"] == "INCONCLUSIVE"
+    hint = [r for r in doc["reasons"] if "not a planar contour" in r]
+    assert len(hint) == 1 and str(mixed / "sphere.csv") in hint[0] and "template.dxf" in hint[0]
