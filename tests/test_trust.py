@@ -555,3 +555,32 @@ def test_a_slide_that_moves_a_point_across_a_limit_is_inconclusive():
     assert all(set(p.verdicts) == {ACCEPT} for p in wide.pose_sensitivity.probes
                if p.kind == "translation")
     assert not any("verdict to REJECT" in r for r in wide.reasons)
+
+
+def test_a_2d_circle_measured_all_round_is_judged_through_the_same_path():
+    """A 2D template of one circle: its rotation is free and changes no deviation; the verdict
+    stands (ACCEPT within +-0.05, REJECT with a point 0.08 out), and the JSON says why."""
+    from engine.contour import arc, build_template
+    from engine.inspection import inspect_2d
+    from reports.results import pose_sensitivity_json
+
+    tpl = build_template([([arc((0.0, 0.0), 30.0, 0.0, 2 * np.pi)], True)])
+    rng = np.random.default_rng(13)
+    a = rng.uniform(0, 2 * np.pi, 200)
+    dev = rng.uniform(-0.02, 0.02, 200)
+    th = 0.7
+    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    for planted, verdict in ((dev, ACCEPT), (np.where(np.arange(200) == 9, 0.08, dev), REJECT)):
+        p = (30.0 + planted)[:, None] * np.column_stack([np.cos(a), np.sin(a)])
+        measured = np.column_stack([p @ R.T + [12.0, -7.0], np.zeros(200)])
+        res = inspect_2d(tpl, measured, 2, Tolerance.symmetric(0.05))
+        # (the least-squares centre moves by the deviations' first harmonic: a few um)
+        assert np.max(np.abs(res.deviations.signed - planted)) < 5e-3
+        (w,) = res.conditioning.weak
+        assert w.type == "rotation" and w.sigma_mm is None
+        assert res.verdict == verdict and res.pose_sensitivity.verdict_stable
+        (probe,) = res.pose_sensitivity.probes
+        assert probe.invariant and np.allclose(probe.through[:2], 0.0, atol=1e-6)
+        doc = pose_sensitivity_json(res)
+        assert doc["verdict_stable"] and "holds for every such orientation" in \
+            doc["statements"][0]
