@@ -456,36 +456,40 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
     if not plans or n == 0:
         return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
     poses = [P for plan in plans for P in plan[4]]
+    free = np.array([plan[2] for plan in plans for _ in plan[4]])
     if n <= max_points:
         idx = np.arange(n)
     else:
         idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
     change = np.stack([deviations_at(P, idx) - d[idx] for P in poses])
-    if idx.size < n:
+    # Along a free direction a pose counts only while the points still fit there.
+    rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
+    rms = np.sqrt(np.mean((d[idx] + change) ** 2, axis=1))
+    ok = ~free | (rms <= PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width)
+    if idx.size < n and ok.any():
         # Only a point within the largest change (with room) of a limit can cross it.
-        near = np.flatnonzero(dist <= NEAR_FACTOR * float(np.abs(change).max()))
+        near = np.flatnonzero(dist <= NEAR_FACTOR * float(np.abs(change[ok]).max()))
         near = np.setdiff1d(near, idx)
         if near.size:
-            more = np.stack([deviations_at(P, near) - d[near] for P in poses])
+            more = np.zeros((len(poses), near.size))
+            for k in np.flatnonzero(ok):
+                more[k] = deviations_at(poses[k], near) - d[near]
             idx = np.concatenate([idx, near])
             change = np.concatenate([change, more], axis=1)
-    rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
     probes = []
     row = 0
-    for kind, axis, free, amps, ps, through, sigma in plans:
+    for kind, axis, is_free, amps, ps, through, sigma in plans:
         ch = change[row:row + len(ps)]
+        fit = ok[row:row + len(ps)]
         row += len(ps)
-        rms = np.sqrt(np.mean((d[idx] + ch) ** 2, axis=1))
-        ok = (rms <= PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width) if free else \
-            np.ones(len(ps), bool)
         verdicts = []
         for k in range(len(ps)):
             dd = d.copy()
             dd[idx] += ch[k]
             verdicts.append(verdict_of(dd))
-        mx = float(np.abs(ch[ok]).max()) if ok.any() else 0.0
-        probes.append(PoseProbe(kind, axis, free, amps, mx, tuple(verdicts),
-                                mx <= INVARIANT_FRACTION * width, tuple(bool(o) for o in ok),
+        mx = float(np.abs(ch[fit]).max()) if fit.any() else 0.0
+        probes.append(PoseProbe(kind, axis, is_free, amps, mx, tuple(verdicts),
+                                mx <= INVARIANT_FRACTION * width, tuple(bool(o) for o in fit),
                                 through, sigma))
     stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
     return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
