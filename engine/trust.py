@@ -497,13 +497,14 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
 
 
 def _vec(a) -> str:
-    return "(" + ", ".join(f"{x:+.3f}" for x in a) + ")"
+    return "(" + ", ".join(f"{round(x, 3) + 0.0:+.3f}" for x in a) + ")"  # no "-0.000"
 
 
 def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
                      runner_up_score: float | None = None) -> tuple[str, ...]:
     """What the measurement does not fix, and what that does to the verdict, in plain words:
-    one sentence per weak or free direction and for a plausible runner-up pose."""
+    one sentence per weak or free direction and for a plausible runner-up pose that changes
+    the deviations, then the nearest point's margin against the largest change."""
     if sens is None:
         return ()
     out = []
@@ -511,6 +512,8 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
         ok = p.plausible or (True,) * len(p.verdicts)
         changed = [v for v, o in zip(p.verdicts, ok) if o and v != sens.verdict]
         if p.kind == "runner-up":
+            if p.invariant and not changed:
+                continue  # the same deviations: an equivalent pose (a symmetry), not news
             head = "another pose fits nearly as well"
             if score is not None and runner_up_score is not None:
                 head += f" (score {runner_up_score:.4g} mm against {score:.4g} mm)"
@@ -548,4 +551,9 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
         else:
             out.append(f"{fixed}; moving the part over that range changes no deviation by "
                        f"more than {p.max_change_mm:.4g} mm and the verdict holds over it")
+    if out:
+        where = "inside" if sens.min_limit_margin_mm >= 0 else "outside"
+        out.append(f"the point nearest a tolerance limit lies {abs(sens.min_limit_margin_mm):.4g}"
+                   f" mm {where} it; the poses the measurement allows change deviations by up "
+                   f"to {sens.max_change_mm:.4g} mm")
     return tuple(out)

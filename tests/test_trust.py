@@ -584,3 +584,47 @@ def test_a_2d_circle_measured_all_round_is_judged_through_the_same_path():
         doc = pose_sensitivity_json(res)
         assert doc["verdict_stable"] and "holds for every such orientation" in \
             doc["statements"][0]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pose_sensitivity_on_a_subset_agrees_with_every_point(seed):
+    """Probing a seeded subset, then every point near a limit, gives the verdict that probing
+    every point gives (the naive twin), also when the one point that crosses a limit is not in
+    the subset. The part: points on the plane z = 0 (deviation = z), weakly held along x; the
+    deviation change of a probe is known exactly (a translation leaves z alone, a tilt about y
+    changes z by -angle * x)."""
+    from engine.trust import Conditioning, WeakDirection, pose_sensitivity
+
+    rng = np.random.default_rng(seed)
+    n = 5000
+    X = np.column_stack([rng.uniform(-100, 100, (n, 2)), rng.normal(0, 0.005, n)])
+    X[:, 2] += 0.0002 * X[:, 0]
+    tol = Tolerance.symmetric(0.05)
+    k = int(rng.integers(n))
+    X[k] = [95.0, 0.0, 0.049]  # near the limit, far along x: a tilt lifts it out
+    L = 50.0
+    # A weak rotation about y through the origin (twist: rotation part x L, translation).
+    cond = Conditioning((0.0,) * 6, (WeakDirection("rotation", (0.0, 1.0, 0.0), 1e-6, 0.002,
+                                                   (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)),), L,
+                        None, (0.0, 0.0, 0.0))
+
+    def deviations_at(T, idx):
+        return apply_transform(T, X[idx])[:, 2]
+
+    def verdict_of(d):
+        return ACCEPT if np.all(np.abs(d) <= 0.05) else REJECT
+
+    d = X[:, 2]
+    full = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of)
+    sub = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
+                           max_points=200)
+    # +-3 sigma = 0.006 mm at L: 1.2e-4 rad, 11 um at x = 95 (above the 1 um margin).
+    assert not full.verdict_stable and not sub.verdict_stable
+    assert sub.points_evaluated < n and full.points_evaluated == n
+    assert sub.max_change_mm == pytest.approx(full.max_change_mm, rel=0.01)  # smooth change
+    assert full.max_change_mm == pytest.approx(3 * 0.002 / L * 100, rel=0.05)
+    assert full.min_limit_margin_mm == pytest.approx(0.05 - 0.049, abs=1e-9)
+    X[k, 2] = 0.03  # well inside: stable, on the subset as on every point
+    d = X[:, 2]
+    assert pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
+                            max_points=200).verdict_stable
