@@ -105,6 +105,9 @@ class InspectionResult:
     conditioning: "Conditioning | None" = None
     """How well the points constrain the pose (engine.trust)."""
     ambiguous: bool = False
+    """A nearly-as-good runner-up pose moves some deviation by over a tenth of the zone: a fact
+    reported; it makes the verdict INCONCLUSIVE only when the verdict differs there
+    (``pose_sensitivity``)."""
     ambiguity_spread: float = 0.0
     """Largest deviation change (mm) between the chosen pose and a nearly-as-good runner-up."""
     margin: np.ndarray | None = None
