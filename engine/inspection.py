@@ -11,10 +11,14 @@ Decision rules (the paper's L-infinity argument: one point out is a reject):
   lies outside the zone grown by its m, INCONCLUSIVE otherwise.
 
 Whatever the deviations say, the verdict is INCONCLUSIVE when the pose cannot be trusted: the fit
-did not converge; fewer than half of the points lie within 1% of the nominal's size of its
-surface (the measurement is not of this part); the measured points leave a rigid direction
-unconstrained (the pose is arbitrary along it); or another pose fits about as well but gives
-materially different deviations (an ambiguous pose, not merely a symmetry).
+did not converge, or fewer than half of the points lie within 1% of the nominal's size of its
+surface (the measurement is not of this part). It is INCONCLUSIVE too when the verdict depends on
+a pose the measurement does not fix: when moving the part along a direction the measured points
+leave unconstrained (within +-3 sigma of the pose's uncertainty, or far along a free direction)
+or to another pose that fits about as well changes the verdict (engine.trust.pose_sensitivity).
+A weak or free direction along which the verdict holds (a cylinder measured all round, slid along
+its axis) and a runner-up at which it is the same are reported, in plain words, and the verdict
+stands.
 
 Fits: ``lsq`` (least squares of point-to-surface distances over the inliers) or ``minimax`` (the
 pose minimising the largest normalised excursion from the zone's centre: "can this part be
@@ -39,7 +43,7 @@ from .tolerance import Tolerance
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
-    from .trust import Conditioning
+    from .trust import Conditioning, PoseSensitivity
 
 ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
 MIN_NEAR_FRACTION = 0.5
@@ -101,10 +105,19 @@ class InspectionResult:
     conditioning: "Conditioning | None" = None
     """How well the points constrain the pose (engine.trust)."""
     ambiguous: bool = False
+    """A nearly-as-good runner-up pose moves some deviation by over a tenth of the zone: a fact
+    reported; it makes the verdict INCONCLUSIVE only when the verdict differs there
+    (``pose_sensitivity``)."""
     ambiguity_spread: float = 0.0
     """Largest deviation change (mm) between the chosen pose and a nearly-as-good runner-up."""
     margin: np.ndarray | None = None
     """(n,) nominal-sampling margin per point, mm (the guarded decision rule only)."""
+    pose_sensitivity: "PoseSensitivity | None" = None
+    """Whether the verdict holds over the poses the measurement allows (engine.trust); None
+    when the pose cannot be trusted at all (not converged, not this part)."""
+    trust_statements: tuple[str, ...] = ()
+    """What the measurement does not fix and what that does to the verdict, in plain words
+    (engine.trust.trust_statements), for the certificate."""
 
     @property
     def outlier(self) -> np.ndarray:
@@ -163,19 +176,26 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         registered = apply_transform(T, measured)
         dev = point_to_surface(nominal, registered)
     margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
+    ts = time.perf_counter()
+    sens, statements = _sensitivity(
+        lambda Tc, idx: point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed,
+        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit, reg.outlier_cut)
+    ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
-                                     margin)
+                                     margin, sens, statements)
     stats = Statistics.of(dev.signed, tolerance)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
-    timings = {"register": t1 - t0 - reg.deviation_s, "deviation": reg.deviation_s + t2 - t1}
+    timings = {"register": t1 - t0 - reg.deviation_s,
+               "deviation": reg.deviation_s + t2 - t1 - ts, "pose_sensitivity": ts}
     if T is not reg.T_nominal_measured:
         reg = _with_pose(reg, T, dev)
     return InspectionResult(verdict, reasons, tolerance, reg, registered, dev, inside, stats,
                             nominal.normals_source, timings, extra, fit=fit,
                             decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
-                            ambiguity_spread=spread, margin=margin)
+                            ambiguity_spread=spread, margin=margin, pose_sensitivity=sens,
+                            trust_statements=statements)
 
 
 GROSS_ZONES = 5.0
@@ -195,15 +215,21 @@ difference of two rigid poses' deviations varies smoothly over the part, so a su
 over it finds its largest value."""
 
 
+def _plausible_runner_up(reg) -> bool:
+    """A distinct runner-up pose scoring within AMBIGUITY_SCORE_RATIO of the chosen one, and no
+    symmetry of a 2D template (which leaves every deviation as it is)."""
+    return (reg.runner_up_T is not None and reg.runner_up_score is not None
+            and not getattr(reg, "symmetric", False)
+            and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score)
+
+
 def _ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool, float]:
     """(ambiguous, spread): a nearly-as-good distinct runner-up pose (not a symmetry of a 2D
     template) that moves some deviation by more than a tenth of the zone width.
 
     deviations_at(T, idx) : signed deviations of measured points ``idx`` at pose T."""
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
-            and reg.runner_up_T is not None and reg.runner_up_score is not None
-            and not getattr(reg, "symmetric", False)
-            and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score):
+            and _plausible_runner_up(reg)):
         return False, 0.0
     idx = np.arange(d.size)
     if d.size > AMBIGUITY_POINTS:
@@ -274,12 +300,17 @@ def _margins_3d(nominal: Nominal, feet: np.ndarray) -> np.ndarray:
 
 
 def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
-          spread: float = 0.0, margin: np.ndarray | None = None):
+          spread: float = 0.0, margin: np.ndarray | None = None,
+          sensitivity: "PoseSensitivity | None" = None, statements: tuple[str, ...] = ()):
     """Verdict, reasons and per-point in-tolerance mask for deviations ``d`` at pose ``reg``.
 
     weak : unconstrained directions (engine.trust.WeakDirection); ambiguous : another pose fits
     about as well with deviations up to ``spread`` mm apart; margin : per-point sampling margin,
     mm, for the guarded decision rule (None: the simple rule).
+    sensitivity : whether the pointwise verdict holds over the poses the measurement allows
+    (engine.trust.pose_sensitivity), with ``statements`` saying so in plain words. Given, a weak
+    direction or a runner-up makes the verdict INCONCLUSIVE only when the verdict differs at
+    some of those poses (they are reported as facts otherwise); None: any of them does.
     """
     inside = (d >= tol.lower) & (d <= tol.upper)
     reasons = []
@@ -289,32 +320,69 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
         reasons.append(f"only {100 * reg.near_fraction:.0f}% of the {d.size} points lie within "
                        f"{reg.near_distance:.3g} mm (1% of the nominal's size) of the nominal at "
                        "the best pose found; the pose cannot be trusted")
-    if ambiguous:
-        reasons.append(f"the pose is ambiguous: another pose fits nearly as well (score "
-                       f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm) and moves "
-                       f"deviations by up to {spread:.4g} mm")
-    if weak:
-        names = "; ".join(f"{w.type} {'along' if w.type == 'translation' else 'about'} "
-                          f"({', '.join(f'{a:+.3f}' for a in w.axis)})" for w in weak)
-        reasons.append(f"the measured points do not constrain the pose: {names}")
+    if sensitivity is None:
+        if ambiguous:
+            reasons.append(f"the pose is ambiguous: another pose fits nearly as well (score "
+                           f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm) and moves "
+                           f"deviations by up to {spread:.4g} mm")
+        if weak:
+            names = "; ".join(f"{w.type} {'along' if w.type == 'translation' else 'about'} "
+                              f"({', '.join(f'{a:+.3f}' for a in w.axis)})" for w in weak)
+            reasons.append(f"the measured points do not constrain the pose: {names}")
     if reasons:
         return INCONCLUSIVE, tuple(reasons), inside
+    verdict, reason = pointwise_verdict(d, tol, margin)
+    if sensitivity is not None and not sensitivity.verdict_stable:
+        return INCONCLUSIVE, (
+            f"the verdict depends on the pose: {verdict} at the fitted pose, but not at every "
+            f"pose the measurement allows (deviations change by up to "
+            f"{sensitivity.max_change_mm:.4g} mm; the point nearest a limit is "
+            f"{abs(sensitivity.min_limit_margin_mm):.4g} mm from it)", *statements), inside
+    return verdict, (reason, *statements), inside
+
+
+def pointwise_verdict(d: np.ndarray, tol: Tolerance,
+                      margin: np.ndarray | None = None) -> tuple[str, str]:
+    """(verdict, reason) of the decision rule on deviations ``d`` (n,) alone, the pose taken as
+    right: the simple rule (margin None) or the guarded one with per-point ``margin`` (n,) mm."""
     if margin is None:
-        n_out = int((~inside).sum())
+        n_out = int(((d < tol.lower) | (d > tol.upper)).sum())
         if n_out:
-            return REJECT, (f"{n_out} of {d.size} points lie outside the tolerance zone",), inside
-        return ACCEPT, (f"all {d.size} points lie inside the tolerance zone",), inside
+            return REJECT, f"{n_out} of {d.size} points lie outside the tolerance zone"
+        return ACCEPT, f"all {d.size} points lie inside the tolerance zone"
     out_grown = (d < tol.lower - margin) | (d > tol.upper + margin)
     in_shrunk = (d >= tol.lower + margin) & (d <= tol.upper - margin)
     if out_grown.any():
         return REJECT, (f"{int(out_grown.sum())} of {d.size} points lie outside the tolerance "
-                        "zone by more than their nominal-sampling margin",), inside
+                        "zone by more than their nominal-sampling margin")
     if in_shrunk.all():
         return ACCEPT, (f"all {d.size} points lie inside the tolerance zone by more than their "
-                        "nominal-sampling margin",), inside
+                        "nominal-sampling margin")
     k = int((~in_shrunk).sum())
-    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their nominal-sampling margin of a "
-                          "tolerance limit (guarded decision rule)",), inside
+    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their nominal-sampling margin of "
+                          "a tolerance limit (guarded decision rule)")
+
+
+def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
+                 cut: float):
+    """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
+    cannot be trusted anyway). The runner-up is a plausible pose when it scores within
+    AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
+    minimax fit it is judged at its own minimax pose, as the chosen one is."""
+    from .trust import pose_sensitivity, trust_statements
+
+    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
+        return None, ()
+    alternatives = []
+    if _plausible_runner_up(reg):
+        Tr = reg.runner_up_T
+        if fit == "minimax":
+            Tr = _minimax(evaluate, Tr, evaluate(Tr)[1], cut, tol, {})
+        alternatives.append(Tr)
+    sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
+                            lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
+                            alternatives)
+    return sens, trust_statements(sens, reg.score, reg.runner_up_score)
 
 
 def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
@@ -394,10 +462,18 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     extra["template"]["symmetric"] = reg.symmetric
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     margin = np.zeros(d.size) if decision_rule == "guarded" else None
-    verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin)
+    ts = time.perf_counter()
+    sens, statements = _sensitivity(
+        lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
+        reg, tolerance, margin, fit, reg.outlier_cut)
+    ts = time.perf_counter() - ts
+    verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
+                                     sens, statements)
     stats = Statistics.of(d, tolerance)
     t2 = time.perf_counter()
     return InspectionResult(verdict, reasons, tolerance, reg3, registered, dev, inside, stats,
-                            "contour", {"register": t1 - t0, "deviation": t2 - t1}, extra,
+                            "contour", {"register": t1 - t0, "deviation": t2 - t1 - ts,
+                                        "pose_sensitivity": ts}, extra,
                             fit=fit, decision_rule=decision_rule, conditioning=cond,
-                            ambiguous=ambiguous, ambiguity_spread=spread, margin=margin)
+                            ambiguous=ambiguous, ambiguity_spread=spread, margin=margin,
+                            pose_sensitivity=sens, trust_statements=statements)

@@ -9,6 +9,10 @@
   linearised pose (scipy's HiGHS) with a trust region, each step checked on the exact deviations.
 * :func:`sampling_margin`: per point, how far facets through sampled nominal points can lie from
   the true surface: curvature x spacing^2 / 8.
+* :func:`pose_sensitivity`: whether the verdict survives the pose's uncertainty: the part moved
+  along each weak or free direction (exact screw motions, +-3 sigma, or far along a free one)
+  and to the runner-up pose, every deviation that can cross a limit evaluated exactly there;
+  :func:`trust_statements` says in plain words what the measurement does not fix.
 
 Shapes: points and normals are (n, 3) in 3D, (n, 2) for a 2D template (3 degrees of freedom:
 the rotation about z and the two translations). Units mm; directions in the nominal frame.
@@ -45,6 +49,11 @@ class WeakDirection:
     """The direction's eigenvalue over the largest one (0: not constrained at all)."""
     sigma_mm: float | None = None
     """1-sigma motion along it that the fit's residuals imply (None: infinite)."""
+    twist: tuple[float, ...] = ()
+    """The direction as a unit motion (the normal matrix's eigenvector): rotation (rad x
+    ``Conditioning.length``) then translation (mm), about ``Conditioning.centre``; 6 numbers
+    in 3D, 3 for a 2D template. A rotation of a part measured off its axis carries the
+    translation that keeps it about the true axis."""
 
 
 @dataclass(frozen=True)
@@ -64,6 +73,8 @@ class Conditioning:
     weak: tuple[WeakDirection, ...] = field(default_factory=tuple)
     length: float = 0.0
     pose_sigma_mm: float | None = None
+    centre: tuple[float, ...] = ()
+    """Centroid of the fitted points (nominal frame, mm): the rotations' origin in ``twist``."""
 
 
 def _jacobian(X: np.ndarray, normals: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -126,7 +137,7 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
         axis = axis * (1.0 if axis[np.argmax(np.abs(axis))] >= 0 else -1.0)
         weak.append(WeakDirection(kind, tuple(float(a) for a in axis), float(strengths[k]),
                                   None if sig is None or strengths[k] < DEGENERATE_STRENGTH
-                                  else float(sig)))
+                                  else float(sig), tuple(float(a) for a in v)))
     sigma = None
     if not weak and n > dof and np.isfinite(residual_rms) and lam[0] > 0:
         # Pose covariance s^2 (J^T J)^-1; a point moves by G dp, with G its own Jacobian of
@@ -146,7 +157,8 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
             G[:, :, 1:] = np.eye(2)
         var = np.einsum("nij,jk,nik->n", G, cov, G)
         sigma = float(np.sqrt(var.max()))
-    return Conditioning(tuple(float(s) for s in strengths), tuple(weak), length, sigma)
+    return Conditioning(tuple(float(s) for s in strengths), tuple(weak), length, sigma,
+                        tuple(float(a) for a in c))
 
 
 _LEVI = np.zeros((3, 3, 3))
@@ -269,3 +281,279 @@ def sampling_margin(curvature: np.ndarray, spacing: np.ndarray) -> np.ndarray:
     """curvature (1/mm) x spacing (mm)^2 / 8: how far a chord through sampled points can lie
     from the curved surface (the paper's Fig. 4), per point, mm."""
     return np.abs(curvature) * spacing * spacing / 8.0
+
+
+# ---------------------------------------------------------------------------- pose sensitivity
+PROBE_SIGMAS = (1.5, 3.0)
+"""A weak direction with a finite 1-sigma motion is probed at +- these multiples of it (the
+outer one is the uncertainty region; the inner one catches a deviation that rises and falls
+again within it)."""
+FREE_REACH = 0.5
+"""A free direction (no finite sigma) is probed up to this fraction of the fitted points' RMS
+radius ``Conditioning.length`` (a translation in mm; a rotation by that arc at the RMS radius:
+0.5 rad, about 29 degrees) — far enough to matter at the part's scale, short enough to keep the
+points on the nominal they were measured on (a cylinder measured over 60% of its length)."""
+FREE_PROBES = (0.01, 0.1, 1.0)
+"""… at +- these fractions of that reach: a deviation that changes at all shows at some scale."""
+INVARIANT_FRACTION = 0.02
+"""A free direction is one the deviations are invariant along when no probe changes any
+deviation by more than this fraction of the zone width (the nominal's sampling moves them by a
+few micrometres at most)."""
+PLAUSIBLE_RMS_RATIO = 1.5
+"""A pose along a free direction is one the measurement allows only while the points still fit
+there: the RMS of their deviations at most this factor (the runner-up's score ratio, see
+engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone width. Slid past
+the end of a cylinder, or rotated into a sphere's unsampled pole, they do not: such a pose is
+not a place the part could be, and its verdict does not count."""
+SENSITIVITY_POINTS = 16384
+"""Points evaluated at every probed pose at most (a seeded subset beyond, then every point
+within NEAR_FACTOR x the subset's largest change of a limit): a rigid motion changes the
+deviations smoothly over the part, so the subset sees the largest change, and only points that
+close to a limit can cross one."""
+NEAR_FACTOR = 2.0
+
+
+@dataclass(frozen=True)
+class PoseProbe:
+    """The part moved along one weak or free direction, or to the runner-up pose."""
+
+    kind: str
+    """"translation", "rotation" or "runner-up"."""
+    axis: tuple[float, ...] | None
+    """The direction (WeakDirection.axis); None for the runner-up."""
+    free: bool
+    """No finite 1-sigma motion: the measurement does not determine the pose along it at all."""
+    amplitudes: tuple[float, ...]
+    """The motions probed, mm at the fitted points' RMS radius (a rotation's angle is this over
+    ``PoseSensitivity.length_mm``); () for the runner-up."""
+    max_change_mm: float
+    """Largest |deviation change| of any point evaluated, over the plausible poses probed."""
+    verdicts: tuple[str, ...]
+    """The pointwise verdict at each probed pose (one for the runner-up)."""
+    invariant: bool
+    """No deviation changes by more than INVARIANT_FRACTION of the zone width (plausible
+    poses)."""
+    plausible: tuple[bool, ...] = ()
+    """Per probed pose: the points still fit there (always, within +-3 sigma of a weak
+    direction; see PLAUSIBLE_RMS_RATIO for a free one). Only these count."""
+    through: tuple[float, ...] | None = None
+    """A rotation: a point of its axis (nominal frame, mm)."""
+    sigma_mm: float | None = None
+    """WeakDirection.sigma_mm (None: free or the runner-up)."""
+
+
+@dataclass(frozen=True)
+class PoseSensitivity:
+    """Whether the verdict holds over the poses the measurement allows.
+
+    The verdict is stable when the pointwise verdict (every point inside / some outside, with
+    the guarded rule's margins) is the same at every probed pose and at the plausible runner-up
+    pose as at the chosen one.
+    """
+
+    probes: tuple[PoseProbe, ...]
+    verdict: str
+    """The pointwise verdict at the chosen pose."""
+    verdict_stable: bool
+    max_change_mm: float
+    """Largest |deviation change| over all probed poses and the runner-up, mm."""
+    min_limit_margin_mm: float
+    """Signed distance (mm, positive inside the zone) to its nearest limit of the point closest
+    to one: a point can change the verdict only if the pose moves it by more than this."""
+    worst_margin_mm: float
+    """min over points of min(d - lower, upper - d), mm: negative when a point lies outside."""
+    points_evaluated: int
+    """Points whose deviations were evaluated at the probed poses (all, or the subset and
+    those near a limit)."""
+    length_mm: float = 0.0
+    """The fitted points' RMS radius (the rotations' scale)."""
+
+
+def _twist_matrix(twist, amplitude: float, centre, length: float) -> np.ndarray:
+    """The exact rigid motion (4x4, or 3x3 in 2D) of ``amplitude`` along a unit ``twist``
+    (WeakDirection.twist) about ``centre``: the screw motion exp(amplitude x twist), so a
+    rotation about a cylinder's axis stays on the cylinder however large it is."""
+    from scipy.linalg import expm
+
+    v = np.asarray(twist, float) * amplitude
+    c = np.asarray(centre, float)
+    if c.size == 3:
+        w, t = v[:3] / length, v[3:]
+        W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+        G = np.zeros((4, 4))
+        G[:3, :3] = W
+        G[:3, 3] = t - W @ c  # velocity w x (x - c) + t
+    else:
+        th, t = v[0] / length, v[1:]
+        W = np.array([[0.0, -th], [th, 0.0]])
+        G = np.zeros((3, 3))
+        G[:2, :2] = W
+        G[:2, 2] = t - W @ c
+    return expm(G)
+
+
+def _axis_point(twist, centre, length: float) -> tuple[float, ...]:
+    """The point of a rotation twist's screw axis nearest the nominal's origin (nominal frame,
+    mm): the axis passes through c + (w x v) / |w|^2."""
+    v = np.asarray(twist, float)
+    c = np.asarray(centre, float)
+    if c.size == 3:
+        w, t = v[:3] / length, v[3:]
+        p = c + np.cross(w, t) / max(float(w @ w), 1e-300)
+        a = w / max(float(np.linalg.norm(w)), 1e-300)
+        p = p - a * float(a @ p)
+    else:
+        th, t = v[0] / length, v[1:]
+        p = c + np.array([-t[1], t[0]]) / (th if th else 1e-300)
+    return tuple(float(a) for a in p)
+
+
+def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                     T: np.ndarray, d: np.ndarray, lower: float, upper: float,
+                     cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
+                     margin: np.ndarray | None = None, alternatives=(),
+                     max_points: int = SENSITIVITY_POINTS) -> PoseSensitivity:
+    """Does the verdict survive the pose's uncertainty?
+
+    deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
+        pose T' (the same kind of transform as ``T``: 4x4 measured -> nominal, or the 3x3 2D
+        one), exactly (the flow's own deviation function).
+    T, d : the chosen pose and the (n,) deviations there.
+    cond : the fit's conditioning; each weak direction is probed by the exact screw motion
+        along it (``WeakDirection.twist``) applied in the nominal frame before ``T``, at
+        +-PROBE_SIGMAS x its sigma, or for a free one at +-FREE_PROBES x FREE_REACH x
+        ``cond.length`` (both capped at that reach).
+    verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'.
+    margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
+    alternatives : other plausible poses (the runner-up), each judged as a whole.
+    """
+    d = np.asarray(d, float)
+    n = d.size
+    width = upper - lower
+    m = np.zeros(n) if margin is None else np.asarray(margin, float)
+    # Distance of each point to the nearest value where its pointwise verdict changes.
+    dist = np.min(np.abs(np.stack([d - (lower - m), d - (lower + m), d - (upper - m),
+                                   d - (upper + m)])), axis=0)
+    signed = np.minimum(d - lower, upper - d)
+    closest = float(signed[np.argmin(np.abs(signed))]) if n else 0.0
+    worst = float(signed.min()) if n else 0.0
+    base = verdict_of(d)
+    plans = []  # (kind, axis, free, amplitudes, poses, through, sigma)
+    reach = FREE_REACH * cond.length
+    for w in cond.weak:
+        if not w.twist:
+            continue
+        free = w.sigma_mm is None
+        steps = ([f * reach for f in FREE_PROBES] if free else
+                 [min(k * w.sigma_mm, reach) for k in PROBE_SIGMAS])
+        amps = tuple(sorted({float(s) for a in steps for s in (-a, a)}))
+        poses = [_twist_matrix(w.twist, a, cond.centre, cond.length) @ T for a in amps]
+        through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
+            else None
+        plans.append((w.type, w.axis, free, amps, poses, through, w.sigma_mm))
+    for Ta in alternatives:
+        plans.append(("runner-up", None, False, (), [np.asarray(Ta, float)], None, None))
+    if not plans or n == 0:
+        return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
+    poses = [P for plan in plans for P in plan[4]]
+    free = np.array([plan[2] for plan in plans for _ in plan[4]])
+    if n <= max_points:
+        idx = np.arange(n)
+    else:
+        idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
+    change = np.stack([deviations_at(P, idx) - d[idx] for P in poses])
+    # Along a free direction a pose counts only while the points still fit there.
+    rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
+    rms = np.sqrt(np.mean((d[idx] + change) ** 2, axis=1))
+    ok = ~free | (rms <= PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width)
+    if idx.size < n and ok.any():
+        # Only a point within the largest change (with room) of a limit can cross it.
+        near = np.flatnonzero(dist <= NEAR_FACTOR * float(np.abs(change[ok]).max()))
+        near = np.setdiff1d(near, idx)
+        if near.size:
+            more = np.zeros((len(poses), near.size))
+            for k in np.flatnonzero(ok):
+                more[k] = deviations_at(poses[k], near) - d[near]
+            idx = np.concatenate([idx, near])
+            change = np.concatenate([change, more], axis=1)
+    probes = []
+    row = 0
+    for kind, axis, is_free, amps, ps, through, sigma in plans:
+        ch = change[row:row + len(ps)]
+        fit = ok[row:row + len(ps)]
+        row += len(ps)
+        verdicts = []
+        for k in range(len(ps)):
+            dd = d.copy()
+            dd[idx] += ch[k]
+            verdicts.append(verdict_of(dd))
+        mx = float(np.abs(ch[fit]).max()) if fit.any() else 0.0
+        probes.append(PoseProbe(kind, axis, is_free, amps, mx, tuple(verdicts),
+                                mx <= INVARIANT_FRACTION * width, tuple(bool(o) for o in fit),
+                                through, sigma))
+    stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
+    return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
+                           closest, worst, int(idx.size), cond.length)
+
+
+def _vec(a) -> str:
+    return "(" + ", ".join(f"{round(x, 3) + 0.0:+.3f}" for x in a) + ")"  # no "-0.000"
+
+
+def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
+                     runner_up_score: float | None = None) -> tuple[str, ...]:
+    """What the measurement does not fix, and what that does to the verdict, in plain words:
+    one sentence per weak or free direction and for a plausible runner-up pose that changes
+    the deviations, then the nearest point's margin against the largest change."""
+    if sens is None:
+        return ()
+    out = []
+    for p in sens.probes:
+        ok = p.plausible or (True,) * len(p.verdicts)
+        changed = [v for v, o in zip(p.verdicts, ok) if o and v != sens.verdict]
+        if p.kind == "runner-up":
+            if p.invariant and not changed:
+                continue  # the same deviations: an equivalent pose (a symmetry), not news
+            head = "another pose fits nearly as well"
+            if score is not None and runner_up_score is not None:
+                head += f" (score {runner_up_score:.4g} mm against {score:.4g} mm)"
+            head += f" and moves deviations by up to {p.max_change_mm:.4g} mm"
+            out.append(head + ("; the verdict is the same at both" if not changed else
+                               f"; the pose is ambiguous: at that pose the verdict would be "
+                               f"{changed[0]}, so it depends on which pose is right"))
+            continue
+        reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
+        if p.kind == "translation":
+            what, how, along = f"position along {_vec(p.axis)}", f"±{reach:.3g} mm", "along"
+            every = "position"
+        else:
+            what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
+            how = f"±{np.degrees(reach / (sens.length_mm or 1.0)):.3g}°"
+            along, every = "about", "orientation"
+        if p.free:
+            fixed = f"{what} is not determined by the measured points"
+        elif p.sigma_mm is not None and reach < 0.999 * PROBE_SIGMAS[-1] * p.sigma_mm:
+            # 3 sigma beyond the free reach: probed as far as a free direction.
+            fixed = f"{what} is hardly determined (3σ beyond {how}, the reach probed)"
+        else:
+            fixed = f"{what} is determined only to {how} (3σ)"
+        if changed:
+            out.append(f"the measured points do not constrain the pose: {fixed}; moving the part "
+                       f"{along} it (within {how}) changes deviations by up to "
+                       f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
+        elif p.free and p.invariant:
+            out.append(f"{fixed}; the deviations do not change {along} it (probed to {how}): "
+                       f"the verdict is about form and holds for every such {every}")
+        elif p.free:
+            out.append(f"{fixed}; moving the part {along} it (probed to {how}) changes "
+                       f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
+                       f"same at every {every} probed")
+        else:
+            out.append(f"{fixed}; moving the part over that range changes no deviation by "
+                       f"more than {p.max_change_mm:.4g} mm and the verdict holds over it")
+    if out:
+        where = "inside" if sens.min_limit_margin_mm >= 0 else "outside"
+        out.append(f"the point nearest a tolerance limit lies {abs(sens.min_limit_margin_mm):.4g}"
+                   f" mm {where} it; the poses the measurement allows change deviations by up "
+                   f"to {sens.max_change_mm:.4g} mm")
+    return tuple(out)

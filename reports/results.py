@@ -111,6 +111,41 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},
         **_json_safe(result.extra),
+        "pose_sensitivity": pose_sensitivity_json(result),
+    }
+
+
+def pose_sensitivity_json(result: InspectionResult) -> dict | None:
+    """Whether the verdict holds over the poses the measurement allows (None: the pose could
+    not be trusted at all), and what the measurement does not fix, in plain words."""
+    sens = result.pose_sensitivity
+    if sens is None:
+        return None
+    return {
+        "verdict_stable": bool(sens.verdict_stable),
+        "verdict_at_fitted_pose": sens.verdict,
+        "max_change_mm": _num(sens.max_change_mm),
+        "min_limit_margin_mm": _num(sens.min_limit_margin_mm),
+        "worst_margin_mm": _num(sens.worst_margin_mm),
+        "points_evaluated": int(sens.points_evaluated),
+        "probes": [{"kind": p.kind, "axis": None if p.axis is None else list(p.axis),
+                    "through": None if p.through is None else list(p.through),
+                    "free": bool(p.free),
+                    "sigma_mm": None if p.sigma_mm is None else _num(p.sigma_mm),
+                    "amplitudes_mm": [_num(a) for a in p.amplitudes],
+                    "verdicts": list(p.verdicts), "plausible": [bool(o) for o in p.plausible],
+                    "max_change_mm": _num(p.max_change_mm), "invariant": bool(p.invariant)}
+                   for p in sens.probes],
+        "statements": list(result.trust_statements),
+        "definition": "the pointwise verdict re-evaluated with the part moved along each weak "
+                      "direction by +-1.5 and +-3 sigma, along each free one by up to half the "
+                      "fitted points' RMS radius (a rotation: that arc at that radius) where the "
+                      "points still fit (RMS of deviations within 1.5x the fitted pose's plus 2% "
+                      "of the zone), and at a runner-up pose scoring within 1.5x; the verdict is "
+                      "INCONCLUSIVE when it differs at any of them. amplitudes_mm: motion at the "
+                      "RMS radius; min_limit_margin_mm: signed distance (positive inside) to its "
+                      "nearest limit of the point closest to one; max_change_mm: largest "
+                      "|deviation change| over the poses probed",
     }
 
 

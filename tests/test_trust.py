@@ -117,7 +117,12 @@ def _cylinder(r=40.0, length=200.0, nu=160, nv=80):
     return pts, nrm
 
 
-def test_a_cylinder_only_measurement_is_unconstrained_along_and_about_its_axis():
+def test_a_cylinder_measured_all_round_is_judged_on_its_form():
+    """Translation along and rotation about the axis are free, and the deviations do not change
+    along them: the verdict (a form check) holds for every such position and says so."""
+    from engine.deviation import point_to_surface
+    from engine.geometry import rotation_from_rotvec
+
     pts, nrm = _cylinder()
     R = random_rotation(np.random.default_rng(2))
     axis = R[:, 2]
@@ -125,18 +130,36 @@ def test_a_cylinder_only_measurement_is_unconstrained_along_and_about_its_axis()
     rng = np.random.default_rng(4)
     a = rng.uniform(0, 2 * np.pi, 300)
     z = rng.uniform(-60, 60, 300)
-    q = np.column_stack([40 * np.cos(a), 40 * np.sin(a), z]) @ R.T
+    dev = rng.uniform(-0.012, 0.012, 300)
+    q = np.column_stack([(40 + dev) * np.cos(a), (40 + dev) * np.sin(a), z]) @ R.T
     measured = apply_transform(make_transform(random_rotation(rng), [300.0, -20.0, 55.0]), q)
     res = inspect(nominal, measured, Tolerance.symmetric(0.05))
     weak = res.conditioning.weak
-    kinds = sorted(w.type for w in weak)
-    assert kinds == ["rotation", "translation"]
+    assert sorted(w.type for w in weak) == ["rotation", "translation"]
     for w in weak:
         assert abs(abs(np.dot(w.axis, axis)) - 1.0) < 1e-3
-        assert w.strength < 1e-4
-    assert res.verdict == INCONCLUSIVE
-    assert any("do not constrain the pose" in r for r in res.reasons)
+        assert w.strength < 1e-4 and w.sigma_mm is None
     assert res.conditioning.pose_sigma_mm is None
+    # The deviations are the radial offsets planted (the cylinder's axis is where it belongs).
+    assert np.max(np.abs(res.deviations.signed - dev)) < 2e-3
+    assert res.verdict == ACCEPT
+    sens = res.pose_sensitivity
+    assert sens.verdict_stable and sens.max_change_mm < 0.002
+    assert sens.min_limit_margin_mm == pytest.approx(0.05 - np.abs(res.deviations.signed).max())
+    # Independently: slid 20 mm along the true axis (towards the middle of the nominal: the
+    # fit left the points anywhere along it) and turned 25 degrees about it, no deviation
+    # changes.
+    X = res.registered
+    moved = point_to_surface(nominal, X - 20.0 * np.sign(np.mean(X @ axis)) * axis).signed
+    assert np.max(np.abs(moved - res.deviations.signed)) < 2e-3
+    turn = rotation_from_rotvec(np.radians(25.0) * axis[None, :])[0]
+    moved = point_to_surface(nominal, X @ turn.T).signed
+    assert np.max(np.abs(moved - res.deviations.signed)) < 2e-3
+    # In plain words, in the reasons and for the certificate.
+    said = " ".join(res.trust_statements)
+    assert "position along" in said and "orientation about the axis" in said
+    assert said.count("the verdict is about form and holds for every such") == 2
+    assert set(res.trust_statements) <= set(res.reasons)
 
 
 def test_conditioning_of_a_plane_and_of_a_well_constrained_part(fairing):
@@ -210,9 +233,14 @@ def test_sampling_margin_is_curvature_times_spacing_squared_over_8():
     assert res.margin is not None and res.decision_rule == "guarded"
     ratio = res.margin / (h * h / (8 * R))
     assert np.all((0.75 < ratio) & (ratio < 1.15)) and 0.9 < np.median(ratio) < 1.1
-    # A sphere measured all over leaves the three rotations free: no verdict.
-    assert res.verdict == INCONCLUSIVE
+    # A sphere measured all over leaves the three rotations free, but its points lie on it
+    # exactly whichever way it is turned: the verdict is about form (turned into the nominal's
+    # unsampled poles, the points would not fit: such poses do not count).
     assert sorted(w.type for w in res.conditioning.weak) == ["rotation"] * 3
+    assert res.verdict == ACCEPT and res.pose_sensitivity.verdict_stable
+    for p in res.pose_sensitivity.probes:  # every axis passes through the sphere's centre
+        assert np.linalg.norm(p.through) < 1e-2
+    assert sum("holds for every such orientation" in r for r in res.reasons) == 3
 
 
 def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
@@ -245,9 +273,10 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
                  os.path.join(belly, "measured.csv"), "--tol", "0.12"]) == 1
 
 
-def _symmetric_part(bump: float):
+def _symmetric_part(bump: float, dent: float = 0.0, seed: int = 0):
     """A surface symmetric under a half turn about z, with an optional small bump on one side
-    only (an asymmetric feature a half-turned part would miss)."""
+    only (an asymmetric feature a half-turned part would miss); the measured part (1,500
+    points, seeded pose) has an optional ``dent`` (mm deep) of its own."""
 
     def h(x, y):
         return -x ** 2 / 800.0 - y ** 2 / 300.0 + bump * np.exp(
@@ -265,23 +294,59 @@ def _symmetric_part(bump: float):
                                                (400, 200)))
     rng = np.random.default_rng(21)
     mx, my = rng.uniform(-245, 245, 1500), rng.uniform(-120, 120, 1500)
-    q = np.column_stack([mx, my, h(mx, my)]) + rng.normal(0, 0.005, 1500)[:, None] * n(mx, my)
+    d = rng.normal(0, 0.005, 1500) - dent * np.exp(-((mx + 60) ** 2 + (my + 50) ** 2)
+                                                   / (2 * 20.0 ** 2))
+    q = np.column_stack([mx, my, h(mx, my)]) + d[:, None] * n(mx, my)
     T = make_transform(random_rotation(rng), [300.0, 100.0, -50.0])
+    if seed:
+        prng = np.random.default_rng(1000 + seed)
+        T = make_transform(random_rotation(prng), prng.uniform(-1000, 1000, 3))
     return nominal, apply_transform(T, q)
 
 
-def test_an_ambiguous_pose_is_inconclusive_a_symmetry_is_not():
+def test_an_ambiguous_pose_is_inconclusive_only_when_the_verdict_differs():
     nominal, measured = _symmetric_part(bump=0.0)
     res = inspect(nominal, measured, Tolerance.symmetric(0.1))
     # The half-turned pose fits as well and gives the same deviations: a symmetry.
     assert res.verdict == ACCEPT and not res.ambiguous
 
+    # The half-turned pose misses the 0.04 mm bump, but at both poses every point lies well
+    # inside +-0.1: the verdict is the same at both, and the runner-up is reported.
     nominal, measured = _symmetric_part(bump=0.04)
     res = inspect(nominal, measured, Tolerance.symmetric(0.1))
     reg = res.registration
     assert reg.runner_up_score is not None and reg.runner_up_score <= 1.5 * reg.score
     assert res.ambiguous and res.ambiguity_spread > 0.02
-    assert res.verdict == INCONCLUSIVE and any("ambiguous" in r for r in res.reasons)
+    assert res.verdict == ACCEPT and res.pose_sensitivity.verdict_stable
+    assert any("the verdict is the same at both" in r for r in res.reasons)
+
+    # Within +-0.05 the part fits at the chosen pose; at the half-turned one the bump's points
+    # lie 0.04 mm below, beyond the zone: one plausible pose accepts, the other rejects.
+    from engine.deviation import point_to_surface
+
+    tol = Tolerance.symmetric(0.03)
+    res = inspect(nominal, measured, tol)
+    at_runner = point_to_surface(nominal, apply_transform(res.registration.runner_up_T,
+                                                          measured)).signed
+    assert np.all(np.abs(res.deviations.signed) <= 0.03)  # independent: both poses judged
+    assert np.any(np.abs(at_runner) > 0.03)
+    assert res.verdict == INCONCLUSIVE and not res.pose_sensitivity.verdict_stable
+    assert "depends on the pose" in res.reasons[0]
+    assert any("the pose is ambiguous" in r and "REJECT" in r for r in res.reasons)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_dented_part_rejects_from_any_pose(seed):
+    """A 0.4 mm dent on a part with a nearly-as-good half-turned pose (the nominal symmetric
+    but for a small bump): far out of tolerance at either pose, so REJECT from every pose the
+    part is measured in — not INCONCLUSIVE because the runner-up moves some deviations."""
+    nominal, measured = _symmetric_part(bump=0.08, dent=0.4, seed=seed)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.25))
+    assert res.statistics.n_out > 0 and res.statistics.min < -0.3
+    assert res.verdict == REJECT
+    assert res.pose_sensitivity.verdict_stable
+    if res.pose_sensitivity.probes:  # the runner-up is reported as a fact
+        assert any("another pose fits nearly as well" in r for r in res.reasons)
 
 
 def test_minimax_in_2d_and_on_partial_coverage(fairing):
@@ -378,7 +443,19 @@ def test_a_weak_direction_counts_only_when_the_measurement_leaves_it_uncertain(f
     res = inspect(bracket, pts, Tolerance.symmetric(0.05))
     (w,) = res.conditioning.weak
     assert w.type == "translation" and abs(w.axis[1]) > 0.99 and w.strength < 1e-4
-    assert w.sigma_mm > 0.25 * 0.1 and res.verdict == INCONCLUSIVE
+    assert w.sigma_mm > 0.25 * 0.1
+    # Slid +-3 sigma along the edge, the freeform faces change no deviation by more than a few
+    # micrometres, and every point is over 30 um inside: the verdict stands, and says how far
+    # the pose is determined.
+    from engine.deviation import point_to_surface
+
+    shift = 3 * w.sigma_mm * np.asarray(w.axis)
+    change = max(np.abs(point_to_surface(bracket, res.registered + s * shift).signed
+                        - res.deviations.signed).max() for s in (-1, 1))
+    assert change < 0.01 < res.pose_sensitivity.min_limit_margin_mm
+    assert res.pose_sensitivity.max_change_mm == pytest.approx(change, abs=1e-3)
+    assert res.verdict == ACCEPT
+    assert any(f"determined only to ±{3 * w.sigma_mm:.3g} mm (3σ)" in r for r in res.reasons)
 
     rng = np.random.default_rng(40)
     x, y = rng.uniform(-90, 90, 400), rng.uniform(-45, 45, 400)
@@ -389,3 +466,165 @@ def test_a_weak_direction_counts_only_when_the_measurement_leaves_it_uncertain(f
     assert min(res.conditioning.strengths) < 1e-4  # weak by shape …
     assert res.conditioning.weak == () and res.verdict == ACCEPT  # … pinned by the points
     assert res.conditioning.pose_sigma_mm < 0.25 * 0.2  # within a quarter of the zone
+
+
+def test_a_quarter_of_the_fairing_with_a_weak_slide_accepts(fairing):
+    """400 points on one quarter: one translation is weak (sigma well above a quarter of the
+    zone), but sliding the part 3 sigma along it changes no deviation by more than a few
+    micrometres, and every point is far inside +-0.25 mm: ACCEPT, the slide reported."""
+    from engine.deviation import point_to_surface
+
+    rng = np.random.default_rng(41)
+    x, y = rng.uniform(-245, 0, 400), rng.uniform(0, 120, 400)
+    dev = rng.normal(0, 0.004, 400) + 0.12 * np.exp(-((x + 120) ** 2 + (y - 60) ** 2)
+                                                    / (2 * 20.0 ** 2))
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    res = inspect(fairing, apply_transform(make_transform(random_rotation(rng), [5.0, 6, 7]), q),
+                  Tolerance.symmetric(0.25))
+    (w,) = res.conditioning.weak
+    assert w.type == "translation" and w.sigma_mm > 0.25 * 0.5
+    assert 0.05 < res.statistics.max_abs < 0.2
+    # Independent: the registered points moved by +-3 sigma along the weak motion, to first
+    # order (a slide on a curved part turns it too: the direction's rotation part about the
+    # fitted points' centroid; second-order terms are below 1e-3 um here).
+    c, L = np.asarray(res.conditioning.centre), res.conditioning.length
+    tw = 3 * w.sigma_mm * np.asarray(w.twist)
+    u = np.cross(tw[:3] / L, res.registered - c) + tw[3:]
+    moved = [point_to_surface(fairing, res.registered + s * u).signed for s in (-1, 1)]
+    change = max(np.abs(m - res.deviations.signed).max() for m in moved)
+    assert change < 0.01 and all(np.abs(m).max() < 0.25 for m in moved)
+    assert res.verdict == ACCEPT
+    sens = res.pose_sensitivity
+    assert sens.verdict_stable and sens.max_change_mm == pytest.approx(change, abs=2e-3)
+    assert sens.min_limit_margin_mm == pytest.approx(0.25 - res.statistics.max_abs)
+    assert any("position along" in r and "(3σ)" in r and "the verdict holds" in r
+               for r in res.reasons)
+
+
+def _bump_patch(rng, n=1000):
+    """A flat 200 x 200 mm patch with a 0.5 mm round bump (sigma 5 mm) in its middle: the bump
+    alone holds the part in the plane, weakly."""
+
+    def h(x, y):
+        return 0.5 * np.exp(-(x ** 2 + y ** 2) / (2 * 5.0 ** 2))
+
+    def nrm(x, y):
+        g = -h(x, y) / 25.0
+        v = np.stack([-g * x, -g * y, np.ones_like(x)], axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    X, Y = np.meshgrid(np.linspace(-100, 100, 401), np.linspace(-100, 100, 401))
+    nominal = Nominal.from_point_set(point_set(
+        np.column_stack([X.ravel(), Y.ravel(), h(X.ravel(), Y.ravel())]),
+        nrm(X.ravel(), Y.ravel()), (401, 401)))
+    x, y = rng.uniform(-95, 95, n), rng.uniform(-95, 95, n)
+    return nominal, x, y, h, nrm
+
+
+def test_a_slide_that_moves_a_point_across_a_limit_is_inconclusive():
+    """A nearly flat patch whose only hold is a small bump: sliding within 3 sigma changes the
+    deviations on the bump's flank by ~0.01 mm, and a point there lies 4 um inside the limit:
+    the verdict depends on where the part sits, INCONCLUSIVE. On a zone twice as wide the
+    slides change nothing (the part off the bump altogether, a runner-up that fits nearly as
+    well but for the bump's few points, still does)."""
+    from engine.deviation import point_to_surface
+
+    rng = np.random.default_rng(6)
+    nominal, x, y, h, nrm = _bump_patch(rng)
+    x[0], y[0] = 5.0, 0.0  # on the flank, where the slope is steepest
+    d = rng.normal(0, 0.005, x.size)
+    d[0] = 0.046
+    q = np.column_stack([x, y, h(x, y)]) + d[:, None] * nrm(x, y)
+    measured = apply_transform(make_transform(random_rotation(rng), [40.0, -3.0, 9.0]), q)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.05))
+    slides = [w for w in res.conditioning.weak if w.type == "translation"]
+    assert slides and all(w.sigma_mm is not None for w in slides)  # weak, not free
+    # Independent: some slide within 3 sigma takes a point across the limit.
+    crossed = False
+    for w in slides:
+        for s in (-3, 3):
+            moved = point_to_surface(nominal, res.registered
+                                     + s * w.sigma_mm * np.asarray(w.axis)).signed
+            crossed |= bool(np.any(np.abs(moved) > 0.05))
+    assert crossed
+    assert np.all(np.abs(res.deviations.signed) <= 0.05)  # inside at the fitted pose
+    assert res.verdict == INCONCLUSIVE and not res.pose_sensitivity.verdict_stable
+    assert res.pose_sensitivity.max_change_mm > abs(res.pose_sensitivity.min_limit_margin_mm)
+    assert any("verdict to REJECT" in r for r in res.reasons)
+    wide = inspect(nominal, measured, Tolerance.symmetric(0.1))
+    assert all(set(p.verdicts) == {ACCEPT} for p in wide.pose_sensitivity.probes
+               if p.kind == "translation")
+    assert not any("verdict to REJECT" in r for r in wide.reasons)
+
+
+def test_a_2d_circle_measured_all_round_is_judged_through_the_same_path():
+    """A 2D template of one circle: its rotation is free and changes no deviation; the verdict
+    stands (ACCEPT within +-0.05, REJECT with a point 0.08 out), and the JSON says why."""
+    from engine.contour import arc, build_template
+    from engine.inspection import inspect_2d
+    from reports.results import pose_sensitivity_json
+
+    tpl = build_template([([arc((0.0, 0.0), 30.0, 0.0, 2 * np.pi)], True)])
+    rng = np.random.default_rng(13)
+    a = rng.uniform(0, 2 * np.pi, 200)
+    dev = rng.uniform(-0.02, 0.02, 200)
+    th = 0.7
+    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    for planted, verdict in ((dev, ACCEPT), (np.where(np.arange(200) == 9, 0.08, dev), REJECT)):
+        p = (30.0 + planted)[:, None] * np.column_stack([np.cos(a), np.sin(a)])
+        measured = np.column_stack([p @ R.T + [12.0, -7.0], np.zeros(200)])
+        res = inspect_2d(tpl, measured, 2, Tolerance.symmetric(0.05))
+        # (the least-squares centre moves by the deviations' first harmonic: a few um)
+        assert np.max(np.abs(res.deviations.signed - planted)) < 5e-3
+        (w,) = res.conditioning.weak
+        assert w.type == "rotation" and w.sigma_mm is None
+        assert res.verdict == verdict and res.pose_sensitivity.verdict_stable
+        (probe,) = res.pose_sensitivity.probes
+        assert probe.invariant and np.allclose(probe.through[:2], 0.0, atol=1e-6)
+        doc = pose_sensitivity_json(res)
+        assert doc["verdict_stable"] and "holds for every such orientation" in \
+            doc["statements"][0]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pose_sensitivity_on_a_subset_agrees_with_every_point(seed):
+    """Probing a seeded subset, then every point near a limit, gives the verdict that probing
+    every point gives (the naive twin), also when the one point that crosses a limit is not in
+    the subset. The part: points on the plane z = 0 (deviation = z), weakly held along x; the
+    deviation change of a probe is known exactly (a translation leaves z alone, a tilt about y
+    changes z by -angle * x)."""
+    from engine.trust import Conditioning, WeakDirection, pose_sensitivity
+
+    rng = np.random.default_rng(seed)
+    n = 5000
+    X = np.column_stack([rng.uniform(-100, 100, (n, 2)), rng.normal(0, 0.005, n)])
+    X[:, 2] += 0.0002 * X[:, 0]
+    tol = Tolerance.symmetric(0.05)
+    k = int(rng.integers(n))
+    X[k] = [95.0, 0.0, 0.049]  # near the limit, far along x: a tilt lifts it out
+    L = 50.0
+    # A weak rotation about y through the origin (twist: rotation part x L, translation).
+    cond = Conditioning((0.0,) * 6, (WeakDirection("rotation", (0.0, 1.0, 0.0), 1e-6, 0.002,
+                                                   (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)),), L,
+                        None, (0.0, 0.0, 0.0))
+
+    def deviations_at(T, idx):
+        return apply_transform(T, X[idx])[:, 2]
+
+    def verdict_of(d):
+        return ACCEPT if np.all(np.abs(d) <= 0.05) else REJECT
+
+    d = X[:, 2]
+    full = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of)
+    sub = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
+                           max_points=200)
+    # +-3 sigma = 0.006 mm at L: 1.2e-4 rad, 11 um at x = 95 (above the 1 um margin).
+    assert not full.verdict_stable and not sub.verdict_stable
+    assert sub.points_evaluated < n and full.points_evaluated == n
+    assert sub.max_change_mm == pytest.approx(full.max_change_mm, rel=0.01)  # smooth change
+    assert full.max_change_mm == pytest.approx(3 * 0.002 / L * 100, rel=0.05)
+    assert full.min_limit_margin_mm == pytest.approx(0.05 - 0.049, abs=1e-9)
+    X[k, 2] = 0.03  # well inside: stable, on the subset as on every point
+    d = X[:, 2]
+    assert pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
+                            max_points=200).verdict_stable
