@@ -115,6 +115,20 @@ def certificate_number(run: Run, issued: dt.datetime) -> str:
     return f"QA-{issued:%Y%m%d}-{h.hexdigest()[:8].upper()}"
 
 
+def _verdict_stability(res) -> str:
+    """Whether the verdict is the same at every pose the measurement allows, in words."""
+    sens = res.pose_sensitivity
+    if sens is None:
+        return "not assessed: the pose cannot be trusted"
+    if not sens.probes:
+        return (f"yes: every direction is fixed (nearest point {sens.min_limit_margin_mm:.4f} mm "
+                "from a limit)")
+    word = "yes" if sens.verdict_stable else "NO"
+    return (f"{word}: over the poses the measurement allows, deviations change by up to "
+            f"{sens.max_change_mm:.4f} mm; the nearest point lies "
+            f"{sens.min_limit_margin_mm:.4f} mm from a limit")
+
+
 def check_trustworthy(run: Run) -> None:
     """A certificate may say ACCEPTED only from a converged registration whose pose the
     judge trusted; anything else here is a bug upstream, and no certificate is made."""
@@ -122,8 +136,11 @@ def check_trustworthy(run: Run) -> None:
 
     res = run.result
     reg = res.registration
-    trusted = (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION and not res.ambiguous
-               and res.conditioning is not None and not res.conditioning.weak)
+    # Weak or free directions and a runner-up pose are facts; the verdict is trusted when it
+    # is the same at every pose they allow (engine.trust.pose_sensitivity).
+    sens = res.pose_sensitivity
+    trusted = (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
+               and res.conditioning is not None and sens is not None and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
     m = 0.0 if res.margin is None else res.margin
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
@@ -397,7 +414,9 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                               ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
     # 7. verdict block (placed early: the answer comes first)
     story.append(P("2  Result", S["h"]))
-    reasons = "; ".join(res.reasons)
+    # The plain-word statements of what the measurement leaves open have their own place in
+    # section 6; the verdict block gives the verdict's own reasons.
+    reasons = "; ".join(r for r in res.reasons if r not in res.trust_statements)
     vb = Table([[P(VERDICT_WORD[res.verdict],
                    S["verdict_long" if res.verdict == INCONCLUSIVE else "verdict"]),
                  P(_esc(reasons[:1].upper() + reasons[1:]), S["verdict_sub"])]],
@@ -439,8 +458,11 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                            "rejected only if a point lies outside the zone grown by it, "
                            "inconclusive in between")
                           + "; the result is inconclusive when the registration cannot be "
-                            "trusted (not converged, ambiguous, or a direction the points do "
-                            "not constrain). Measurement uncertainty is not deducted from the "
+                            "trusted (not converged, or the points do not match the nominal), "
+                            "or when the verdict could differ within what the measurement "
+                            "leaves open: along a direction the points do not fix, within ±3 "
+                            "sigma of one they fix only weakly, or at another pose that fits "
+                            "nearly as well. Measurement uncertainty is not deducted from the "
                             "zone."),
         ("Units", "millimetres"),
     ], [28 * mm, W - 28 * mm]))
@@ -502,9 +524,10 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                 ("Unconstrained", weak),
                 ("Pose uncertainty", "—" if cond is None or cond.pose_sigma_mm is None else
                  f"{cond.pose_sigma_mm:.4f} mm (1 sigma at the worst point, from the residuals)"),
-                ("Ambiguity", (f"AMBIGUOUS: a runner-up pose moves deviations by up to "
-                               f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
-                 "none (no nearly-as-good pose with different deviations)"),
+                ("Other poses", (f"a nearly-as-good pose moves deviations by up to "
+                                 f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
+                 "none with different deviations"),
+                ("Verdict holds", _verdict_stability(res)),
                 ("Outliers", f"{int(res.outlier.sum())} point(s) left out of the fit, judged"),
                 ("RMS", f"{reg.rms:.4f} mm over {reg.n_inliers} inlier points"),
                 ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
@@ -522,6 +545,12 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                        style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
                               ("LEFTPADDING", (0, 0), (-1, -1), 0),
                               ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+    if res.trust_statements:
+        # In plain words: what the measurement leaves open, and why the verdict holds (or not).
+        story.append(Spacer(1, 1.5 * mm))
+        story.append(P("What the measurement does not fix", S["cellb"]))
+        for sentence in res.trust_statements:
+            story.append(P("• " + _esc(sentence[:1].upper() + sentence[1:]) + ".", S["small"]))
     # 8-9. maps and histogram: on the registration's page when they fit there
     story.append(CondPageBreak(175 * mm))
     order = run.worst_order
@@ -621,7 +650,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                      f"{zone} (largest excursion {figures.fmt_mm(_worst_excess(res))} mm beyond "
                      "a limit).")
     else:
-        statement = ("No statement of conformity can be made: " + "; ".join(res.reasons) +
+        statement = ("No statement of conformity can be made: " + reasons +
                      ". The part is neither accepted nor rejected by this certificate.")
     sig_text = (f"Signed digitally by {_esc(identity.common_name)}"
                 f"{', ' + _esc(identity.organisation) if identity.organisation else ''}; "

@@ -522,6 +522,43 @@ def test_inconclusive_certificate(tmp_path):
     assert "No statement of conformity" in text
 
 
+def test_a_form_check_with_free_directions_is_certified_in_plain_words(signed, tmp_path,
+                                                                        capsys):
+    """A cylinder measured all round: position along and orientation about its axis are not
+    fixed, and the deviations do not change along them, so the ACCEPT is certified (signed and
+    verified) and the certificate says in words what the measurement leaves open."""
+    rng = np.random.default_rng(4)
+    a = np.linspace(0, 2 * np.pi, 160, endpoint=False)
+    z = np.linspace(-100.0, 100.0, 80)
+    A, Z = np.meshgrid(a, z)
+    nominal = np.column_stack([40 * np.cos(A.ravel()), 40 * np.sin(A.ravel()), Z.ravel(),
+                               np.cos(A.ravel()), np.sin(A.ravel()), np.zeros(A.size)])
+    t = rng.uniform(0, 2 * np.pi, 300)
+    r = 40 + rng.uniform(-0.012, 0.012, 300)
+    # Measured in a machine frame: turned about x by 90 degrees and shifted.
+    q = np.column_stack([r * np.cos(t), r * np.sin(t), rng.uniform(-60, 60, 300)])
+    q = q @ np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]]).T + [300.0, -20.0, 55.0]
+    np.savetxt(tmp_path / "cyl_nominal.csv", nominal, fmt="%.6f", delimiter=",",
+               header="x,y,z,i,j,k", comments="")
+    np.savetxt(tmp_path / "cyl_measured.csv", q, fmt="%.5f", delimiter=",", header="x,y,z",
+               comments="")
+    pdf = tmp_path / "cylinder.pdf"
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        code, out, err = cli("inspect", tmp_path / "cyl_nominal.csv",
+                             tmp_path / "cyl_measured.csv", "--tol", "0.05", "--report", pdf,
+                             "--sign", signed.p12, "--sign-pass-env", PASS_VAR,
+                             "--part-number", "PIN-40", "--serial", "SN-C1")
+    assert code == 0 and out.startswith("ACCEPT"), out + err
+    text = squeeze("\n".join(page_texts(pdf)))
+    assert "ACCEPTED" in text and "What the measurement does not fix" in text
+    assert "Position along" in text and "Orientation about the axis" in text
+    assert text.count("the verdict is about form and holds for every such") == 2
+    assert "over the poses the measurement allows, deviations change by up to" in text
+    code, out, err = verify(capsys, pdf, "--trust", signed.ca)
+    assert code == 0 and out.startswith("VALID"), out + err
+
+
 # ---------------------------------------------------------------------------- 9. approver
 def test_approver_signature(signed, nss, tmp_path, capsys):
     from pyhanko.pdf_utils.incremental_writer import IncrementalPdfFileWriter
