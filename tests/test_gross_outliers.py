@@ -175,3 +175,41 @@ def test_rule_keeps_a_sharp_rimmed_dent_and_flags_mis_probes_even_side_by_side()
     rule = gross_rule(d, 0.5, 0.05)
     assert rule.threshold_mm == pytest.approx(2.5)
     assert np.array_equal(np.flatnonzero(gross_outliers(d, pts, rule)), np.sort(spikes))
+
+
+def test_outputs_state_the_rule_and_mark_only_the_excluded_points(fairing):
+    """JSON: the rule in words with its threshold and the excluded points; CSV: an
+    excluded_from_alignment column true exactly on them; QIF: the same per-point flag."""
+    import csv
+    import io
+
+    from lxml import etree
+
+    from reports.qif import qif_results_document
+    from reports.results import points_csv, result_document, result_json
+
+    rng = np.random.default_rng(43)
+    q, _, _, T = _part(rng, m=600, depth=0.4)
+    bad, idx = _mis_probe(rng, q)
+    measured = apply_transform(T, bad)
+    res = inspect(fairing, measured, ZONE)
+    doc = json.loads(result_json(result_document(res, [], {})))
+    gross = doc["registration"]["gross_outliers"]
+    assert gross["n_excluded"] == idx.size == 12
+    assert [e["index"] for e in gross["excluded"]] == idx.tolist()
+    assert gross["threshold_mm"] == pytest.approx(2.5) and gross["zone_width_mm"] == 0.5
+    assert gross["rule"].startswith("a point is excluded from the alignment only as a gross "
+                                    "outlier") and "2.5 mm" in gross["rule"]
+    rows = list(csv.DictReader(io.StringIO(points_csv(res, measured, None))))
+    assert "outlier" not in rows[0]
+    flagged = [i for i, r in enumerate(rows) if r["excluded_from_alignment"] == "true"]
+    assert flagged == idx.tolist()
+    # The 0.4 mm dent is out of tolerance, fitted, and not flagged.
+    assert sum(r["in_tolerance"] == "false" for r in rows) > idx.size
+    root = etree.fromstring(qif_results_document(doc, res.registered, res.deviations.signed,
+                                                 res.in_tolerance, outlier=res.outlier))
+    ns = {"q": root.nsmap[None]}
+    value, = root.xpath("//q:AttributeStr[@name='qa-inspect:excluded-from-alignment']/@value",
+                        namespaces=ns)
+    assert [i for i, c in enumerate(value) if c == "1"] == idx.tolist()
+    assert not root.xpath("//q:AttributeStr[@name='qa-inspect:outlier']", namespaces=ns)
