@@ -626,7 +626,7 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
             converged = False
             break
         T, converged, it, _, dev, dev_s = _gauss_newton(nominal, pts, T, settings, keep, floor,
-                                                        budget - total)
+                                                        budget - total, dev, dev_s)
         total += it
     else:
         # The last fit's set is the one its pose was fitted on; the rule at that pose may
@@ -676,7 +676,7 @@ def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
     return float(np.linalg.norm(delta[:3]) * reach + np.linalg.norm(delta[3:]))
 
 
-def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter):
+def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev_s=0.0):
     """Iterate the linearised point-to-surface least squares on ``pts`` (m, 3) from pose ``T``.
 
     use : (m,) bool, the fixed set of points fitted (the iteration converges to the
@@ -684,6 +684,7 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter):
     deviations, at least ``floor`` mm) re-estimated at every iteration (the coarse iterations
     only). Converged when a step would move no fitted point by more than ``convergence_mm``;
     that last step is not applied, so the returned deviations belong to the returned pose.
+    ``dev`` (and the seconds ``dev_s`` it took): the deviations at ``T`` when known already.
     Returns (T, converged, iterations, fitted mask, Deviations of ``pts`` at T, seconds their
     evaluation took).
     """
@@ -692,9 +693,10 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter):
         report(f"point-to-surface fit on {pts.shape[0]:,} points, iteration {it}",
                0.85 + 0.1 * it / max(max_iter, 10))
         X = pts @ T[:3, :3].T + T[:3, 3]
-        t0 = time.perf_counter()
-        dev = point_to_surface(nominal, X)
-        dev_s = time.perf_counter() - t0
+        if dev is None:
+            t0 = time.perf_counter()
+            dev = point_to_surface(nominal, X)
+            dev_s = time.perf_counter() - t0
         d = dev.signed
         if use is None:
             mask = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, floor)
@@ -704,6 +706,7 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter):
         if _largest_motion(delta, X[mask] - c) < settings.convergence_mm:
             return T, True, it, mask, dev, dev_s
         T = _compose_update(T[None], delta[None], c[None])[0]
+        dev = None
     X = pts @ T[:3, :3].T + T[:3, 3]
     t0 = time.perf_counter()
     dev = point_to_surface(nominal, X)
