@@ -9,8 +9,8 @@ both hold at the pose being fitted:
    deviations (1.4826 x median absolute deviation) of all the deviations, and a floor (a small
    fraction of the nominal's size, given by the caller);
 2. **isolated from the others**: it belongs to no region of alike deviations. Its *companions*
-   are those of its ``NEIGHBOURS`` nearest measured points (in the measured coordinates) whose
-   deviation lies within the threshold of its own; it is isolated when it has fewer than
+   are those of its ``NEIGHBOURS`` nearest measured points (nearest along the surface: between
+   the points' feet on the nominal) whose deviation lies within the threshold of its own; it is isolated when it has fewer than
    ``COMPANIONS`` of them, or when neither it nor any of its companions has ``SUPPORT``
    companions of its own. A dent or a bump is a region: its points agree with some of their
    neighbours (even at a sharp rim), and some of them with most (its inside, or the slope around
@@ -96,8 +96,11 @@ def gross_rule(d: np.ndarray, zone_width: float | None, floor: float) -> GrossRu
 def gross_outliers(d: np.ndarray, points: np.ndarray, rule: GrossRule) -> np.ndarray:
     """(n,) bool: the points of ``rule`` that are gross outliers.
 
-    d : (n,) signed deviations, mm; points : (n, 2) or (n, 3) measured coordinates (any frame:
-    only distances between measured points are used)."""
+    d : (n,) signed deviations, mm; points : (n, 2) or (n, 3) where the measured points lie along
+    the nominal: their feet on it (``Deviations.foot``, any frame: only distances between them are
+    used). Not the measured coordinates themselves: where points are dense, a point 10 mm off the
+    surface has other points 10 mm off (on the same side, a few millimetres away) nearer to it
+    than the surface points around it, and would look like a region of them."""
     d = np.asarray(d, float)
     far = np.abs(d - rule.centre_mm) > rule.threshold_mm
     gross = np.zeros(d.size, bool)
@@ -130,5 +133,7 @@ def _companions(tree: cKDTree, pts: np.ndarray, d: np.ndarray, idx: np.ndarray, 
     """((m, k) bool: which of the k nearest points of points ``idx`` deviate within
     ``threshold`` of them, (m, k) their indices)."""
     _, nb = tree.query(pts[idx], k=k + 1)
-    nb = nb[:, 1:]  # the point itself comes first (or a duplicate of it: then a companion)
+    # Drop the point itself (not necessarily first where another point has the same foot).
+    other = nb != idx[:, None]
+    nb = np.take_along_axis(nb, np.argsort(~other, axis=1, kind="stable")[:, :k], axis=1)
     return np.abs(d[nb] - d[idx][:, None]) <= threshold, nb

@@ -244,7 +244,7 @@ def register(nominal: Nominal, measured: np.ndarray,
         dev_s = time.perf_counter() - t0
         converged, it = False, 0
         rule = gross_rule(dev_b.signed, zone_width, _gross_floor(nominal, settings, zone_width))
-        inlier = ~gross_outliers(dev_b.signed, measured, rule)
+        inlier = ~gross_outliers(dev_b.signed, dev_b.foot, rule)
         message = "the measured points do not match the nominal at any pose found"
     else:
         Tb, converged, it, inlier, rule, dev_b, dev_s, message = _point_to_surface_fit(
@@ -570,7 +570,7 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
         dev = point_to_surface(nominal, X)
         dev_s = time.perf_counter() - t0
         rule = gross_rule(dev.signed, zone_width, floor)
-        keep = ~gross_outliers(dev.signed, measured, rule)
+        keep = ~gross_outliers(dev.signed, dev.foot, rule)
         finished = False
         if converged and keep.sum() >= 6:
             delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
@@ -582,7 +582,7 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
                                    dev.foot + motion - along[:, None] * dev.normal,
                                    dev.normal, dev.curved)
                 rule_m = gross_rule(moved.signed, zone_width, floor)
-                keep_m = ~gross_outliers(moved.signed, measured, rule_m)
+                keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
                 if np.array_equal(keep_m, keep):
                     T = _compose_update(T[None], delta[None], c[None])[0]
                     dev, rule, finished = moved, rule_m, True
@@ -618,7 +618,7 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
     total, converged, keep = 0, False, None
     for _ in range(MAX_ROUNDS):
         rule = gross_rule(dev.signed, zone_width, floor)
-        new = ~gross_outliers(dev.signed, pts, rule)
+        new = ~gross_outliers(dev.signed, dev.foot, rule)
         if keep is not None and converged and np.array_equal(new, keep):
             break
         keep = new
@@ -632,7 +632,7 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
         # The last fit's set is the one its pose was fitted on; the rule at that pose may
         # differ by a point at the threshold (the fit is reported as not settled then).
         rule = gross_rule(dev.signed, zone_width, floor)
-        if not np.array_equal(~gross_outliers(dev.signed, pts, rule), keep):
+        if not np.array_equal(~gross_outliers(dev.signed, dev.foot, rule), keep):
             converged = False
     return T, converged, total, keep, rule, dev, dev_s
 
