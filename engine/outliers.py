@@ -10,13 +10,14 @@ both hold at the pose being fitted:
    fraction of the nominal's size, given by the caller);
 2. **isolated from the others**: it belongs to no region of alike deviations. Its *companions*
    are those of its ``NEIGHBOURS`` nearest measured points (nearest along the surface: between
-   the points' feet on the nominal) whose deviation lies within the threshold of its own; it is isolated when it has fewer than
-   ``COMPANIONS`` of them, or when neither it nor any of its companions has ``SUPPORT``
-   companions of its own. A dent or a bump is a region: its points agree with some of their
-   neighbours (even at a sharp rim), and some of them with most (its inside, or the slope around
-   a deep core), so it is never left out, however deep, in tolerance or not. A few mis-probed
-   points that happen to lie near each other among good points (2% of the points at random do,
-   now and then) are interleaved with good points: none of them has ``SUPPORT`` companions.
+   the points' feet on the nominal) whose deviation lies within the threshold of its own; it is
+   isolated when it has fewer than ``COMPANIONS`` of them, or when neither it nor any of its
+   companions has ``SUPPORT`` companions of its own. A dent or a bump is a region: its points
+   agree with some of their neighbours (even at a sharp rim), and some of them with most (its
+   inside, or the slope around a deep core), so it is never left out, however deep, in
+   tolerance or not. A few mis-probed points that happen to lie near each other among good
+   points (2% of the points at random do, now and then) are interleaved with good points: none
+   of them has ``SUPPORT`` companions.
 
 Left-out points are still judged like every other point: leaving a point out of the alignment
 changes the pose, never the point's own verdict.

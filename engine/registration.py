@@ -593,7 +593,8 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     message = ""
     if not converged:
         message = (f"the point-to-surface fit did not settle within "
-                   f"{settings.max_final_iterations} iterations")
+                   f"{settings.max_final_iterations} iterations (or the points it excludes as "
+                   f"gross outliers within {MAX_ROUNDS} fits)")
     if keep.sum() < 6:
         converged = False
         message = (f"only {int(keep.sum())} points are not gross outliers (beyond "
@@ -612,9 +613,9 @@ def _gross_floor(nominal: Nominal, settings: RegistrationSettings,
 def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
     """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
     (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
-    at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget`` Gauss-Newton iterations in
-    all). Returns (T, converged, iterations, kept mask, GrossRule, Deviations at T, seconds
-    their evaluation took)."""
+    at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
+    Gauss-Newton iterations in all). Returns (T, converged, iterations, kept mask, GrossRule,
+    Deviations at T, seconds their evaluation took)."""
     total, converged, keep = 0, False, None
     for _ in range(MAX_ROUNDS):
         rule = gross_rule(dev.signed, zone_width, floor)
