@@ -73,8 +73,8 @@ class GrossRule:
                 f"lies more than {self.threshold_mm:.4g} mm (the largest of "
                 + ", ".join(parts) + ") from the median deviation "
                 f"({self.centre_mm:+.4g} mm) and it belongs to no region of alike deviations: "
-                f"fewer than {COMPANIONS} of its {NEIGHBOURS} nearest measured points deviate "
-                "within that distance of it, or neither it nor any of those has "
+                f"fewer than {COMPANIONS} of its {NEIGHBOURS} nearest measured points (along "
+                "the surface) deviate within that distance of it, or neither it nor any of those has "
                 f"{SUPPORT} such points among its own {NEIGHBOURS} nearest (a dent or bump is "
                 "never excluded); it is judged like every other point")
 
