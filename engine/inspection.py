@@ -155,7 +155,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
-    reg = register(nominal, measured, settings)
+    reg = register(nominal, measured, settings, zone_width=tolerance.upper - tolerance.lower)
     t1 = time.perf_counter()
     dev = reg.deviations  # the fit's last evaluation: every point at the final pose
     T = reg.T_nominal_measured
@@ -172,7 +172,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         nominal, apply_transform(Tc, measured[idx])).signed)
     extra: dict = {}
     if fit == "minimax":
-        T = _minimax(evaluate, T, dev.signed, reg.outlier_cut, tolerance, extra)
+        T = _minimax(evaluate, T, reg.inlier, tolerance, extra)
         registered = apply_transform(T, measured)
         dev = point_to_surface(nominal, registered)
     margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
@@ -196,17 +196,6 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                             decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
                             ambiguity_spread=spread, margin=margin, pose_sensitivity=sens,
                             trust_statements=statements)
-
-
-GROSS_ZONES = 5.0
-"""The minimax fit leaves out gross outliers only (a mis-probed point): farther from the zone's
-centre than this many zone widths and beyond the least-squares fit's robust cut. A local defect
-of a few tenths of a millimetre stays in: it is what the minimax fit has to place."""
-
-
-def _minimax_points(d: np.ndarray, cut: float, tol: Tolerance) -> np.ndarray:
-    centre = 0.5 * (tol.lower + tol.upper)
-    return np.abs(d - centre) <= max(cut, GROSS_ZONES * (tol.upper - tol.lower))
 
 
 AMBIGUITY_POINTS = 16384
@@ -238,14 +227,17 @@ def _ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool,
     return spread > AMBIGUITY_DEVIATION * (tol.upper - tol.lower), spread
 
 
-def _minimax(evaluate, T: np.ndarray, d: np.ndarray, cut: float, tol: Tolerance,
+def _minimax(evaluate, T: np.ndarray, use: np.ndarray, tol: Tolerance,
              extra: dict) -> np.ndarray:
-    """The minimax pose from the least-squares one (its facts go into ``extra``)."""
+    """The minimax pose from the least-squares one (its facts go into ``extra``), fitted on the
+    points ``use`` (n,) bool: the registration's ``inlier``, every point but the gross outliers
+    (engine.outliers) it excluded from the alignment. A local defect stays in: it is what the
+    minimax fit has to place."""
     from .progress import report
     from .trust import minimax_pose
 
     report("minimax fit (linear programs)", 0.97)
-    mm = minimax_pose(evaluate, T, tol.lower, tol.upper, use=_minimax_points(d, cut, tol))
+    mm = minimax_pose(evaluate, T, tol.lower, tol.upper, use=use)
     extra["minimax"] = _minimax_facts(mm)
     return mm.T
 
@@ -253,8 +245,8 @@ def _minimax(evaluate, T: np.ndarray, d: np.ndarray, cut: float, tol: Tolerance,
 def _minimax_facts(mm) -> dict:
     return {"excursion": mm.excursion, "least_squares_excursion": mm.start_excursion,
             "iterations": mm.iterations, "linear_programs": mm.linear_programs,
-            "excursion_definition": "max over the fitted points (all but gross outliers: beyond "
-                                    "5 zone widths and the least-squares cut) of "
+            "excursion_definition": "max over the fitted points (all but those excluded from "
+                                    "the alignment as gross outliers) of "
                                     "|d - (lower + upper)/2| / ((upper - lower)/2): <= 1 means "
                                     "they fit the zone"}
 
@@ -439,7 +431,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     ambiguous, spread = _ambiguity(reg, dev2.signed, tolerance, lambda Tc, idx: deviations_2d(
         index, apply2(Tc, q2[idx])).signed)
     if fit == "minimax":
-        T2 = _minimax(evaluate, T2, dev2.signed, reg.outlier_cut, tolerance, extra)
+        T2 = _minimax(evaluate, T2, reg.inlier, tolerance, extra)
         dev2 = deviations_2d(index, apply2(T2, q2))
     E = np.eye(4)
     E[:2, :2] = T2[:2, :2]

@@ -8,10 +8,16 @@ both hold at the pose being fitted:
    ``GROSS_ZONES`` zone widths (when the zone is known), ``ROBUST_SIGMAS`` robust standard
    deviations (1.4826 x median absolute deviation) of all the deviations, and a floor (a small
    fraction of the nominal's size, given by the caller);
-2. **isolated from the others**: fewer than ``COMPANIONS`` of its ``NEIGHBOURS`` nearest measured
-   points (in the measured coordinates) have a deviation within the threshold of its own. A dent
-   or a bump is a region whose points agree with some of their neighbours (even at a sharp rim),
-   so it is never left out, however deep, in tolerance or not.
+2. **isolated from the others**: it belongs to no region of alike deviations. Its *companions*
+   are those of its ``NEIGHBOURS`` nearest measured points (nearest along the surface: between
+   the points' feet on the nominal) whose deviation lies within the threshold of its own; it is
+   isolated when it has fewer than ``COMPANIONS`` of them, or when neither it nor any of its
+   companions has ``SUPPORT`` companions of its own. A dent or a bump is a region: its points
+   agree with some of their neighbours (even at a sharp rim), and some of them with most (its
+   inside, or the slope around a deep core), so it is never left out, however deep, in
+   tolerance or not. A few mis-probed points that happen to lie near each other among good
+   points (2% of the points at random do, now and then) are interleaved with good points: none
+   of them has ``SUPPORT`` companions.
 
 Left-out points are still judged like every other point: leaving a point out of the alignment
 changes the pose, never the point's own verdict.
@@ -31,7 +37,10 @@ ROBUST_SIGMAS = 6.0
 NEIGHBOURS = 8
 """… and fewer than COMPANIONS of its this many nearest measured points …"""
 COMPANIONS = 2
-"""… have a deviation within the threshold of its own."""
+"""… have a deviation within the threshold of its own (its companions), or when neither it nor
+any of its companions has …"""
+SUPPORT = 3
+"""… this many companions of its own."""
 
 
 @dataclass(frozen=True)
@@ -63,8 +72,10 @@ class GrossRule:
         return (f"a point is excluded from the alignment only as a gross outlier: its deviation "
                 f"lies more than {self.threshold_mm:.4g} mm (the largest of "
                 + ", ".join(parts) + ") from the median deviation "
-                f"({self.centre_mm:+.4g} mm) and fewer than {COMPANIONS} of its {NEIGHBOURS} "
-                "nearest measured points deviate within that distance of it (a dent or bump is "
+                f"({self.centre_mm:+.4g} mm) and it belongs to no region of alike deviations: "
+                f"fewer than {COMPANIONS} of its {NEIGHBOURS} nearest measured points (along "
+                "the surface) deviate within that distance of it, or neither it nor any of those has "
+                f"{SUPPORT} such points among its own {NEIGHBOURS} nearest (a dent or bump is "
                 "never excluded); it is judged like every other point")
 
 
@@ -86,8 +97,11 @@ def gross_rule(d: np.ndarray, zone_width: float | None, floor: float) -> GrossRu
 def gross_outliers(d: np.ndarray, points: np.ndarray, rule: GrossRule) -> np.ndarray:
     """(n,) bool: the points of ``rule`` that are gross outliers.
 
-    d : (n,) signed deviations, mm; points : (n, 2) or (n, 3) measured coordinates (any frame:
-    only distances between measured points are used)."""
+    d : (n,) signed deviations, mm; points : (n, 2) or (n, 3) where the measured points lie along
+    the nominal: their feet on it (``Deviations.foot``, any frame: only distances between them are
+    used). Not the measured coordinates themselves: where points are dense, a point 10 mm off the
+    surface has other points 10 mm off (on the same side, a few millimetres away) nearer to it
+    than the surface points around it, and would look like a region of them."""
     d = np.asarray(d, float)
     far = np.abs(d - rule.centre_mm) > rule.threshold_mm
     gross = np.zeros(d.size, bool)
@@ -98,8 +112,29 @@ def gross_outliers(d: np.ndarray, points: np.ndarray, rule: GrossRule) -> np.nda
     if k < 1:
         return gross
     pts = np.asarray(points, float)
-    _, nb = cKDTree(pts).query(pts[cand], k=k + 1)
-    nb = nb[:, 1:]  # the point itself comes first (or a duplicate of it: then a companion)
-    companions = np.sum(np.abs(d[nb] - d[cand][:, None]) <= rule.threshold_mm, axis=1)
-    gross[cand] = companions < COMPANIONS
+    tree = cKDTree(pts)
+    alike, nb = _companions(tree, pts, d, cand, k, rule.threshold_mm)
+    count = alike.sum(axis=1)
+    supported = count >= SUPPORT
+    # Candidates with companions but too few to be inside a region themselves: a region has
+    # some point, next to them, with enough.
+    weak = np.flatnonzero((count >= COMPANIONS) & ~supported)
+    if weak.size:
+        hop = np.unique(nb[weak][alike[weak]])
+        strong = np.zeros(d.size, bool)
+        strong[hop] = _companions(tree, pts, d, hop, k, rule.threshold_mm)[0].sum(axis=1) \
+            >= SUPPORT
+        supported[weak] = np.any(alike[weak] & strong[nb[weak]], axis=1)
+    gross[cand] = (count < COMPANIONS) | ~supported
     return gross
+
+
+def _companions(tree: cKDTree, pts: np.ndarray, d: np.ndarray, idx: np.ndarray, k: int,
+                threshold: float):
+    """((m, k) bool: which of the k nearest points of points ``idx`` deviate within
+    ``threshold`` of them, (m, k) their indices)."""
+    _, nb = tree.query(pts[idx], k=k + 1)
+    # Drop the point itself (not necessarily first where another point has the same foot).
+    other = nb != idx[:, None]
+    nb = np.take_along_axis(nb, np.argsort(~other, axis=1, kind="stable")[:, :k], axis=1)
+    return np.abs(d[nb] - d[idx][:, None]) <= threshold, nb

@@ -17,12 +17,16 @@ The method is the paper's modified ICP (section 4) with a global stage in front 
    directions in check far from the solution.
 3. **Point-to-surface finish.** Gauss-Newton on the signed point-to-surface deviations of
    :mod:`engine.deviation` (local facets, curvature-corrected), so that the final pose is the
-   least-squares optimum of point-to-surface distance over the inlier points, not of the distance
-   to the nearest sample.
+   least-squares optimum of point-to-surface distance over every measured point but the gross
+   outliers, not of the distance to the nearest sample.
 
-Gross outliers (a mis-probed point far off the surface) are excluded from the fit by a robust
-cut (``outlier_sigmas`` x 1.4826 x median absolute deviation, never below ``outlier_floor`` x the
-nominal's diagonal); they stay in the deviation table and the verdict.
+The coarse stages weight robustly (trimmed pairs in ICP; a robust cut of ``outlier_sigmas`` x
+1.4826 x median absolute deviation, never below ``outlier_floor`` x the nominal's diagonal, in
+the first ``ROBUST_ITERATIONS`` point-to-surface iterations) so that they reach the right basin.
+The final fit is plain least squares: the only points it excludes from the alignment are the
+gross outliers of :mod:`engine.outliers` (a mis-probed point, far beyond any plausible deviation
+of the part and isolated from its neighbours; a dent or bump, in or out of tolerance, is never
+excluded). Excluded points stay in the deviation table and the verdict.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from .geometry import (
     uniform_rotations,
 )
 from .nominal import Nominal
+from .outliers import GrossRule, gross_outliers, gross_rule
 from .progress import report
 
 _SEED = 7
@@ -78,14 +83,20 @@ class RegistrationSettings:
     max_final_iterations: int = 50
     """Point-to-surface Gauss-Newton iterations at most."""
     outlier_sigmas: float = 6.0
-    """Robust cut for the fit, in robust standard deviations of the deviations."""
+    """Robust cut of the coarse point-to-surface iterations and of the candidates' scores, in
+    robust standard deviations of the deviations (the final fit uses the gross-outlier rule)."""
     near_fraction_of_size: float = 0.01
     """A point lies *near* the nominal within this fraction of its bounding-box diagonal …"""
     min_near_fraction: float = 0.5
     """… and a pose is only worth fitting (and trusting) when at least this fraction of the
     measured points lies near the nominal."""
     outlier_floor: float = 1e-4
-    """The cut is never below this fraction of the nominal's bounding-box diagonal."""
+    """The robust cut, and the gross-outlier threshold when the tolerance zone is known, are never
+    below this fraction of the nominal's bounding-box diagonal."""
+    gross_floor_without_zone: float = 1e-3
+    """Without a tolerance zone (the registration used on its own), the gross-outlier threshold
+    is never below this fraction of the nominal's diagonal: nothing then says what deviation is
+    plausible, and a dent's slope between sparse points must not look isolated."""
     convergence_mm: float = 1e-6
     """The point-to-surface fit has converged when a step would move no point by more than this."""
     finish_step_mm: float = 0.01
@@ -100,7 +111,10 @@ class RegistrationResult:
 
     T_nominal_measured : (4, 4) maps measured coordinates into the nominal frame.
     rms : root mean square of the signed point-to-surface deviations over the ``n_inliers``
-        points the final fit used (outliers excluded), mm.
+        points the final fit used (every point but the gross outliers), mm.
+    inlier : (n,) bool, the points the final least-squares fit used: False only on the gross
+        outliers of ``gross_rule``, which are excluded from the alignment (and judged).
+    outlier_cut : the gross-outlier threshold (``gross_rule.threshold_mm``), mm.
     score : truncated RMS sqrt(mean(min(d^2, cut^2))) of the deviations, mm, over a seeded subset
         of at most 4,096 measured points (all of them when fewer), outliers included up to the
         cut; lower is better; the same measure on the same points scores the runner-up pose.
@@ -129,12 +143,21 @@ class RegistrationResult:
     """``near_fraction_of_size`` x the nominal's bounding-box diagonal, mm."""
     message: str = ""
     rms_definition: str = field(default="RMS of signed point-to-surface deviations over the "
-                                        "inlier points used by the final fit (mm)")
+                                        "points used by the final fit: all but those excluded "
+                                        "from the alignment as gross outliers (mm)")
+    gross_rule: GrossRule | None = None
+    """The gross-outlier rule at the final pose (engine.outliers): which points were excluded
+    from the alignment, and why."""
 
 
 def register(nominal: Nominal, measured: np.ndarray,
-             settings: RegistrationSettings = RegistrationSettings()) -> RegistrationResult:
-    """Find ``T_nominal_measured`` for measured points (n, 3) lying in any pose."""
+             settings: RegistrationSettings = RegistrationSettings(),
+             zone_width: float | None = None) -> RegistrationResult:
+    """Find ``T_nominal_measured`` for measured points (n, 3) lying in any pose.
+
+    zone_width : the tolerance zone's width, mm, when known: a gross outlier lies beyond several
+    zone widths (engine.outliers); without it, the robust spread and a floor of
+    ``gross_floor_without_zone`` x the nominal's diagonal decide."""
     measured = np.ascontiguousarray(measured, dtype=np.float64)
     # The coarsest level must still put a few hundred samples under the measured area.
     extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
@@ -219,12 +242,13 @@ def register(nominal: Nominal, measured: np.ndarray,
         t0 = time.perf_counter()
         dev_b = point_to_surface(nominal, X)
         dev_s = time.perf_counter() - t0
-        converged, it, cut_b = False, 0, cut0
-        inlier = np.abs(dev_b.signed) <= cut_b
+        converged, it = False, 0
+        rule = gross_rule(dev_b.signed, zone_width, _gross_floor(nominal, settings, zone_width))
+        inlier = ~gross_outliers(dev_b.signed, dev_b.foot, rule)
         message = "the measured points do not match the nominal at any pose found"
     else:
-        Tb, converged, it, inlier, cut_b, dev_b, dev_s, message = _point_to_surface_fit(
-            nominal, measured, refined[best], settings)
+        Tb, converged, it, inlier, rule, dev_b, dev_s, message = _point_to_surface_fit(
+            nominal, measured, refined[best], settings, zone_width)
     near_fraction = float(np.mean(np.abs(dev_b.signed) <= near))
     score = _truncated_rms(dev_b.signed[ssub], cut0)
     runner = next((int(j) for j in order[1:]
@@ -233,11 +257,12 @@ def register(nominal: Nominal, measured: np.ndarray,
     rms = float(np.sqrt(np.mean(d_in * d_in))) if inlier.any() else float("nan")
     return RegistrationResult(
         T_nominal_measured=Tb, converged=converged, iterations=iters + it, rms=rms,
-        n_inliers=int(inlier.sum()), inlier=inlier, outlier_cut=cut_b, score=score,
+        n_inliers=int(inlier.sum()), inlier=inlier, outlier_cut=rule.threshold_mm, score=score,
         hypotheses=n_hyp,
         runner_up_score=None if runner is None else scores[runner],
         runner_up_T=None if runner is None else refined[runner], deviations=dev_b,
-        deviation_s=dev_s, near_fraction=near_fraction, near_distance=near, message=message)
+        deviation_s=dev_s, near_fraction=near_fraction, near_distance=near, message=message,
+        gross_rule=rule)
 
 
 def _truncated_rms(d: np.ndarray, cut: float) -> float:
@@ -500,52 +525,117 @@ def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int)
 
 
 # ---------------------------------------------------------------------------- final stage
-def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
-                          settings: RegistrationSettings):
-    """Gauss-Newton on signed point-to-surface deviations over the robust inlier set.
+ROBUST_ITERATIONS = 3
+"""Gauss-Newton iterations of the point-to-surface fit that still use the robust cut (they bring
+the pose from the ICP stages into the least-squares basin); the iterations after them are plain
+least squares over every point but the gross outliers."""
+MAX_ROUNDS = 4
+"""Least-squares fits, each followed by the gross-outlier rule at its pose, until the excluded
+set no longer changes."""
 
+
+def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
+                          settings: RegistrationSettings, zone_width: float | None):
+    """Least squares of the signed point-to-surface deviations over every point but the gross
+    outliers of :mod:`engine.outliers`.
+
+    The first ``ROBUST_ITERATIONS`` Gauss-Newton iterations use the robust cut (a pose from the
+    ICP stages may still be off by more than the spread of the deviations); then the fit is
+    plain least squares over the points the gross-outlier rule keeps at the current pose, run to
+    convergence, the rule applied again at the new pose, until the kept set is stable.
     Measurements larger than ``fit_measured`` points iterate on a seeded subset of that size;
-    then one Gauss-Newton step over every point moves the pose to the all-point optimum (the
-    subset's optimum is within noise / sqrt(subset) of it, so one step of a nearly linear problem
-    suffices; should it move any point by more than ``finish_step_mm``, iteration over all
-    points continues instead). The deviations follow that last step to first order (exact to
-    ~step^2 x curvature, far below a nanometre). Returns (T, converged, iterations, inlier mask
-    (all points), cut, Deviations of all points at T, seconds the evaluation of those deviations
-    took, message).
+    then the rule is applied to every point and one Gauss-Newton step over every kept point
+    moves the pose to the all-point optimum (the subset's optimum is within noise /
+    sqrt(subset) of it, so one step of a nearly linear problem suffices; should it move any
+    point by more than ``finish_step_mm``, or change the kept set, iteration over all points
+    continues instead). The deviations follow that last step to first order (exact to
+    ~step^2 x curvature, far below a nanometre). Returns (T, converged, iterations, kept mask
+    (all points), GrossRule at T, Deviations of all points at T, seconds the evaluation of those
+    deviations took, message).
     """
     floor = settings.outlier_floor * nominal.diagonal
     n = measured.shape[0]
     fsub = _spread_subset(measured, settings.fit_measured)
-    T, converged, total, cut, inlier, dev, dev_s = _gauss_newton(
-        nominal, measured[fsub], T, settings, floor, None, settings.max_final_iterations)
+    sub = measured[fsub]
+    budget = settings.max_final_iterations
+    T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
+                                               min(ROBUST_ITERATIONS, budget))
+    floor = _gross_floor(nominal, settings, zone_width)
+    T, converged, it, keep, rule, dev, dev_s = _least_squares_rounds(
+        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)
+    total += it
     if fsub.size < n:
         X = measured @ T[:3, :3].T + T[:3, 3]
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, X)
         dev_s = time.perf_counter() - t0
-        inlier = np.abs(dev.signed) <= cut
-        if converged and inlier.sum() >= 6:
-            delta, c = _gn_step(X[inlier], dev.normal[inlier], dev.signed[inlier])
+        rule = gross_rule(dev.signed, zone_width, floor)
+        keep = ~gross_outliers(dev.signed, dev.foot, rule)
+        finished = False
+        if converged and keep.sum() >= 6:
+            delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
             total += 1
-            if _largest_motion(delta, X[inlier] - c) <= settings.finish_step_mm:
+            if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
                 motion = np.cross(delta[:3], X - c) + delta[3:]
                 along = np.einsum("ij,ij->i", motion, dev.normal)
-                dev = Deviations(dev.signed + along,
-                                 dev.foot + motion - along[:, None] * dev.normal,
-                                 dev.normal, dev.curved)
-                T = _compose_update(T[None], delta[None], c[None])[0]
-            else:
-                T, converged, it, cut, inlier, dev, dev_s = _gauss_newton(
-                    nominal, measured, T, settings, floor, cut, settings.max_final_iterations)
-                total += it
+                moved = Deviations(dev.signed + along,
+                                   dev.foot + motion - along[:, None] * dev.normal,
+                                   dev.normal, dev.curved)
+                rule_m = gross_rule(moved.signed, zone_width, floor)
+                keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
+                if np.array_equal(keep_m, keep):
+                    T = _compose_update(T[None], delta[None], c[None])[0]
+                    dev, rule, finished = moved, rule_m, True
+        if not finished:
+            T, converged, it, keep, rule, dev, dev_s = _least_squares_rounds(
+                nominal, measured, T, dev, dev_s, settings, zone_width, floor, budget)
+            total += it
     message = ""
     if not converged:
         message = (f"the point-to-surface fit did not settle within "
-                   f"{settings.max_final_iterations} iterations")
-    if inlier.sum() < 6:
+                   f"{settings.max_final_iterations} iterations (or the points it excludes as "
+                   f"gross outliers within {MAX_ROUNDS} fits)")
+    if keep.sum() < 6:
         converged = False
-        message = f"only {int(inlier.sum())} points lie within {cut:.3g} mm of the surface"
-    return T, converged, total, inlier, cut, dev, dev_s, message
+        message = (f"only {int(keep.sum())} points are not gross outliers (beyond "
+                   f"{rule.threshold_mm:.3g} mm)")
+    return T, converged, total, keep, rule, dev, dev_s, message
+
+
+def _gross_floor(nominal: Nominal, settings: RegistrationSettings,
+                 zone_width: float | None) -> float:
+    """The gross-outlier threshold's floor, mm."""
+    fraction = settings.outlier_floor if zone_width is not None else \
+        settings.gross_floor_without_zone
+    return fraction * nominal.diagonal
+
+
+def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+    """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
+    (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
+    at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
+    Gauss-Newton iterations in all). Returns (T, converged, iterations, kept mask, GrossRule,
+    Deviations at T, seconds their evaluation took)."""
+    total, converged, keep = 0, False, None
+    for _ in range(MAX_ROUNDS):
+        rule = gross_rule(dev.signed, zone_width, floor)
+        new = ~gross_outliers(dev.signed, dev.foot, rule)
+        if keep is not None and converged and np.array_equal(new, keep):
+            break
+        keep = new
+        if total >= budget:
+            converged = False
+            break
+        T, converged, it, _, dev, dev_s = _gauss_newton(nominal, pts, T, settings, keep, floor,
+                                                        budget - total, dev, dev_s)
+        total += it
+    else:
+        # The last fit's set is the one its pose was fitted on; the rule at that pose may
+        # differ by a point at the threshold (the fit is reported as not settled then).
+        rule = gross_rule(dev.signed, zone_width, floor)
+        if not np.array_equal(~gross_outliers(dev.signed, dev.foot, rule), keep):
+            converged = False
+    return T, converged, total, keep, rule, dev, dev_s
 
 
 def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):
@@ -587,40 +677,44 @@ def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
     return float(np.linalg.norm(delta[:3]) * reach + np.linalg.norm(delta[3:]))
 
 
-def _gauss_newton(nominal, pts, T, settings, floor, cut, max_iter):
-    """Iterate the linearised point-to-surface least squares on ``pts`` from pose ``T``.
+def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev_s=0.0):
+    """Iterate the linearised point-to-surface least squares on ``pts`` (m, 3) from pose ``T``.
 
-    The inlier cut is re-estimated in the first 3 iterations (unless ``cut`` is given), then the
-    set stays fixed so that the iteration converges to one least-squares optimum. Converged when
-    a step would move no inlier by more than ``convergence_mm``; that last step is not applied, so
-    the returned deviations belong to the returned pose. Returns (T, converged, iterations, cut,
-    inlier, Deviations at T, seconds their evaluation took).
+    use : (m,) bool, the fixed set of points fitted (the iteration converges to the
+    least-squares optimum over them); None: the robust cut (``outlier_sigmas`` robust standard
+    deviations, at least ``floor`` mm) re-estimated at every iteration (the coarse iterations
+    only). Converged when a step would move no fitted point by more than ``convergence_mm``;
+    that last step is not applied, so the returned deviations belong to the returned pose.
+    ``dev`` (and the seconds ``dev_s`` it took): the deviations at ``T`` when known already.
+    Returns (T, converged, iterations, fitted mask, Deviations of ``pts`` at T, seconds their
+    evaluation took).
     """
-    fixed = cut is not None
-    inlier = None
+    mask = use
     for it in range(1, max_iter + 1):
         report(f"point-to-surface fit on {pts.shape[0]:,} points, iteration {it}",
-               0.85 + 0.1 * it / max_iter)
+               0.85 + 0.1 * it / max(max_iter, 10))
         X = pts @ T[:3, :3].T + T[:3, 3]
-        t0 = time.perf_counter()
-        dev = point_to_surface(nominal, X)
-        dev_s = time.perf_counter() - t0
+        if dev is None:
+            t0 = time.perf_counter()
+            dev = point_to_surface(nominal, X)
+            dev_s = time.perf_counter() - t0
         d = dev.signed
-        if inlier is None or (not fixed and it <= 3):
-            if not fixed:
-                cut = robust_cut(d, settings.outlier_sigmas, floor)
-            inlier = np.abs(d) <= cut
-        if inlier.sum() < 6:
-            return T, False, it, cut, inlier, dev, dev_s
-        delta, c = _gn_step(X[inlier], dev.normal[inlier], d[inlier])
-        if _largest_motion(delta, X[inlier] - c) < settings.convergence_mm:
-            return T, True, it, cut, inlier, dev, dev_s
+        if use is None:
+            mask = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, floor)
+        if mask.sum() < 6:
+            return T, False, it, mask, dev, dev_s
+        delta, c = _gn_step(X[mask], dev.normal[mask], d[mask])
+        if _largest_motion(delta, X[mask] - c) < settings.convergence_mm:
+            return T, True, it, mask, dev, dev_s
         T = _compose_update(T[None], delta[None], c[None])[0]
+        dev = None
     X = pts @ T[:3, :3].T + T[:3, 3]
     t0 = time.perf_counter()
     dev = point_to_surface(nominal, X)
     dev_s = time.perf_counter() - t0
-    return T, False, max_iter, cut, np.abs(dev.signed) <= cut, dev, dev_s
+    if use is None:
+        mask = np.abs(dev.signed) <= robust_cut(dev.signed, settings.outlier_sigmas, floor)
+    return T, False, max_iter, mask, dev, dev_s
 
 
 def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:

@@ -32,8 +32,9 @@ What carries what:
   registration transform;
   ``MeasuredPointSets/MeasuredPointSet``: every measured point in input order, ``Points`` =
   x y z in the nominal frame (one point a line), ``Deviations`` = signed deviation (one a line),
-  plus ``AttributeStr`` per-point flags ("qa-inspect:in-tolerance", "qa-inspect:outlier": one
-  character '1'/'0' per point) and labels ("qa-inspect:labels", a JSON array of strings);
+  plus ``AttributeStr`` per-point flags ("qa-inspect:in-tolerance",
+  "qa-inspect:excluded-from-alignment" (a gross outlier the fit left out; judged all the same):
+  one character '1'/'0' per point) and labels ("qa-inspect:labels", a JSON array of strings);
   ``MeasuredCharacteristics``: the profile measurement: ``Status`` (PASS / FAIL / INDETERMINATE
   for ACCEPT / REJECT / INCONCLUSIVE), ``Value`` = 2 * max |d - c| with c = (lower + upper) / 2,
   the width of the smallest zone centred like the tolerance zone that holds every point (so
@@ -81,7 +82,8 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
         device, issued: ISO 8601 time; any may be missing or None).
     registered : (n, 3) measured points in the nominal frame, mm ((n, 2) is taken as z = 0).
     deviations : (n,) signed deviations, mm, positive along the nominal's outward normal.
-    in_tolerance : (n,) bool. labels : (n,) str or None. outlier : (n,) bool or None.
+    in_tolerance : (n,) bool. labels : (n,) str or None. outlier : (n,) bool or None, the
+        points excluded from the alignment as gross outliers (InspectionResult.outlier).
     """
     pts = np.asarray(registered, dtype=float)
     if pts.ndim != 2 or pts.shape[1] not in (2, 3):
@@ -363,7 +365,7 @@ def _point_set(w, ps_id, pts, dev, inside, labels, outlier, device) -> None:
     n = pts.shape[0]
     attrs = [("qa-inspect:in-tolerance", _flags(inside))]
     if outlier is not None:
-        attrs.append(("qa-inspect:outlier", _flags(outlier)))
+        attrs.append(("qa-inspect:excluded-from-alignment", _flags(outlier)))
     if labels is not None:
         attrs.append(("qa-inspect:labels", json.dumps([str(s) for s in labels])))
     w(f'        <MeasuredPointSets n="1">\n          <MeasuredPointSet id="{ps_id}" count="{n}">\n')

@@ -18,8 +18,10 @@ from engine.inspection import InspectionResult
 
 SOFTWARE_NAME = "qa-inspect"
 CSV_COLUMNS = ("index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
-               "in_tolerance", "outlier")
-"""Columns of every per-point CSV; with the guarded decision rule a ``margin`` column follows."""
+               "in_tolerance", "excluded_from_alignment")
+"""Columns of every per-point CSV; with the guarded decision rule a ``margin`` column follows.
+``excluded_from_alignment`` is true only on the gross outliers the final fit excluded from the
+alignment (engine.outliers); they are judged like every other point."""
 
 
 def software_version() -> str:
@@ -63,6 +65,7 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "rms_definition": reg.rms_definition,
             "n_inliers": int(reg.n_inliers),
             "outlier_cut": _num(reg.outlier_cut),
+            "gross_outliers": _gross_outliers(reg, dev),
             "score": _num(reg.score),
             "hypotheses": int(reg.hypotheses),
             "runner_up_score": None if reg.runner_up_score is None else _num(reg.runner_up_score),
@@ -150,16 +153,44 @@ def pose_sensitivity_json(result: InspectionResult) -> dict | None:
 
 
 FIT_DEFINITIONS = {
-    "lsq": "least squares of point-to-surface distances over the fit's inliers (a best fit: "
-           "it spreads the error and can hide a local defect in the pose)",
+    "lsq": "least squares of point-to-surface distances over every point but those excluded "
+           "from the alignment as gross outliers (a best fit: it spreads the error and can "
+           "hide a local defect in the pose)",
     "minimax": "the rigid pose minimising the largest |deviation - zone centre| / half-width "
-               "over the fit's inliers (Chebyshev), from the least-squares pose: answers 'can "
+               "over every point but those excluded from the alignment as gross outliers "
+               "(Chebyshev), from the least-squares pose: answers 'can "
                "the part be placed inside its zone?'"}
 RULE_DEFINITIONS = {
     "simple": "accept only if every point lies inside the zone; reject if any lies outside",
     "guarded": "accept only if every point lies inside the zone shrunk by its nominal-sampling "
                "margin; reject only if a point lies outside the zone grown by it; otherwise "
                "inconclusive (ISO 14253-1 style)"}
+
+
+def _gross_outliers(reg, dev: np.ndarray) -> dict:
+    """The points excluded from the alignment, and the rule that excluded them."""
+    rule = getattr(reg, "gross_rule", None)
+    excluded = np.flatnonzero(~np.asarray(reg.inlier, bool))
+    return {
+        "rule": None if rule is None else rule.describe(),
+        "threshold_mm": _num(reg.outlier_cut if rule is None else rule.threshold_mm),
+        "centre_mm": None if rule is None else _num(rule.centre_mm),
+        "zone_width_mm": None if rule is None or rule.zone_width_mm is None
+        else _num(rule.zone_width_mm),
+        "robust_sigma_mm": None if rule is None else _num(rule.robust_sigma_mm),
+        "floor_mm": None if rule is None else _num(rule.floor_mm),
+        "n_excluded": int(excluded.size),
+        "excluded": [{"index": int(i), "deviation": _num(float(dev[i]))}
+                     for i in excluded[:GROSS_LISTED]],
+        "definition": "points excluded from the alignment (the final least-squares fit) as gross "
+                      "outliers by the rule above; every other point is fitted, and every point, "
+                      "excluded or not, is judged; 'excluded' lists the first "
+                      f"{GROSS_LISTED} by index",
+    }
+
+
+GROSS_LISTED = 100
+"""At most this many excluded points are listed by index in the JSON (the CSV marks them all)."""
 
 
 def _conditioning(cond) -> dict:
@@ -213,12 +244,12 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
     reg = result.registered
     d = result.deviations.signed
     inside = result.in_tolerance
-    outlier = result.outlier
+    excluded = result.outlier
     for i in range(measured.shape[0]):
         label = str(labels[i]) if labels is not None else ""
         row = [i, label, *(f"{v:.6f}" for v in measured[i]), *(f"{v:.6f}" for v in reg[i]),
                f"{d[i]:.6f}", "true" if inside[i] else "false",
-               "true" if outlier[i] else "false"]
+               "true" if excluded[i] else "false"]
         if margin is not None:
             row.append(f"{margin[i]:.6f}")
         w.writerow(row)

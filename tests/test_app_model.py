@@ -36,7 +36,7 @@ def test_workflow_steps_and_result():
     assert c.set_tolerance(-0.05, 0.05)
     c.inspect()
     assert s.step == Step.INSPECTED and s.can_export
-    assert s.run.result.verdict == "REJECT" and s.run.result.statistics.n_out == 21
+    assert s.run.result.verdict == "REJECT" and s.run.result.statistics.n_out == 20
     assert Step.RUNNING in steps
     assert any("ICP iteration" in p for p in progress)
     assert messages[-1][0] == "info" and messages[-1][1].startswith("REJECT")

@@ -44,7 +44,7 @@ INFO = {"--part-number": "D52-1100-7", "--serial": "SN-0815-X", "--inspector": I
         "--organisation": ORGANISATION, "--device": "Laser tracker LT-3"}
 INFO_ARGS = [a for kv in INFO.items() for a in kv]
 CSV_COLUMNS = ["index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
-               "in_tolerance", "outlier"]
+               "in_tolerance", "excluded_from_alignment"]
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -73,7 +73,7 @@ def test_accept_json_and_csv(files, capsys):
     with open(d / "r.csv") as f:
         rows = list(csv.DictReader(f))
     assert list(rows[0]) == ["index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg",
-                             "deviation", "in_tolerance", "outlier"]
+                             "deviation", "in_tolerance", "excluded_from_alignment"]
     assert [r["label"] for r in rows[:2]] == ["P000", "P001"] and len(rows) == 300
     got = np.array([float(r["deviation"]) for r in rows])
     assert np.max(np.abs(got - dev)) < 2e-3

@@ -205,7 +205,7 @@ def test_deterministic(runs):
     qpid = "q:QPId"
     assert one(etree.fromstring(other), qpid).text != one(etree.fromstring(first), qpid).text
     ps = one(parse_valid(first), "//q:MeasuredPointSet")
-    assert attribute(ps, "qa-inspect:outlier") == "".join(
+    assert attribute(ps, "qa-inspect:excluded-from-alignment") == "".join(
         "1" if v else "0" for v in run.deviations > 0.02)
 
 

@@ -95,3 +95,21 @@ def test_deterministic(fairing):
     a, b = register(fairing, measured), register(fairing, measured)
     assert np.array_equal(a.T_nominal_measured, b.T_nominal_measured)
     assert a.rms == b.rms and a.iterations == b.iterations and a.score == b.score
+
+
+def test_without_a_zone_a_dent_stays_and_mis_probed_points_go(fairing):
+    """The registration on its own (no tolerance zone): the gross threshold's floor is 0.1% of
+    the nominal's diagonal; a 0.6 mm dent stays in the least-squares fit, 10 mm mis-probes go."""
+    rng = np.random.default_rng(31)
+    q = _patch(rng, 1100, (-245, 245), (-120, 120))
+    x, y = q[:, 0], q[:, 1]
+    dent = -0.6 * np.exp(-((x - 80) ** 2 + (y - 20) ** 2) / (2 * 18.0**2))
+    q = q + dent[:, None] * height_normal(x, y)
+    idx = np.sort(rng.choice(len(q), 11, replace=False))
+    q[idx] += rng.choice([-10.0, 10.0], idx.size)[:, None] * height_normal(x[idx], y[idx])
+    res = register(fairing, apply_transform(_pose(rng), q))
+    rule = res.gross_rule
+    assert rule.zone_width_mm is None
+    assert rule.floor_mm == pytest.approx(1e-3 * fairing.diagonal)
+    assert res.outlier_cut == rule.threshold_mm
+    assert np.array_equal(np.flatnonzero(~res.inlier), idx)

@@ -264,7 +264,7 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
     assert doc["minimax"]["excursion"] <= 1.0 < doc["minimax"]["least_squares_excursion"]
     with open(c) as f:
         rows = list(csv.DictReader(f))
-    assert list(rows[0])[-2:] == ["outlier", "margin"]
+    assert list(rows[0])[-2:] == ["excluded_from_alignment", "margin"]
     assert all(float(r["margin"]) >= 0 for r in rows)
     assert max(float(r["margin"]) for r in rows) == pytest.approx(doc["margin"]["max"],
                                                                   abs=1e-6)
