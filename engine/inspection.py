@@ -179,7 +179,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     ts = time.perf_counter()
     sens, statements = _sensitivity(
         lambda Tc, idx: point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed,
-        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit, reg.outlier_cut)
+        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin, sens, statements)
@@ -355,8 +355,7 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
                           "a tolerance limit (guarded decision rule)")
 
 
-def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
-                 cut: float):
+def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
@@ -369,7 +368,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     if _plausible_runner_up(reg):
         Tr = reg.runner_up_T
         if fit == "minimax":
-            Tr = _minimax(evaluate, Tr, evaluate(Tr)[1], cut, tol, {})
+            Tr = _minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
     sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
@@ -457,7 +456,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     ts = time.perf_counter()
     sens, statements = _sensitivity(
         lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
-        reg, tolerance, margin, fit, reg.outlier_cut)
+        reg, tolerance, margin, fit)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
                                      sens, statements)

@@ -335,6 +335,17 @@ def test_an_ambiguous_pose_is_inconclusive_only_when_the_verdict_differs():
     assert any("the pose is ambiguous" in r and "REJECT" in r for r in res.reasons)
 
 
+def test_the_minimax_fit_judges_the_runner_up_at_its_own_minimax_pose():
+    """With the minimax fit, the plausible runner-up is placed by the same fit before it is
+    judged: the bump's 0.04 mm misfit at the half-turned pose is still there, and the verdict
+    is the same as the least-squares one's where both poses agree."""
+    nominal, measured = _symmetric_part(bump=0.04)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.1), fit="minimax")
+    assert res.fit == "minimax" and res.extra["minimax"]["excursion"] <= 1.0
+    assert res.verdict == ACCEPT and res.pose_sensitivity.verdict_stable
+    assert any(p.kind == "runner-up" for p in res.pose_sensitivity.probes)
+
+
 @pytest.mark.parametrize("seed", range(8))
 def test_a_dented_part_rejects_from_any_pose(seed):
     """A 0.4 mm dent on a part with a nearly-as-good half-turned pose (the nominal symmetric
@@ -536,7 +547,14 @@ def test_a_slide_that_moves_a_point_across_a_limit_is_inconclusive():
     d[0] = 0.046
     q = np.column_stack([x, y, h(x, y)]) + d[:, None] * nrm(x, y)
     measured = apply_transform(make_transform(random_rotation(rng), [40.0, -3.0, 9.0]), q)
-    res = inspect(nominal, measured, Tolerance.symmetric(0.05))
+    # The zone is set so that the flank point lies 4 um inside its limit at the fitted pose
+    # (the least-squares pose, over every point, does not depend on the zone here).
+    fitted = inspect(nominal, measured, Tolerance.symmetric(0.05))
+    assert fitted.registration.n_inliers == x.size
+    limit = abs(float(fitted.deviations.signed[0])) + 0.004
+    assert np.abs(fitted.deviations.signed).argmax() == 0
+    res = inspect(nominal, measured, Tolerance.symmetric(limit))
+    assert np.array_equal(res.deviations.signed, fitted.deviations.signed)
     slides = [w for w in res.conditioning.weak if w.type == "translation"]
     assert slides and all(w.sigma_mm is not None for w in slides)  # weak, not free
     # Independent: some slide within 3 sigma takes a point across the limit.
@@ -545,9 +563,9 @@ def test_a_slide_that_moves_a_point_across_a_limit_is_inconclusive():
         for s in (-3, 3):
             moved = point_to_surface(nominal, res.registered
                                      + s * w.sigma_mm * np.asarray(w.axis)).signed
-            crossed |= bool(np.any(np.abs(moved) > 0.05))
+            crossed |= bool(np.any(np.abs(moved) > limit))
     assert crossed
-    assert np.all(np.abs(res.deviations.signed) <= 0.05)  # inside at the fitted pose
+    assert np.all(np.abs(res.deviations.signed) <= limit)  # inside at the fitted pose
     assert res.verdict == INCONCLUSIVE and not res.pose_sensitivity.verdict_stable
     assert res.pose_sensitivity.max_change_mm > abs(res.pose_sensitivity.min_limit_margin_mm)
     assert any("verdict to REJECT" in r for r in res.reasons)
