@@ -115,6 +115,16 @@ def certificate_number(run: Run, issued: dt.datetime) -> str:
     return f"QA-{issued:%Y%m%d}-{h.hexdigest()[:8].upper()}"
 
 
+def _exclusion_rule(reg) -> str:
+    """The gross-outlier rule as applied, in words (engine.outliers)."""
+    rule = getattr(reg, "gross_rule", None)
+    if rule is None:
+        return (f"Points farther than {reg.outlier_cut:.4g} mm from the surface are excluded "
+                "from the alignment as gross outliers and judged like every other point")
+    text = rule.describe()
+    return text[:1].upper() + text[1:]
+
+
 def _verdict_stability(res) -> str:
     """Whether the verdict is the same at every pose the measurement allows, in words."""
     sens = res.pose_sensitivity
@@ -435,8 +445,8 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     story.append(table(stats_rows, [W / 8] * 8,
                        styles=[("ALIGN", (0, 0), (-1, -1), "CENTER"),
                                ("FONT", (0, 1), (-1, 1), "Vera-Bold", 8.5)]))
-    story.append(P("Deviations in mm; statistics over every measured point, outliers of the "
-                   "fit included.", S["small"]))
+    story.append(P("Deviations in mm; statistics over every measured point, points excluded "
+                   "from the alignment included.", S["small"]))
     # 3. requirement
     story.append(P("3  Requirement", S["h"]))
     zone = (f"±{tol.upper:.3f} mm" if math.isclose(-tol.lower, tol.upper) else
@@ -483,9 +493,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
             "placed inside its zone (largest normalised excursion "
             f"{doc['minimax']['least_squares_excursion']:.3f} at the least-squares pose, "
             f"{doc['minimax']['excursion']:.3f} at this pose; ≤ 1 fits)")
-            + f". Gross outliers (beyond a robust cut of {reg.outlier_cut:.4f} mm"
-            + (", and 5 zone widths for the minimax fit" if res.fit == "minimax" else "")
-            + ") are left out of the fit but judged, and flagged in the tables"),
+            + ". " + _exclusion_rule(reg)),
         ("Deviation method", doc["deviations"]["method"]),
         ("Normals", {"file": "from the nominal file (I J K)", "mesh": "from the mesh faces",
                      "grid": "from the grid cells", "estimated": "estimated from the nominal "
@@ -528,8 +536,10 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                                  f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
                  "none with different deviations"),
                 ("Verdict holds", _verdict_stability(res)),
-                ("Outliers", f"{int(res.outlier.sum())} point(s) left out of the fit, judged"),
-                ("RMS", f"{reg.rms:.4f} mm over {reg.n_inliers} inlier points"),
+                ("Excluded from the alignment",
+                 f"{int(res.outlier.sum())} point(s) (gross outliers), judged like every other "
+                 "point" if res.outlier.any() else "none: every point was fitted"),
+                ("RMS", f"{reg.rms:.4f} mm over the {reg.n_inliers} fitted points"),
                 ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
                                f"{'—' if reg.runner_up_score is None else f'{reg.runner_up_score:.4f} mm'})"),
                 ("Near the nominal", f"{100 * reg.near_fraction:.1f}% of points within "
@@ -609,7 +619,10 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
         p = res.registered[i]
         ok = bool(res.in_tolerance[i])
         result = ("PASS" if ok else "FAIL") if judged else "not judged"
-        rows.append([f"{k + 1}", name_of(i) + (" (o)" if outlier[i] else ""), req,
+        name = (P(_esc(name_of(i)) + "<br/><font size=6>excluded from the alignment (gross "
+                  f"outlier, d = {d[i]:+.4f} mm)</font>", S["cell"]) if outlier[i] else
+                name_of(i))
+        rows.append([f"{k + 1}", name, req,
                      f"{p[0]:.3f}", f"{p[1]:.3f}", f"{p[2]:.3f}", f"{d[i]:+.4f}", result])
         if judged and not ok:
             res_styles.append(("TEXTCOLOR", (7, k + 1), (7, k + 1), colors.Color(0.72, 0.1, 0.1)))
@@ -620,8 +633,9 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
               "limit, worst first.") if judged else
              f"The registration cannot be trusted, so no point is judged; the {len(rows_idx)} "
              "largest deviations at the best pose found are listed for diagnosis.") + (
-             " Coordinates of the registered points in the nominal frame; (o) marks a gross "
-             "outlier left out of the fit. Every point is in the attached points.csv.")
+             " Coordinates of the registered points in the nominal frame. A point excluded from "
+             "the alignment (a gross outlier: see section 4) is judged like every other. Every "
+             "point is in the attached points.csv.")
     story.append(P(_esc(intro), S["small"]))
     story.append(Spacer(1, 2 * mm))
     story.append(table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,

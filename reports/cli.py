@@ -445,7 +445,7 @@ def _summary(result, written) -> str:
         f"rms {st.rms:.4f} mm; zone {tol.lower:+.4f} … {tol.upper:+.4f} mm; "
         f"{st.n_out} of {st.count} out of tolerance",
         f"  registration: {'converged' if reg.converged else 'NOT converged'} after "
-        f"{reg.iterations} iterations, rms {reg.rms:.4f} mm over {reg.n_inliers} inlier points, "
+        f"{reg.iterations} iterations, rms {reg.rms:.4f} mm over {reg.n_inliers} fitted points, "
         f"{reg.hypotheses} pose hypotheses",
     ]
     if result.normals_source == "estimated":

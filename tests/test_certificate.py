@@ -486,6 +486,31 @@ def test_reject_certificate_never_says_accepted(tmp_path):
     text = squeeze("\n".join(pages))
     assert "ACCEPTED" not in text
     assert "does not conform" in text
+    # Its failing points were fitted like every other: none is called an outlier.
+    assert "outlier, d =" not in text and "none: every point was fitted" in text
+
+
+def test_a_mis_probed_point_is_named_excluded_from_the_alignment(tmp_path):
+    """One CMM point 10 mm off the part (a mis-probe): the certificate says it was excluded from
+    the alignment as a gross outlier, with its deviation, states the rule, and rejects."""
+    with open(BELLY_MEASURED) as f:
+        lines = f.read().splitlines()
+    k = next(i for i, line in enumerate(lines) if line.startswith("P0500,"))
+    label, x, y, z = lines[k].split(",")
+    lines[k] = f"{label},{x},{y},{float(z) + 10.0:.4f}"
+    measured = tmp_path / "mis_probed.csv"
+    measured.write_text("\n".join(lines) + "\n")
+    pdf = tmp_path / "mis_probed.pdf"
+    code, out, err = cli("inspect", BELLY_NOMINAL, measured, "--tol", "0.25", "--report", pdf,
+                         "--json", tmp_path / "r.json")
+    assert code == 1, out + err
+    doc = json.loads((tmp_path / "r.json").read_text())
+    gross = doc["registration"]["gross_outliers"]
+    assert gross["n_excluded"] == 1
+    text = squeeze("\n".join(page_texts(pdf, layout=False)))
+    assert "P0500" in text and "excluded from the alignment (gross outlier, d =" in text
+    assert "is excluded from the alignment only as a gross outlier" in text  # the rule
+    assert "1 point(s) (gross outliers), judged like every other point" in text
 
 
 def test_signed_2d_certificate(signed, tmp_path, capsys):
