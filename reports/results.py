@@ -74,7 +74,9 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "ambiguity_definition": "true when the best distinct other pose scores within 1.5x "
                                     "of the chosen one and moves some point's deviation by more "
                                     "than 10% of the zone width (a symmetry that leaves the "
-                                    "deviations unchanged is not ambiguous)",
+                                    "deviations unchanged is not ambiguous); a reported fact: "
+                                    "the verdict is INCONCLUSIVE only when it differs at that "
+                                    "pose (see pose_sensitivity)",
             **_conditioning(result.conditioning),
             "score_definition": "truncated RMS sqrt(mean(min(d^2, cut^2))) in mm over a seeded "
                                 "subset of at most 4096 measured points, the same for the "
