@@ -42,7 +42,6 @@ class Viewport3D(QWidget):
             b.clicked.connect(lambda _=False, n=name: self.standard_view(n))
             bar.addWidget(b)
             self.view_buttons[name] = b
-        bar.addStretch(1)
         self.readout = QLabel(self.READOUT_HINT)
         # Wrapped, so that a long label does not set the window's minimum width.
         self.readout.setWordWrap(True)
@@ -182,7 +181,7 @@ class Viewport3D(QWidget):
         d = run.result.deviations.signed[index]
         ok = "in tolerance" if run.result.in_tolerance[index] else "OUT OF TOLERANCE"
         if run.result.outlier[index]:
-            ok += "; excluded from alignment as a gross outlier"
+            ok += "; excluded from alignment (gross outlier)"
         self.readout.setText(f"<b>{name}</b>: deviation {d:+.4f} mm ({ok})")
         if self.plotter is not None:
             import pyvista as pv

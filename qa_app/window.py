@@ -13,6 +13,7 @@ from PySide6.QtWidgets import (
     QFrame,
     QFormLayout,
     QGroupBox,
+    QHBoxLayout,
     QLabel,
     QMainWindow,
     QProgressBar,
@@ -119,7 +120,7 @@ class MainWindow(QMainWindow):
         sl.setContentsMargins(0, 0, 0, 0)
         sl.addWidget(files)
         sl.addWidget(tol_box)
-        sl.addWidget(legend_box, 1)
+        sl.addStretch(1)
         self.steps_scroll = QScrollArea()
         self.steps_scroll.setWidget(steps)
         self.steps_scroll.setWidgetResizable(True)
@@ -140,7 +141,15 @@ class MainWindow(QMainWindow):
         self.bottom.addTab(self.table, "Points")
         self.bottom.addTab(self.histogram, "Histogram")
         right = QSplitter(Qt.Vertical)
-        right.addWidget(self.views)
+        # The colour scale beside the colours it explains (and not below the steps, where a
+        # short screen would scroll it away).
+        legend_box.setMaximumWidth(240)
+        shown = QWidget()
+        hl = QHBoxLayout(shown)
+        hl.setContentsMargins(0, 0, 0, 0)
+        hl.addWidget(self.views, 1)
+        hl.addWidget(legend_box)
+        right.addWidget(shown)
         right.addWidget(self.bottom)
         right.setSizes([560, 260])
         main = QSplitter(Qt.Horizontal)
@@ -241,6 +250,8 @@ class MainWindow(QMainWindow):
         self.progress_bar.setVisible(busy)
         if not busy:
             self.stage_label.setText(step.value)
+        if step == Step.STALE:
+            self.statusBar().clearMessage()  # the last run's verdict note no longer holds
 
     def _progress(self, stage: str, fraction: float) -> None:
         self.progress_bar.setValue(int(1000 * fraction))
