@@ -154,14 +154,54 @@ class Controller:
             raise Cancelled()
         self._post(lambda: self.session.progress.emit(stage, fraction))
 
+    # ------------------------------------------------------------------ staleness
+    def check_inputs(self) -> bool:
+        """Compare the files the result was computed from with the files on disk (SHA-256); any
+        difference marks the result stale. Returns True when there is a result and it is
+        current."""
+        from reports.loading import sha256_of
+
+        s = self.session
+        if s.run is None:
+            return False
+        changed = []
+        for rec in s.run.inputs:
+            try:
+                same = sha256_of(rec.path) == rec.sha256
+            except InputError:
+                changed.append(f"the {rec.role} file {rec.path} can no longer be read")
+                continue
+            if not same:
+                changed.append(f"the {rec.role} file {rec.path} changed on disk since this "
+                               "inspection")
+        s.set_changed_inputs(changed)
+        return not s.stale
+
+    def _refuse_stale(self, what: str) -> bool:
+        """True (with a message) when there is no current result to export: an export states
+        the result on screen, for the files and settings as they are now."""
+        s = self.session
+        if s.run is None:
+            return True
+        if self.busy:
+            s.tell("warning", f"an inspection or export is running: wait for it before "
+                              f"exporting the {what}")
+            return True
+        if not self.check_inputs():
+            s.tell("warning", f"The result is out of date ({'; '.join(s.stale_reasons)}): "
+                              f"press Inspect before exporting the {what}.")
+            return True
+        return False
+
     # ------------------------------------------------------------------ exports
     def export_certificate(self, path: str, info, p12: str | None, passphrase: bytes | None,
                            on_done: Callable[[str], None] | None = None) -> None:
         """Write the certificate exactly as ``qa-inspect inspect … --report`` does (signed with
-        ``p12`` when given). The passphrase is used here and not kept."""
-        run = self.session.run
-        if run is None:
+        ``p12`` when given). The passphrase is used here and not kept. Refused while the
+        result is stale."""
+        if self._refuse_stale("certificate"):
             return
+        run = self.session.run
 
         def job():
             from reports.certificate import make_certificate
@@ -195,7 +235,7 @@ class Controller:
         from reports.results import points_csv
 
         run = self.session.run
-        if run is not None:
+        if not self._refuse_stale("CSV"):
             self._export(path, lambda: points_csv(run.result, run.measured.points,
                                                   run.measured.labels), "CSV")
 
@@ -203,7 +243,7 @@ class Controller:
         from reports.qif import qif_results_document
 
         run = self.session.run
-        if run is None:
+        if self._refuse_stale("QIF"):
             return
         res = run.result
         self._export(path, lambda: qif_results_document(
@@ -226,10 +266,18 @@ class Controller:
 
     # ------------------------------------------------------------------ sessions
     def save_session(self, path: str) -> None:
-        """Inputs by path with SHA-256, the settings, and the results document."""
+        """Inputs by path with SHA-256, the settings, and the results document (none when the
+        result is stale: results are saved only with the settings and files they belong to)."""
         from reports.results import write_atomic
 
         s = self.session
+        try:
+            s.settings.tolerance  # a zone that is no zone is not saved
+        except SettingsError as e:
+            s.tell("error", str(e))
+            return
+        if s.run is not None:
+            self.check_inputs()
         try:
             doc = self._session_doc(path)
             write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
@@ -252,7 +300,7 @@ class Controller:
                           for role, p in (("nominal", s.nominal_path),
                                           ("measured", s.measured_path))],
                "settings": s.settings.to_json(),
-               "results": None if s.run is None else s.run.doc}
+               "results": None if s.run is None or s.stale else s.run.doc}
 
     def open_session(self, path: str) -> None:
         """Reopen a saved session: its inputs and settings; warns about any input changed since
@@ -297,6 +345,7 @@ class Controller:
                 changed.append(f"{role} file {p} no longer exists")
             elif p and sha256_of(p) != rec.get("sha256"):
                 changed.append(f"{role} file {p} changed since the session was saved")
+        s.set_run(None)  # another session is another job: nothing of the last one stays
         s.settings = settings
         s.settings_changed.emit()
         s.set_nominal(inputs.get("nominal", {}).get("path"))

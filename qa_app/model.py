@@ -37,6 +37,7 @@ class Step(enum.Enum):
     READY = "Set the tolerance and inspect"
     RUNNING = "Inspecting…"
     INSPECTED = "Review the result; export the certificate"
+    STALE = "Out of date: settings or files changed since this inspection; press Inspect"
 
 
 class Session:
@@ -45,6 +46,12 @@ class Session:
     Events (arguments): ``inputs_changed()``, ``settings_changed()``, ``step_changed(step)``,
     ``progress(stage, fraction)``, ``result_changed(run or None)``, ``message(level, text)``
     with level "info", "warning" or "error", ``selection_changed(index or None)``.
+
+    A result is kept when the files or settings change, but it is then *stale* (step
+    ``Step.STALE``, ``stale_reasons`` says why): what an inspection would now see is not what it
+    saw, so it may be looked at but not exported. Staleness is a comparison, not a flag: setting
+    everything back to what the result was computed with makes it current again. A file changed on
+    disk is known only when the controller compares its SHA-256 (``set_changed_inputs``).
     """
 
     def __init__(self):
@@ -54,6 +61,9 @@ class Session:
         self.run = None  # reports.pipeline.Run of the last inspection, or None
         self.running = False
         self.selected: int | None = None
+        self.changed_inputs: tuple[str, ...] = ()
+        """Why the run's input files differ from the files on disk now (the controller's SHA-256
+        comparison); emptied with each new run."""
         self.inputs_changed = Event()
         self.settings_changed = Event()
         self.step_changed = Event()
@@ -71,11 +81,44 @@ class Session:
             return Step.NEED_NOMINAL
         if self.measured_path is None:
             return Step.NEED_MEASURED
-        return Step.INSPECTED if self.run is not None else Step.READY
+        if self.run is None:
+            return Step.READY
+        return Step.STALE if self.stale_reasons else Step.INSPECTED
+
+    @property
+    def stale_reasons(self) -> list[str]:
+        """What differs between the result on screen and an inspection now, one phrase each
+        (empty without a result or when the result is current)."""
+        run = self.run
+        if run is None:
+            return []
+        out = []
+        ran = {rec.role: rec.path for rec in run.inputs}
+        for role, path in (("nominal", self.nominal_path), ("measured", self.measured_path)):
+            if path != ran.get(role):
+                out.append(f"another {role} file is open" if path else f"no {role} file is open")
+        was, now = run.settings, self.settings
+        if (was.tol_lower, was.tol_upper) != (now.tol_lower, now.tol_upper):
+            out.append(f"zone changed from {was.tol_lower:+.4g} … {was.tol_upper:+.4g} mm to "
+                       f"{now.tol_lower:+.4g} … {now.tol_upper:+.4g} mm")
+        if was.fit != now.fit:
+            out.append(f"fit changed from {was.fit} to {now.fit}")
+        if was.decision_rule != now.decision_rule:
+            out.append(f"decision rule changed from {was.decision_rule} to "
+                       f"{now.decision_rule}")
+        if was.scale != now.scale:
+            out.append("airfoil chord changed")
+        if (was.layers, was.units) != (now.layers, now.units):
+            out.append("template layers or units changed")
+        return out + list(self.changed_inputs)
+
+    @property
+    def stale(self) -> bool:
+        return bool(self.stale_reasons)
 
     @property
     def can_inspect(self) -> bool:
-        return self.step in (Step.READY, Step.INSPECTED)
+        return self.step in (Step.READY, Step.INSPECTED, Step.STALE)
 
     @property
     def can_export(self) -> bool:
@@ -91,7 +134,7 @@ class Session:
         self._inputs_changed()
 
     def _inputs_changed(self) -> None:
-        self.set_run(None)
+        # The result stays on screen, marked stale when the files differ from its own.
         self.inputs_changed.emit()
         self.step_changed.emit(self.step)
 
@@ -99,8 +142,15 @@ class Session:
         new = replace(self.settings, **changes)
         if new != self.settings:
             self.settings = new
-            self.set_run(None)  # a result belongs to the settings it was made with
+            # The result stays on screen, marked stale when the settings differ from its own.
             self.settings_changed.emit()
+            self.step_changed.emit(self.step)
+
+    def set_changed_inputs(self, reasons) -> None:
+        """reasons : phrases naming each input file that differs on disk from the run's."""
+        reasons = tuple(reasons)
+        if reasons != self.changed_inputs:
+            self.changed_inputs = reasons
             self.step_changed.emit(self.step)
 
     def set_running(self, running: bool) -> None:
@@ -112,6 +162,7 @@ class Session:
             return
         self.run = run
         self.selected = None
+        self.changed_inputs = ()
         self.result_changed.emit(run)
         self.step_changed.emit(self.step)
 

@@ -23,6 +23,8 @@ def can_render_3d() -> bool:
 
 
 class Viewport3D(QWidget):
+    READOUT_HINT = "Click a point to see its label and deviation"
+
     def __init__(self, session: Session, enable_3d: bool | None = None):
         super().__init__()
         self.session = session
@@ -40,9 +42,10 @@ class Viewport3D(QWidget):
             b.clicked.connect(lambda _=False, n=name: self.standard_view(n))
             bar.addWidget(b)
             self.view_buttons[name] = b
-        bar.addStretch(1)
-        self.readout = QLabel("Click a point to see its label and deviation")
-        bar.addWidget(self.readout)
+        self.readout = QLabel(self.READOUT_HINT)
+        # Wrapped, so that a long label does not set the window's minimum width.
+        self.readout.setWordWrap(True)
+        bar.addWidget(self.readout, 1)
         lay.addLayout(bar)
         if enable_3d if enable_3d is not None else can_render_3d():
             from pyvistaqt import QtInteractor
@@ -97,6 +100,7 @@ class Viewport3D(QWidget):
 
     def show_run(self, run) -> None:
         self._shown = self._tree = None
+        self.readout.setText(self.READOUT_HINT)  # the picked point was the last run's
         if self.plotter is not None:
             # Remove our actors by name: Plotter.clear() would also remove the lights.
             for name in list(self.plotter.renderer.actors):
@@ -176,6 +180,8 @@ class Viewport3D(QWidget):
         name = str(labels[index]) if labels is not None else f"#{index + 1}"
         d = run.result.deviations.signed[index]
         ok = "in tolerance" if run.result.in_tolerance[index] else "OUT OF TOLERANCE"
+        if run.result.outlier[index]:
+            ok += "; excluded from alignment (gross outlier)"
         self.readout.setText(f"<b>{name}</b>: deviation {d:+.4f} mm ({ok})")
         if self.plotter is not None:
             import pyvista as pv

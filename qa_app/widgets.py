@@ -77,11 +77,13 @@ class MessageBar(QFrame):
 
 
 class VerdictBanner(QFrame):
-    """The verdict in large type with its reason and the statistics."""
+    """The verdict in large type with its reason and the statistics; when the result is stale,
+    "OUT OF DATE" with what changed, and the old verdict greyed."""
 
     def __init__(self, session: Session):
         super().__init__()
         self.setObjectName("verdictBanner")
+        self.session = session
         self.word = QLabel()
         self.word.setObjectName("verdictWord")
         self.detail = QLabel()
@@ -96,6 +98,9 @@ class VerdictBanner(QFrame):
         self.update_from(None)
 
     def update_from(self, run, step=None) -> None:
+        """verdict : the verdict shown (None when none is: no result, or a stale one);
+        stale : the result shown is out of date."""
+        self.stale = False
         if run is None:
             text = step.value if step is not None else "Open the nominal and the measured points"
             self.setStyleSheet("#verdictBanner { background: #e9edf2; border-radius: 4px; }")
@@ -105,24 +110,44 @@ class VerdictBanner(QFrame):
             return
         res = run.result
         st = res.statistics
+        tol = res.tolerance
+        cond = res.conditioning
+        pose = ("pose ±" + f"{cond.pose_sigma_mm:.4f} mm" if cond is not None and
+                cond.pose_sigma_mm is not None else "pose not fully constrained")
+        n_excluded = int(res.outlier.sum())
+        excluded = (f" · {n_excluded} excluded from alignment (gross outlier"
+                    f"{'s' if n_excluded > 1 else ''})" if n_excluded else "")
+        facts = (
+            f"{st.count} points · {st.n_out} out of tolerance · zone {tol.lower:+.3f} … "
+            f"{tol.upper:+.3f} mm{excluded}<br>min {st.min:+.4f} · "
+            f"max {st.max:+.4f} · mean {st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · "
+            f"max |d| {st.max_abs:.4f} mm<br>fit {res.fit} · decision rule {res.decision_rule} · "
+            f"registration rms {res.registration.rms:.4f} mm · {pose}"
+            + (" · AMBIGUOUS" if res.ambiguous else ""))
+        reasons = self.session.stale_reasons if run is self.session.run else []
+        if reasons:
+            # No verdict is stated for a result that no longer matches the files and settings:
+            # the old one stays readable, greyed, below what changed.
+            self.stale = True
+            self.verdict = None
+            self.setStyleSheet("#verdictBanner { background: #d5d8dc; border: 2px solid #7a4b00;"
+                               " border-radius: 4px; } QLabel { color: #3a3a44; }")
+            self.word.setText(
+                "<span style='font-size:22pt; font-weight:bold; color:#7a4b00'>OUT OF DATE"
+                f"</span><br><span style='color:#8a8f96'>was "
+                f"<s>{VERDICT_WORD[res.verdict]}</s></span>")
+            self.detail.setText(
+                f"<b>Changed since this inspection: {'; '.join(reasons)}. Press Inspect (F5) "
+                f"for a result; export is disabled until then.</b><br>"
+                f"<span style='color:#8a8f96'>{facts}</span>")
+            return
         self.verdict = res.verdict
         colour = qcolor(VERDICT_RGB[res.verdict]).name()
         self.setStyleSheet(f"#verdictBanner {{ background: {colour}; "
                            "border-radius: 4px; } QLabel { color: white; }")
         self.word.setText(f"<span style='font-size:22pt; font-weight:bold'>"
                           f"{VERDICT_WORD[res.verdict]}</span>")
-        tol = res.tolerance
-        cond = res.conditioning
-        pose = ("pose ±" + f"{cond.pose_sigma_mm:.4f} mm" if cond is not None and
-                cond.pose_sigma_mm is not None else "pose not fully constrained")
-        self.detail.setText(
-            f"{'; '.join(res.reasons)}<br>"
-            f"{st.count} points · {st.n_out} out of tolerance · zone {tol.lower:+.3f} … "
-            f"{tol.upper:+.3f} mm · {int(res.outlier.sum())} fit outliers<br>min {st.min:+.4f} · "
-            f"max {st.max:+.4f} · mean {st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · "
-            f"max |d| {st.max_abs:.4f} mm<br>fit {res.fit} · decision rule {res.decision_rule} · "
-            f"registration rms {res.registration.rms:.4f} mm · {pose}"
-            + (" · AMBIGUOUS" if res.ambiguous else ""))
+        self.detail.setText(f"{'; '.join(res.reasons)}<br>{facts}")
 
 
 class Legend(QWidget):
@@ -167,7 +192,7 @@ class Histogram(QWidget):
     def __init__(self, session: Session):
         super().__init__()
         self.session = session
-        self.setMinimumHeight(150)
+        self.setMinimumHeight(110)
         session.result_changed.connect(lambda run: self.update())
 
     def paintEvent(self, event):
@@ -221,7 +246,7 @@ class ContourView(QWidget):
     def __init__(self, session: Session):
         super().__init__()
         self.session = session
-        self.setMinimumSize(300, 200)
+        self.setMinimumSize(300, 160)
         self._cache = None
         session.result_changed.connect(self._result)
         session.selection_changed.connect(lambda i: self.update())
@@ -301,7 +326,13 @@ class PointTableModel(QAbstractTableModel):
     """Every measured point; sorting is done with numpy (200,000 rows sort at once)."""
 
     COLUMNS = ("#", "Label", "X (mm)", "Y (mm)", "Z (mm)", "Deviation (mm)", "Result",
-               "Outlier")
+               "Excluded")
+    EXCLUDED = "excluded (gross outlier)"
+    EXCLUDED_TIP = ("Excluded from the alignment as a gross outlier (a mis-probed point): its "
+                    "deviation lies several zone widths and several robust standard deviations "
+                    "from the median deviation, and its nearest measured neighbours do not "
+                    "deviate alike. A dent or bump is never excluded. An excluded point is "
+                    "judged like every other point; an empty cell: the point was fitted.")
 
     def __init__(self, session: Session):
         super().__init__()
@@ -323,8 +354,11 @@ class PointTableModel(QAbstractTableModel):
         return 0 if parent.isValid() else len(self.COLUMNS)
 
     def headerData(self, section, orientation, role=Qt.DisplayRole):
-        if role == Qt.DisplayRole and orientation == Qt.Horizontal:
-            return self.COLUMNS[section]
+        if orientation == Qt.Horizontal:
+            if role == Qt.DisplayRole:
+                return self.COLUMNS[section]
+            if role == Qt.ToolTipRole and section == 7:
+                return self.EXCLUDED_TIP
         return None
 
     def point(self, row: int) -> int:
@@ -352,7 +386,7 @@ class PointTableModel(QAbstractTableModel):
             if c == 6:
                 return "PASS" if res.in_tolerance[i] else "FAIL"
             if c == 7:
-                return "outlier" if res.outlier[i] else ""
+                return self.EXCLUDED if res.outlier[i] else ""
         if role == Qt.TextAlignmentRole and 2 <= c <= 5:
             return int(Qt.AlignRight | Qt.AlignVCenter)
         if role == Qt.ForegroundRole and c == 6 and not res.in_tolerance[i]:
@@ -415,7 +449,10 @@ class PointTable(QTableView):
 
 
 class ToleranceForm(QWidget):
-    """Symmetric or asymmetric zone, per-part presets, and the Inspect / Cancel buttons."""
+    """Symmetric or asymmetric zone, per-part presets, and the Inspect / Cancel buttons.
+
+    Every edit goes to the session's settings at once, so a result computed with other settings
+    is marked out of date the moment they change (not only when Inspect is pressed)."""
 
     inspect_clicked = Signal()
     cancel_clicked = Signal()
@@ -425,6 +462,7 @@ class ToleranceForm(QWidget):
         super().__init__()
         self.session = session
         self.presets = presets
+        self._loading = self._pushing = False
         self.sym = QRadioButton("Symmetric ±")
         self.asym = QRadioButton("Asymmetric")
         self.sym.setChecked(True)
@@ -464,12 +502,9 @@ class ToleranceForm(QWidget):
         row.addWidget(self.tol, 1)
         form.addRow("Zone", row)
         form.addRow("", self.asym)
-        row2 = QHBoxLayout()
-        row2.addWidget(QLabel("lower"))
-        row2.addWidget(self.lower, 1)
-        row2.addWidget(QLabel("upper"))
-        row2.addWidget(self.upper, 1)
-        form.addRow("", row2)
+        # One limit a row: side by side they would set the panel's width.
+        form.addRow("lower", self.lower)
+        form.addRow("upper", self.upper)
         row3 = QHBoxLayout()
         row3.addWidget(self.preset, 1)
         row3.addWidget(save)
@@ -486,9 +521,20 @@ class ToleranceForm(QWidget):
         for w in (self.sym, self.asym):
             w.toggled.connect(self._mode)
         self.preset.activated.connect(self._apply_preset)
+        for combo in (self.fit, self.rule, self.preset):
+            # Long item texts must not set the panel's minimum width.
+            combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
+            combo.setMinimumContentsLength(12)
         self._mode()
         session.settings_changed.connect(self.load)
         self.load()
+        for spin in (self.tol, self.lower, self.upper, self.chord):
+            spin.valueChanged.connect(self.push)
+        self.sym.toggled.connect(self.push)
+        for combo in (self.fit, self.rule):
+            combo.currentIndexChanged.connect(self.push)
+        # The airfoil chord applies to .dat nominals only (see settings_fields).
+        session.inputs_changed.connect(self.push)
 
     @staticmethod
     def _spin(value, minimum):
@@ -518,16 +564,43 @@ class ToleranceForm(QWidget):
         self.upper.setValue(upper)
 
     def load(self):
+        """Show the session's settings (not while this form is the one changing them: the
+        asymmetric zone being typed stays asymmetric)."""
+        if self._pushing:
+            return
         st = self.session.settings
-        self.set_zone(st.tol_lower, st.tol_upper)
-        self.fit.setCurrentIndex(max(0, self.fit.findData(st.fit)))
-        self.rule.setCurrentIndex(max(0, self.rule.findData(st.decision_rule)))
-        self.chord.setValue(st.scale or 0.0)
+        self._loading = True
+        try:
+            self.set_zone(st.tol_lower, st.tol_upper)
+            self.fit.setCurrentIndex(max(0, self.fit.findData(st.fit)))
+            self.rule.setCurrentIndex(max(0, self.rule.findData(st.decision_rule)))
+            self.chord.setValue(st.scale or 0.0)
+        finally:
+            self._loading = False
 
     def options(self) -> dict:
         """Fit, decision rule and airfoil chord as Settings fields."""
         return {"fit": self.fit.currentData(), "decision_rule": self.rule.currentData(),
                 "scale": self.chord.value() or None}
+
+    def settings_fields(self) -> dict:
+        """The form as Settings fields: the zone (not checked here: the controller refuses an
+        empty one at Inspect), fit, decision rule, and the chord for a .dat nominal only."""
+        lo, hi = self.zone()
+        options = self.options()
+        if not (self.session.nominal_path or "").lower().endswith(".dat"):
+            options["scale"] = None  # the chord applies to airfoil ordinates only
+        return {"tol_lower": float(lo), "tol_upper": float(hi), **options}
+
+    def push(self, *_) -> None:
+        """Send the form's values to the session's settings."""
+        if self._loading:
+            return
+        self._pushing = True
+        try:
+            self.session.set_settings(**self.settings_fields())
+        finally:
+            self._pushing = False
 
     def _fill_presets(self):
         self.preset.clear()

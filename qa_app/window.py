@@ -6,16 +6,19 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 
-from PySide6.QtCore import QObject, QSettings, Qt, Signal, Slot
+from PySide6.QtCore import QEvent, QObject, QSettings, Qt, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import (
     QFileDialog,
+    QFrame,
     QFormLayout,
     QGroupBox,
+    QHBoxLayout,
     QLabel,
     QMainWindow,
     QProgressBar,
     QPushButton,
+    QScrollArea,
     QSplitter,
     QTabWidget,
     QVBoxLayout,
@@ -40,6 +43,8 @@ NOMINAL_FILTER = ("Nominals (*.csv *.txt *.xyz *.asc *.npy *.stl *.ply *.obj *.v
                   "*.dxf *.dat);;All files (*)")
 MEASURED_FILTER = "Measured points (*.csv *.txt *.xyz *.asc *.npy *.ply);;All files (*)"
 MAX_RECENT = 8
+DEFAULT_SIZE = (1400, 900)
+"""The window's size on a screen big enough; it never exceeds the screen's available area."""
 
 
 class _Invoker(QObject):
@@ -67,7 +72,6 @@ class MainWindow(QMainWindow):
                                      prepare=Viewport3D.prepare)
         self.qsettings = settings or QSettings("qa-inspect", "qa-app")
         self.setWindowTitle("qa-inspect — dimensional inspection")
-        self.resize(1400, 900)
         self.setAcceptDrops(True)
         s = self.session
 
@@ -110,14 +114,25 @@ class MainWindow(QMainWindow):
         self.export_button = QPushButton("3  Export certificate…")
         self.export_button.setObjectName("exportButton")
         self.export_button.clicked.connect(self.export_certificate)
+        # The steps scroll when the screen is short (1366×768); Export stays in sight below.
+        steps = QWidget()
+        sl = QVBoxLayout(steps)
+        sl.setContentsMargins(0, 0, 0, 0)
+        sl.addWidget(files)
+        sl.addWidget(tol_box)
+        sl.addStretch(1)
+        self.steps_scroll = QScrollArea()
+        self.steps_scroll.setWidget(steps)
+        self.steps_scroll.setWidgetResizable(True)
+        self.steps_scroll.setFrameShape(QFrame.NoFrame)
+        self.steps_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
         left = QWidget()
         ll = QVBoxLayout(left)
-        ll.addWidget(files)
-        ll.addWidget(tol_box)
-        ll.addWidget(legend_box, 1)
+        ll.addWidget(self.steps_scroll, 1)
         ll.addWidget(self.export_button)
         left.setMaximumWidth(440)
-        left.setMinimumWidth(380)
+        # Wide enough for the steps and a scroll bar, so that nothing is cut off sideways.
+        left.setMinimumWidth(max(360, steps.minimumSizeHint().width() + 30))
 
         self.views = QTabWidget()
         self.views.addTab(self.viewport, "3D view")
@@ -126,7 +141,15 @@ class MainWindow(QMainWindow):
         self.bottom.addTab(self.table, "Points")
         self.bottom.addTab(self.histogram, "Histogram")
         right = QSplitter(Qt.Vertical)
-        right.addWidget(self.views)
+        # The colour scale beside the colours it explains (and not below the steps, where a
+        # short screen would scroll it away).
+        legend_box.setMaximumWidth(240)
+        shown = QWidget()
+        hl = QHBoxLayout(shown)
+        hl.setContentsMargins(0, 0, 0, 0)
+        hl.addWidget(self.views, 1)
+        hl.addWidget(legend_box)
+        right.addWidget(shown)
         right.addWidget(self.bottom)
         right.setSizes([560, 260])
         main = QSplitter(Qt.Horizontal)
@@ -149,6 +172,7 @@ class MainWindow(QMainWindow):
         s.message.connect(lambda level, text: self.statusBar().showMessage(text, 8000))
         self._inputs()
         self._step(s.step)
+        self._fit_to_screen()
         self.warm_up = None if synchronous else self.controller.warm_up()
 
     # ------------------------------------------------------------------ actions
@@ -199,6 +223,16 @@ class MainWindow(QMainWindow):
             tb.addAction(a)
         self._fill_recent()
 
+    def _fit_to_screen(self) -> None:
+        """The default size, within the screen's available area less room for the frame."""
+        w, h = DEFAULT_SIZE
+        screen = self.screen()
+        if screen is not None:
+            avail = screen.availableGeometry()
+            w, h = min(w, avail.width() - 16), min(h, avail.height() - 40)
+        self.resize(max(w, self.minimumSizeHint().width()),
+                    max(h, self.minimumSizeHint().height()))
+
     def _step(self, step: Step) -> None:
         s = self.session
         busy = step == Step.RUNNING
@@ -216,6 +250,8 @@ class MainWindow(QMainWindow):
         self.progress_bar.setVisible(busy)
         if not busy:
             self.stage_label.setText(step.value)
+        if step == Step.STALE:
+            self.statusBar().clearMessage()  # the last run's verdict note no longer holds
 
     def _progress(self, stage: str, fraction: float) -> None:
         self.progress_bar.setValue(int(1000 * fraction))
@@ -253,17 +289,14 @@ class MainWindow(QMainWindow):
     def inspect(self) -> None:
         lo, hi = self.tolerance.zone()
         if self.controller.set_tolerance(lo, hi):
-            options = self.tolerance.options()
-            if not (self.session.nominal_path or "").lower().endswith(".dat"):
-                options["scale"] = None  # the chord applies to airfoil ordinates only
-            self.session.set_settings(**options)
+            self.session.set_settings(**self.tolerance.settings_fields())
             self.controller.inspect()
 
     def export_certificate(self, path: str | None = None, dialog: CertificateDialog | None = None
                            ) -> CertificateDialog | None:
         """Ask for the certificate's fields and identity, then export. Tests pass a prepared
         ``dialog`` (accepted) to drive it without a modal loop."""
-        if not self.session.can_export:
+        if not self.session.can_export or not self.controller.check_inputs():
             return None
         default = path or os.path.join(self._folder(), os.path.splitext(
             os.path.basename(self.session.measured_path))[0] + "_certificate.pdf")
@@ -358,6 +391,14 @@ class MainWindow(QMainWindow):
         if paths:
             self.controller.open_files(paths)
             event.acceptProposedAction()
+
+    def changeEvent(self, event):
+        # Back from another program (where an input may have been edited): is the result still
+        # that of the files on disk?
+        if (event.type() == QEvent.ActivationChange and self.isActiveWindow()
+                and self.session.run is not None and not self.controller.busy):
+            self.controller.check_inputs()
+        super().changeEvent(event)
 
     def closeEvent(self, event):
         self.controller.cancel()

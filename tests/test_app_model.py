@@ -40,9 +40,9 @@ def test_workflow_steps_and_result():
     assert Step.RUNNING in steps
     assert any("ICP iteration" in p for p in progress)
     assert messages[-1][0] == "info" and messages[-1][1].startswith("REJECT")
-    # Changing the tolerance invalidates the result: it belongs to the old settings.
+    # Changing the tolerance makes the result stale: it belongs to the old settings.
     c.set_tolerance(-0.25, 0.25)
-    assert s.run is None and s.step == Step.READY
+    assert s.step == Step.STALE and s.can_inspect and not s.can_export
 
 
 def test_bad_input_gives_the_command_lines_message(tmp_path, capsys):
@@ -241,3 +241,120 @@ def test_fit_and_decision_rule_reach_the_engine_and_the_session_file(tmp_path):
     s2, c2, _ = make()
     c2.open_session(str(tmp_path / "s.qasession"))
     assert s2.settings.fit == "minimax" and s2.settings.decision_rule == "guarded"
+
+
+# ---------------------------------------------------------------- a stale result is never exported
+def inspected(tmp_path, tol=0.05):
+    """A session inspected at ±tol on copies of the belly-fairing files (so they can be edited)."""
+    nominal, measured = tmp_path / "nominal.csv", tmp_path / "measured.csv"
+    shutil.copy(os.path.join(BELLY, "nominal.csv"), nominal)
+    shutil.copy(os.path.join(BELLY, "measured.csv"), measured)
+    s, c, messages = make()
+    c.open_files([str(nominal), str(measured)])
+    assert c.set_tolerance(-tol, tol)
+    c.inspect()
+    assert s.step == Step.INSPECTED and s.can_export and not s.stale_reasons
+    return s, c, messages
+
+
+def exports_refused(s, c, messages, tmp_path):
+    """Every export of the session's run is refused with a warning, and writes nothing."""
+    from reports.certificate import CertificateInfo
+
+    outs = [tmp_path / "out" / n for n in ("c.pdf", "p.csv", "r.qif")]
+    outs[0].parent.mkdir(exist_ok=True)
+    c.export_certificate(str(outs[0]), CertificateInfo(), None, None)
+    assert messages[-1][0] == "warning" and "out of date" in messages[-1][1]
+    c.export_csv(str(outs[1]))
+    assert messages[-1][0] == "warning" and "out of date" in messages[-1][1]
+    c.export_qif(str(outs[2]))
+    assert messages[-1][0] == "warning" and "out of date" in messages[-1][1]
+    return not any(p.exists() for p in outs)
+
+
+@pytest.mark.parametrize("change, reason", [
+    (lambda s, c: c.set_tolerance(-0.1, 0.1), "zone changed from -0.05 … +0.05 mm to -0.1 … "
+                                               "+0.1 mm"),
+    (lambda s, c: s.set_settings(fit="minimax"), "fit changed from lsq to minimax"),
+    (lambda s, c: s.set_settings(decision_rule="guarded"),
+     "decision rule changed from simple to guarded"),
+    (lambda s, c: c.open_nominal(os.path.join(BELLY, "nominal.csv")),
+     "another nominal file is open"),
+    (lambda s, c: c.open_measured(os.path.join(BELLY, "measured.csv")),
+     "another measured file is open"),
+])
+def test_any_change_of_settings_or_files_makes_the_result_stale(tmp_path, change, reason):
+    s, c, messages = inspected(tmp_path)
+    verdict = s.run.result.verdict
+    steps = []
+    s.step_changed.connect(steps.append)
+    change(s, c)
+    # The old result stays to be looked at, but the session says it is out of date and why,
+    # and nothing of it can be exported.
+    assert s.run is not None and s.run.result.verdict == verdict
+    assert steps[-1] == Step.STALE and s.step == Step.STALE
+    assert s.stale_reasons == [reason]
+    assert s.can_inspect and not s.can_export
+    assert exports_refused(s, c, messages, tmp_path)
+    # Inspect makes a current result again.
+    c.inspect()
+    assert s.step == Step.INSPECTED and s.can_export and not s.stale_reasons
+    c.export_csv(str(tmp_path / "p.csv"))
+    assert messages[-1] == ("info", f"CSV written: {tmp_path / 'p.csv'}")
+
+
+def test_returning_to_the_results_own_settings_makes_it_current_again(tmp_path):
+    s, c, messages = inspected(tmp_path)
+    run = s.run
+    c.set_tolerance(-0.1, 0.1)
+    s.set_settings(fit="minimax")
+    assert len(s.stale_reasons) == 2
+    c.set_tolerance(-0.05, 0.05)
+    assert s.stale_reasons == ["fit changed from lsq to minimax"]
+    s.set_settings(fit="lsq")
+    # Exactly the settings and files the result was computed with: it is that result again.
+    assert s.run is run and s.step == Step.INSPECTED and s.can_export
+    # Another file and back again, likewise.
+    measured = s.measured_path
+    c.open_measured(os.path.join(BELLY, "measured.csv"))
+    assert s.stale
+    c.open_measured(measured)
+    assert s.step == Step.INSPECTED
+
+
+def test_an_input_changed_on_disk_is_never_exported(tmp_path):
+    s, c, messages = inspected(tmp_path)
+    with open(s.measured_path, "a") as f:
+        f.write("P9999,0,0,0\n")
+    # Export compares the files with the SHA-256 the result was computed from, and refuses.
+    assert exports_refused(s, c, messages, tmp_path)
+    assert s.step == Step.STALE
+    assert s.stale_reasons == [f"the measured file {s.measured_path} changed on disk since this "
+                               "inspection"]
+    assert "changed on disk" in messages[-1][1]
+    # A file that vanished, likewise.
+    os.unlink(s.nominal_path)
+    assert not c.check_inputs()
+    assert f"the nominal file {s.nominal_path} can no longer be read" in s.stale_reasons
+    # The session file then keeps the files and settings but no results: they are not those
+    # of the files as they are now.
+    shutil.copy(os.path.join(BELLY, "nominal.csv"), s.nominal_path)
+    c.save_session(str(tmp_path / "s.qasession"))
+    assert json.loads((tmp_path / "s.qasession").read_text())["results"] is None
+
+
+def test_a_run_started_before_a_change_finishes_stale():
+    """The zone is changed while the inspection runs: its result is of the old zone."""
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")])
+    c.set_tolerance(-0.05, 0.05)
+    changed = []
+
+    def change_once(stage, fraction):
+        if not changed:
+            changed.append(stage)
+            s.set_settings(tol_lower=-0.25, tol_upper=0.25)
+
+    s.progress.connect(change_once)
+    c.inspect()
+    assert s.run.settings.tol_upper == 0.05 and s.step == Step.STALE and not s.can_export

@@ -3,12 +3,14 @@ own tests under Xvfb): actions enabled when they make sense, verdict banner, tab
 step, errors in the message bar, drag and drop, presets, recent files."""
 
 import os
+import shutil
 
 import numpy as np
 import pytest
 from PySide6.QtCore import QMimeData, QPointF, QSettings, Qt, QUrl
 from PySide6.QtGui import QDropEvent
 
+from qa_app.dialogs import CertificateDialog
 from qa_app.model import Step
 from qa_app.window import MainWindow
 
@@ -188,3 +190,152 @@ def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_pa
     qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=60_000)
     assert w.banner.verdict == "ACCEPT"
     assert w.tolerance.zone() == (-0.25, 0.25)
+
+
+# ---------------------------------------------------------------- what is on screen is what exports
+def export_actions(w):
+    return [w.export_button, w.act_certificate, w.act_csv, w.act_qif]
+
+
+def change_zone(w):
+    w.tolerance.tol.setValue(0.1)
+
+
+def change_fit(w):
+    w.tolerance.fit.setCurrentIndex(w.tolerance.fit.findData("minimax"))
+
+
+def change_rule(w):
+    w.tolerance.rule.setCurrentIndex(w.tolerance.rule.findData("guarded"))
+
+
+def change_nominal(w):
+    w.controller.open_nominal(os.path.join(FRAME, "template.dxf"))
+
+
+def change_measured(w):
+    w.controller.open_measured(os.path.join(FRAME, "measured.csv"))
+
+
+@pytest.mark.parametrize("change, what", [
+    (change_zone, "zone changed from -0.05 … +0.05 mm to -0.1 … +0.1 mm"),
+    (change_fit, "fit changed from lsq to minimax"),
+    (change_rule, "decision rule changed from simple to guarded"),
+    (change_nominal, "another nominal file is open"),
+    (change_measured, "another measured file is open"),
+])
+def test_a_change_after_inspection_marks_the_result_out_of_date(window, qtbot, tmp_path, change,
+                                                                what):
+    w = window
+    load_belly(w, 0.05)
+    w.act_inspect.trigger()
+    assert w.banner.verdict == "REJECT" and "REJECTED" in w.banner.word.text()
+    assert all(a.isEnabled() for a in export_actions(w))
+    change(w)  # in the form or the files, without pressing Inspect
+    # Export is disabled; the banner says the result is out of date and what changed, and
+    # states no verdict.
+    assert not any(a.isEnabled() for a in export_actions(w))
+    assert "OUT OF DATE" in w.banner.word.text()
+    assert what in w.banner.detail.text() and "Press Inspect" in w.banner.detail.text()
+    assert w.banner.stale and w.banner.verdict is None
+    out = tmp_path / "c.pdf"
+    assert w.export_certificate(dialog=CertificateDialog(w, {}, str(out))) is None
+    assert not out.exists()
+    assert w.act_inspect.isEnabled() and w.tolerance.inspect_button.isEnabled()
+    # Inspect: a result for what is on screen, exportable again.
+    w.act_inspect.trigger()
+    assert w.session.step == Step.INSPECTED and not w.banner.stale
+    assert w.banner.verdict == w.session.run.result.verdict
+    assert "OUT OF DATE" not in w.banner.word.text()
+    assert all(a.isEnabled() for a in export_actions(w))
+    assert w.session.run.settings == w.session.settings
+
+
+def test_an_edited_zone_stays_as_typed_and_back_to_the_results_zone_is_current(window):
+    w = window
+    load_belly(w, 0.05)
+    w.act_inspect.trigger()
+    w.tolerance.asym.setChecked(True)
+    w.tolerance.lower.setValue(-0.08)
+    assert not w.export_button.isEnabled() and "OUT OF DATE" in w.banner.word.text()
+    assert w.tolerance.asym.isChecked()
+    w.tolerance.upper.setValue(0.08)  # symmetric, typed in the asymmetric fields
+    assert w.tolerance.asym.isChecked() and w.tolerance.zone() == (-0.08, 0.08)
+    w.tolerance.lower.setValue(-0.05)
+    w.tolerance.upper.setValue(0.05)
+    # The zone the result was computed with: it is current again.
+    assert w.banner.verdict == "REJECT" and "OUT OF DATE" not in w.banner.word.text()
+    assert all(a.isEnabled() for a in export_actions(w))
+
+
+def test_a_file_changed_on_disk_disables_export(window, tmp_path):
+    w = window
+    measured = tmp_path / "measured.csv"
+    shutil.copy(os.path.join(BELLY, "measured.csv"), measured)
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"), str(measured)])
+    w.act_inspect.trigger()
+    assert w.export_button.isEnabled()
+    with open(measured, "a") as f:
+        f.write("P9999,0,0,0\n")
+    # Export looks at the files before asking for the certificate's fields.
+    assert w.export_certificate(dialog=CertificateDialog(w, {}, str(tmp_path / "c.pdf"))) is None
+    assert not (tmp_path / "c.pdf").exists()
+    assert not any(a.isEnabled() for a in export_actions(w))
+    assert "OUT OF DATE" in w.banner.word.text() and "changed on disk" in w.banner.detail.text()
+
+
+def test_the_point_readout_clears_on_a_new_run(window):
+    w = window
+    load_belly(w, 0.05)
+    w.act_inspect.trigger()
+    w.table.selectRow(3)
+    label = str(w.session.run.measured.labels[w.session.selected])
+    assert label in w.viewport.readout.text()
+    w.act_inspect.trigger()
+    assert w.session.selected is None and label not in w.viewport.readout.text()
+    assert w.viewport.readout.text() == w.viewport.READOUT_HINT
+
+
+def test_excluded_points_are_worded_as_excluded_from_the_alignment(window, tmp_path):
+    """Three points moved 10 mm off (mis-probed): excluded from the alignment as gross outliers,
+    and never called just "outlier"; a fitted point's cell is empty."""
+    from pathlib import Path
+
+    lines = Path(BELLY, "measured.csv").read_text().splitlines()
+    for k in (100, 500, 900):
+        label, x, y, z = lines[k].split(",")
+        lines[k] = f"{label},{x},{y},{float(z) + 10.0:.4f}"
+    bad = tmp_path / "measured.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    w = window
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"), str(bad)])
+    w.tolerance.set_zone(-0.25, 0.25)
+    w.act_inspect.trigger()
+    res = w.session.run.result
+    n = int(res.outlier.sum())
+    assert n >= 3
+    assert f"{n} excluded from alignment (gross outliers)" in w.banner.detail.text()
+    assert "fit outlier" not in w.banner.detail.text()
+    model = w.table.model()
+    assert model.headerData(7, Qt.Horizontal) == "Excluded"
+    assert "gross outlier" in model.headerData(7, Qt.Horizontal, Qt.ToolTipRole)
+    cells = {model.point(r): model.data(model.index(r, 7)) for r in range(model.rowCount())}
+    assert {i for i, t in cells.items() if t} == set(np.flatnonzero(res.outlier))
+    assert {t for t in cells.values() if t} == {"excluded (gross outlier)"}
+    # The nominal's own points measured: nothing excluded, and the banner does not mention it.
+    w.controller.open_measured(os.path.join(BELLY, "nominal.csv"))
+    w.act_inspect.trigger()
+    assert not w.session.run.result.outlier.any()
+    assert "excluded" not in w.banner.detail.text() and "outlier" not in w.banner.detail.text()
+
+
+def test_the_main_window_fits_a_1366_by_768_screen(window):
+    """Its minimum size leaves room for the window frame and a task bar on 1366×768."""
+    w = window
+    for size in (w.minimumSizeHint(), w.minimumSize()):
+        assert size.width() <= 1340 and size.height() <= 700
+    load_belly(w, 0.05)
+    w.act_inspect.trigger()
+    w.tolerance.tol.setValue(0.1)  # the longer, out-of-date banner
+    size = w.minimumSizeHint()
+    assert size.width() <= 1340 and size.height() <= 700

@@ -148,3 +148,21 @@ def test_workflow_from_files_to_a_verified_signed_certificate(window, qtbot, tmp
     assert cli_main(["verify", str(out), "--trust", str(tmp_path / "id" / "ca.pem"),
                      "--nominal", os.path.join(BELLY, "nominal.csv"),
                      "--measured", os.path.join(BELLY, "measured.csv")]) == 0
+
+
+def test_window_with_the_3d_view_fits_1366x768_and_a_new_run_clears_the_pick(window, qtbot):
+    """On a real display, with the OpenGL view, the minimum size leaves room for the frame and a
+    task bar on 1366×768; the picked point's readout and marker belong to one run only."""
+    w = window()
+    for size in (w.minimumSizeHint(), w.minimumSize()):
+        assert size.width() <= 1340 and size.height() <= 700
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.act_inspect.trigger()
+    w.session.select(5)
+    label = str(w.session.run.measured.labels[5])
+    assert label in w.viewport.readout.text()
+    assert "qa-selection" in w.viewport.plotter.renderer.actors
+    w.act_inspect.trigger()
+    assert w.viewport.readout.text() == w.viewport.READOUT_HINT
+    assert "qa-selection" not in w.viewport.plotter.renderer.actors
