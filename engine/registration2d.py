@@ -5,8 +5,11 @@ Same structure as the 3D engine: a global search over pose hypotheses (rotations
 about the centroid, and the measured point nearest the centroid put on anchors along the contours
 with its local direction along theirs), ICP on a dense sampling of the contours (point-to-line
 against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
-distance: the final pose is the least-squares optimum of point-to-contour distance over the
-inlier points. Gross outliers are cut from the fit (6 robust sigmas) but stay in the verdict.
+distance. Robust cuts (6 robust sigmas) steer the coarse stages only; the final fit is plain least
+squares over every point but the gross outliers of :mod:`engine.outliers` (re-applied at each new
+pose until the set is stable), converged on the pose step, working relative to the centroid of
+the fitted points, so that the pose comes out exact whatever the size and position of the
+coordinates. Left-out points stay in the verdict.
 
 A template with symmetries (a gear) has several equally good poses; any of them gives the same
 deviations. The result says so when the runner-up pose maps the template onto itself.
@@ -20,10 +23,20 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
+from .outliers import GrossRule, gross_outliers, gross_rule
 from .progress import report
 from .registration import min_norm_solve, robust_cut
 
 _SEED = 11
+GROSS_FLOOR = 1e-4
+"""The gross-outlier rule's floor, as a fraction of the template's diagonal (as in 3D)."""
+RULE_ROUNDS = 4
+"""The final fit re-applies the gross-outlier rule at each new pose; after this many changes of
+the left-out set, the set is kept as it is and only the pose is converged."""
+STEP_TOL = 1e-9
+"""The final fit has converged when its pose step moves no point by more than this fraction of
+the coordinates' size (float resolution, far below any deviation) plus 1e-4 of the RMS of the
+deviations (a step that changes the sum of squares by at most 1e-8 of itself)."""
 
 
 @dataclass(frozen=True)
@@ -31,7 +44,9 @@ class Registration2D:
     """Outcome of :func:`register_2d`.
 
     T : (3, 3) homogeneous 2D transform mapping measured plane coordinates into the template.
-    rms : RMS of the signed deviations over the fit's inliers (mm).
+    rms : RMS of the signed deviations over the points of the final fit (mm).
+    inlier : (n,) bool, the points of the final least-squares fit: all but the gross outliers;
+        outlier_cut : the gross rule's threshold (mm); gross_rule : the rule as applied.
     score : truncated RMS sqrt(mean(min(d^2, cut^2))) (mm) over a seeded subset of at most 4,096
         points; runner_up_score the same for the best distinct other pose after a short fit
         (None when there is none).
@@ -55,6 +70,8 @@ class Registration2D:
     message: str = ""
     runner_up_T: np.ndarray | None = None
     """The runner-up pose (3x3), after its short fit."""
+    gross_rule: GrossRule | None = None
+    """The gross-outlier rule at the final pose (threshold, zone, robust spread, floor)."""
 
 
 def rot2(theta) -> np.ndarray:
@@ -104,8 +121,11 @@ class _Samples:
 
 def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
                 max_anchors: int = 400, outlier_sigmas: float = 6.0,
-                max_iterations: int = 50) -> Registration2D:
-    """Find the 2D pose of measured points (n, 2) on the template of ``index``."""
+                max_iterations: int = 50, zone_width: float | None = None) -> Registration2D:
+    """Find the 2D pose of measured points (n, 2) on the template of ``index``.
+
+    outlier_sigmas : the robust cut of the coarse stages; zone_width : the tolerance zone's
+    width (mm), for the gross-outlier rule of the final fit (None: not known)."""
     p = np.asarray(measured, float)
     S = _Samples(index)
     extent_t = float(np.linalg.norm(np.ptp(S.pts, axis=0)))
@@ -114,7 +134,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     sub = _spread(p, 48)
     hyps = []
     # Rotations about the centroid, centroid on the template's centroid.
-    ct = S.pts.mean(axis=0)
+    ct = index.centroid
     for th in np.linspace(0, 2 * np.pi, n_angles, endpoint=False):
         hyps.append(_pose(th, ct - rot2(th) @ cm))
     # The point nearest the centroid onto anchors along the contours, direction along theirs:
@@ -155,9 +175,19 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     cut0 = min(f[4] for f in short)
     scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
     best = int(np.argmin(scores))
-    Tb, conv, it, inl, cut, dev = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
-                                                 max_iterations, h)
-    Tb, inl, dev = _all_points_step(index, p, Tb, cut)
+    Tb, _, it, _, _, _ = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
+                                        max_iterations, h)
+    # The final least squares: on the subset first (cheap), then over every point.
+    floor = GROSS_FLOOR * max(extent_t, 1e-12)
+    tol = STEP_TOL * max(extent_t, float(np.max(np.abs(index.tree.data))), 1.0)
+    if fsub.size < p.shape[0]:
+        Tb, _, it2, _, _, _ = _least_squares(index, p[fsub], Tb, zone_width, floor, tol,
+                                             max_iterations)
+        it += it2
+    Tb, conv, it2, inl, rule, dev = _least_squares(index, p, Tb, zone_width, floor, tol,
+                                                   max_iterations)
+    it += it2
+    cut = rule.threshold_mm
     score = float(np.sqrt(np.mean(np.minimum(dev.signed[fsub] ** 2, cut0 ** 2))))
     runner = None
     symmetric = False
@@ -183,7 +213,8 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
         symmetric=symmetric, deviations=dev,
         near_fraction=float(np.mean(np.abs(dev.signed) <= near)), near_distance=near,
-        message=message, runner_up_T=None if runner is None else short[runner][0])
+        message=message, runner_up_T=None if runner is None else short[runner][0],
+        gross_rule=rule)
 
 
 def _rms_radius(xt: np.ndarray) -> float:
@@ -264,27 +295,50 @@ def _distinct(T1, T2, p, tol) -> bool:
     return float(np.max(np.linalg.norm(apply2(T1, p) - apply2(T2, p), axis=1))) > tol
 
 
-def _all_points_step(index: ContourIndex, p: np.ndarray, T: np.ndarray, cut: float):
-    """Deviations of every point at T, then one Gauss-Newton step over all inliers (the subset's
-    optimum is within noise / sqrt(subset) of theirs); the deviations follow the step to first
-    order. Returns (T, inlier, Deviations2D)."""
+def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
+                   zone_width: float | None, floor: float, tol: float, max_iter: int):
+    """The final fit: Gauss-Newton on the exact signed point-to-contour distance over every
+    point of ``p`` (n, 2) but the gross outliers, from pose ``T``.
+
+    At each pose the gross-outlier rule is applied again (at most RULE_ROUNDS changes of the
+    left-out set); the fit has converged when the set is stable and the pose step moves no point
+    by more than ``tol`` + 1e-4 RMS (mm). Each step is solved about the centroid of the fitted
+    points, so its size does not depend on where the coordinates lie. The deviations returned
+    are exact at the returned pose.
+
+    Returns (T, converged, iterations, kept (n,) bool, GrossRule, Deviations2D at T).
+    """
+    changes = 0
+    kept = None
+    for it in range(1, max_iter + 1):
+        X = apply2(T, p)
+        dev = deviations_2d(index, X)
+        d = dev.signed
+        if changes <= RULE_ROUNDS:
+            rule = gross_rule(d, zone_width, floor)
+            new = ~gross_outliers(d, p, rule)
+            stable = kept is not None and np.array_equal(new, kept)
+            if not stable:
+                changes += kept is not None
+                kept = new
+        else:
+            stable = True
+        if kept.sum() < 3:
+            return T, False, it, kept, rule, dev
+        g = _gradient(X, dev.foot, d)
+        Xk, gk, dk = X[kept], g[kept], d[kept]
+        c = Xk.mean(axis=0)
+        xt = Xk - c
+        J = np.column_stack([xt[:, 0] * gk[:, 1] - xt[:, 1] * gk[:, 0], gk[:, 0], gk[:, 1]])
+        delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
+        reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1))))
+        moved = abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
+        if stable and moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk))):
+            return T, True, it, kept, rule, dev
+        T = _compose(T[None], delta[None], c[None])[0]
     X = apply2(T, p)
     dev = deviations_2d(index, X)
-    d = dev.signed
-    inl = np.abs(d) <= cut
-    if inl.sum() < 3:
-        return T, inl, dev
-    g = _gradient(X, dev.foot, d)
-    c = X[inl].mean(axis=0)
-    xt = X - c
-    J = np.column_stack([xt[:, 0] * g[:, 1] - xt[:, 1] * g[:, 0], g[:, 0], g[:, 1]])
-    A = J[inl].T @ J[inl]
-    delta = -min_norm_solve(A, J[inl].T @ d[inl], 1, _rms_radius(xt[inl]))
-    d_new = d + J @ delta
-    T = _compose(T[None], delta[None], c[None])[0]
-    X_new = apply2(T, p)
-    return T, np.abs(d_new) <= cut, Deviations2D(d_new, X_new - d_new[:, None] * g,
-                                                 dev.normal, dev.primitive)
+    return T, False, max_iter, kept, rule, dev
 
 
 def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:
