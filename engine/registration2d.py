@@ -165,8 +165,9 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).
     keep = score[order] <= 4.0 * score[order[0]] + (0.1 * S.spacing) ** 2
     T = T[order][keep]
-    # Exact point-to-contour Gauss-Newton: a few steps for the best three (on a subset of the
-    # points), the best of them to convergence, then one step over every point.
+    # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
+    # a subset of the points), the best of them to convergence; then the final least squares,
+    # on the subset first (cheap), then over every point.
     near = 0.01 * extent_t
     fsub = _spread(p, 4096)
     # (A single clear candidate needs no short round.)
@@ -177,18 +178,15 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     best = int(np.argmin(scores))
     Tb, _, it, _, _, _ = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
                                         max_iterations, h)
-    # The final least squares: on the subset first (cheap), then over every point.
     floor = GROSS_FLOOR * max(extent_t, 1e-12)
     tol = STEP_TOL * max(extent_t, float(np.max(np.abs(index.tree.data))), 1.0)
-    if fsub.size < p.shape[0]:
-        Tb, _, it2, _, _, _ = _least_squares(index, p[fsub], Tb, zone_width, floor, tol,
-                                             max_iterations)
-        it += it2
-    Tb, conv, it2, inl, rule, dev = _least_squares(index, p, Tb, zone_width, floor, tol,
-                                                   max_iterations)
-    it += it2
-    cut = rule.threshold_mm
-    score = float(np.sqrt(np.mean(np.minimum(dev.signed[fsub] ** 2, cut0 ** 2))))
+
+    def final(Tc, pts):
+        return _least_squares(index, pts, Tc, zone_width, floor, tol, max_iterations)
+
+    fit = final(Tb, p[fsub])
+    Tb, it = fit[0], it + fit[2]
+    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
     runner = None
     symmetric = False
     for j in np.argsort(scores, kind="stable"):
@@ -200,9 +198,25 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     if runner is not None and scores[runner] <= 1.05 * score + 0.1 * h:
         # Does the relative transform map the template onto itself?
         rel = short[runner][0] @ np.linalg.inv(Tb)
-        moved = apply2(rel, S.pts[:: max(1, len(S.pts) // 2000)])
-        dist, _ = S.tree.query(moved)
-        symmetric = bool(np.max(dist) <= 2 * h)
+        symmetric = _maps_onto_itself(rel, S, h)
+        if symmetric:
+            # A drawing is rarely exactly symmetric: of all the poses the symmetry gives (a
+            # gear's every tooth), the points may fit one better. Refit each briefly.
+            group = _symmetry_group(rel, S, h)
+            if group:
+                msub = fsub[_spread(p[fsub], 512)]
+                alt, alt_scores = _short_fits(index, p[msub], np.array([np.eye(3)] + group) @ Tb,
+                                              outlier_sigmas, cut0, floor, 4)
+                k = int(np.argmin(alt_scores))
+                if alt_scores[k] < 0.5 * alt_scores[0]:
+                    fit = final(alt[k], p[fsub])
+                    Tb, it = fit[0], it + fit[2]
+                    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
+    if fsub.size < p.shape[0]:
+        fit = final(Tb, p)
+        it += fit[2]
+    Tb, conv, _, inl, rule, dev = fit
+    cut = rule.threshold_mm
     d_in = dev.signed[inl]
     message = "" if conv else (f"the point-to-contour fit did not settle within "
                                f"{max_iterations} iterations")
@@ -217,6 +231,59 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         gross_rule=rule)
 
 
+def _maps_onto_itself(U: np.ndarray, S: _Samples, h: float) -> bool:
+    """Whether the 2D transform U (3, 3, template frame) maps the contour samples onto the
+    contours, within twice their spacing ``h``."""
+    dist, _ = S.tree.query(apply2(U, S.pts[:: max(1, len(S.pts) // 2000)]))
+    return bool(np.max(dist) <= 2 * h)
+
+
+def _symmetry_group(rel: np.ndarray, S: _Samples, h: float, max_order: int = 360) -> list:
+    """The rotations (3, 3, template frame) of the cyclic symmetry that ``rel`` (a rotation
+    mapping the template onto itself) belongs to, identity excluded: its smallest step is
+    rel's angle divided by the largest m <= 12 for which that rotation still maps the template
+    onto itself. Empty for a translation or an order above ``max_order``."""
+    phi = float(np.arctan2(rel[1, 0], rel[0, 0]))
+    if abs(phi) < 1e-6:
+        return []
+    c = np.linalg.solve(np.eye(2) - rel[:2, :2], rel[:2, 2])  # the fixed point
+
+    def about_c(a):
+        return _pose(a, c - rot2(a) @ c)
+
+    m = max([k for k in range(1, 13) if k == 1 or _maps_onto_itself(about_c(phi / k), S, h)])
+    n = int(round(2 * np.pi / abs(phi / m)))
+    if not 2 <= n <= max_order:
+        return []
+    return [about_c(2 * np.pi * k / n) for k in range(1, n)]
+
+
+def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float,
+                cut0: float, floor: float, iterations: int):
+    """A few robust Gauss-Newton steps for H poses T (H, 3, 3) at once over the points p (m, 2)
+    (one nearest-contour query per step for all poses); returns (poses, truncated RMS scores
+    sqrt(mean(min(d^2, cut0^2))) at them)."""
+    H, m = T.shape[0], p.shape[0]
+    for it in range(iterations + 1):
+        X = (p @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]).reshape(-1, 2)
+        dev = deviations_2d(index, X)
+        d = dev.signed.reshape(H, m)
+        if it == iterations:
+            break
+        g = _gradient(X, dev.foot, dev.signed).reshape(H, m, 2)
+        X = X.reshape(H, m, 2)
+        w = np.array([np.abs(dk) <= robust_cut(dk, sigmas, floor) for dk in d], float)
+        c = (w[..., None] * X).sum(1) / np.maximum(w.sum(1), 1)[:, None]
+        xt = X - c[:, None, :]
+        J = np.stack([xt[..., 0] * g[..., 1] - xt[..., 1] * g[..., 0], g[..., 0], g[..., 1]], 2)
+        Jw = J * w[..., None]
+        length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(w.sum(1), 1.0))
+        delta = -min_norm_solve(Jw.transpose(0, 2, 1) @ J, (Jw * d[..., None]).sum(1), 1,
+                                length)
+        T = _compose(T, delta, c)
+    return T, np.sqrt(np.mean(np.minimum(d * d, cut0 * cut0), axis=1))
+
+
 def _rms_radius(xt: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(xt * xt, axis=1)))) if xt.size else 1.0
 
@@ -228,14 +295,23 @@ def _spread(p: np.ndarray, m: int) -> np.ndarray:
 
 
 def _reference(p: np.ndarray):
-    """The measured point nearest the centroid and the local direction of its neighbours."""
+    """A measured point near the centroid and the local direction of its neighbours: of the 16
+    points nearest the centroid, the one whose 6 nearest neighbours lie most nearly on a line
+    (at a corner, or where neighbours belong to different contours, the direction means
+    nothing)."""
     q = p[_spread(p, 4096)]
-    i = int(np.argmin(np.linalg.norm(q - q.mean(axis=0), axis=1)))
     k = min(6, q.shape[0])
-    _, nb = cKDTree(q).query(q[i], k=k)
-    c = q[nb] - q[nb].mean(axis=0)
-    _, vecs = np.linalg.eigh(c.T @ c)
-    return q[i], vecs[:, -1]
+    tree = cKDTree(q)
+    _, near = tree.query(q.mean(axis=0), k=min(16, q.shape[0]))
+    near = np.atleast_1d(near)
+    _, nb = tree.query(q[near], k=k)
+    nb = nb.reshape(near.size, k)
+    c = q[nb] - q[nb].mean(axis=1, keepdims=True)
+    w, vecs = np.linalg.eigh(np.einsum("mki,mkj->mij", c, c))
+    # Thickness across the line over length along it; the nearest to the centroid on ties.
+    flat = np.sqrt(np.maximum(w[:, 0], 0.0)) / np.maximum(np.sqrt(w[:, 1]), 1e-300)
+    j = int(np.argmin(np.round(flat, 2)))
+    return q[near[j]], vecs[j, :, -1]
 
 
 def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
