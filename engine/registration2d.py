@@ -159,12 +159,20 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
     report("ICP on the full contour samples", 0.55)
     T, score = _icp2(T, p[_spread(p, 256)], S, iterations=8)
+    T_icp = T
     report("point-to-contour fit", 0.75)
     order = np.argsort(score, kind="stable")
     # Candidates clearly worse than the best (4x its score, beyond the sampling noise) are not
     # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).
     keep = score[order] <= 4.0 * score[order[0]] + (0.1 * S.spacing) ** 2
     T = T[order][keep]
+    if np.sqrt(score[order[0]]) > 0.1 * S.spacing and order.size > 3:
+        # No pose fits within the sampling (a few contours measured out of many, far apart):
+        # ICP's ranking means little; rank every candidate by a few exact steps instead.
+        floor0 = 1e-6 * max(extent_t, 1e-12)
+        T, xs = _short_fits(index, p[_spread(p, 256)], T_icp[order], outlier_sigmas, S.spacing,
+                            floor0, 3)
+        T = T[np.argsort(xs, kind="stable")]
     # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
     # a subset of the points), the best of them to convergence; then the final least squares,
     # on the subset first (cheap), then over every point.
@@ -204,9 +212,9 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
             # gear's every tooth), the points may fit one better. Refit each briefly.
             group = _symmetry_group(rel, S, h)
             if group:
-                msub = fsub[_spread(p[fsub], 512)]
+                msub = fsub[_spread(p[fsub], 256)]
                 alt, alt_scores = _short_fits(index, p[msub], np.array([np.eye(3)] + group) @ Tb,
-                                              outlier_sigmas, cut0, floor, 4)
+                                              outlier_sigmas, cut0, floor, 3)
                 k = int(np.argmin(alt_scores))
                 if alt_scores[k] < 0.5 * alt_scores[0]:
                     fit = final(alt[k], p[fsub])
