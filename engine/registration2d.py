@@ -384,9 +384,10 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
     """The final fit: Gauss-Newton on the exact signed point-to-contour distance over every
     point of ``p`` (n, 2) but the gross outliers, from pose ``T``.
 
-    At each pose the gross-outlier rule is applied again (at most RULE_ROUNDS changes of the
-    left-out set); the fit has converged when the set is stable and the pose step moves no point
-    by more than ``tol`` + 1e-4 RMS (mm). Each step is solved about the centroid of the fitted
+    At each pose the gross-outlier rule is applied again (until the left-out set has changed
+    RULE_ROUNDS times); the fit has converged when the step over the points the rule keeps at
+    this pose moves no point by more than ``tol`` + 1e-4 RMS (mm): the pose is then the
+    least-squares optimum over them, and they are the rule's set at it. Each step is solved about the centroid of the fitted
     points, so its size does not depend on where the coordinates lie. The deviations returned
     are exact at the returned pose.
 
@@ -398,15 +399,13 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
         X = apply2(T, p)
         dev = deviations_2d(index, X)
         d = dev.signed
+        # The set is the rule's at this very pose (until it has changed RULE_ROUNDS times).
         if changes <= RULE_ROUNDS:
             rule = gross_rule(d, zone_width, floor)
             new = ~gross_outliers(d, p, rule)
-            stable = kept is not None and np.array_equal(new, kept)
-            if not stable:
-                changes += kept is not None
-                kept = new
-        else:
-            stable = True
+            if kept is not None and not np.array_equal(new, kept):
+                changes += 1
+            kept = new
         if kept.sum() < 3:
             return T, False, it, kept, rule, dev
         g = _gradient(X, dev.foot, d)
@@ -417,7 +416,7 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
         delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
         reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1))))
         moved = abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
-        if stable and moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk))):
+        if moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk))):
             return T, True, it, kept, rule, dev
         T = _compose(T[None], delta[None], c[None])[0]
     X = apply2(T, p)
