@@ -33,10 +33,11 @@ GROSS_FLOOR = 1e-4
 RULE_ROUNDS = 4
 """The final fit re-applies the gross-outlier rule at each new pose; after this many changes of
 the left-out set, the set is kept as it is and only the pose is converged."""
-STEP_TOL = 1e-9
+STEP_TOL = 1e-10
 """The final fit has converged when its pose step moves no point by more than this fraction of
-the coordinates' size (float resolution, far below any deviation) plus 1e-4 of the RMS of the
-deviations (a step that changes the sum of squares by at most 1e-8 of itself)."""
+the coordinates' size (some 1e6 times the float resolution of the coordinates, 0.03 um at 3e5 mm)
+plus 1e-4 of the RMS of the deviations (a step that changes the sum of squares by at most 1e-8
+of itself)."""
 
 
 @dataclass(frozen=True)
@@ -386,8 +387,9 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
 
     At each pose the gross-outlier rule is applied again (until the left-out set has changed
     RULE_ROUNDS times); the fit has converged when the step over the points the rule keeps at
-    this pose moves no point by more than ``tol`` + 1e-4 RMS (mm): the pose is then the
-    least-squares optimum over them, and they are the rule's set at it. Each step is solved about the centroid of the fitted
+    this pose moves no point by more than ``tol`` + 1e-4 RMS (mm), or has stopped shrinking
+    below 10 ``tol`` (rounding): the pose is then the least-squares optimum over them, and they
+    are the rule's set at it. Each step is solved about the centroid of the fitted
     points, so its size does not depend on where the coordinates lie. The deviations returned
     are exact at the returned pose.
 
@@ -395,6 +397,7 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
     """
     changes = 0
     kept = None
+    last = np.inf
     for it in range(1, max_iter + 1):
         X = apply2(T, p)
         dev = deviations_2d(index, X)
@@ -416,8 +419,12 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
         delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
         reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1))))
         moved = abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
-        if moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk))):
+        # Converged: the step is negligible, or it has stopped shrinking at a size that only
+        # rounding can explain (Gauss-Newton steps shrink fast until they reach that floor).
+        if (moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk)))
+                or (moved <= 10.0 * tol and moved >= 0.5 * last)):
             return T, True, it, kept, rule, dev
+        last = moved
         T = _compose(T[None], delta[None], c[None])[0]
     X = apply2(T, p)
     dev = deviations_2d(index, X)
