@@ -2,8 +2,9 @@
 contour template, from any start; and the plane of a planar template measured in 3D.
 
 Same structure as the 3D engine: a global search over pose hypotheses (rotations every 10 degrees
-about the centroid, and the measured point nearest the centroid put on anchors along the contours
-with its local direction along theirs), ICP on a dense sampling of the contours (point-to-line
+about the centroid, the measured centroid on the contours' length-weighted centroid; and a
+measured point near the centroid put on anchors along the contours with its local direction
+along theirs), ICP on a dense sampling of the contours (point-to-line
 against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
 distance. Robust cuts (6 robust sigmas) steer the coarse stages only; the final fit is plain least
 squares over every point but the gross outliers of :mod:`engine.outliers` (re-applied at each new
@@ -12,7 +13,9 @@ the fitted points, so that the pose comes out exact whatever the size and positi
 coordinates. Left-out points stay in the verdict.
 
 A template with symmetries (a gear) has several equally good poses; any of them gives the same
-deviations. The result says so when the runner-up pose maps the template onto itself.
+deviations. The result says so when the runner-up pose maps the template onto itself; every pose
+of that symmetry is then refitted briefly, since a drawn gear is rarely exactly symmetric and the
+points may fit one tooth's pose better than the others.
 """
 
 from __future__ import annotations
@@ -426,8 +429,10 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
             return T, True, it, kept, rule, dev
         last = moved
         T = _compose(T[None], delta[None], c[None])[0]
-    X = apply2(T, p)
-    dev = deviations_2d(index, X)
+    dev = deviations_2d(index, apply2(T, p))
+    if changes <= RULE_ROUNDS:
+        rule = gross_rule(dev.signed, zone_width, floor)
+        kept = ~gross_outliers(dev.signed, p, rule)
     return T, False, max_iter, kept, rule, dev
 
 
