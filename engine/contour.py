@@ -217,6 +217,8 @@ class ContourIndex:
         lengths = np.where(t.kind == SEGMENT, np.linalg.norm(t.end - t.start, axis=1),
                            np.abs(t.sweep) * t.radius)
         total = float(lengths.sum())
+        self.lengths = lengths
+        self.centroid = contour_centroid(t)
         self.spacing = max(total / 20000.0, float(np.median(lengths)) / 8.0, 1e-9)
         counts = np.maximum(1, np.ceil(lengths / self.spacing).astype(np.int64))
         owner = np.repeat(np.arange(t.n_primitives), counts + 1)
@@ -289,6 +291,24 @@ def deviations_2d(index: ContourIndex, pts: np.ndarray) -> Deviations2D:
     ln = np.linalg.norm(normal, axis=1, keepdims=True)
     unit = normal / np.where(ln > 0, ln, 1.0) * positive[:, None]
     return Deviations2D(signed, foot, unit, prim)
+
+
+def contour_centroid(t: Template2D) -> np.ndarray:
+    """(2,) centroid of the contours as curves (mm, template frame): every unit of length weighs
+    alike, exactly for segments and arcs. A sampling of the contours is no substitute: a
+    flattened ellipse brings thousands of short primitives, each with samples of its own."""
+    seg = t.kind == SEGMENT
+    L = np.where(seg, np.linalg.norm(t.end - t.start, axis=1), np.abs(t.sweep) * t.radius)
+    moment = np.where(seg[:, None], 0.5 * (t.start + t.end) * L[:, None], 0.0)
+    # An arc: integral of c + r (cos a, sin a) over r |da|, a from angle0 through sweep.
+    a0, a1, r = t.angle0, t.angle0 + t.sweep, t.radius
+    arc_m = (L[:, None] * t.centre + (r * r * np.sign(t.sweep))[:, None]
+             * np.column_stack([np.sin(a1) - np.sin(a0), np.cos(a0) - np.cos(a1)]))
+    moment = np.where(seg[:, None], moment, arc_m)
+    total = float(L.sum())
+    if total <= 0:
+        return np.vstack([t.start, t.end]).mean(axis=0)
+    return moment.sum(axis=0) / total
 
 
 def points_on(t: Template2D, n: int, rng: np.random.Generator,

@@ -412,7 +412,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     best = None
     for F in frames:
         q = measured @ F[:3, :3].T + F[:3, 3]
-        reg = register_2d(index, q[:, :2])
+        reg = register_2d(index, q[:, :2], zone_width=tolerance.upper - tolerance.lower)
         if best is None or reg.score < best[1].score:
             best = (F, reg)
     F, reg = best

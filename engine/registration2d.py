@@ -2,14 +2,20 @@
 contour template, from any start; and the plane of a planar template measured in 3D.
 
 Same structure as the 3D engine: a global search over pose hypotheses (rotations every 10 degrees
-about the centroid, and the measured point nearest the centroid put on anchors along the contours
-with its local direction along theirs), ICP on a dense sampling of the contours (point-to-line
+about the centroid, the measured centroid on the contours' length-weighted centroid; and a
+measured point near the centroid put on anchors along the contours with its local direction
+along theirs), ICP on a dense sampling of the contours (point-to-line
 against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
-distance: the final pose is the least-squares optimum of point-to-contour distance over the
-inlier points. Gross outliers are cut from the fit (6 robust sigmas) but stay in the verdict.
+distance. Robust cuts (6 robust sigmas) steer the coarse stages only; the final fit is plain least
+squares over every point but the gross outliers of :mod:`engine.outliers` (re-applied at each new
+pose until the set is stable), converged on the pose step, working relative to the centroid of
+the fitted points, so that the pose comes out exact whatever the size and position of the
+coordinates. Left-out points stay in the verdict.
 
 A template with symmetries (a gear) has several equally good poses; any of them gives the same
-deviations. The result says so when the runner-up pose maps the template onto itself.
+deviations. The result says so when the runner-up pose maps the template onto itself; every pose
+of that symmetry is then refitted briefly, since a drawn gear is rarely exactly symmetric and the
+points may fit one tooth's pose better than the others.
 """
 
 from __future__ import annotations
@@ -20,10 +26,21 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
+from .outliers import GrossRule, gross_outliers, gross_rule
 from .progress import report
 from .registration import min_norm_solve, robust_cut
 
 _SEED = 11
+GROSS_FLOOR = 1e-4
+"""The gross-outlier rule's floor, as a fraction of the template's diagonal (as in 3D)."""
+RULE_ROUNDS = 4
+"""The final fit re-applies the gross-outlier rule at each new pose; after this many changes of
+the left-out set, the set is kept as it is and only the pose is converged."""
+STEP_TOL = 1e-10
+"""The final fit has converged when its pose step moves no point by more than this fraction of
+the coordinates' size (some 1e6 times the float resolution of the coordinates, 0.03 um at 3e5 mm)
+plus 1e-4 of the RMS of the deviations (a step that changes the sum of squares by at most 1e-8
+of itself)."""
 
 
 @dataclass(frozen=True)
@@ -31,7 +48,9 @@ class Registration2D:
     """Outcome of :func:`register_2d`.
 
     T : (3, 3) homogeneous 2D transform mapping measured plane coordinates into the template.
-    rms : RMS of the signed deviations over the fit's inliers (mm).
+    rms : RMS of the signed deviations over the points of the final fit (mm).
+    inlier : (n,) bool, the points of the final least-squares fit: all but the gross outliers;
+        outlier_cut : the gross rule's threshold (mm); gross_rule : the rule as applied.
     score : truncated RMS sqrt(mean(min(d^2, cut^2))) (mm) over a seeded subset of at most 4,096
         points; runner_up_score the same for the best distinct other pose after a short fit
         (None when there is none).
@@ -55,6 +74,8 @@ class Registration2D:
     message: str = ""
     runner_up_T: np.ndarray | None = None
     """The runner-up pose (3x3), after its short fit."""
+    gross_rule: GrossRule | None = None
+    """The gross-outlier rule at the final pose (threshold, zone, robust spread, floor)."""
 
 
 def rot2(theta) -> np.ndarray:
@@ -104,8 +125,11 @@ class _Samples:
 
 def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
                 max_anchors: int = 400, outlier_sigmas: float = 6.0,
-                max_iterations: int = 50) -> Registration2D:
-    """Find the 2D pose of measured points (n, 2) on the template of ``index``."""
+                max_iterations: int = 50, zone_width: float | None = None) -> Registration2D:
+    """Find the 2D pose of measured points (n, 2) on the template of ``index``.
+
+    outlier_sigmas : the robust cut of the coarse stages; zone_width : the tolerance zone's
+    width (mm), for the gross-outlier rule of the final fit (None: not known)."""
     p = np.asarray(measured, float)
     S = _Samples(index)
     extent_t = float(np.linalg.norm(np.ptp(S.pts, axis=0)))
@@ -114,7 +138,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     sub = _spread(p, 48)
     hyps = []
     # Rotations about the centroid, centroid on the template's centroid.
-    ct = S.pts.mean(axis=0)
+    ct = index.centroid
     for th in np.linspace(0, 2 * np.pi, n_angles, endpoint=False):
         hyps.append(_pose(th, ct - rot2(th) @ cm))
     # The point nearest the centroid onto anchors along the contours, direction along theirs:
@@ -139,14 +163,23 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
     report("ICP on the full contour samples", 0.55)
     T, score = _icp2(T, p[_spread(p, 256)], S, iterations=8)
+    T_icp = T
     report("point-to-contour fit", 0.75)
     order = np.argsort(score, kind="stable")
     # Candidates clearly worse than the best (4x its score, beyond the sampling noise) are not
     # worth exact fits; close ones are (they may be the same fit elsewhere: a symmetry).
     keep = score[order] <= 4.0 * score[order[0]] + (0.1 * S.spacing) ** 2
     T = T[order][keep]
-    # Exact point-to-contour Gauss-Newton: a few steps for the best three (on a subset of the
-    # points), the best of them to convergence, then one step over every point.
+    if np.sqrt(score[order[0]]) > 0.1 * S.spacing and order.size > 3:
+        # No pose fits within the sampling (a few contours measured out of many, far apart):
+        # ICP's ranking means little; rank every candidate by a few exact steps instead.
+        floor0 = 1e-6 * max(extent_t, 1e-12)
+        T, xs = _short_fits(index, p[_spread(p, 256)], T_icp[order], outlier_sigmas, S.spacing,
+                            floor0, 3)
+        T = T[np.argsort(xs, kind="stable")]
+    # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
+    # a subset of the points), the best of them to convergence; then the final least squares,
+    # on the subset first (cheap), then over every point.
     near = 0.01 * extent_t
     fsub = _spread(p, 4096)
     # (A single clear candidate needs no short round.)
@@ -155,10 +188,17 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     cut0 = min(f[4] for f in short)
     scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
     best = int(np.argmin(scores))
-    Tb, conv, it, inl, cut, dev = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
-                                                 max_iterations, h)
-    Tb, inl, dev = _all_points_step(index, p, Tb, cut)
-    score = float(np.sqrt(np.mean(np.minimum(dev.signed[fsub] ** 2, cut0 ** 2))))
+    Tb, _, it, _, _, _ = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
+                                        max_iterations, h)
+    floor = GROSS_FLOOR * max(extent_t, 1e-12)
+    tol = STEP_TOL * max(extent_t, float(np.max(np.abs(index.tree.data))), 1.0)
+
+    def final(Tc, pts):
+        return _least_squares(index, pts, Tc, zone_width, floor, tol, max_iterations)
+
+    fit = final(Tb, p[fsub])
+    Tb, it = fit[0], it + fit[2]
+    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
     runner = None
     symmetric = False
     for j in np.argsort(scores, kind="stable"):
@@ -170,9 +210,25 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     if runner is not None and scores[runner] <= 1.05 * score + 0.1 * h:
         # Does the relative transform map the template onto itself?
         rel = short[runner][0] @ np.linalg.inv(Tb)
-        moved = apply2(rel, S.pts[:: max(1, len(S.pts) // 2000)])
-        dist, _ = S.tree.query(moved)
-        symmetric = bool(np.max(dist) <= 2 * h)
+        symmetric = _maps_onto_itself(rel, S, h)
+        if symmetric:
+            # A drawing is rarely exactly symmetric: of all the poses the symmetry gives (a
+            # gear's every tooth), the points may fit one better. Refit each briefly.
+            group = _symmetry_group(rel, S, h)
+            if group:
+                msub = fsub[_spread(p[fsub], 256)]
+                alt, alt_scores = _short_fits(index, p[msub], np.array([np.eye(3)] + group) @ Tb,
+                                              outlier_sigmas, cut0, floor, 3)
+                k = int(np.argmin(alt_scores))
+                if alt_scores[k] < 0.5 * alt_scores[0]:
+                    fit = final(alt[k], p[fsub])
+                    Tb, it = fit[0], it + fit[2]
+                    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
+    if fsub.size < p.shape[0]:
+        fit = final(Tb, p)
+        it += fit[2]
+    Tb, conv, _, inl, rule, dev = fit
+    cut = rule.threshold_mm
     d_in = dev.signed[inl]
     message = "" if conv else (f"the point-to-contour fit did not settle within "
                                f"{max_iterations} iterations")
@@ -183,7 +239,61 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
         symmetric=symmetric, deviations=dev,
         near_fraction=float(np.mean(np.abs(dev.signed) <= near)), near_distance=near,
-        message=message, runner_up_T=None if runner is None else short[runner][0])
+        message=message, runner_up_T=None if runner is None else short[runner][0],
+        gross_rule=rule)
+
+
+def _maps_onto_itself(U: np.ndarray, S: _Samples, h: float) -> bool:
+    """Whether the 2D transform U (3, 3, template frame) maps the contour samples onto the
+    contours, within twice their spacing ``h``."""
+    dist, _ = S.tree.query(apply2(U, S.pts[:: max(1, len(S.pts) // 2000)]))
+    return bool(np.max(dist) <= 2 * h)
+
+
+def _symmetry_group(rel: np.ndarray, S: _Samples, h: float, max_order: int = 360) -> list:
+    """The rotations (3, 3, template frame) of the cyclic symmetry that ``rel`` (a rotation
+    mapping the template onto itself) belongs to, identity excluded: its smallest step is
+    rel's angle divided by the largest m <= 12 for which that rotation still maps the template
+    onto itself. Empty for a translation or an order above ``max_order``."""
+    phi = float(np.arctan2(rel[1, 0], rel[0, 0]))
+    if abs(phi) < 1e-6:
+        return []
+    c = np.linalg.solve(np.eye(2) - rel[:2, :2], rel[:2, 2])  # the fixed point
+
+    def about_c(a):
+        return _pose(a, c - rot2(a) @ c)
+
+    m = max([k for k in range(1, 13) if k == 1 or _maps_onto_itself(about_c(phi / k), S, h)])
+    n = int(round(2 * np.pi / abs(phi / m)))
+    if not 2 <= n <= max_order:
+        return []
+    return [about_c(2 * np.pi * k / n) for k in range(1, n)]
+
+
+def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float,
+                cut0: float, floor: float, iterations: int):
+    """A few robust Gauss-Newton steps for H poses T (H, 3, 3) at once over the points p (m, 2)
+    (one nearest-contour query per step for all poses); returns (poses, truncated RMS scores
+    sqrt(mean(min(d^2, cut0^2))) at them)."""
+    H, m = T.shape[0], p.shape[0]
+    for it in range(iterations + 1):
+        X = (p @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]).reshape(-1, 2)
+        dev = deviations_2d(index, X)
+        d = dev.signed.reshape(H, m)
+        if it == iterations:
+            break
+        g = _gradient(X, dev.foot, dev.signed).reshape(H, m, 2)
+        X = X.reshape(H, m, 2)
+        w = np.array([np.abs(dk) <= robust_cut(dk, sigmas, floor) for dk in d], float)
+        c = (w[..., None] * X).sum(1) / np.maximum(w.sum(1), 1)[:, None]
+        xt = X - c[:, None, :]
+        J = np.stack([xt[..., 0] * g[..., 1] - xt[..., 1] * g[..., 0], g[..., 0], g[..., 1]], 2)
+        Jw = J * w[..., None]
+        length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(w.sum(1), 1.0))
+        delta = -min_norm_solve(Jw.transpose(0, 2, 1) @ J, (Jw * d[..., None]).sum(1), 1,
+                                length)
+        T = _compose(T, delta, c)
+    return T, np.sqrt(np.mean(np.minimum(d * d, cut0 * cut0), axis=1))
 
 
 def _rms_radius(xt: np.ndarray) -> float:
@@ -197,14 +307,23 @@ def _spread(p: np.ndarray, m: int) -> np.ndarray:
 
 
 def _reference(p: np.ndarray):
-    """The measured point nearest the centroid and the local direction of its neighbours."""
+    """A measured point near the centroid and the local direction of its neighbours: of the 16
+    points nearest the centroid, the one whose 6 nearest neighbours lie most nearly on a line
+    (at a corner, or where neighbours belong to different contours, the direction means
+    nothing)."""
     q = p[_spread(p, 4096)]
-    i = int(np.argmin(np.linalg.norm(q - q.mean(axis=0), axis=1)))
     k = min(6, q.shape[0])
-    _, nb = cKDTree(q).query(q[i], k=k)
-    c = q[nb] - q[nb].mean(axis=0)
-    _, vecs = np.linalg.eigh(c.T @ c)
-    return q[i], vecs[:, -1]
+    tree = cKDTree(q)
+    _, near = tree.query(q.mean(axis=0), k=min(16, q.shape[0]))
+    near = np.atleast_1d(near)
+    _, nb = tree.query(q[near], k=k)
+    nb = nb.reshape(near.size, k)
+    c = q[nb] - q[nb].mean(axis=1, keepdims=True)
+    w, vecs = np.linalg.eigh(np.einsum("mki,mkj->mij", c, c))
+    # Thickness across the line over length along it; the nearest to the centroid on ties.
+    flat = np.sqrt(np.maximum(w[:, 0], 0.0)) / np.maximum(np.sqrt(w[:, 1]), 1e-300)
+    j = int(np.argmin(np.round(flat, 2)))
+    return q[near[j]], vecs[j, :, -1]
 
 
 def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
@@ -264,27 +383,57 @@ def _distinct(T1, T2, p, tol) -> bool:
     return float(np.max(np.linalg.norm(apply2(T1, p) - apply2(T2, p), axis=1))) > tol
 
 
-def _all_points_step(index: ContourIndex, p: np.ndarray, T: np.ndarray, cut: float):
-    """Deviations of every point at T, then one Gauss-Newton step over all inliers (the subset's
-    optimum is within noise / sqrt(subset) of theirs); the deviations follow the step to first
-    order. Returns (T, inlier, Deviations2D)."""
-    X = apply2(T, p)
-    dev = deviations_2d(index, X)
-    d = dev.signed
-    inl = np.abs(d) <= cut
-    if inl.sum() < 3:
-        return T, inl, dev
-    g = _gradient(X, dev.foot, d)
-    c = X[inl].mean(axis=0)
-    xt = X - c
-    J = np.column_stack([xt[:, 0] * g[:, 1] - xt[:, 1] * g[:, 0], g[:, 0], g[:, 1]])
-    A = J[inl].T @ J[inl]
-    delta = -min_norm_solve(A, J[inl].T @ d[inl], 1, _rms_radius(xt[inl]))
-    d_new = d + J @ delta
-    T = _compose(T[None], delta[None], c[None])[0]
-    X_new = apply2(T, p)
-    return T, np.abs(d_new) <= cut, Deviations2D(d_new, X_new - d_new[:, None] * g,
-                                                 dev.normal, dev.primitive)
+def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
+                   zone_width: float | None, floor: float, tol: float, max_iter: int):
+    """The final fit: Gauss-Newton on the exact signed point-to-contour distance over every
+    point of ``p`` (n, 2) but the gross outliers, from pose ``T``.
+
+    At each pose the gross-outlier rule is applied again (until the left-out set has changed
+    RULE_ROUNDS times); the fit has converged when the step over the points the rule keeps at
+    this pose moves no point by more than ``tol`` + 1e-4 RMS (mm), or has stopped shrinking
+    below 10 ``tol`` (rounding): the pose is then the least-squares optimum over them, and they
+    are the rule's set at it. Each step is solved about the centroid of the fitted
+    points, so its size does not depend on where the coordinates lie. The deviations returned
+    are exact at the returned pose.
+
+    Returns (T, converged, iterations, kept (n,) bool, GrossRule, Deviations2D at T).
+    """
+    changes = 0
+    kept = None
+    last = np.inf
+    for it in range(1, max_iter + 1):
+        X = apply2(T, p)
+        dev = deviations_2d(index, X)
+        d = dev.signed
+        # The set is the rule's at this very pose (until it has changed RULE_ROUNDS times).
+        if changes <= RULE_ROUNDS:
+            rule = gross_rule(d, zone_width, floor)
+            new = ~gross_outliers(d, p, rule)
+            if kept is not None and not np.array_equal(new, kept):
+                changes += 1
+            kept = new
+        if kept.sum() < 3:
+            return T, False, it, kept, rule, dev
+        g = _gradient(X, dev.foot, d)
+        Xk, gk, dk = X[kept], g[kept], d[kept]
+        c = Xk.mean(axis=0)
+        xt = Xk - c
+        J = np.column_stack([xt[:, 0] * gk[:, 1] - xt[:, 1] * gk[:, 0], gk[:, 0], gk[:, 1]])
+        delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
+        reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1))))
+        moved = abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
+        # Converged: the step is negligible, or it has stopped shrinking at a size that only
+        # rounding can explain (Gauss-Newton steps shrink fast until they reach that floor).
+        if (moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk)))
+                or (moved <= 10.0 * tol and moved >= 0.5 * last)):
+            return T, True, it, kept, rule, dev
+        last = moved
+        T = _compose(T[None], delta[None], c[None])[0]
+    dev = deviations_2d(index, apply2(T, p))
+    if changes <= RULE_ROUNDS:
+        rule = gross_rule(dev.signed, zone_width, floor)
+        kept = ~gross_outliers(dev.signed, p, rule)
+    return T, False, max_iter, kept, rule, dev
 
 
 def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from engine.contour import (ARC, ContourIndex, arc, build_template, contains, deviations_2d,
-                            segment, signed_area)
+from engine.contour import (ARC, ContourIndex, arc, build_template, contains, contour_centroid,
+                            deviations_2d, segment, signed_area)
 
 
 def naive_arc_distance(p, c, r, a0, sweep):
@@ -137,3 +137,18 @@ def test_random_templates_match_naive_distances():
         inside = contains(t, 0, q)
         far = np.abs(dev.signed) > 1e-6
         assert np.all((dev.signed[far] < 0) == inside[far]), trial
+
+
+def test_centroid_of_the_contours_weighs_length_not_primitives():
+    # A half circle (r 1, centroid (2/pi, 0)) closed by its diameter (centroid the origin), and
+    # far away a square of side 2 at (100, 0) cut into 400 tiny segments: every unit of length
+    # weighs alike, however many primitives carry it.
+    half = [arc((0.0, 0.0), 1.0, -np.pi / 2, np.pi), segment((0.0, 1.0), (0.0, -1.0))]
+    corners = np.array([(99, -1), (101, -1), (101, 1), (99, 1), (99, -1)], float)
+    fine = [segment(a + (b - a) * k / 100, a + (b - a) * (k + 1) / 100)
+            for a, b in zip(corners[:-1], corners[1:]) for k in range(100)]
+    t = build_template([(half, True), (fine, True)])
+    L_half, L_sq = np.pi + 2.0, 8.0
+    expect = (np.array([np.pi * 2 / np.pi, 0.0]) + np.array([100.0, 0.0]) * L_sq) / (L_half + L_sq)
+    assert np.allclose(contour_centroid(t), expect, atol=1e-12)
+    assert np.allclose(ContourIndex(t).centroid, expect, atol=1e-12)

@@ -147,3 +147,124 @@ def test_template_options_on_the_wrong_nominal_are_usage_errors(tmp_path, capsys
     dxf = tmp_path / "c.dxf"
     doc.saveas(dxf)
     assert main(["inspect", str(dxf), str(pts), "--tol", "1", "--scale", "2"]) == 64
+
+
+def plate_with_dent(rng, n, depth, noise=0.002, width=6.0):
+    """The slotted plate measured at n points with probing noise, and a dent of ``depth`` mm
+    (into the material: negative deviations) in a cosine bell ``width`` mm long centred on the
+    bottom edge at x = 15. Returns (nominal points, planted deviations) (n, 2), (n,)."""
+    t = slotted_plate()
+    q = points_on(t, n, rng)
+    dev = rng.normal(0.0, noise, n)
+    u = np.abs(q[:, 0] - 15.0) / (width / 2)
+    dent = (np.abs(q[:, 1]) < 1e-9) & (u < 1.0)
+    dev[dent] -= depth * 0.5 * (1.0 + np.cos(np.pi * u[dent]))
+    return t, q, dev, dent
+
+
+def measured_from(t, q, dev, rng):
+    nrm = deviations_2d(ContourIndex(t), q).normal
+    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q + dev[:, None] * nrm)
+    return np.column_stack([meas, np.zeros(len(meas))])
+
+
+def independent_lsq(idx, meas2, T0, kept):
+    """scipy's least squares over (theta, tx, ty) about the points' centroid, from T0,
+    residuals the exact signed deviations of the kept points."""
+    from scipy.optimize import least_squares
+
+    c = meas2[kept].mean(axis=0)
+
+    def pose(x):
+        return T0 @ _pose(x[0], c - apply2(_pose(x[0], [0.0, 0.0]), c[None])[0] + x[1:])
+
+    def resid(x):
+        return deviations_2d(idx, apply2(pose(x), meas2[kept])).signed
+
+    sol = least_squares(resid, np.zeros(3), x_scale="jac", xtol=1e-15,
+                        ftol=1e-15, gtol=1e-15)
+    return float(np.sum(sol.fun ** 2))
+
+
+@pytest.mark.parametrize("n", [600, 6000])
+def test_least_squares_pose_is_the_least_squares_optimum_with_a_dent_in_tolerance(n):
+    # (6,000 points: the fit converges on a subset first, then over every point.)
+    rng = np.random.default_rng(21)
+    t, q, dev, dent = plate_with_dent(rng, n, depth=0.035)
+    meas = measured_from(t, q, dev, rng)
+    idx = ContourIndex(t)
+    res = inspect_2d(t, meas, 2, Tolerance.symmetric(0.05), index=idx)
+    assert dent.sum() >= 20
+    assert res.registration.inlier.all()  # the dent is not a gross outlier
+    d = res.deviations.signed
+    ours = float(np.sum(d ** 2))
+    # The reported deviations are the exact ones at the reported pose.
+    assert np.allclose(d, deviations_2d(idx, res.registered[:, :2]).signed, atol=1e-9)
+    # An independent optimiser started from the true pose (and from ours) finds no lower sum.
+    best = min(independent_lsq(idx, meas[:, :2], np.linalg.inv(
+        true_pose(meas[:, :2], q)), np.ones(len(q), bool)),
+        independent_lsq(idx, meas[:, :2], pose_2d(res), np.ones(len(q), bool)))
+    assert ours <= best * 1.0002
+
+
+def pose_2d(res):
+    T = np.eye(3)
+    T[:2, :2] = res.registration.T_nominal_measured[:2, :2]
+    T[:2, 2] = res.registration.T_nominal_measured[:2, 3]
+    return T
+
+
+def true_pose(meas2, q):
+    """The true 2D pose (3, 3, nominal -> measured) by Procrustes on the known pairs."""
+    a, b = q - q.mean(0), meas2 - meas2.mean(0)
+    u, _, vt = np.linalg.svd(b.T @ a)
+    R = u @ vt
+    T = np.eye(3)
+    T[:2, :2] = R
+    T[:2, 2] = meas2.mean(0) - R @ q.mean(0)
+    return T
+
+
+def test_only_isolated_points_far_off_are_left_out():
+    # A machined plate (193 x 109 mm) measured at 600 points with an in-tolerance dent, and 2%
+    # of the points moved 10 mm out, each on its own (25 mm or more apart, so that its nearest
+    # measured points lie on the part): exactly those are left out of the fit, and judged.
+    rng = np.random.default_rng(22)
+    t = read_dxf_template(f"{DATA}/plate_HFP1JZ.dxf").template
+    idx = ContourIndex(t)
+    q = points_on(t, 600, rng)
+    dev = rng.normal(0.0, 0.002, 600)
+    owner = t.contour[deviations_2d(idx, q).primitive]
+    lengths = np.bincount(t.contour, np.where(t.kind == 0, np.linalg.norm(t.end - t.start, axis=1),
+                                              np.abs(t.sweep) * t.radius))
+    outer = np.flatnonzero(owner == np.argmax(lengths))
+    r = np.hypot(*(q - q[outer[0]]).T)
+    dent = (owner == owner[outer[0]]) & (r < 12.0)
+    dev[dent] -= 0.03 * 0.5 * (1.0 + np.cos(np.pi * r[dent] / 12.0))
+    gross = []
+    for i in rng.permutation(outer[~dent[outer]]):
+        if all(np.hypot(*(q[i] - q[j])) >= 25.0 for j in gross):
+            gross.append(i)
+    gross = np.sort(gross[:12])
+    assert gross.size == 12 and dent.sum() >= 10
+    dev[gross] += 10.0
+    res = inspect_2d(t, measured_from(t, q, dev, rng), 2, Tolerance.symmetric(0.05), index=idx)
+    assert np.flatnonzero(~res.registration.inlier).tolist() == gross.tolist()
+    assert res.verdict == REJECT and res.statistics.n_out == 12
+    # The rest were fitted as they are: their deviations are the planted ones.
+    kept = res.registration.inlier
+    assert np.max(np.abs(res.deviations.signed[kept] - dev[kept])) < 0.005
+
+
+@pytest.mark.parametrize("depth, verdict", [(0.035, ACCEPT), (1.5, REJECT)])
+def test_a_dent_is_never_left_out(depth, verdict):
+    # In tolerance (±0.05) or far out of it (1.5 mm: three times the gross threshold of five
+    # zone widths), the dent's points agree with their neighbours: none is left out.
+    rng = np.random.default_rng(23)
+    t, q, dev, dent = plate_with_dent(rng, 600, depth=depth)
+    res = inspect_2d(t, measured_from(t, q, dev, rng), 2, Tolerance.symmetric(0.05))
+    assert res.registration.inlier.all()
+    assert res.verdict == verdict
+    # The pose is the least-squares one over every point: the dent pulls it a little, and the
+    # deviations follow the planted ones up to that pull.
+    assert np.max(np.abs(res.deviations.signed - dev)) < 0.1 * depth + 0.01
