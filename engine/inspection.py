@@ -447,9 +447,9 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         n_inliers=reg.n_inliers, inlier=reg.inlier, outlier_cut=reg.outlier_cut,
         score=reg.score, hypotheses=reg.hypotheses, runner_up_score=reg.runner_up_score,
         runner_up_T=None, deviations=dev, deviation_s=0.0, near_fraction=reg.near_fraction,
-        near_distance=reg.near_distance, message=reg.message,
-        rms_definition="RMS of signed point-to-contour deviations over the inlier points used "
-                       "by the final fit (mm)")
+        near_distance=reg.near_distance, message=reg.message, gross_rule=reg.gross_rule,
+        rms_definition="RMS of signed point-to-contour deviations over the points the final fit "
+                       "used: every point but the gross outliers (mm)")
     extra["template"]["symmetric"] = reg.symmetric
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     margin = np.zeros(d.size) if decision_rule == "guarded" else None

@@ -408,7 +408,7 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
         # The set is the rule's at this very pose (until it has changed RULE_ROUNDS times).
         if changes <= RULE_ROUNDS:
             rule = gross_rule(d, zone_width, floor)
-            new = ~gross_outliers(d, p, rule)
+            new = ~gross_outliers(d, dev.foot, rule)
             if kept is not None and not np.array_equal(new, kept):
                 changes += 1
             kept = new
@@ -432,7 +432,7 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
     dev = deviations_2d(index, apply2(T, p))
     if changes <= RULE_ROUNDS:
         rule = gross_rule(dev.signed, zone_width, floor)
-        kept = ~gross_outliers(dev.signed, p, rule)
+        kept = ~gross_outliers(dev.signed, dev.foot, rule)
     return T, False, max_iter, kept, rule, dev
 
 

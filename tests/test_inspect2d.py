@@ -256,6 +256,22 @@ def test_only_isolated_points_far_off_are_left_out():
     assert np.max(np.abs(res.deviations.signed[kept] - dev[kept])) < 0.005
 
 
+def test_dense_mis_probes_anywhere_are_left_out():
+    # 3,000 points on the plate and 2% of them, drawn at random, moved 10 mm out: mis-probed
+    # points are judged isolated by their neighbours along the contour (their feet), not in the
+    # plane, where the nearest points of one 10 mm off are often others 10 mm off.
+    rng = np.random.default_rng(31)
+    t = read_dxf_template(f"{DATA}/plate_HFP1JZ.dxf").template
+    idx = ContourIndex(t)
+    q = points_on(t, 3000, rng)
+    dev = rng.normal(0.0, 0.002, 3000)
+    gross = np.sort(rng.choice(3000, 60, replace=False))
+    dev[gross] += 10.0
+    res = inspect_2d(t, measured_from(t, q, dev, rng), 2, Tolerance.symmetric(0.05), index=idx)
+    assert np.flatnonzero(~res.registration.inlier).tolist() == gross.tolist()
+    assert res.verdict == REJECT and res.statistics.n_out == 60
+
+
 @pytest.mark.parametrize("depth, verdict", [(0.035, ACCEPT), (1.5, REJECT)])
 def test_a_dent_is_never_left_out(depth, verdict):
     # In tolerance (±0.05) or far out of it (1.5 mm: three times the gross threshold of five
