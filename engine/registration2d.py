@@ -414,14 +414,8 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
             kept = new
         if kept.sum() < 3:
             return T, False, it, kept, rule, dev
-        g = _gradient(X, dev.foot, d)
-        Xk, gk, dk = X[kept], g[kept], d[kept]
-        c = Xk.mean(axis=0)
-        xt = Xk - c
-        J = np.column_stack([xt[:, 0] * gk[:, 1] - xt[:, 1] * gk[:, 0], gk[:, 0], gk[:, 1]])
-        delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
-        reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1))))
-        moved = abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
+        delta, c, moved = _gn_step2(X, dev, kept)
+        dk = d[kept]
         # Converged: the step is negligible, or it has stopped shrinking at a size that only
         # rounding can explain (Gauss-Newton steps shrink fast until they reach that floor).
         if (moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk)))
@@ -434,6 +428,19 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
         rule = gross_rule(dev.signed, zone_width, floor)
         kept = ~gross_outliers(dev.signed, dev.foot, rule)
     return T, False, max_iter, kept, rule, dev
+
+
+def _gn_step2(X: np.ndarray, dev: Deviations2D, use: np.ndarray):
+    """One Gauss-Newton step of the pose on the exact signed distances of points ``X[use]``
+    (registered, (n, 2)), solved about their centroid c: returns (step [angle, tx, ty], c, the
+    largest motion the step gives any of them, mm)."""
+    Xk, gk, dk = X[use], _gradient(X[use], dev.foot[use], dev.signed[use]), dev.signed[use]
+    c = Xk.mean(axis=0)
+    xt = Xk - c
+    J = np.column_stack([xt[:, 0] * gk[:, 1] - xt[:, 1] * gk[:, 0], gk[:, 0], gk[:, 1]])
+    delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
+    reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1)))) if xt.size else 0.0
+    return delta, c, abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
 
 
 def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -461,15 +468,8 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
             inlier = np.abs(d) <= cut
         if inlier.sum() < 3:
             return T, False, it, inlier, cut, dev
-        g = _gradient(X, dev.foot, d)
-        Xi, gi, di = X[inlier], g[inlier], d[inlier]
-        c = Xi.mean(axis=0)
-        xt = Xi - c
-        J = np.column_stack([xt[:, 0] * gi[:, 1] - xt[:, 1] * gi[:, 0], gi[:, 0], gi[:, 1]])
-        A = J.T @ J
-        delta = -min_norm_solve(A, J.T @ di, 1, _rms_radius(xt))
-        reach = float(np.max(np.linalg.norm(xt, axis=1))) if xt.size else 0.0
-        if abs(delta[0]) * reach + np.linalg.norm(delta[1:]) < 1e-7:
+        delta, c, moved = _gn_step2(X, dev, inlier)
+        if moved < 1e-7:
             return T, True, it, inlier, cut, dev
         T = _compose(T[None], delta[None], c[None])[0]
     X = apply2(T, p)
