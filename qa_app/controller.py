@@ -140,9 +140,11 @@ class Controller:
         def done(run):
             s.set_running(False)
             s.set_run(run)
-            st = run.result.statistics
-            s.tell("info", f"{run.result.verdict}: {'; '.join(run.result.reasons)} "
-                           f"(max |d| {st.max_abs:.4f} mm)")
+            res = run.result
+            # The trust statements are the banner's details, not this one-line note.
+            reasons = [r for r in res.reasons if r not in res.trust_statements]
+            s.tell("info", f"{res.verdict}: {'; '.join(reasons)} "
+                           f"(max |d| {res.statistics.max_abs:.4f} mm)")
 
         self._start(job, done, lambda: s.set_running(False))
 

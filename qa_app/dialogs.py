@@ -208,9 +208,7 @@ class CertificateDialog(QDialog):
     def take_passphrase(self) -> bytes | None:
         """The passphrase (None when unsigned); the field and the identity loaded with it are
         cleared (the signer's name stays)."""
-        if not self.p12.text().strip():
-            return None
-        value = self.passphrase.text().encode("utf-8")
+        value = self.passphrase.text().encode("utf-8") if self.p12.text().strip() else None
         self.passphrase.blockSignals(True)
         self.passphrase.clear()
         self.passphrase.blockSignals(False)

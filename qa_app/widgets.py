@@ -103,6 +103,7 @@ class VerdictBanner(QFrame):
         self.stale = False
         self.trust_note = ""
         self.detail.setToolTip("")
+        self.setToolTip("")
         if run is None:
             text = step.value if step is not None else "Open the nominal and the measured points"
             self.setStyleSheet("#verdictBanner { background: #e9edf2; border-radius: 4px; }")
@@ -132,7 +133,9 @@ class VerdictBanner(QFrame):
         # states them in full); the banner keeps the verdict's own reasons.
         reasons_shown = [r for r in res.reasons if r not in statements]
         self.trust_note = trust
-        self.detail.setToolTip("\n".join(s[:1].upper() + s[1:] + "." for s in statements))
+        details = "\n".join(s[:1].upper() + s[1:] + "." for s in statements)
+        self.detail.setToolTip(details)
+        self.setToolTip(details)  # anywhere on the banner
         reasons = self.session.stale_reasons if run is self.session.run else []
         if reasons:
             # No verdict is stated for a result that no longer matches the files and settings:

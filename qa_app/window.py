@@ -306,12 +306,16 @@ class MainWindow(QMainWindow):
     def export_certificate(self, path: str | None = None, dialog: CertificateDialog | None = None
                            ) -> CertificateDialog | None:
         """Ask for the certificate's fields and identity, then export. Tests pass a prepared
-        ``dialog`` (accepted) to drive it without a modal loop."""
+        ``dialog`` (accepted) to drive it without a modal loop; one made here is deleted once
+        used, with the passphrase and the identity loaded with it."""
         if not self.session.can_export or not self.controller.check_inputs():
             return None
-        if dialog is None:
+        made_here = dialog is None
+        if made_here:
             dialog = self.certificate_dialog(path)
             if dialog.exec() != CertificateDialog.Accepted:
+                dialog.take_passphrase()
+                dialog.deleteLater()
                 return None
         info = dialog.info()
         p12 = dialog.identity_path()
@@ -322,6 +326,8 @@ class MainWindow(QMainWindow):
         self.qsettings.setValue("certificate/p12", p12 or "")
         self.controller.export_certificate(dialog.output_path(), info, p12,
                                            dialog.take_passphrase())
+        if made_here:
+            dialog.deleteLater()
         return dialog
 
     def export_csv(self, path: str | None = None) -> None:
