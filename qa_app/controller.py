@@ -37,6 +37,8 @@ class Controller:
         self._cancel = threading.Event()
         self._thread: threading.Thread | None = None
         self.busy = False
+        self.signing_identity: str | None = None
+        """The PKCS#12 signing identity last used (path): an input no export may replace."""
 
     def warm_up(self) -> threading.Thread:
         """Import the engine and load its compiled kernels in the background while the inspector
@@ -203,6 +205,8 @@ class Controller:
         result is stale, onto an input, and (before any rendering, in the command line's words)
         when the inspector named is not the signer or a signed ACCEPTED certificate lacks the
         part number or serial number: a signed certificate names its signer as inspector."""
+        if p12:
+            self.signing_identity = p12
         if self._refuse_stale("certificate") or self._refuse_output("certificate", path, p12):
             return
         run = self.session.run
@@ -258,14 +262,15 @@ class Controller:
 
     def _refuse_output(self, what: str, path: str, identity: str | None = None) -> bool:
         """True (with the error) when ``path`` is no file name or names one of the inputs: the
-        nominal, the measured points, the inspected files of the result, the signing identity.
-        An output never replaces an input (reports.outputs.check_outputs)."""
+        nominal, the measured points, the inspected files of the result, the signing identity
+        (``identity``, else the last one used). An output never replaces an input
+        (reports.outputs.check_outputs)."""
         from reports.messages import user_message
         from reports.outputs import OutputConflictError, check_outputs
 
         s = self.session
         inputs = {"nominal": s.nominal_path, "measured": s.measured_path,
-                  "signing identity": identity}
+                  "signing identity": identity or self.signing_identity}
         for rec in (s.run.inputs if s.run is not None else ()):
             inputs.setdefault(f"inspected {rec.role}", rec.path)  # the run's, should they differ
         try:

@@ -116,6 +116,7 @@ class VerdictBanner(QFrame):
         tol = res.tolerance
         cond = res.conditioning
         trust, statements = pose_trust(res)
+        stable = res.pose_sensitivity is None or res.pose_sensitivity.verdict_stable
         pose = ("pose ±" + f"{cond.pose_sigma_mm:.4f} mm" if cond is not None and
                 cond.pose_sigma_mm is not None else
                 "" if trust else "pose not fully constrained")
@@ -128,7 +129,7 @@ class VerdictBanner(QFrame):
             f"max {st.max:+.4f} · mean {st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · "
             f"max |d| {st.max_abs:.4f} mm<br>fit {res.fit} · decision rule {res.decision_rule} · "
             f"registration rms {res.registration.rms:.4f} mm"
-            + "".join(f" · {t}" for t in (pose, trust) if t))
+            + "".join(f" · {t}" for t in (pose, trust if stable else f"<b>{trust}</b>") if t))
         # The plain-word trust statements are the details behind the note (the certificate
         # states them in full); the banner keeps the verdict's own reasons.
         reasons_shown = [r for r in res.reasons if r not in statements]
@@ -176,7 +177,7 @@ def pose_trust(res) -> tuple[str, tuple[str, ...]]:
     if sens is None:  # the pose cannot be trusted at all: the reasons say why
         return "", statements
     if not sens.verdict_stable:
-        return "<b>verdict depends on the pose</b>", statements
+        return "verdict depends on the pose", statements
     if statements or res.ambiguous:  # (an exact symmetry of the part is no statement)
         return "pose not fully fixed — verdict holds, see details", statements
     return "", statements

@@ -71,6 +71,8 @@ class MainWindow(QMainWindow):
                                      post=None if synchronous else self._invoker.call.emit,
                                      prepare=Viewport3D.prepare)
         self.qsettings = settings or QSettings("qa-inspect", "qa-app")
+        # The signing identity last used: no export may replace it.
+        self.controller.signing_identity = self.qsettings.value("certificate/p12") or None
         self.setWindowTitle("qa-inspect — dimensional inspection")
         self.setAcceptDrops(True)
         s = self.session

@@ -427,10 +427,12 @@ def test_a_signed_certificate_names_its_signer_and_is_refused_before_rendering(
 @pytest.mark.parametrize("export, target", [("csv", "measured"), ("qif", "nominal"),
                                             ("session", "measured"), ("session", "nominal"),
                                             ("certificate", "identity"),
-                                            ("certificate", "measured")])
+                                            ("certificate", "measured"), ("csv", "identity"),
+                                            ("session", "identity")])
 def test_an_export_never_replaces_an_input(tmp_path, monkeypatch, export, target):
-    """Every export onto the nominal, the measured points or the signing identity (here also by
-    another spelling of its path) is refused with one error and nothing is written."""
+    """Every export onto the nominal, the measured points or the signing identity (the one
+    given, or for the other exports the one last used, as the window remembers it), here by
+    another spelling of its path, is refused with one error and nothing is written."""
     from reports.certificate import CertificateInfo
 
     work = tmp_path / "job"
@@ -443,6 +445,7 @@ def test_an_export_never_replaces_an_input(tmp_path, monkeypatch, export, target
     before = {p: Path(p).read_bytes() for p in paths.values()}
     listing = sorted(os.listdir(work))
     s, c, messages = make()
+    c.signing_identity = p12
     c.open_files([paths["nominal"], paths["measured"]])
     c.set_tolerance(-0.05, 0.05)
     c.inspect()

@@ -410,6 +410,11 @@ def test_the_certificate_dialog_names_the_signer_and_says_what_it_refuses(window
     assert cert["serial"] == "SN-1"
     # The typed draft inspector is what is remembered, not the signer's name.
     assert w.qsettings.value("certificate/inspector") == "Bob Typed"
+    # The identity used is an input: no export replaces it.
+    key = (tmp_path / "id" / "inspector.p12").read_bytes()
+    w.export_csv(p12)
+    assert "is the signing identity file" in w.message_bar.text
+    assert (tmp_path / "id" / "inspector.p12").read_bytes() == key
 
 
 def test_exporting_the_csv_onto_the_measured_file_is_refused(window, tmp_path):
