@@ -37,6 +37,8 @@ class Controller:
         self._cancel = threading.Event()
         self._thread: threading.Thread | None = None
         self.busy = False
+        self.signing_identity: str | None = None
+        """The PKCS#12 signing identity last used (path): an input no export may replace."""
 
     def warm_up(self) -> threading.Thread:
         """Import the engine and load its compiled kernels in the background while the inspector
@@ -140,9 +142,11 @@ class Controller:
         def done(run):
             s.set_running(False)
             s.set_run(run)
-            st = run.result.statistics
-            s.tell("info", f"{run.result.verdict}: {'; '.join(run.result.reasons)} "
-                           f"(max |d| {st.max_abs:.4f} mm)")
+            res = run.result
+            # The trust statements are the banner's details, not this one-line note.
+            reasons = [r for r in res.reasons if r not in res.trust_statements]
+            s.tell("info", f"{res.verdict}: {'; '.join(reasons)} "
+                           f"(max |d| {res.statistics.max_abs:.4f} mm)")
 
         self._start(job, done, lambda: s.set_running(False))
 
@@ -198,32 +202,38 @@ class Controller:
                            on_done: Callable[[str], None] | None = None) -> None:
         """Write the certificate exactly as ``qa-inspect inspect … --report`` does (signed with
         ``p12`` when given). The passphrase is used here and not kept. Refused while the
-        result is stale."""
-        if self._refuse_stale("certificate"):
+        result is stale, onto an input, and (before any rendering, in the command line's words)
+        when the inspector named is not the signer or a signed ACCEPTED certificate lacks the
+        part number or serial number: a signed certificate names its signer as inspector."""
+        if p12:
+            self.signing_identity = p12
+        if self._refuse_stale("certificate") or self._refuse_output("certificate", path, p12):
             return
         run = self.session.run
 
         def job():
-            from reports.certificate import make_certificate
+            from reports.certificate import certified_info, make_certificate
             from reports.figures import RenderProcess
-            from reports.results import write_atomic
+            from reports.outputs import Output, write_all
             from reports.signing import load_identity
 
             identity = load_identity(p12, passphrase) if p12 else None
+            certified = certified_info(info, identity, run.result.verdict)
             self._progress("rendering the deviation maps", 0.2)
             renderer = RenderProcess() if run.template is None else None
             try:
-                pdf = make_certificate(run, info, identity, renderer=renderer)
+                pdf = make_certificate(run, certified, identity, renderer=renderer)
             finally:
                 if renderer is not None:
                     renderer.close()
             self._progress("writing the certificate", 0.95)
-            write_atomic(path, pdf)
-            return path
+            write_all([Output(path, pdf)])
+            return path, None if identity is None else identity.common_name
 
-        def done(p):
+        def done(value):
+            p, signer = value
             self.session.set_running(False)
-            signed = "signed" if p12 else "UNSIGNED DRAFT"
+            signed = f"signed by {signer}" if signer is not None else "UNSIGNED DRAFT"
             self.session.tell("info", f"Certificate written ({signed}): {p}")
             if on_done:
                 on_done(p)
@@ -235,7 +245,7 @@ class Controller:
         from reports.results import points_csv
 
         run = self.session.run
-        if not self._refuse_stale("CSV"):
+        if not self._refuse_stale("CSV") and not self._refuse_output("CSV", path):
             self._export(path, lambda: points_csv(run.result, run.measured.points,
                                                   run.measured.labels), "CSV")
 
@@ -243,18 +253,38 @@ class Controller:
         from reports.qif import qif_results_document
 
         run = self.session.run
-        if self._refuse_stale("QIF"):
+        if self._refuse_stale("QIF") or self._refuse_output("QIF", path):
             return
         res = run.result
         self._export(path, lambda: qif_results_document(
             run.doc, res.registered, res.deviations.signed, res.in_tolerance, run.measured.labels,
             res.outlier), "QIF")
 
+    def _refuse_output(self, what: str, path: str, identity: str | None = None) -> bool:
+        """True (with the error) when ``path`` is no file name or names one of the inputs: the
+        nominal, the measured points, the inspected files of the result, the signing identity
+        (``identity``, else the last one used). An output never replaces an input
+        (reports.outputs.check_outputs)."""
+        from reports.messages import user_message
+        from reports.outputs import OutputConflictError, check_outputs
+
+        s = self.session
+        inputs = {"nominal": s.nominal_path, "measured": s.measured_path,
+                  "signing identity": identity or self.signing_identity}
+        for rec in (s.run.inputs if s.run is not None else ()):
+            inputs.setdefault(f"inspected {rec.role}", rec.path)  # the run's, should they differ
+        try:
+            check_outputs({what: path}, inputs)
+        except OutputConflictError as e:
+            s.tell("error", user_message(e))
+            return True
+        return False
+
     def _export(self, path: str, make: Callable, what: str) -> None:
-        from reports.results import write_atomic
+        from reports.outputs import Output, write_all
 
         def job():
-            write_atomic(path, make())
+            write_all([Output(path, make())])
             return path
 
         def done(p):
@@ -268,9 +298,11 @@ class Controller:
     def save_session(self, path: str) -> None:
         """Inputs by path with SHA-256, the settings, and the results document (none when the
         result is stale: results are saved only with the settings and files they belong to)."""
-        from reports.results import write_atomic
+        from reports.outputs import Output, write_all
 
         s = self.session
+        if self._refuse_output("session", path):
+            return
         try:
             s.settings.tolerance  # a zone that is no zone is not saved
         except SettingsError as e:
@@ -280,7 +312,7 @@ class Controller:
             self.check_inputs()
         try:
             doc = self._session_doc(path)
-            write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+            write_all([Output(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")])
         except (OSError, InputError) as e:
             from reports.messages import user_message
 

@@ -1,10 +1,17 @@
 """The certificate dialog: what the certificate states, the signing identity and where to write.
-The passphrase is handed to the controller once and never stored."""
+The passphrase is handed to the controller once and never stored.
+
+A signed certificate names its signer as inspector: once the identity is loaded the Inspector
+field shows the signing certificate's name and cannot be edited; an unsigned draft names whom
+the inspector types. What the command line refuses (an inspector who is not the signer, a signed
+ACCEPTED certificate without part number and serial, an output onto an input) is said in the
+dialog, in the same words, and the dialog stays open."""
 
 from __future__ import annotations
 
 import os
 
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (
     QDialog,
     QDialogButtonBox,
@@ -20,6 +27,7 @@ from PySide6.QtWidgets import (
 )
 
 from reports.certificate import CertificateInfo
+from reports.messages import user_message
 
 FIELDS = (("part_number", "Part number"), ("part_name", "Part name"), ("revision", "Revision"),
           ("serial", "Serial number"), ("order", "Order"), ("inspector", "Inspector"),
@@ -27,10 +35,19 @@ FIELDS = (("part_number", "Part number"), ("part_name", "Part name"), ("revision
 
 
 class CertificateDialog(QDialog):
-    def __init__(self, parent: QWidget | None, defaults: dict, output: str):
+    SIGNER_HINT = "the signer's name, read from the signing identity"
+
+    def __init__(self, parent: QWidget | None, defaults: dict, output: str,
+                 verdict: str | None = None, inputs: dict[str, str | None] | None = None):
+        """verdict : the result's verdict (engine.inspection), for the checks a signed
+        certificate of it must pass; inputs : {role: path} no output may replace."""
         super().__init__(parent)
         self.setWindowTitle("Export inspection certificate")
         self.setMinimumWidth(520)
+        self.verdict = verdict
+        self.inputs = dict(inputs or {})
+        self.identity = None  # reports.signing.Identity, once loaded
+        self._loaded_for = None  # (path, passphrase) it was loaded with
         form = QFormLayout()
         self.edits = {}
         for key, label in FIELDS:
@@ -38,6 +55,8 @@ class CertificateDialog(QDialog):
             e.setObjectName(key)
             form.addRow(label, e)
             self.edits[key] = e
+        self.inspector = self.edits["inspector"]
+        self._draft_inspector = self.inspector.text()  # what an unsigned draft names
         self.notes = QPlainTextEdit(defaults.get("notes") or "")
         self.notes.setFixedHeight(54)
         form.addRow("Notes", self.notes)
@@ -51,16 +70,114 @@ class CertificateDialog(QDialog):
         self.output = QLineEdit(output)
         form.addRow("Save as", self._with_browse(self.output, self._browse_output))
         note = QLabel("Without a signing identity the PDF is marked UNSIGNED DRAFT on every page. "
-                      "The passphrase is used for this signature only and is not stored.")
+                      "The passphrase is used for this signature only and is not stored. "
+                      "A signed certificate names its signer as the inspector.")
         note.setWordWrap(True)
-        buttons = QDialogButtonBox(QDialogButtonBox.Ok | QDialogButtonBox.Cancel)
-        buttons.button(QDialogButtonBox.Ok).setText("Export")
-        buttons.accepted.connect(self.accept)
-        buttons.rejected.connect(self.reject)
+        self.problem = QLabel()
+        self.problem.setObjectName("certificateProblem")
+        self.problem.setWordWrap(True)
+        self.problem.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        self.problem.setStyleSheet("QLabel { color: #8a1111; }")
+        self.problem.hide()
+        self.buttons = QDialogButtonBox(QDialogButtonBox.Ok | QDialogButtonBox.Cancel)
+        self.export_button = self.buttons.button(QDialogButtonBox.Ok)
+        self.export_button.setText("Export")
+        self.buttons.accepted.connect(self.accept)
+        self.buttons.rejected.connect(self.reject)
         lay = QVBoxLayout(self)
         lay.addLayout(form)
         lay.addWidget(note)
-        lay.addWidget(buttons)
+        lay.addWidget(self.problem)
+        lay.addWidget(self.buttons)
+        self.inspector.textEdited.connect(self._inspector_edited)
+        self.p12.textChanged.connect(self._identity_changed)
+        self.passphrase.textChanged.connect(self._identity_changed)
+        self.passphrase.returnPressed.connect(self.load_identity)
+        self.passphrase.editingFinished.connect(self._load_quietly)
+        self._identity_changed()
+
+    # ------------------------------------------------------------------ the signer
+    def _inspector_edited(self, text: str) -> None:
+        if self.identity_path() is None:
+            self._draft_inspector = text
+
+    def _identity_changed(self, *_) -> None:
+        """Another identity or passphrase: the signer is not known until it is loaded; while an
+        identity is chosen the inspector is its signer, not a typed name."""
+        if self._loaded_for != self._key():
+            self.identity = None
+            self._loaded_for = None
+        chosen = self.identity_path() is not None
+        self.inspector.setReadOnly(chosen)
+        if self.identity is not None:
+            self.inspector.setText(self.identity.common_name)
+        else:
+            self.inspector.setText("" if chosen else self._draft_inspector)
+        self.inspector.setPlaceholderText(self.SIGNER_HINT if chosen else "")
+        self.inspector.setToolTip(
+            "A signed certificate names the person who signs it: the signing certificate's "
+            "name" if chosen else "")
+        self._say(None)
+
+    def _key(self):
+        return (self.identity_path(), self.passphrase.text())
+
+    def _load_quietly(self) -> None:
+        """The passphrase field left: load the identity if it can be (its problems are said
+        when Export is pressed)."""
+        if self.identity_path() and self.passphrase.text() and os.path.isfile(
+                self.identity_path()):
+            self.load_identity()
+
+    def load_identity(self) -> bool:
+        """Load the chosen identity with the passphrase typed; the inspector becomes its signer.
+        False (with the problem said in the dialog) when it cannot be loaded."""
+        from reports.signing import load_identity
+
+        path = self.identity_path()
+        if path is None:
+            return True
+        if self.identity is not None and self._loaded_for == self._key():
+            return True
+        try:
+            identity = load_identity(path, self.passphrase.text().encode("utf-8"))
+        except Exception as e:  # an unreadable identity is one message, never a crash
+            self._say(user_message(e))
+            return False
+        self.identity, self._loaded_for = identity, self._key()
+        self._identity_changed()
+        return True
+
+    def problems(self) -> str | None:
+        """What the command line would refuse in this certificate (its message), or None."""
+        from reports.certificate import CertificationError, certified_info
+        from reports.outputs import OutputConflictError, check_outputs
+
+        try:
+            check_outputs({"certificate": self.output_path() or ""},
+                          dict(self.inputs, **{"signing identity": self.identity_path()}))
+        except OutputConflictError as e:
+            return user_message(e)
+        if not self.load_identity():
+            return self.problem.text()
+        if self.verdict is not None:
+            try:
+                certified_info(self.info(), self.identity, self.verdict)
+            except CertificationError as e:
+                return user_message(e)
+        return None
+
+    def _say(self, text: str | None) -> None:
+        self.problem.setText(text or "")
+        self.problem.setVisible(bool(text))
+
+    def accept(self) -> None:
+        """Export only what the command line would certify; otherwise say why and stay open."""
+        problem = self.problems()
+        if problem:
+            self._say(problem)
+            return
+        super().accept()
 
     def _with_browse(self, edit, slot):
         w = QWidget()
@@ -89,12 +206,18 @@ class CertificateDialog(QDialog):
         return CertificateInfo(**values, notes=self.notes.toPlainText().strip() or None)
 
     def take_passphrase(self) -> bytes | None:
-        """The passphrase (None when unsigned); the field is cleared."""
-        if not self.p12.text().strip():
-            return None
-        value = self.passphrase.text().encode("utf-8")
+        """The passphrase (None when unsigned); the field and the identity loaded with it are
+        cleared (the signer's name stays)."""
+        value = self.passphrase.text().encode("utf-8") if self.p12.text().strip() else None
+        self.passphrase.blockSignals(True)
         self.passphrase.clear()
+        self.passphrase.blockSignals(False)
+        self.identity = None
         return value
+
+    def draft_inspector(self) -> str | None:
+        """The inspector typed for an unsigned draft (not a signer's name)."""
+        return self._draft_inspector.strip() or None
 
     def identity_path(self) -> str | None:
         p = self.p12.text().strip()

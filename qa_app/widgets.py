@@ -101,6 +101,9 @@ class VerdictBanner(QFrame):
         """verdict : the verdict shown (None when none is: no result, or a stale one);
         stale : the result shown is out of date."""
         self.stale = False
+        self.trust_note = ""
+        self.detail.setToolTip("")
+        self.setToolTip("")
         if run is None:
             text = step.value if step is not None else "Open the nominal and the measured points"
             self.setStyleSheet("#verdictBanner { background: #e9edf2; border-radius: 4px; }")
@@ -112,8 +115,11 @@ class VerdictBanner(QFrame):
         st = res.statistics
         tol = res.tolerance
         cond = res.conditioning
+        trust, statements = pose_trust(res)
+        stable = res.pose_sensitivity is None or res.pose_sensitivity.verdict_stable
         pose = ("pose ±" + f"{cond.pose_sigma_mm:.4f} mm" if cond is not None and
-                cond.pose_sigma_mm is not None else "pose not fully constrained")
+                cond.pose_sigma_mm is not None else
+                "" if trust else "pose not fully constrained")
         n_excluded = int(res.outlier.sum())
         excluded = (f" · {n_excluded} excluded from alignment (gross outlier"
                     f"{'s' if n_excluded > 1 else ''})" if n_excluded else "")
@@ -122,8 +128,15 @@ class VerdictBanner(QFrame):
             f"{tol.upper:+.3f} mm{excluded}<br>min {st.min:+.4f} · "
             f"max {st.max:+.4f} · mean {st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · "
             f"max |d| {st.max_abs:.4f} mm<br>fit {res.fit} · decision rule {res.decision_rule} · "
-            f"registration rms {res.registration.rms:.4f} mm · {pose}"
-            + (" · AMBIGUOUS" if res.ambiguous else ""))
+            f"registration rms {res.registration.rms:.4f} mm"
+            + "".join(f" · {t}" for t in (pose, trust if stable else f"<b>{trust}</b>") if t))
+        # The plain-word trust statements are the details behind the note (the certificate
+        # states them in full); the banner keeps the verdict's own reasons.
+        reasons_shown = [r for r in res.reasons if r not in statements]
+        self.trust_note = trust
+        details = "\n".join(s[:1].upper() + s[1:] + "." for s in statements)
+        self.detail.setToolTip(details)
+        self.setToolTip(details)  # anywhere on the banner
         reasons = self.session.stale_reasons if run is self.session.run else []
         if reasons:
             # No verdict is stated for a result that no longer matches the files and settings:
@@ -147,7 +160,27 @@ class VerdictBanner(QFrame):
                            "border-radius: 4px; } QLabel { color: white; }")
         self.word.setText(f"<span style='font-size:22pt; font-weight:bold'>"
                           f"{VERDICT_WORD[res.verdict]}</span>")
-        self.detail.setText(f"{'; '.join(res.reasons)}<br>{facts}")
+        self.detail.setText(f"{'; '.join(reasons_shown)}<br>{facts}")
+
+
+def pose_trust(res) -> tuple[str, tuple[str, ...]]:
+    """(note, statements): how far the verdict depends on the pose, compactly, for the banner,
+    and engine.trust's plain-word statements behind it.
+
+    A verdict that differs at some pose the measurement allows (weak or free directions, a
+    nearly-as-good runner-up: ``res.pose_sensitivity``) "depends on the pose"; one that holds
+    at all of them while the pose is not fully fixed gets a short note; a runner-up or a free
+    direction alone is a fact, never a reason to call a standing verdict ambiguous.
+    """
+    sens = res.pose_sensitivity
+    statements = tuple(res.trust_statements)
+    if sens is None:  # the pose cannot be trusted at all: the reasons say why
+        return "", statements
+    if not sens.verdict_stable:
+        return "verdict depends on the pose", statements
+    if statements or res.ambiguous:  # (an exact symmetry of the part is no statement)
+        return "pose not fully fixed — verdict holds, see details", statements
+    return "", statements
 
 
 class Legend(QWidget):

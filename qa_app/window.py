@@ -71,6 +71,8 @@ class MainWindow(QMainWindow):
                                      post=None if synchronous else self._invoker.call.emit,
                                      prepare=Viewport3D.prepare)
         self.qsettings = settings or QSettings("qa-inspect", "qa-app")
+        # The signing identity last used: no export may replace it.
+        self.controller.signing_identity = self.qsettings.value("certificate/p12") or None
         self.setWindowTitle("qa-inspect — dimensional inspection")
         self.setAcceptDrops(True)
         s = self.session
@@ -292,27 +294,42 @@ class MainWindow(QMainWindow):
             self.session.set_settings(**self.tolerance.settings_fields())
             self.controller.inspect()
 
-    def export_certificate(self, path: str | None = None, dialog: CertificateDialog | None = None
-                           ) -> CertificateDialog | None:
-        """Ask for the certificate's fields and identity, then export. Tests pass a prepared
-        ``dialog`` (accepted) to drive it without a modal loop."""
-        if not self.session.can_export or not self.controller.check_inputs():
-            return None
+    def certificate_dialog(self, path: str | None = None) -> CertificateDialog:
+        """The certificate dialog for the result on screen: the remembered fields, the default
+        file beside the measured points, and what its checks need (verdict, inputs)."""
         default = path or os.path.join(self._folder(), os.path.splitext(
             os.path.basename(self.session.measured_path))[0] + "_certificate.pdf")
         defaults = {k: self.qsettings.value(f"certificate/{k}") for k in (
             "inspector", "organisation", "device", "p12")}
-        if dialog is None:
-            dialog = CertificateDialog(self, defaults, default)
+        s = self.session
+        return CertificateDialog(self, defaults, default, verdict=s.run.result.verdict,
+                                 inputs={"nominal": s.nominal_path, "measured": s.measured_path})
+
+    def export_certificate(self, path: str | None = None, dialog: CertificateDialog | None = None
+                           ) -> CertificateDialog | None:
+        """Ask for the certificate's fields and identity, then export. Tests pass a prepared
+        ``dialog`` (accepted) to drive it without a modal loop; one made here is deleted once
+        used, with the passphrase and the identity loaded with it."""
+        if not self.session.can_export or not self.controller.check_inputs():
+            return None
+        made_here = dialog is None
+        if made_here:
+            dialog = self.certificate_dialog(path)
             if dialog.exec() != CertificateDialog.Accepted:
+                dialog.take_passphrase()
+                dialog.deleteLater()
                 return None
         info = dialog.info()
         p12 = dialog.identity_path()
+        # An unsigned draft's inspector is remembered; a signer's name comes with the identity.
         for k in ("inspector", "organisation", "device"):
-            self.qsettings.setValue(f"certificate/{k}", getattr(info, k) or "")
+            value = dialog.draft_inspector() if k == "inspector" else getattr(info, k)
+            self.qsettings.setValue(f"certificate/{k}", value or "")
         self.qsettings.setValue("certificate/p12", p12 or "")
         self.controller.export_certificate(dialog.output_path(), info, p12,
                                            dialog.take_passphrase())
+        if made_here:
+            dialog.deleteLater()
         return dialog
 
     def export_csv(self, path: str | None = None) -> None:

@@ -3,6 +3,7 @@
 import json
 import os
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -358,3 +359,107 @@ def test_a_run_started_before_a_change_finishes_stale():
     s.progress.connect(change_once)
     c.inspect()
     assert s.run.settings.tol_upper == 0.05 and s.step == Step.STALE and not s.can_export
+
+
+def keygen(tmp_path, monkeypatch, name="Ann Inspector"):
+    """A demonstration signing identity of ``name``: (p12 path, passphrase)."""
+    monkeypatch.setenv("QA_APP_TEST_PASS", "pw")
+    assert cli_main(["keygen", "--name", name, "--out", str(tmp_path / "id"), "--pass-env",
+                     "QA_APP_TEST_PASS"]) == 0
+    return str(tmp_path / "id" / "inspector.p12"), b"pw"
+
+
+def cli_refusal(capsys, p12, out, *args) -> str:
+    """The command line's refusal of the signed frame certificate with ``args``: its message
+    after the command's name (exit 64, nothing written)."""
+    capsys.readouterr()
+    assert cli_main(["inspect", os.path.join(FRAME, "template.dxf"),
+                     os.path.join(FRAME, "measured.csv"), "--tol", "0.05", "--report", str(out),
+                     "--sign", p12, "--sign-pass-env", "QA_APP_TEST_PASS", *args]) == 64
+    assert not os.path.exists(out)
+    first = capsys.readouterr().err.splitlines()[0]
+    assert first.startswith("qa-inspect inspect: ")
+    return first[len("qa-inspect inspect: "):]
+
+
+def test_a_signed_certificate_names_its_signer_and_is_refused_before_rendering(
+        tmp_path, monkeypatch, capsys):
+    """The inspector named must be the signer, and a signed ACCEPTED certificate must name its
+    part: the app refuses, in the command line's words, before any map is rendered and with
+    nothing written; the certificate it signs names the signer as inspector."""
+    from reports.certificate import CertificateInfo
+    from reports.signing import read_trust_roots, verify_pdf
+
+    p12, pw = keygen(tmp_path, monkeypatch)
+    s, c, messages = make()
+    stages = []
+    s.progress.connect(lambda stage, f: stages.append(stage))
+    c.open_files([os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")])
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT"
+    out = tmp_path / "out" / "cert.pdf"
+    for info, args in (
+            (CertificateInfo(part_number="FR-1", serial="SN-1", inspector="Carol Other"),
+             ["--part-number", "FR-1", "--serial", "SN-1", "--inspector", "Carol Other"]),
+            (CertificateInfo(part_number="FR-1", inspector=" ann  INSPECTOR"),
+             ["--part-number", "FR-1"])):
+        stages.clear()
+        c.export_certificate(str(out), info, p12, pw)
+        assert messages[-1] == ("error", cli_refusal(capsys, p12, out, *args))
+        assert not any("render" in st for st in stages), stages
+        assert not out.parent.exists() and s.step == Step.INSPECTED and not c.busy
+    done = []
+    c.export_certificate(str(out), CertificateInfo(part_number="FR-1", serial="SN-1",
+                                                   inspector="Someone Typed"), None, None,
+                         on_done=done.append)
+    assert done == [str(out)] and b"UNSIGNED DRAFT" in out.read_bytes()  # a draft names anyone
+    c.export_certificate(str(out), CertificateInfo(part_number="FR-1", serial="SN-1"), p12, pw,
+                         on_done=done.append)
+    assert done[-1] == str(out) and messages[-1][1].startswith(
+        "Certificate written (signed by Ann Inspector)")
+    v = verify_pdf(out.read_bytes(), read_trust_roots(str(tmp_path / "id" / "ca.pem")))
+    assert v.valid, v.problems
+    cert = json.loads(v.attachments["results.json"])["certificate"]
+    assert cert["inspector"] == cert["signed_by"] == v.signatures[0].signer == "Ann Inspector"
+
+
+@pytest.mark.parametrize("export, target", [("csv", "measured"), ("qif", "nominal"),
+                                            ("session", "measured"), ("session", "nominal"),
+                                            ("certificate", "identity"),
+                                            ("certificate", "measured"), ("csv", "identity"),
+                                            ("session", "identity")])
+def test_an_export_never_replaces_an_input(tmp_path, monkeypatch, export, target):
+    """Every export onto the nominal, the measured points or the signing identity (the one
+    given, or for the other exports the one last used, as the window remembers it), here by
+    another spelling of its path, is refused with one error and nothing is written."""
+    from reports.certificate import CertificateInfo
+
+    work = tmp_path / "job"
+    work.mkdir()
+    shutil.copy(os.path.join(FRAME, "template.dxf"), work / "template.dxf")
+    shutil.copy(os.path.join(FRAME, "measured.csv"), work / "measured.csv")
+    p12, pw = keygen(tmp_path, monkeypatch)
+    paths = {"nominal": str(work / "template.dxf"), "measured": str(work / "measured.csv"),
+             "identity": p12}
+    before = {p: Path(p).read_bytes() for p in paths.values()}
+    listing = sorted(os.listdir(work))
+    s, c, messages = make()
+    c.signing_identity = p12
+    c.open_files([paths["nominal"], paths["measured"]])
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT"
+    # ./dir/../name: the same file under another spelling.
+    path = os.path.join(os.path.dirname(paths[target]), "..", os.path.basename(
+        os.path.dirname(paths[target])), os.path.basename(paths[target]))
+    n = len(messages)
+    {"csv": c.export_csv, "qif": c.export_qif, "session": c.save_session,
+     "certificate": lambda p: c.export_certificate(
+         p, CertificateInfo(part_number="FR-1", serial="SN-1"), p12, pw)}[export](path)
+    assert len(messages) == n + 1
+    level, text = messages[-1]
+    role = "signing identity" if target == "identity" else target
+    assert level == "error" and f"is the {role} file: an output never replaces an input" in text
+    assert {p: Path(p).read_bytes() for p in paths.values()} == before
+    assert sorted(os.listdir(work)) == listing and s.step == Step.INSPECTED and not c.busy

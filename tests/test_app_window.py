@@ -339,3 +339,193 @@ def test_the_main_window_fits_a_1366_by_768_screen(window):
     w.tolerance.tol.setValue(0.1)  # the longer, out-of-date banner
     size = w.minimumSizeHint()
     assert size.width() <= 1340 and size.height() <= 700
+
+
+def inspect_frame(w, tol=0.05):
+    w.controller.open_files([os.path.join(FRAME, "template.dxf"),
+                             os.path.join(FRAME, "measured.csv")])
+    w.tolerance.set_zone(-tol, tol)
+    w.act_inspect.trigger()
+
+
+def test_the_certificate_dialog_names_the_signer_and_says_what_it_refuses(window, tmp_path,
+                                                                          monkeypatch):
+    """With a signing identity chosen, the Inspector field is the signer's name (read-only once
+    loaded); an unsigned draft's inspector is typed. A signed ACCEPTED certificate without a
+    serial, or one saved onto the measured file, is refused in the dialog, which stays open;
+    the certificate exported names the signer."""
+    import json
+
+    from reports.certificate import CertificateInfo, CertificationError, certified_info
+    from reports.cli import main as cli_main
+    from reports.signing import load_identity, read_trust_roots, verify_pdf
+
+    monkeypatch.setenv("QA_APP_TEST_PASS", "pw")
+    assert cli_main(["keygen", "--name", "Ann Inspector", "--out", str(tmp_path / "id"),
+                     "--pass-env", "QA_APP_TEST_PASS"]) == 0
+    p12 = str(tmp_path / "id" / "inspector.p12")
+    w = window
+    w.qsettings.setValue("certificate/inspector", "Bob Typed")
+    inspect_frame(w)
+    assert w.session.run.result.verdict == "ACCEPT"
+    out = tmp_path / "out" / "cert.pdf"
+    d = w.certificate_dialog(str(out))
+    assert d.inspector.text() == "Bob Typed" and not d.inspector.isReadOnly()
+    d.p12.setText(p12)
+    assert d.inspector.isReadOnly() and d.inspector.text() == ""  # not known until loaded
+    d.passphrase.setText("wrong")
+    d.passphrase.returnPressed.emit()
+    assert p12 in d.problem.text() and not d.problem.isHidden() and d.inspector.text() == ""
+    d.passphrase.setText("pw")
+    d.passphrase.editingFinished.emit()
+    assert d.problem.isHidden()
+    assert d.inspector.text() == "Ann Inspector" and d.inspector.isReadOnly()
+    # No serial: the command line's refusal, in the dialog, before anything is rendered.
+    d.edits["part_number"].setText("FR-1")
+    d.export_button.click()
+    with pytest.raises(CertificationError) as refused:
+        certified_info(CertificateInfo(part_number="FR-1"), load_identity(p12, b"pw"), "ACCEPT")
+    assert d.result() != CertificateDialog.Accepted
+    assert d.problem.text() == str(refused.value) and not d.problem.isHidden()
+    # Onto the measured points: refused as well.
+    d.edits["serial"].setText("SN-1")
+    d.output.setText(os.path.join(FRAME, "measured.csv"))
+    d.export_button.click()
+    assert d.result() != CertificateDialog.Accepted
+    assert "is the measured file: an output never replaces an input" in d.problem.text()
+    # Without the identity the inspector is the one typed again; with it, the signer.
+    d.p12.setText("")
+    assert d.inspector.text() == "Bob Typed" and not d.inspector.isReadOnly()
+    d.p12.setText(p12)
+    d.output.setText(str(out))
+    d.export_button.click()
+    assert d.result() == CertificateDialog.Accepted and d.inspector.text() == "Ann Inspector"
+    assert d.info().inspector == "Ann Inspector"
+    w.export_certificate(dialog=d)
+    assert "signed by Ann Inspector" in w.statusBar().currentMessage()
+    v = verify_pdf(out.read_bytes(), read_trust_roots(str(tmp_path / "id" / "ca.pem")))
+    assert v.valid, v.problems
+    cert = json.loads(v.attachments["results.json"])["certificate"]
+    assert cert["inspector"] == cert["signed_by"] == "Ann Inspector"
+    assert cert["serial"] == "SN-1"
+    # The typed draft inspector is what is remembered, not the signer's name.
+    assert w.qsettings.value("certificate/inspector") == "Bob Typed"
+    # The identity used is an input: no export replaces it.
+    key = (tmp_path / "id" / "inspector.p12").read_bytes()
+    w.export_csv(p12)
+    assert "is the signing identity file" in w.message_bar.text
+    assert (tmp_path / "id" / "inspector.p12").read_bytes() == key
+
+
+def test_exporting_the_csv_onto_the_measured_file_is_refused(window, tmp_path):
+    w = window
+    measured = tmp_path / "measured.csv"
+    shutil.copy(os.path.join(FRAME, "measured.csv"), measured)
+    before = measured.read_bytes()
+    w.controller.open_files([os.path.join(FRAME, "template.dxf"), str(measured)])
+    w.tolerance.set_zone(-0.05, 0.05)
+    w.act_inspect.trigger()
+    w.export_csv(str(measured))
+    assert measured.read_bytes() == before and os.listdir(tmp_path) == ["measured.csv"]
+    assert w.message_bar.level == "error" and not w.message_bar.isHidden()
+    assert "is the measured file: an output never replaces an input" in w.message_bar.text
+
+
+def _half_turn_symmetric_part(bump: float):
+    """A surface symmetric under a half turn about z but for a small bump on one side
+    (tests/test_trust.py's part): the half-turned pose fits nearly as well and misses the bump
+    by ``bump`` mm. Returns (nominal, measured points at a seeded pose)."""
+    from engine.geometry import apply_transform, make_transform
+    from engine.nominal import Nominal
+    from surfaces import point_set, random_rotation
+
+    def h(x, y):
+        return -x ** 2 / 800.0 - y ** 2 / 300.0 + bump * np.exp(
+            -((x - 150) ** 2 + (y - 40) ** 2) / (2 * 15.0 ** 2))
+
+    def n(x, y, e=1e-4):
+        v = np.stack([-(h(x + e, y) - h(x - e, y)) / (2 * e),
+                      -(h(x, y + e) - h(x, y - e)) / (2 * e), np.ones_like(x)], axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    X, Y = np.meshgrid(np.linspace(-250, 250, 400), np.linspace(-125, 125, 200))
+    x, y = X.ravel(), Y.ravel()
+    nominal = Nominal.from_point_set(point_set(np.column_stack([x, y, h(x, y)]), n(x, y),
+                                               (400, 200)))
+    rng = np.random.default_rng(21)
+    mx, my = rng.uniform(-245, 245, 1500), rng.uniform(-120, 120, 1500)
+    q = np.column_stack([mx, my, h(mx, my)]) + rng.normal(0, 0.005, 1500)[:, None] * n(mx, my)
+    return nominal, apply_transform(make_transform(random_rotation(rng), [300.0, 100, -50]), q)
+
+
+def test_the_banner_says_whether_the_verdict_depends_on_the_pose(qtbot):
+    """A runner-up pose that fits nearly as well is a fact: while the verdict is the same there
+    the banner says the verdict holds (never "AMBIGUOUS"), with the plain-word statements as
+    its details; when the runner-up's deviations cross a limit, the verdict depends on the
+    pose."""
+    from types import SimpleNamespace
+
+    from engine.deviation import point_to_surface
+    from engine.geometry import apply_transform
+    from engine.inspection import Tolerance, inspect
+    from qa_app.model import Session
+    from qa_app.widgets import VerdictBanner
+
+    banner = VerdictBanner(Session())
+    qtbot.addWidget(banner)
+    nominal, measured = _half_turn_symmetric_part(bump=0.04)
+    for tol in (0.1, 0.03):
+        res = inspect(nominal, measured, Tolerance.symmetric(tol))
+        assert res.ambiguous  # the runner-up moves deviations by over a tenth of the zone
+        # Independently: does every point lie inside the zone at both poses?
+        at_runner_up = point_to_surface(nominal, apply_transform(
+            res.registration.runner_up_T, measured)).signed
+        holds = all(np.all(np.abs(d) <= tol) for d in (res.deviations.signed, at_runner_up))
+        assert holds == (tol == 0.1)
+        banner.update_from(SimpleNamespace(result=res))
+        text = banner.detail.text()
+        assert "AMBIGUOUS" not in text.upper()
+        if holds:
+            assert "ACCEPTED" in banner.word.text()
+            assert "pose not fully fixed — verdict holds, see details" in text
+            assert "depends on the pose" not in text
+            assert "the verdict is the same at both" in banner.detail.toolTip()
+        else:
+            assert "INCONCLUSIVE" in banner.word.text()
+            assert "verdict depends on the pose" in text and "verdict holds" not in text
+            assert "at that pose the verdict would be REJECT" in banner.detail.toolTip()
+
+
+def test_a_cylinder_measured_all_round_holds_its_verdict_in_the_banner(qtbot):
+    """Free directions along and about a cylinder's axis leave the deviations unchanged: the
+    form verdict stands, with a short note, and the statements say what is not fixed."""
+    from types import SimpleNamespace
+
+    from engine.geometry import apply_transform, make_transform
+    from engine.inspection import Tolerance, inspect
+    from engine.nominal import Nominal
+    from qa_app.model import Session
+    from qa_app.widgets import VerdictBanner
+    from surfaces import point_set, random_rotation
+
+    A, Z = np.meshgrid(np.linspace(0, 2 * np.pi, 160, endpoint=False),
+                       np.linspace(-100, 100, 80))
+    nrm = np.column_stack([np.cos(A.ravel()), np.sin(A.ravel()), np.zeros(A.size)])
+    nominal = Nominal.from_point_set(point_set(40.0 * nrm + np.column_stack(
+        [0 * A.ravel(), 0 * A.ravel(), Z.ravel()]), nrm))
+    rng = np.random.default_rng(4)
+    a, z = rng.uniform(0, 2 * np.pi, 300), rng.uniform(-60, 60, 300)
+    r = 40 + rng.uniform(-0.012, 0.012, 300)
+    q = np.column_stack([r * np.cos(a), r * np.sin(a), z])
+    res = inspect(nominal, apply_transform(make_transform(random_rotation(rng), [300, -20, 55]),
+                                           q), Tolerance.symmetric(0.05))
+    assert res.verdict == "ACCEPT" and res.pose_sensitivity.verdict_stable
+    assert res.conditioning.pose_sigma_mm is None  # free directions
+    banner = VerdictBanner(Session())
+    qtbot.addWidget(banner)
+    banner.update_from(SimpleNamespace(result=res))
+    text = banner.detail.text()
+    assert "ACCEPTED" in banner.word.text() and "AMBIGUOUS" not in text.upper()
+    assert "pose not fully fixed — verdict holds, see details" in text
+    said = banner.detail.toolTip().lower()
+    assert "position along" in said and "orientation about the axis" in said

@@ -47,8 +47,12 @@ def test_viewport_shows_the_deviation_colours(window, qtbot):
     assert w.viewport.plotter is not None
     w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
                              os.path.join(BELLY, "measured.csv")])
-    w.tolerance.set_zone(-0.05, 0.05)
+    # The sample's highest point lies about 0.050 mm above the surface, the next 0.040 mm: an
+    # upper limit of 0.045 leaves exactly one point above the zone, whatever the last digits.
+    w.tolerance.set_zone(-0.05, 0.045)
     w.act_inspect.trigger()
+    d = w.session.run.result.deviations.signed
+    assert (d < -0.05).sum() == 20 and (d > 0.045).sum() == 1
     qtbot.wait(100)
     img = w.viewport.plotter.screenshot(return_img=True).astype(int)
     r, g, b = img[..., 0], img[..., 1], img[..., 2]
