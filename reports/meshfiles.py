@@ -427,6 +427,15 @@ def read_obj(path: str) -> MeshData:
     v_rows, v_lines, vn_rows = [], [], []
     f_rows, f_lines, f_before = [], [], []
     for i, s in enumerate(lines):
+        if s.startswith("v "):  # the common cases first, without splitting the line
+            v_rows.append(s[2:])
+            v_lines.append(i + 1)
+            continue
+        if s.startswith("f "):
+            f_rows.append(s[2:])
+            f_lines.append(i + 1)
+            f_before.append(len(v_rows))
+            continue
         parts = s.split(None, 1)
         if not parts:
             continue
@@ -440,7 +449,7 @@ def read_obj(path: str) -> MeshData:
             f_rows.append(parts[1] if len(parts) > 1 else "")
             f_lines.append(i + 1)
             f_before.append(len(v_rows))
-        elif key.endswith("\\") or s.rstrip().endswith("\\"):
+        elif s.rstrip().endswith("\\"):
             raise InputError("line continuations ('\\') are not supported", path, i + 1)
     if not v_rows:
         raise InputError("the file holds no vertices ('v' lines)", path)
@@ -448,31 +457,53 @@ def read_obj(path: str) -> MeshData:
     nv = points.shape[0]
     polygons = None
     if f_rows:
-        faces = []
-        for row, ln, before in zip(f_rows, f_lines, f_before):
-            try:
-                idx = [int(t.partition("/")[0]) for t in row.split()]
-            except ValueError:
-                raise InputError(f"face '{row.strip()}' holds a corner that is not a vertex "
-                                 "index", path, ln) from None
-            res = []
-            for v in idx:
-                if v == 0:
-                    raise InputError("face refers to vertex 0; OBJ numbers vertices from 1",
-                                     path, ln)
-                # Negative: relative to the vertices defined so far (-1 is the latest).
-                r = v - 1 if v > 0 else before + v
-                if r < 0 or r >= nv:
-                    raise InputError(f"face refers to vertex {v}; the file holds {nv} vertices"
-                                     + (f" ({before} before this line)" if v < 0 else ""),
-                                     path, ln)
-                res.append(r)
-            faces.append(res)
+        faces = _obj_faces_uniform(f_rows, np.asarray(f_before), nv)
+        if faces is None:
+            faces = [_obj_face(row, ln, before, nv, path)
+                     for row, ln, before in zip(f_rows, f_lines, f_before)]
         polygons = _cells(faces, nv, path, lambda i: ("face", f_lines[i]))
     normals = None
     if polygons is None and vn_rows and len(vn_rows) == nv:
         normals = _obj_numbers(vn_rows, None, path, "vn")
     return MeshData(points, polygons, normals)
+
+
+def _obj_faces_uniform(rows: list[str], before: np.ndarray, nv: int) -> np.ndarray | None:
+    """(m, k) 0-based vertex indices when every face has k corners and every index resolves
+    within [0, nv); None otherwise (the row-by-row reader then names the line at fault)."""
+    text = "\n".join(rows)
+    if "/" in text:
+        text = re.sub(r"/\S*", "", text)  # v/vt/vn -> v
+    try:
+        idx = np.loadtxt(text.split("\n"), dtype=np.int64, ndmin=2, comments="#")
+    except ValueError:
+        return None
+    if idx.shape[0] != len(rows) or np.any(idx == 0):
+        return None
+    idx = np.where(idx > 0, idx - 1, before[:, None] + idx)
+    if np.any(idx < 0) or np.any(idx >= nv):
+        return None
+    return idx
+
+
+def _obj_face(row: str, ln: int, before: int, nv: int, path: str) -> list[int]:
+    """0-based vertex indices of one ``f`` row (``before``: vertices defined above it)."""
+    try:
+        idx = [int(t.partition("/")[0]) for t in row.split("#")[0].split()]
+    except ValueError:
+        raise InputError(f"face '{row.strip()}' holds a corner that is not a vertex index",
+                         path, ln) from None
+    res = []
+    for v in idx:
+        if v == 0:
+            raise InputError("face refers to vertex 0; OBJ numbers vertices from 1", path, ln)
+        # Negative: relative to the vertices defined so far (-1 is the latest).
+        r = v - 1 if v > 0 else before + v
+        if r < 0 or r >= nv:
+            raise InputError(f"face refers to vertex {v}; the file holds {nv} vertices"
+                             + (f" ({before} before this line)" if v < 0 else ""), path, ln)
+        res.append(r)
+    return res
 
 
 def _obj_numbers(rows: list[str], lines, path, key) -> np.ndarray:
@@ -525,55 +556,69 @@ def read_stl(path: str) -> MeshData:
     if not np.isfinite(corners).all():
         row = int(np.flatnonzero(~np.isfinite(corners).all(axis=1))[0])
         raise InputError(f"triangle {row // 3} holds NaN or infinity", path)
-    uniq, first, inverse = np.unique(corners, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)  # vertices in the order the file first uses them
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    tri = rank[inverse.ravel()].reshape(-1, 3)
-    return MeshData(uniq[order], _cells(tri, order.size, path, lambda i: (f"triangle {i}", None)))
+    # Group equal corners (a stable lexicographic sort); number the groups in the order the
+    # file first uses them.
+    n = corners.shape[0]
+    order = np.lexsort(corners.T[::-1])
+    sc = corners[order]
+    new = np.ones(n, dtype=bool)
+    new[1:] = np.any(sc[1:] != sc[:-1], axis=1)
+    group = np.empty(n, dtype=np.int64)
+    group[order] = np.cumsum(new) - 1
+    first = order[new]  # the stable sort puts each group's first use first
+    by_use = np.argsort(first)
+    rank = np.empty_like(by_use)
+    rank[by_use] = np.arange(by_use.size)
+    tri = rank[group].reshape(-1, 3)
+    return MeshData(sc[new][by_use], _cells(tri, by_use.size, path,
+                                            lambda i: (f"triangle {i}", None)))
 
 
 def _stl_ascii(raw: bytes, path: str) -> np.ndarray:
     """(3m, 3) corners of an ASCII STL's facets, the structure checked token by token."""
-    lines = text_lines(raw, path, "text STL file")
-    solids = 0
+    text = "\n".join(text_lines(raw, path, "text STL file"))
+    marks = list(re.finditer(r"(?im)^[ \t]*(end)?solid\b.*$", text))
     out = []
-    i = 0
-    n = len(lines)
-    while i < n:
-        s = lines[i].strip()
-        if not s:
-            i += 1
-            continue
-        if not s.lower().startswith("solid"):
-            raise InputError(f"'{s[:40]}' where 'solid' was expected", path, i + 1)
-        start = i + 1
-        end = start
-        while end < n and not lines[end].lstrip().lower().startswith("endsolid"):
-            end += 1
-        tokens = " ".join(lines[start:end]).split()
+    solids = 0
+    pos = 0
+    for k in range(0, len(marks), 2):
+        head = marks[k]
+        if head.group(1) or text[pos:head.start()].strip():
+            bad = head if head.group(1) else None
+            at = head.start() if bad else pos + len(text[pos:]) - len(text[pos:].lstrip())
+            raise InputError("damaged ASCII STL: text outside 'solid' … 'endsolid'", path,
+                             text.count("\n", 0, at) + 1)
+        tail = marks[k + 1] if k + 1 < len(marks) else None
+        tokens = text[head.end():tail.start() if tail else len(text)].split()
         nfacets = len(tokens) // 21
-        if end == n:
+        if tail is None:
             raise InputError(f"truncated: solid {solids + 1} has no 'endsolid' line (the file "
                              f"ends after {nfacets} complete facets)", path)
+        if not tail.group(1):
+            raise InputError("damaged ASCII STL: 'solid' inside a solid", path,
+                             text.count("\n", 0, tail.start()) + 1)
         if len(tokens) % 21:
             raise InputError(f"damaged ASCII STL: solid {solids + 1} holds {len(tokens)} words, "
                              "not a whole number of 21-word facets (facet normal i j k outer "
-                             "loop, 3 vertex x y z, endloop endfacet)", path, start + 1)
-        t = np.array(tokens, dtype=object).reshape(-1, 21)
+                             "loop, 3 vertex x y z, endloop endfacet)", path,
+                             text.count("\n", 0, head.start()) + 1)
         for col, word in _FACET_WORDS.items():
-            bad = np.flatnonzero(np.char.lower(t[:, col].astype(str)) != word)
-            if bad.size:
-                raise InputError(f"damaged ASCII STL: facet {bad[0]} of solid {solids + 1} has "
-                                 f"'{t[bad[0], col]}' where '{word}' belongs", path)
+            words = tokens[col::21]
+            if set(words) != {word} and words and {w.lower() for w in words} != {word}:
+                k = next(k for k, w in enumerate(words) if w.lower() != word)
+                raise InputError(f"damaged ASCII STL: facet {k} of solid {solids + 1} has "
+                                 f"'{words[k]}' where '{word}' belongs", path)
         try:
-            xyz = t[:, [8, 9, 10, 12, 13, 14, 16, 17, 18]].astype(np.float64)
+            xyz = np.column_stack([np.fromiter(map(float, tokens[c::21]), np.float64, nfacets)
+                                   for c in (8, 9, 10, 12, 13, 14, 16, 17, 18)])
         except ValueError:
             raise InputError(f"damaged ASCII STL: a vertex of solid {solids + 1} is not three "
                              "numbers", path) from None
         out.append(xyz.reshape(-1, 3))
         solids += 1
-        i = end + 1
+        pos = tail.end()
+    if text[pos:].strip():
+        raise InputError("damaged ASCII STL: text outside 'solid' … 'endsolid'", path)
     if not solids:
         raise InputError("the file holds no triangles", path)
     return np.concatenate(out)
