@@ -10,7 +10,8 @@ which the engine must not import:
   checked first: a damaged file is refused ("truncated: the header declares …"), never read in
   part and never handed to native code that could crash the process on it;
 * ``.vtk``, ``.vtp``: the same, read by VTK; any error or warning VTK reports while reading means
-  a damaged or truncated file, and cell indices are checked before any VTK filter runs;
+  a damaged or truncated file, an ASCII legacy file's section lengths are checked first (VTK
+  reads one cut short without complaint), and cell indices before any VTK filter runs;
 * ``.vts`` (structured grid): a u-v grid (x fastest), its cells are the facets.
 
 VTK's own messages never reach the terminal: they are routed into a string (see ``_vtk_log``).
@@ -167,11 +168,71 @@ def _check_cells(data, path: str) -> None:
                              f"holds {n} points", path)
 
 
+VTK_READ_TIMEOUT_S = 300.0
+"""Longest a VTK reader may take (in its own process) before the file is called unreadable."""
+
+
 def _read_vtk(path: str, suffix: str) -> PointSet:
+    """A VTK file read in a child process: VTK's readers trust offsets and sizes inside the file
+    and can crash on a damaged one (a flipped byte in a binary legacy file's offsets does), which
+    here becomes an InputError instead of the end of the program. The child checks the cells
+    before handing back plain arrays; the filters then run here on checked data."""
+    import subprocess
+    import sys
+    import tempfile
+
     import pyvista as pv
 
     if os.path.getsize(path) == 0:
         raise InputError("the file is empty", path)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with tempfile.TemporaryDirectory(prefix="qa-vtk-") as tmp:
+        out = os.path.join(tmp, "arrays.npz")
+        try:
+            r = subprocess.run([sys.executable, "-m", "reports.loading", path, suffix, out],
+                               capture_output=True, text=True, env=env,
+                               timeout=VTK_READ_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            raise InputError(f"VTK's reader did not finish within {VTK_READ_TIMEOUT_S:g} s "
+                             "(damaged file?)", path) from None
+        if r.returncode == _CHILD_INPUT_ERROR:
+            raise InputError(r.stdout.strip() or "damaged file", path)
+        if r.returncode != 0:
+            how = f"signal {-r.returncode}" if r.returncode < 0 else f"exit {r.returncode}"
+            raise InputError(f"damaged: VTK's reader crashed reading it ({how})", path)
+        with np.load(out, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    pts = arrays["points"]
+    _check_vertices(pts, path)
+    normals = _unit_normals_or_none(arrays.get("normals"), pts)
+    if "grid" in arrays:
+        nu, nv = (int(v) for v in arrays["grid"])
+        return finish_point_set(PointSet(pts, normals, None, (nu, nv), None, 3, path))
+    polys, strips = arrays.get("polys"), arrays.get("strips")
+    if (polys is not None and polys.size) or (strips is not None and strips.size):
+        kw = {}
+        if polys is not None and polys.size:
+            kw["faces"] = polys
+        if strips is not None and strips.size:
+            kw["strips"] = strips
+        return _surface(pv.PolyData(pts, **kw), normals, path)
+    return finish_point_set(PointSet(pts, normals, None, None, None, 3, path))
+
+
+_CHILD_INPUT_ERROR = 3
+
+
+def _vtk_arrays(path: str, suffix: str) -> dict:
+    """Plain arrays of a VTK file, cells checked (run in the child process): ``points``
+    (n, 3); ``polys``/``strips`` VTK cell arrays; ``normals`` (n, 3); ``grid`` (nu, nv)."""
+    import pyvista as pv
+
+    if suffix == ".vtk":
+        from .meshfiles import check_legacy_ascii_vtk
+
+        with open(path, "rb") as f:
+            check_legacy_ascii_vtk(f.read(), path)
     window = _vtk_log()
     reader = _vtk_reader(suffix)
     reader.SetFileName(path)
@@ -179,7 +240,6 @@ def _read_vtk(path: str, suffix: str) -> PointSet:
         before = len(window.GetOutput() or "")
         reader.Update()
         reported = (window.GetOutput() or "")[before:]
-        window.Initialize() if len(window.GetOutput() or "") > 1 << 20 else None
     what = "VTK legacy" if suffix == ".vtk" else f"VTK XML ({suffix})"
     if reported.strip() or reader.GetErrorCode():
         raise InputError(f"damaged or truncated {what} file (VTK's reader reports an error)",
@@ -191,13 +251,10 @@ def _read_vtk(path: str, suffix: str) -> PointSet:
         raise InputError("multi-block files are not supported; export one surface", path)
     _check_cells(out, path)
     data = pv.wrap(out)
-    pts = np.asarray(data.points, dtype=np.float64)
-    _check_vertices(pts, path)
-    normals = None
+    arrays = {"points": np.asarray(data.points, dtype=np.float64)}
     for key in ("Normals", "normals"):
         if key in data.point_data:
-            normals = _unit_normals_or_none(np.asarray(data.point_data[key], dtype=np.float64),
-                                            pts)
+            arrays["normals"] = np.asarray(data.point_data[key], dtype=np.float64)
             break
     if isinstance(data, pv.StructuredGrid):
         dims = tuple(int(d) for d in data.dimensions)
@@ -205,19 +262,29 @@ def _read_vtk(path: str, suffix: str) -> PointSet:
         if len(flat) != 2:
             raise InputError(f"structured grid of dimensions {dims}: a surface grid has exactly "
                              "two dimensions above 1", path)
-        if flat[0] * flat[1] != pts.shape[0]:
-            raise InputError(f"damaged: a {flat[0]} x {flat[1]} grid with {pts.shape[0]} "
+        if flat[0] * flat[1] != data.n_points:
+            raise InputError(f"damaged: a {flat[0]} x {flat[1]} grid with {data.n_points} "
                              "points", path)
-        return finish_point_set(PointSet(pts, normals, None, (flat[0], flat[1]), None, 3, path))
-    if isinstance(data, pv.PolyData) and (data.n_faces > 0 or data.n_strips > 0):
-        return _surface(data, normals, path)
-    if not isinstance(data, pv.PolyData):
+        arrays["grid"] = np.array(flat)
+    elif isinstance(data, pv.PolyData):
+        arrays["polys"] = np.asarray(data.faces, dtype=np.int64)
+        arrays["strips"] = np.asarray(data.strips, dtype=np.int64)
+    else:
         surf = data.extract_surface().triangulate()
-        pts = np.asarray(surf.points, dtype=np.float64)
-        faces = np.asarray(surf.faces).reshape(-1, 4)
-        triangles = faces[:, 1:].astype(np.int64) if faces.size else None
-        return finish_point_set(PointSet(pts, None, None, None, triangles, 3, path))
-    return finish_point_set(PointSet(pts, normals, None, None, None, 3, path))
+        arrays = {"points": np.asarray(surf.points, dtype=np.float64),
+                  "polys": np.asarray(surf.faces, dtype=np.int64)}
+    return arrays
+
+
+def _vtk_child(argv: list[str]) -> int:
+    path, suffix, out = argv
+    try:
+        arrays = _vtk_arrays(path, suffix)
+    except InputError as e:
+        print(e.message)
+        return _CHILD_INPUT_ERROR
+    np.savez(out, **arrays)
+    return 0
 
 
 def sha256_of(path: str | os.PathLike) -> str:
@@ -232,3 +299,9 @@ def sha256_of(path: str | os.PathLike) -> str:
     except OSError as e:
         raise InputError(f"cannot be read ({e.strerror})", os.fspath(path)) from e
     return h.hexdigest()
+
+
+if __name__ == "__main__":  # the child process of _read_vtk
+    import sys
+
+    sys.exit(_vtk_child(sys.argv[1:]))

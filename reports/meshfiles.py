@@ -182,10 +182,21 @@ def read_ply(path: str) -> MeshData:
         raise InputError("truncated or damaged PLY header: no 'end_header' line", path)
     fmt, elements = _ply_header(raw[:m.start()].decode("ascii", "replace"), path)
     header_lines = raw[:m.end()].count(b"\n")
-    if fmt == "ascii":
-        values = _ply_ascii(raw, m.end(), header_lines, elements, path)
-    else:
-        values = _ply_binary(raw, m.end(), _PLY_FORMATS[fmt], elements, path)
+    try:
+        if fmt == "ascii":
+            values = _ply_ascii(raw, m.end(), header_lines, elements, path)
+        else:
+            values = _ply_binary(raw, m.end(), _PLY_FORMATS[fmt], elements, path)
+        return _ply_mesh(values, path)
+    except InputError:
+        held = None if fmt == "ascii" else _vertices_that_fit(raw, m.end(), _PLY_FORMATS[fmt],
+                                                              elements)
+        if held is not None:
+            raise _truncated(elements[0], held, path) from None
+        raise
+
+
+def _ply_mesh(values: dict, path: str) -> MeshData:
     vert = values["vertex"]
     points = np.column_stack([vert[c] for c in "xyz"]).astype(np.float64)
     normals = None
@@ -335,6 +346,30 @@ def _ascii_lists(el: _Element, block: list[str], pos: int, line_of, path):
     if len(block) < el.count:
         raise _truncated(el, len(block), path)
     return (out if want is not None else None), lines
+
+
+def _vertices_that_fit(raw: bytes, off: int, order: str, elements) -> int | None:
+    """For the usual layout (vertices, then faces of one list property), the vertex count that
+    would make the file's length and face rows consistent, when it differs from the declared
+    one: the header then miscounts the vertices, which is the message to give."""
+    if len(elements) != 2 or [e.name for e in elements] != ["vertex", "face"] \
+            or elements[0].has_list or len(elements[1].props) != 1:
+        return None
+    vert, face = elements
+    iv = np.dtype([(p.name, order + p.code) for p in vert.props]).itemsize
+    prop = face.props[0]
+    csize, isize = np.dtype(prop.count_code).itemsize, np.dtype(prop.code).itemsize
+    end = len(raw.rstrip(b" \t\r\n\x00")) if raw.endswith((b"\n", b"\r")) else len(raw)
+    for k in (3, 4):  # triangles, quads
+        row = csize + k * isize
+        rest = end - off - face.count * row
+        if iv == 0 or rest <= 0 or rest % iv or rest // iv == vert.count:
+            continue
+        start = off + (rest // iv) * iv
+        counts = np.frombuffer(raw, order + prop.count_code, face.count * row // csize, start)
+        if np.all(counts[::row // csize] == k) if row % csize == 0 else False:
+            return rest // iv
+    return None
 
 
 def _ply_binary(raw: bytes, off: int, order: str, elements, path) -> dict:
@@ -584,10 +619,8 @@ def _stl_ascii(raw: bytes, path: str) -> np.ndarray:
     for k in range(0, len(marks), 2):
         head = marks[k]
         if head.group(1) or text[pos:head.start()].strip():
-            bad = head if head.group(1) else None
-            at = head.start() if bad else pos + len(text[pos:]) - len(text[pos:].lstrip())
             raise InputError("damaged ASCII STL: text outside 'solid' … 'endsolid'", path,
-                             text.count("\n", 0, at) + 1)
+                             text.count("\n", 0, head.start()) + 1)
         tail = marks[k + 1] if k + 1 < len(marks) else None
         tokens = text[head.end():tail.start() if tail else len(text)].split()
         nfacets = len(tokens) // 21
@@ -622,3 +655,94 @@ def _stl_ascii(raw: bytes, path: str) -> np.ndarray:
     if not solids:
         raise InputError("the file holds no triangles", path)
     return np.concatenate(out)
+
+
+# ------------------------------------------------------------------------- VTK legacy ASCII
+
+_LEGACY_CELLS = {"VERTICES", "LINES", "POLYGONS", "TRIANGLE_STRIPS", "CELLS"}
+
+
+def check_legacy_ascii_vtk(raw: bytes, path: str) -> None:
+    """Every section of an ASCII legacy ``.vtk`` file holds the count of values it declares.
+
+    VTK's reader reads such a file cut short without complaint (a cut in the points gives as
+    many points as declared, a cut in the normals nothing at all), so the count is checked here
+    first. Binary legacy files are left to VTK, which reports a short read; a section this check
+    does not know (``METADATA``, …) ends it and VTK reads as before."""
+    parts = raw.split(b"\n", 3)
+    if len(parts) < 4 or parts[2].strip().upper() != b"ASCII":
+        return
+    tok = parts[3].decode("ascii", "replace").split()
+    n = len(tok)
+    i = 0
+    m = None  # the tuple count of the current POINT_DATA / CELL_DATA section
+
+    def take(count: int, what: str) -> None:
+        nonlocal i
+        if i + count > n:
+            raise InputError(f"truncated: {what} declares {count} values, the file holds "
+                             f"{n - i}", path)
+        i += count
+        if i < n and tok[i][0] in "0123456789+-.":
+            raise InputError(f"inconsistent: {what} declares {count} values, more follow", path)
+
+    try:
+        while i < n:
+            k = tok[i].upper()
+            if k == "DATASET":
+                i += 2
+            elif k == "POINTS":
+                cnt = int(tok[i + 1])
+                i += 3
+                take(3 * cnt, f"POINTS {cnt}")
+            elif k in ("DIMENSIONS", "ORIGIN", "SPACING", "ASPECT_RATIO"):
+                i += 4
+            elif k in _LEGACY_CELLS:
+                cnt, size = int(tok[i + 1]), int(tok[i + 2])
+                i += 3
+                if i < n and tok[i].upper() == "OFFSETS":
+                    i += 2
+                    take(cnt, f"{k} {cnt} (offsets)")
+                    if i >= n or tok[i].upper() != "CONNECTIVITY":
+                        raise InputError(f"damaged: {k} has offsets but no connectivity", path)
+                    i += 2
+                take(size, f"{k} {cnt} {size}")
+            elif k == "CELL_TYPES":
+                cnt = int(tok[i + 1])
+                i += 2
+                take(cnt, f"CELL_TYPES {cnt}")
+            elif k in ("POINT_DATA", "CELL_DATA"):
+                m = int(tok[i + 1])
+                i += 2
+            elif m is None:
+                return
+            elif k == "SCALARS":
+                i += 3
+                ncomp = 1
+                if i < n and tok[i].isdigit():
+                    ncomp = int(tok[i])
+                    i += 1
+                if i < n and tok[i].upper() == "LOOKUP_TABLE":
+                    i += 2
+                take(m * ncomp, f"SCALARS {tok[i - 1]}")
+            elif k in ("VECTORS", "NORMALS"):
+                i += 3
+                take(3 * m, k)
+            elif k == "TEXTURE_COORDINATES":
+                dim = int(tok[i + 2])
+                i += 4
+                take(m * dim, k)
+            elif k in ("TENSORS", "TENSORS6"):
+                i += 3
+                take((9 if k == "TENSORS" else 6) * m, k)
+            elif k == "FIELD":
+                narr = int(tok[i + 2])
+                i += 3
+                for _ in range(narr):
+                    ncomp, ntup = int(tok[i + 1]), int(tok[i + 2])
+                    i += 4
+                    take(ncomp * ntup, f"FIELD array {tok[i - 4]}")
+            else:
+                return  # a section this check does not know: VTK reads as before
+    except (IndexError, ValueError):
+        raise InputError("truncated or damaged legacy VTK header line", path) from None

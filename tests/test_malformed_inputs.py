@@ -83,7 +83,7 @@ def _ply_binary_fewer_declared(tmp_path):
     v = _cloud(40)
     f.write_bytes(ply_binary(v, [[i, i + 1, i + 2] for i in range(0, 36, 3)],
                              declared_vertices=25))
-    return f, r"fewer\.ply: "
+    return f, r"fewer\.ply: inconsistent: the header declares 25 vertices, the file holds 40"
 
 
 def _ply_ascii_fewer_declared(tmp_path):
@@ -125,6 +125,18 @@ def _vtk_legacy_truncated(tmp_path):
     f = tmp_path / "half.vtk"
     f.write_bytes(raw[:len(raw) // 2])
     return f, r"half\.vtk: damaged or truncated VTK legacy file"
+
+
+def _vtk_legacy_wrong_version(tmp_path):
+    # The 5.1 layout (OFFSETS/CONNECTIVITY) under a 4.2 version line: VTK's reader itself
+    # crashes on it, so it runs in a child process.
+    import pyvista as pv
+
+    src = tmp_path / "s.vtk"
+    pv.Sphere(theta_resolution=10, phi_resolution=8).save(src, binary=True)
+    f = tmp_path / "v42.vtk"
+    f.write_bytes(src.read_bytes().replace(b"Version 5.1", b"Version 4.2", 1))
+    return f, r"v42\.vtk: damaged: VTK's reader crashed reading it \(signal \d+\)"
 
 
 def _npy_huge_header(tmp_path):
@@ -191,8 +203,10 @@ def _ply_binary_two_corner_face(tmp_path):
 
 
 CLI_CASES = [_obj_missing_vertex, _obj_relative_index_before_its_vertices, _obj_index_zero,
-             _ply_face_out_of_range, _ply_binary_two_corner_face, _ply_binary_fewer_declared, _ply_ascii_fewer_declared,
+             _ply_face_out_of_range, _ply_binary_two_corner_face, _ply_binary_fewer_declared,
+             _ply_ascii_fewer_declared,
              _ply_ascii_more_declared, _vtk_legacy_bad_index, _vtk_legacy_truncated,
+             _vtk_legacy_wrong_version,
              _npy_huge_header, _xyz_1e100, _dxf_huge_circle, _dxf_zero_lines]
 
 
@@ -207,6 +221,64 @@ def test_cli_refuses_with_exit_65_and_one_line(tmp_path, make):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("qa-inspect: error: "), r.stderr
     assert re.search(message, lines[0]), lines[0]
+
+
+_FUZZ_CHILD = """
+import sys
+from engine.errors import InputError
+from reports.loading import load_point_set
+for path in sys.argv[1:]:
+    try:
+        load_point_set(path)
+        print("read", path, flush=True)
+    except InputError:
+        print("refused", path, flush=True)
+    except Exception as e:  # anything else is a bug: the reader must explain bad input
+        print("BUG", path, type(e).__name__, e, flush=True)
+"""
+
+
+def test_cut_and_corrupted_meshes_never_crash_and_cuts_are_refused(tmp_path):
+    """Meshes of every format cut short or with random bytes overwritten, read in one child
+    process: it must survive them all, every cut PLY, STL or VTK file must be refused (an OBJ
+    declares no counts: cut between lines it is a smaller mesh), and nothing but InputError may
+    come out."""
+    import pyvista as pv
+
+    s = pv.Sphere(radius=10, theta_resolution=10, phi_resolution=8)
+    rng = np.random.default_rng(7)
+    sources = {}
+    for name, kw in (("a.ply", {"binary": False}), ("b.ply", {"binary": True}),
+                     ("a.stl", {"binary": False}), ("b.stl", {"binary": True}),
+                     ("a.vtk", {"binary": False}), ("b.vtk", {"binary": True}), ("c.vtp", {}),
+                     ("a.obj", None)):
+        f = tmp_path / name
+        s.save(f, **kw) if kw is not None else s.save(f)
+        sources[name] = f.read_bytes()
+    cuts, files = [], []
+    for name, raw in sources.items():
+        # VTK formats are read in a child process each (slower): fewer variants.
+        for k in range(8 if name.endswith((".ply", ".stl", ".obj")) else 3):
+            cut = tmp_path / f"cut{k}_{name}"
+            # Cut somewhere in the first 90%: a declared count or the length always shows it.
+            cut.write_bytes(raw[:int(rng.uniform(0.05, 0.9) * len(raw))])
+            files.append(cut)
+            if name.endswith((".ply", ".stl", ".vtk", ".vtp")):
+                cuts.append(str(cut))
+            bad = tmp_path / f"bad{k}_{name}"
+            b = bytearray(raw)
+            for i in rng.integers(0, len(b), size=8):
+                b[i] = int(rng.integers(0, 256))
+            bad.write_bytes(bytes(b))
+            files.append(bad)
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    r = subprocess.run([sys.executable, "-c", _FUZZ_CHILD, *map(str, files)], capture_output=True,
+                       text=True, cwd=ROOT, env=env, timeout=300)
+    assert r.returncode == 0, (r.returncode, r.stdout[-1500:], r.stderr[-1500:])
+    outcome = dict(line.split(" ", 2)[1::-1] for line in r.stdout.splitlines())
+    assert len(outcome) == len(files) and "BUG" not in r.stdout, r.stdout
+    assert all(outcome[c] == "refused" for c in cuts), [c for c in cuts if outcome[c] != "refused"]
+    assert r.stderr == "", r.stderr[-2000:]
 
 
 # ------------------------------------------------------------------ meshes read right
