@@ -278,6 +278,8 @@ def _rows_like(el: _Element, rows: list[str], start: int) -> int:
 def _ascii_fixed(el: _Element, block: list[str], pos: int, line_of, path) -> dict:
     """Columns of an element of scalar properties, one row per line, as float64."""
     ntok = len(el.props)
+    if el.count == 0:
+        return {p.name: np.zeros(0) for p in el.props}
     arr = None
     if block:
         try:
@@ -379,6 +381,8 @@ def _ply_binary(raw: bytes, off: int, order: str, elements, path) -> dict:
         if not el.has_list:
             dt = np.dtype([(p.name, order + p.code) for p in el.props])
             if dt.itemsize == 0 or el.count == 0:
+                if el.name == "vertex":
+                    values["vertex"] = {p.name: np.zeros(0) for p in el.props}
                 continue
             if el.count * dt.itemsize > avail:
                 raise _truncated(el, avail // dt.itemsize, path)

@@ -477,3 +477,32 @@ def test_dxf_far_spline_refused_before_flattening(tmp_path):
     with pytest.raises(InputError, match=r"far\.dxf: SPLINE \(handle \w+\) has a coordinate or "
                                          r"radius of 2e\+06 drawing units, beyond ±1e9 mm"):
         read_dxf_template(f)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_ply_with_empty_and_extra_elements(tmp_path, binary):
+    # An empty element and an edge element (list + scalars) around the faces: skipped, checked
+    # for length; the cube is read whole.
+    head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
+            "element material 0", "property float shininess", "element vertex 8",
+            "property double x", "property double y", "property double z",
+            "element face 6", "property list uchar int vertex_indices",
+            "element edge 2", "property int vertex1", "property list uchar ushort extra",
+            "property uchar red", "end_header"]
+    if binary:
+        body = CUBE_V.astype("<f8").tobytes()
+        body += b"".join(struct.pack("<B4i", 4, *q) for q in CUBE_F)
+        body += struct.pack("<iB2HB", 0, 2, 7, 8, 255) + struct.pack("<iBB", 1, 0, 9)
+        raw = ("\n".join(head) + "\n").encode() + body
+    else:
+        rows = [" ".join(f"{c:g}" for c in p) for p in CUBE_V]
+        rows += ["4 " + " ".join(map(str, q)) for q in CUBE_F] + ["0 2 7 8 255", "1 0 9"]
+        raw = ("\n".join(head + rows) + "\n").encode()
+    f = tmp_path / "cube.ply"
+    f.write_bytes(raw)
+    ps = load_point_set(f)
+    assert np.allclose(ps.points, CUBE_V) and _triangle_area(ps) == pytest.approx(6.0)
+    f.write_bytes(raw[:-2])  # the last edge row cut
+    with pytest.raises(InputError, match=r"truncated: the header declares 2 'edge' rows, the "
+                                         r"file holds 1|edge row 1"):
+        load_point_set(f)
