@@ -18,7 +18,7 @@ Every problem raises :class:`~engine.errors.InputError` naming the file and 1-ba
 coordinate beyond ``COORD_LIMIT_MM`` (1e9 mm, 1000 km) is refused: no part is that large, and
 squaring such numbers overflows. ``.npy`` files must hold real numbers (float or integer) in an
 (n, 2), (n, 3) or (n, 6) array whose declared size matches the file's length.
-Meshes and PLY files need VTK and are read by ``reports.loading``, which builds the same
+Meshes are read by ``reports.loading`` (``reports.meshfiles``, VTK), which builds the same
 :class:`PointSet`.
 """
 

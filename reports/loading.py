@@ -68,13 +68,13 @@ def _check_vertices(pts: np.ndarray, path: str) -> None:
 
 
 def _unit_normals_or_none(n: np.ndarray | None, pts: np.ndarray) -> np.ndarray | None:
+    """The file's vertex normals made unit, or None when any is missing, zero or not finite."""
     if n is None or n.shape != pts.shape or not np.isfinite(n).all():
         return None
-    big = np.abs(n).max(axis=1)
-    if not np.all(big > 0):
-        return None
-    n = n / big[:, None]
-    return n / np.linalg.norm(n, axis=1)[:, None]
+    if np.abs(n).max() > 1e100:  # only directions matter; scale before squaring overflows
+        n = n / np.abs(n).max(axis=1)[:, None]
+    ln = np.linalg.norm(n, axis=1)
+    return n / ln[:, None] if np.all(ln > 1e-12) else None
 
 
 def _read_mesh(path: str, suffix: str) -> PointSet:

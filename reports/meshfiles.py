@@ -13,7 +13,8 @@ raises :class:`~engine.errors.InputError` naming the file, line where known, and
   ``range_grid``, ``edge``, ``material``) are checked for length and skipped.
 * OBJ: ``v`` (x y z, optional w or colour ignored), ``vn``, ``f`` with ``v``, ``v/vt``, ``v//vn``
   or ``v/vt/vn`` corners, 1-based, negative indices relative to the vertices defined so far;
-  other statements (``vt``, ``l``, ``g``, ``usemtl``, …) are ignored.
+  ``vn`` become vertex normals when there is one per vertex and every corner uses its vertex's
+  own; other statements (``vt``, ``l``, ``g``, ``usemtl``, …) are ignored.
 * STL: binary (length exactly 84 + 50 x the declared triangle count) or ASCII (``solid`` …
   ``facet normal`` … ``outer loop`` three ``vertex`` ``endloop endfacet`` … ``endsolid``, any
   number of solids); bit-identical corners are merged into shared vertices, as VTK's reader did.
@@ -502,9 +503,19 @@ def read_obj(path: str) -> MeshData:
                      for row, ln, before in zip(f_rows, f_lines, f_before)]
         polygons = _cells(faces, nv, path, lambda i: ("face", f_lines[i]))
     normals = None
-    if polygons is None and vn_rows and len(vn_rows) == nv:
+    if vn_rows and len(vn_rows) == nv and all(_same_vn(row) for row in f_rows):
+        # One normal per vertex, each corner using its vertex's own: vertex normals.
         normals = _obj_numbers(vn_rows, None, path, "vn")
     return MeshData(points, polygons, normals)
+
+
+def _same_vn(row: str) -> bool:
+    """Every corner of an ``f`` row names the same vertex and normal (``7//7``, ``7/3/7``)."""
+    for t in row.split():
+        parts = t.split("/")
+        if len(parts) != 3 or parts[2] != parts[0]:
+            return False
+    return True
 
 
 def _obj_faces_uniform(rows: list[str], before: np.ndarray, nv: int) -> np.ndarray | None:
