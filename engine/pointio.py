@@ -130,7 +130,8 @@ def _read_npy(path: str) -> PointSet:
     return finish_point_set(PointSet(pts, normals, dim=dim, path=path))
 
 
-def check_coordinate_range(coords: np.ndarray, path: str, line_no=None, scale: float = 1.0) -> None:
+def check_coordinate_range(coords: np.ndarray, path: str, line_no=None,
+                           scale: float = 1.0) -> None:
     """Refuse finite coordinates beyond ``COORD_LIMIT_MM`` (after multiplying by ``scale``, the
     file's unit in mm). coords : (n, k) finite floats; line_no : (n,) 1-based lines or None."""
     big = np.abs(coords) > COORD_LIMIT_MM / scale

@@ -42,7 +42,8 @@ class TemplateFile:
 
     template : the contours (mm, drawing XY plane).
     units : the drawing's unit name; ``unitless`` is True when $INSUNITS was unset (taken as mm).
-    ignored : entity type -> count of entities that carry no contour geometry.
+    ignored : entity type -> count of entities that carry no contour geometry (annotation,
+        and e.g. ``"LINE (zero length)"`` for geometry without extent).
     flattened : number of splines and ellipses flattened to segments (chord error <= 0.1 µm).
     """
 
