@@ -4,19 +4,27 @@ Text layout accepted (detected from the file, no options needed):
 
 * delimiter: comma, semicolon, tab or runs of spaces; a semicolon file may use decimal commas;
 * ``#`` comment lines anywhere; ``# units: inch`` (mm, cm, m, in/inch) converts to millimetres;
-  ``# grid: NU x NV`` declares a u-v grid, points ordered with u fastest (index = j*NU + i);
+  ``# grid: NU x NV`` declares a u-v grid, points ordered with u fastest (index = j*NU + i). Both
+  count wherever they stand before the first data row (before or after a header row); after it
+  they would apply to some points only, so the file is refused;
+* text encoding: UTF-8 (with or without BOM), UTF-16 (with a BOM, or recognised by its zero
+  bytes), else Windows cp1252 (whose byte 0x85 is an ellipsis, not a line break);
 * an optional header row naming the columns (``x y z``, ``i j k`` or ``nx ny nz``, a label column
   such as ``id``/``name``/``label``/``point``);
 * without a header, columns by count: ``x y`` (2D), ``x y z``, ``x y z i j k``, or those preceded
   by a label column (``P0001, x, y, z``; a leading all-integer column counts as a label too).
 
-Every problem raises :class:`~engine.errors.InputError` naming the file and 1-based line.
-Meshes and PLY files need VTK and are read by ``reports.loading``, which builds the same
+Every problem raises :class:`~engine.errors.InputError` naming the file and 1-based line. A
+coordinate beyond ``COORD_LIMIT_MM`` (1e9 mm, 1000 km) is refused: no part is that large, and
+squaring such numbers overflows. ``.npy`` files must hold real numbers (float or integer) in an
+(n, 2), (n, 3) or (n, 6) array whose declared size matches the file's length.
+Meshes are read by ``reports.loading`` (``reports.meshfiles``, VTK), which builds the same
 :class:`PointSet`.
 """
 
 from __future__ import annotations
 
+import codecs
 import math
 import os
 import re
@@ -28,6 +36,9 @@ import numpy as np
 from .errors import InputError, InputNotFoundError
 
 TEXT_SUFFIXES = (".csv", ".txt", ".xyz", ".asc")
+COORD_LIMIT_MM = 1e9
+"""Largest |coordinate| accepted (mm): 1000 km; beyond it a number is an export error, and its
+square (used by every fit) approaches float64's range."""
 UNIT_SCALE_TO_MM = {"mm": 1.0, "millimetre": 1.0, "millimeter": 1.0, "cm": 10.0, "m": 1000.0,
                     "metre": 1000.0, "meter": 1000.0, "in": 25.4, "inch": 25.4, "inches": 25.4,
                     "um": 1e-3, "µm": 1e-3, "micron": 1e-3}
@@ -80,23 +91,57 @@ def read_points(path: str | os.PathLike) -> PointSet:
 
 
 def _read_npy(path: str) -> PointSet:
+    # The header is checked against the file's length before numpy allocates anything: a
+    # damaged header may claim 10^11 rows.
+    try:
+        with open(path, "rb") as f:
+            version = np.lib.format.read_magic(f)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(f)
+            elif version == (2, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(f)
+            else:
+                raise ValueError(f".npy format version {version[0]}.{version[1]} is not supported")
+            data_start = f.tell()
+    except (ValueError, OSError, SyntaxError) as e:
+        raise InputError(f"not a readable .npy array ({e})", path) from e
+    if dtype.fields is not None or dtype.subdtype is not None or dtype.kind not in "fiu":
+        raise InputError(f"array of dtype {dtype}; expected real numbers (float or integer)", path)
+    if len(shape) != 2 or shape[1] not in (2, 3, 6):
+        raise InputError(f"array of shape {shape}; expected (n, 2), (n, 3) or (n, 6)", path)
+    row_bytes = shape[1] * dtype.itemsize
+    held = (os.path.getsize(path) - data_start) // row_bytes
+    if held != shape[0]:
+        raise InputError(f"{'truncated' if held < shape[0] else 'inconsistent'}: the header "
+                         f"declares {shape[0]} rows, the file holds {held}", path)
     try:
         arr = np.load(path, allow_pickle=False)
     except (ValueError, OSError) as e:
         raise InputError(f"not a readable .npy array ({e})", path) from e
-    if arr.ndim != 2 or arr.shape[1] not in (2, 3, 6):
-        raise InputError(f"array of shape {arr.shape}; expected (n, 2), (n, 3) or (n, 6)", path)
-    if not np.issubdtype(arr.dtype, np.number):
-        raise InputError(f"array of dtype {arr.dtype}; expected numbers", path)
     arr = arr.astype(np.float64)
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if bad.size:
         raise InputError(f"row {bad[0]} holds NaN or infinity", path)
+    check_coordinate_range(arr[:, :3], path)
     dim = 2 if arr.shape[1] == 2 else 3
     pts = np.zeros((arr.shape[0], 3))
     pts[:, :dim] = arr[:, :dim]
     normals = _unit_normals(arr[:, 3:6], path, None) if arr.shape[1] == 6 else None
     return finish_point_set(PointSet(pts, normals, dim=dim, path=path))
+
+
+def check_coordinate_range(coords: np.ndarray, path: str, line_no=None,
+                           scale: float = 1.0) -> None:
+    """Refuse finite coordinates beyond ``COORD_LIMIT_MM`` (after multiplying by ``scale``, the
+    file's unit in mm). coords : (n, k) finite floats; line_no : (n,) 1-based lines or None."""
+    big = np.abs(coords) > COORD_LIMIT_MM / scale
+    if big.any():
+        row, col = (int(v[0]) for v in np.nonzero(big))
+        where = f"point {row}: " if line_no is None else ""
+        raise InputError(f"{where}coordinate {coords[row, col]:g}"
+                         f"{'' if scale == 1.0 else f' (x {scale:g} mm)'} lies beyond "
+                         "±1e9 mm (1000 km); it is not a part's coordinate",
+                         path, None if line_no is None else int(line_no[row]))
 
 
 @dataclass
@@ -126,28 +171,37 @@ def _is_number(tok: str, decimal_comma: bool) -> bool:
         return False
 
 
+def _directive(s: str, path: str, idx: int, found: dict) -> None:
+    """Apply a ``# grid:`` or ``# units:`` comment (s stripped, idx its 0-based line) to found."""
+    m = _GRID_RE.match(s)
+    if m:
+        grid_shape = (int(m.group(1)), int(m.group(2)))
+        if min(grid_shape) < 2:
+            raise InputError(f"grid {grid_shape[0]} x {grid_shape[1]} needs at least 2 x 2 "
+                             "points", path, idx + 1)
+        if found.get("grid", grid_shape) != grid_shape:
+            raise InputError("a second '# grid:' comment contradicts the first", path, idx + 1)
+        found["grid"] = grid_shape
+    m = _UNITS_RE.match(s)
+    if m:
+        unit = m.group(1).lower()
+        if unit not in UNIT_SCALE_TO_MM:
+            raise InputError(f"unknown unit '{m.group(1)}' (expected one of mm, cm, m, in)",
+                             path, idx + 1)
+        if found.get("units", UNIT_SCALE_TO_MM[unit]) != UNIT_SCALE_TO_MM[unit]:
+            raise InputError("a second '# units:' comment contradicts the first", path, idx + 1)
+        found["units"] = UNIT_SCALE_TO_MM[unit]
+
+
 def _detect_layout(path: str, lines: list[str]) -> _Layout:
-    grid_shape = None
-    unit_scale = 1.0
+    found: dict = {}
     first = None
     for idx, raw in enumerate(lines):
         s = raw.strip()
         if not s:
             continue
         if s.startswith("#"):
-            m = _GRID_RE.match(s)
-            if m:
-                grid_shape = (int(m.group(1)), int(m.group(2)))
-                if min(grid_shape) < 2:
-                    raise InputError(f"grid {grid_shape[0]} x {grid_shape[1]} needs at least 2 x 2 "
-                                     "points", path, idx + 1)
-            m = _UNITS_RE.match(s)
-            if m:
-                unit = m.group(1).lower()
-                if unit not in UNIT_SCALE_TO_MM:
-                    raise InputError(f"unknown unit '{m.group(1)}' (expected one of mm, cm, m, in)",
-                                     path, idx + 1)
-                unit_scale = UNIT_SCALE_TO_MM[unit]
+            _directive(s, path, idx, found)
             continue
         first = idx
         break
@@ -212,8 +266,36 @@ def _detect_layout(path: str, lines: list[str]) -> _Layout:
                 f"{n_cols} columns without a header row: expected x y, x y z or x y z i j k, "
                 "optionally after a label column (add a header such as 'id,x,y,z' to say which "
                 "column is which)", path, first + 1)
+    if header_line is not None:
+        # Comments between the header row and the first data row still describe the whole file.
+        for idx in range(header_line + 1, len(lines)):
+            s = lines[idx].strip()
+            if s and not s.startswith("#"):
+                break
+            if s:
+                _directive(s, path, idx, found)
     return _Layout(delimiter, decimal_comma, label_col, coord_cols, normal_cols, n_cols,
-                   header_line, grid_shape, unit_scale)
+                   header_line, found.get("grid"), found.get("units", 1.0))
+
+
+def _refuse_late_directives(path: str, lines: list[str], start: int) -> None:
+    """A ``# units:`` or ``# grid:`` comment after the first data row would apply to some points
+    only (or silently to none): refuse it rather than guess."""
+    data = None
+    for idx in range(start, len(lines)):
+        ln = lines[idx]
+        if "#" not in ln:
+            if data is None and ln.strip():
+                data = idx
+            continue
+        s = ln.strip()
+        if not s.startswith("#"):
+            if data is None:
+                data = idx
+            continue
+        if data is not None and (_GRID_RE.match(s) or _UNITS_RE.match(s)):
+            raise InputError(f"'{s}' stands after the first data row (line {data + 1}); declare "
+                             "units and grid before the data", path, idx + 1)
 
 
 def _looks_like_integer_labels(lines, first, delimiter, decimal_comma) -> bool:
@@ -230,18 +312,61 @@ def _looks_like_integer_labels(lines, first, delimiter, decimal_comma) -> bool:
     return seen > 0
 
 
+_ODD_BREAKS = ("\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x85", "\u2028", "\u2029")
+
+
+def split_lines(text: str) -> list[str]:
+    """Lines split at ``\\n``, ``\\r\\n`` or ``\\r`` only: ``str.splitlines`` also splits at form
+    feeds, ``\\x85``, U+2028 and others, which may stand inside a comment or a label."""
+    if any(c in text for c in _ODD_BREAKS):
+        lines = re.split(r"\r\n|\r|\n", text)
+        if lines and lines[-1] == "":
+            lines.pop()
+        return lines
+    return text.splitlines()
+
+
 def _lines(raw: bytes, encoding: str, block: int = 1 << 22) -> list[str]:
     """The text's lines, decoded a few megabytes at a time (cut at line ends) so that other
     threads get the interpreter in between."""
     lines: list[str] = []
     start = 0
+    errors = "replace" if encoding == "cp1252" else "strict"  # cp1252 leaves 5 bytes undefined
     while start < len(raw):
         end = raw.find(b"\n", min(start + block, len(raw)))
         end = len(raw) if end < 0 else end + 1
-        lines.extend(raw[start:end].decode(encoding if start == 0 else
-                                           encoding.replace("-sig", "")).splitlines())
+        lines.extend(split_lines(raw[start:end].decode(encoding if start == 0 else
+                                                       encoding.replace("-sig", ""), errors)))
         start = end
     return lines
+
+
+def text_lines(raw: bytes, path: str, what: str = "text point file") -> list[str]:
+    """The lines of a text file's bytes: UTF-8 (BOM or not); UTF-16 with a BOM, or without one
+    when every other byte is zero; else cp1252 (Windows exports; latin-1 would read byte 0x85 as
+    a line break). A file with other zero bytes is binary: InputError."""
+    head = raw[:4096]
+    utf16 = None
+    if raw.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        utf16 = "utf-16"
+    elif b"\x00" in head:
+        even, odd = head[0::2], head[1::2]
+        if len(head) >= 2 and odd.count(0) == len(odd) and 0 not in even:
+            utf16 = "utf-16-le"
+        elif len(head) >= 2 and even.count(0) == len(even) and 0 not in odd:
+            utf16 = "utf-16-be"
+        else:
+            raise InputError(f"is a binary file, not a {what}", path)
+    if utf16 is not None:
+        try:
+            return split_lines(raw.decode(utf16))
+        except UnicodeDecodeError as e:
+            raise InputError(f"damaged UTF-16 text (byte {e.start} cannot be decoded)",
+                             path) from None
+    try:
+        return _lines(raw, "utf-8-sig")
+    except UnicodeDecodeError:
+        return _lines(raw, "cp1252")
 
 
 def _read_text(path: str) -> PointSet:
@@ -250,14 +375,10 @@ def _read_text(path: str) -> PointSet:
             raw = f.read()
     except OSError as e:
         raise InputNotFoundError(f"cannot be read ({e.strerror})", path) from e
-    if b"\x00" in raw[:4096]:
-        raise InputError("is a binary file, not a text point file", path)
-    try:
-        lines = _lines(raw, "utf-8-sig")
-    except UnicodeDecodeError:
-        lines = _lines(raw, "latin-1")
+    lines = text_lines(raw, path)
     layout = _detect_layout(path, lines)
     start = (layout.header_line + 1) if layout.header_line is not None else 0
+    _refuse_late_directives(path, lines, start)
     if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in lines[start:]):
         raise InputError("the file holds a header but no points", path)
     data = _parse_fast(lines, start, layout)
@@ -272,6 +393,11 @@ def _read_text(path: str) -> PointSet:
     if bad.size:
         ln = line_no[bad[0]] if line_no is not None else _line_of_row(lines, start, bad[0])
         raise InputError("NaN or infinity is not a coordinate", path, ln)
+    big = np.flatnonzero((np.abs(coords) > COORD_LIMIT_MM / layout.unit_scale).any(axis=1))
+    if big.size:
+        r = int(big[0])
+        ln = line_no[r] if line_no is not None else _line_of_row(lines, start, r)
+        check_coordinate_range(coords[r:r + 1], path, [ln], layout.unit_scale)
     dim = coords.shape[1]
     pts = np.zeros((coords.shape[0], 3))
     pts[:, :dim] = coords * layout.unit_scale
@@ -392,7 +518,11 @@ def _parse_slow(path, lines, start, layout: _Layout):
 
 
 def _unit_normals(normals, path, line_no=None, lines=None, start=0) -> np.ndarray:
-    norm = np.linalg.norm(normals, axis=1)
+    # Scaled by the largest component first, so that huge finite components do not overflow.
+    big = np.abs(normals).max(axis=1)
+    ok = np.isfinite(big) & (big > 0)
+    normals = normals / np.where(ok, big, 1.0)[:, None]
+    norm = np.where(ok, np.linalg.norm(normals, axis=1), 0.0)
     bad = np.flatnonzero(~(norm > 1e-12) | ~np.isfinite(norm))
     if bad.size:
         if line_no is not None:
@@ -415,6 +545,7 @@ def finish_point_set(ps: PointSet) -> PointSet:
     if not np.isfinite(pts).all():
         row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
         raise InputError(f"point {row} holds NaN or infinity", ps.path)
+    check_coordinate_range(pts, ps.path)
     check_not_degenerate(pts, ps.path)
     if ps.grid_shape is not None:
         nu, nv = ps.grid_shape

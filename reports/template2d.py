@@ -10,6 +10,11 @@ POINT, …) is ignored and counted. Entities whose plane is not the drawing's XY
 Units come from ``$INSUNITS`` and are converted to millimetres; a unitless drawing is taken as
 millimetres and the result says so. Damaged files are read through ezdxf's recover mode.
 
+Absurd values are refused, naming the entity's handle: a coordinate or radius beyond
+``COORD_LIMIT_MM`` (1e9 mm) after unit conversion. Entities without extent (a LINE whose ends
+coincide, a polyline or spline whose points all coincide) carry no contour: they are skipped and
+counted in ``ignored`` as e.g. ``"LINE (zero length)"``; a drawing with nothing else is refused.
+
 Chaining: entity ends closer than ``chain_tol`` are joined, whatever the order and direction the
 entities are stored in; each chain becomes a contour, closed when it returns to its start.
 """
@@ -25,7 +30,7 @@ import numpy as np
 
 from engine.contour import Template2D, arc, build_template, segment
 from engine.errors import InputError, InputNotFoundError
-from engine.pointio import UNIT_SCALE_TO_MM
+from engine.pointio import COORD_LIMIT_MM, UNIT_SCALE_TO_MM, text_lines
 
 FLATTEN_MM = 1e-4
 GEOMETRY = {"LINE", "ARC", "CIRCLE", "LWPOLYLINE", "POLYLINE", "SPLINE", "ELLIPSE"}
@@ -37,7 +42,8 @@ class TemplateFile:
 
     template : the contours (mm, drawing XY plane).
     units : the drawing's unit name; ``unitless`` is True when $INSUNITS was unset (taken as mm).
-    ignored : entity type -> count of entities that carry no contour geometry.
+    ignored : entity type -> count of entities that carry no contour geometry (annotation,
+        and e.g. ``"LINE (zero length)"`` for geometry without extent).
     flattened : number of splines and ellipses flattened to segments (chord error <= 0.1 µm).
     """
 
@@ -113,23 +119,72 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
         if wanted is not None and e.dxf.get("layer", "0").lower() not in wanted:
             continue
         try:
-            got, flat = _primitives(e, scale)
+            _check_entity_range(e, scale)
+            # Overflow in a damaged entity becomes inf/NaN, refused just below, not a warning.
+            with np.errstate(all="ignore"):
+                got, flat = _primitives(e, scale)
+            _check_primitive_range(e, got)
         except InputError as err:
             raise InputError(err.message, path) from None
         except Exception as err:  # ezdxf raises assorted errors for broken entities
             raise InputError(f"{kind} entity (handle {e.dxf.get('handle', '?')}) cannot be "
                              f"read: {err}", path) from err
+        if not got:
+            ignored[f"{kind} (zero length)"] += 1
+            continue
         prims.extend(got)
         flattened += flat
     if not prims:
+        degenerate = sum(n for k, n in ignored.items() if k.endswith("(zero length)"))
         raise InputError("the drawing holds no contour geometry (lines, arcs, circles, "
                          "polylines, splines or ellipses)" + ("" if wanted is None else
-                                                              " on the selected layers"), path)
+                                                              " on the selected layers")
+                         + (f"; {degenerate} entities of zero length were ignored"
+                            if degenerate else ""), path)
     extent = _extent(prims)
     tol = chain_tol if chain_tol is not None else max(1e-6 * extent, 1e-9)
     contours = chain(prims, tol)
     return TemplateFile(path, build_template(contours), unit_name, unitless, dict(ignored),
                        flattened, recovered)
+
+
+def _entity_values(e) -> list[float]:
+    """The raw numbers (drawing units) that place an entity: coordinates and radii."""
+    kind = e.dxftype()
+    d = e.dxf
+    if kind == "LINE":
+        return [*d.start, *d.end]
+    if kind in ("ARC", "CIRCLE"):
+        return [*d.center, d.radius]
+    if kind == "LWPOLYLINE":
+        return [v for p in e.get_points("xy") for v in p]
+    if kind == "POLYLINE":
+        return [v for vertex in e.vertices for v in vertex.dxf.location]
+    if kind == "SPLINE":
+        return [v for p in list(e.control_points) + list(e.fit_points) for v in p]
+    if kind == "ELLIPSE":
+        return [*d.center, *d.major_axis]
+    return []
+
+
+def _check_entity_range(e, scale: float) -> None:
+    """Refuse an entity placed beyond ``COORD_LIMIT_MM`` before anything is computed from it
+    (a spline 1e300 across would be flattened into endless pieces)."""
+    vals = np.asarray(_entity_values(e), dtype=np.float64)
+    with np.errstate(over="ignore"):
+        bad = ~np.isfinite(vals) | (np.abs(vals) * scale > COORD_LIMIT_MM)
+    if bad.any():
+        raise InputError(f"{e.dxftype()} (handle {e.dxf.get('handle', '?')}) has a coordinate "
+                         f"or radius of {vals[bad][0]:g} drawing units, beyond ±1e9 mm; it is "
+                         "not a part's geometry")
+
+
+def _check_primitive_range(e, prims: list[dict]) -> None:
+    for p in prims:
+        vals = [*p["start"], *p["end"], *p.get("centre", ()), p.get("radius", 0.0)]
+        if not all(math.isfinite(v) and abs(v) <= COORD_LIMIT_MM for v in vals):
+            raise InputError(f"{e.dxftype()} (handle {e.dxf.get('handle', '?')}) gives a "
+                             "coordinate or radius beyond ±1e9 mm; it is not a part's geometry")
 
 
 def _primitives(e, scale: float) -> tuple[list[dict], int]:
@@ -146,6 +201,8 @@ def _primitives(e, scale: float) -> tuple[list[dict], int]:
         mirror = False
     if kind == "LINE":
         a, b = e.dxf.start, e.dxf.end
+        if a.x == b.x and a.y == b.y:
+            return [], 0  # no extent (in the drawing's plane): nothing to chain
         return [segment((a.x * scale, a.y * scale), (b.x * scale, b.y * scale))], 0
     if kind in ("ARC", "CIRCLE"):
         c = e.dxf.center
@@ -311,9 +368,14 @@ def read_airfoil_template(path: str | os.PathLike, chord_mm: float) -> TemplateF
         raise InputNotFoundError("no such file", path)
     if not (chord_mm > 0 and math.isfinite(chord_mm)):
         raise InputError(f"--scale (chord length, mm) must be positive, got {chord_mm:g}", path)
+    if chord_mm > COORD_LIMIT_MM:
+        raise InputError(f"--scale (chord length) {chord_mm:g} mm is beyond 1e9 mm", path)
     pts = []
-    with open(path, encoding="utf-8", errors="replace") as f:
-        lines = f.read().splitlines()
+    try:
+        with open(path, "rb") as f:
+            lines = text_lines(f.read(), path, "text ordinate file")
+    except OSError as e:
+        raise InputError(f"cannot be read ({e.strerror})", path) from e
     for ln, raw in enumerate(lines[1:], start=2):
         s = raw.strip()
         if not s or s.startswith("#"):
@@ -327,6 +389,9 @@ def read_airfoil_template(path: str | os.PathLike, chord_mm: float) -> TemplateF
             raise InputError(f"'{s}' is not a pair of numbers", path, ln) from None
         if not (math.isfinite(x) and math.isfinite(y)):
             raise InputError("NaN or infinity is not an ordinate", path, ln)
+        if max(abs(x), abs(y)) * chord_mm > COORD_LIMIT_MM:
+            raise InputError(f"ordinate {max(abs(x), abs(y)):g} x chord {chord_mm:g} mm lies "
+                             "beyond ±1e9 mm", path, ln)
         pts.append((x * chord_mm, y * chord_mm))
     if len(pts) < 3:
         raise InputError(f"only {len(pts)} ordinates; an airfoil needs at least 3", path)
