@@ -249,6 +249,7 @@ class Nominal:
                                 (tris.ravel(), np.broadcast_to(
                                     np.arange(nt, dtype=np.int64)[:, None], (nt, 3)).ravel())),
                                shape=(self.n, nt)).tocsr()
+        incidence = _weld_incidence(incidence, self._coincident_points())
         star_ptr = np.zeros(self.n + len(extra_tri_arr) + 1, np.int64)
         star_ptr[: self.n + 1] = incidence.indptr
         star_ptr[self.n + 1:] = star_ptr[self.n] + np.arange(1, len(extra_tri_arr) + 1)
@@ -256,6 +257,38 @@ class Nominal:
         self.star_tri = (incidence.indices if not len(extra_tri_arr) else
                          np.concatenate([incidence.indices, extra_tri_arr.astype(incidence.indices.dtype)]))
         self._sample_tree: cKDTree | None = None
+
+    def _coincident_points(self) -> np.ndarray:
+        """(k, 2) pairs (representative, copy) of points with exactly the same coordinates: a
+        closed grid's seam (a revolved surface whose last
+        column repeats its first), a pole row, a mesh written without welding its vertices. Only
+        a grid's border can hold them; a mesh is searched whole (by a hash of the coordinates'
+        bits, so the cost is one sort of n integers)."""
+        if self.kind == "grid" and self.grid_shape is not None:
+            nu, nv = self.grid_shape
+            ids = np.arange(self.n).reshape(nv, nu)
+            cand = np.unique(np.concatenate([ids[0], ids[-1], ids[:, 0], ids[:, -1]]))
+        else:
+            cand = np.arange(self.n)
+        bits = np.ascontiguousarray(self.points[cand]).view(np.uint64).reshape(-1, 3)
+        h = (bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (bits[:, 1] * np.uint64(
+            0xC2B2AE3D27D4EB4F)) ^ (bits[:, 2] * np.uint64(0x165667B19E3779F9))
+        order = np.argsort(h, kind="stable")
+        hs = h[order]
+        same = hs[1:] == hs[:-1]
+        if not same.any():
+            return np.zeros((0, 2), np.int64)
+        # Runs of equal hashes, then exact coordinates within them (a collision is not a pair).
+        pairs = []
+        starts = np.flatnonzero(np.diff(np.concatenate([[False], same, [False]]).astype(int)) == 1)
+        ends = np.flatnonzero(np.diff(np.concatenate([[False], same, [False]]).astype(int)) == -1)
+        for a, b in zip(starts, ends):
+            run = cand[order[a:b + 1]]
+            _, first, group = np.unique(self.points[run], axis=0, return_index=True,
+                                        return_inverse=True)
+            rep = run[first[group.ravel()]]
+            pairs.append(np.column_stack([rep, run])[rep != run])
+        return np.concatenate(pairs).astype(np.int64) if pairs else np.zeros((0, 2), np.int64)
 
     @property
     def sample_tree(self) -> cKDTree:
@@ -265,6 +298,30 @@ class Nominal:
         if self._sample_tree is None:
             self._sample_tree = cKDTree(np.vstack([self.points, self.extra_points]))
         return self._sample_tree
+
+
+def _weld_incidence(incidence, pairs: np.ndarray):
+    """Point -> triangle incidence (CSR, n x nt) where each of the coincident ``pairs`` (k, 2)
+    also owns the other's triangles: a query near a seam whose nearest sample is one copy of a
+    seam point must see the facets on both sides of it."""
+    if not len(pairs):
+        return incidence
+    from scipy.sparse import coo_matrix as _coo
+
+    n = incidence.shape[0]
+    both = np.concatenate([pairs, pairs[:, ::-1]])
+    # Pairs link every copy to its group's representative: the representative gathers the
+    # copies' facets in the first pass, the copies get them from it in the second.
+    S = _coo((np.ones(len(both)), (both[:, 0], both[:, 1])), shape=(n, n)).tocsr()
+    out = incidence.astype(np.int64)
+    for _ in range(2):
+        grown = ((out + S @ out) > 0).astype(np.int64)
+        if grown.nnz == out.nnz:
+            break
+        out = grown
+    out = out.astype(np.int8)
+    out.sort_indices()
+    return out
 
 
 def _pca_normals(nbh: np.ndarray) -> np.ndarray:
