@@ -20,6 +20,15 @@ raises :class:`~engine.errors.InputError` naming the file, line where known, and
   number of solids); bit-identical corners are merged into shared vertices, as VTK's reader did.
 
 Coordinates stay in the file's units (meshes carry none; millimetres by convention).
+
+Why a reader of our own rather than a library's (tried 2026-12-01): trimesh (MIT) reads the bad
+files these checks exist for without a word — an ASCII PLY declaring 25 vertices of 40 as 25
+vertices and no faces, one declaring 60 of 40 with face rows read as points; OBJ negative indices
+against the whole file instead of the vertices above the line; ``f 0 1 2`` as ``[0, 0, 1]``; an
+ASCII STL cut before ``endsolid`` or a binary one cut mid-triangle as an empty scene. plyfile
+reads PLY well but is GPL-3.0-or-later (this project is MIT) and parses ASCII PLY 5-15 times
+slower. The checks these formats need parse every row anyway, so a library would add a second
+parse and no safety.
 """
 
 from __future__ import annotations
