@@ -28,6 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 GROSS_ZONES = 5.0
@@ -40,7 +42,9 @@ COMPANIONS = 2
 """… have a deviation within the threshold of its own (its companions), or when neither it nor
 any of its companions has …"""
 SUPPORT = 3
-"""… this many companions of its own."""
+"""… this many companions of its own, and it belongs to no group of …"""
+REGION = 4
+"""… this many far points linked by companionship (a line of points: a scratch, a burr)."""
 
 
 @dataclass(frozen=True)
@@ -125,8 +129,32 @@ def gross_outliers(d: np.ndarray, points: np.ndarray, rule: GrossRule) -> np.nda
         strong[hop] = _companions(tree, pts, d, hop, k, rule.threshold_mm)[0].sum(axis=1) \
             >= SUPPORT
         supported[weak] = np.any(alike[weak] & strong[nb[weak]], axis=1)
-    gross[cand] = (count < COMPANIONS) | ~supported
+    region = (count >= COMPANIONS) & supported
+    # A thin region (a scratch or a burr one probe-row wide, a line of points) has too few
+    # companions everywhere; it is a chain of far points each alike with the next: a group of
+    # REGION or more far points linked by companionship is a region, whatever its shape.
+    rest = ~region & (count > 0)
+    if rest.any():
+        region |= _group_size(cand, alike, nb, far, d.size) >= REGION
+    gross[cand] = ~region
     return gross
+
+
+def _group_size(cand: np.ndarray, alike: np.ndarray, nb: np.ndarray, far: np.ndarray,
+                n: int) -> np.ndarray:
+    """(m,) int: for each candidate ``cand`` (m,), the size of its group: the connected
+    component, among the candidates, of the companionship graph (i -- j when j is among i's
+    nearest, or i among j's, and they are alike). ``alike``, ``nb`` (m, k) from _companions;
+    ``far`` (n,) the candidate mask."""
+    pos = np.full(n, -1)
+    pos[cand] = np.arange(cand.size)
+    link = alike & far[nb]
+    rows = np.repeat(np.arange(cand.size), link.sum(axis=1))
+    cols = pos[nb[link]]
+    graph = coo_matrix((np.ones(rows.size, np.int8), (rows, cols)),
+                       shape=(cand.size, cand.size))
+    _, label = connected_components(graph, directed=False)
+    return np.bincount(label)[label]
 
 
 def _companions(tree: cKDTree, pts: np.ndarray, d: np.ndarray, idx: np.ndarray, k: int,
@@ -138,3 +166,31 @@ def _companions(tree: cKDTree, pts: np.ndarray, d: np.ndarray, idx: np.ndarray, 
     other = nb != idx[:, None]
     nb = np.take_along_axis(nb, np.argsort(~other, axis=1, kind="stable")[:, :k], axis=1)
     return np.abs(d[nb] - d[idx][:, None]) <= threshold, nb
+
+
+def fit_without_gross(fit, T: np.ndarray, n: int):
+    """The final fit under the rule's second condition: a point is left out only if it is gross
+    both at the least-squares pose over the points kept and at the least-squares pose over every
+    point (fitted WITH it).
+
+    A pose that is still wrong can make good points look gross (a rotation a circle leaves free
+    brings them over a flat); left out, nothing pulls the pose back, and least squares over the
+    rest locks the wrong pose in. Fitted with every point, such points pull the pose to where
+    they fit and stop being gross; a true mis-probe (millimetres off) stays gross there.
+
+    fit(T, included) runs least squares from pose T (opaque here: a pose, or a pose with what
+    is known at it) over
+    every one of the n points but those gross at its pose and True in ``included`` ((n,) bool;
+    None: every gross point; all False: plain least squares over every point) and returns
+    (T, gross (n,) bool: the rule alone at the returned pose, kept (n,) bool, converged, result).
+    Returns (the chosen fit's tuple, number of fits run). When the first fit keeps every point
+    (the usual case) nothing else runs."""
+    first = fit(T, None)
+    T1, _, kept, _, _ = first
+    if kept.all():
+        return first, 1
+    T_all, gross_all, _, _, _ = fit(T1, np.zeros(n, bool))
+    if not np.any(~kept & ~gross_all):
+        # Every point left out stays gross with it included: the first fit stands.
+        return first, 2
+    return fit(T_all, gross_all), 3

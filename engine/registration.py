@@ -46,7 +46,7 @@ from .geometry import (
     uniform_rotations,
 )
 from .nominal import Nominal
-from .outliers import GrossRule, gross_outliers, gross_rule
+from .outliers import GrossRule, fit_without_gross, gross_outliers, gross_rule
 from .progress import report
 
 _SEED = 7
@@ -561,7 +561,7 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
                                                min(ROBUST_ITERATIONS, budget))
     floor = _gross_floor(nominal, settings, zone_width)
-    T, converged, it, keep, rule, dev, dev_s = _least_squares_rounds(
+    T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
         nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)
     total += it
     if fsub.size < n:
@@ -572,10 +572,12 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
         rule = gross_rule(dev.signed, zone_width, floor)
         keep = ~gross_outliers(dev.signed, dev.foot, rule)
         finished = False
-        if converged and keep.sum() >= 6:
-            delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
+        # With points left out, iterate over all points (which checks each is gross with it
+        # included too); the one-step finish is for the usual case, nothing left out.
+        if converged and keep.all():
+            delta, c = _gn_step(X, dev.normal, dev.signed)
             total += 1
-            if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
+            if _largest_motion(delta, X - c) <= settings.finish_step_mm:
                 motion = np.cross(delta[:3], X - c) + delta[3:]
                 along = np.einsum("ij,ij->i", motion, dev.normal)
                 moved = Deviations(dev.signed + along,
@@ -583,11 +585,11 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
                                    dev.normal, dev.curved)
                 rule_m = gross_rule(moved.signed, zone_width, floor)
                 keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
-                if np.array_equal(keep_m, keep):
+                if keep_m.all():
                     T = _compose_update(T[None], delta[None], c[None])[0]
                     dev, rule, finished = moved, rule_m, True
         if not finished:
-            T, converged, it, keep, rule, dev, dev_s = _least_squares_rounds(
+            T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
                 nominal, measured, T, dev, dev_s, settings, zone_width, floor, budget)
             total += it
     message = ""
@@ -610,16 +612,40 @@ def _gross_floor(nominal: Nominal, settings: RegistrationSettings,
     return fraction * nominal.diagonal
 
 
-def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+    """Least squares over every point of ``pts`` but the gross outliers, a point left out only
+    if it is gross with it included too (engine.outliers.fit_without_gross): _least_squares_rounds
+    once, and when it leaves points out, over every point and then again. Same arguments and
+    returns as _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
+    used = 0
+
+    def fit(start, included):
+        nonlocal used
+        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor,
+                                    budget - used, included)
+        used += out[2]
+        T1, converged, _, keep, _, d1, s1, gross = out
+        return (T1, d1, s1), gross, keep, converged, out
+
+    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0])
+    T1, _, _, keep, rule, d1, s1, _ = out
+    return T1, converged and used <= budget, used, keep, rule, d1, s1
+
+
+def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget,
+                          included=None):
     """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
     (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
     at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
-    Gauss-Newton iterations in all). Returns (T, converged, iterations, kept mask, GrossRule,
-    Deviations at T, seconds their evaluation took)."""
+    Gauss-Newton iterations in all). included : (m,) bool, only these may be left out (None:
+    any; all False: plain least squares over every point). Returns (T, converged, iterations,
+    kept mask, GrossRule, Deviations at T, seconds their evaluation took, (m,) bool gross by the
+    rule alone at T)."""
     total, converged, keep = 0, False, None
     for _ in range(MAX_ROUNDS):
         rule = gross_rule(dev.signed, zone_width, floor)
-        new = ~gross_outliers(dev.signed, dev.foot, rule)
+        gross = _gross(dev, rule, included)
+        new = ~gross if included is None else ~(gross & included)
         if keep is not None and converged and np.array_equal(new, keep):
             break
         keep = new
@@ -633,9 +659,19 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
         # The last fit's set is the one its pose was fitted on; the rule at that pose may
         # differ by a point at the threshold (the fit is reported as not settled then).
         rule = gross_rule(dev.signed, zone_width, floor)
-        if not np.array_equal(~gross_outliers(dev.signed, dev.foot, rule), keep):
+        gross = _gross(dev, rule, included)
+        if not np.array_equal(~gross if included is None else ~(gross & included), keep):
             converged = False
-    return T, converged, total, keep, rule, dev, dev_s
+    if included is not None and not included.any():
+        gross = gross_outliers(dev.signed, dev.foot, rule)
+    return T, converged, total, keep, rule, dev, dev_s, gross
+
+
+def _gross(dev, rule, included):
+    """The rule's gross outliers at ``dev`` (none looked for where ``included`` is all False)."""
+    if included is not None and not included.any():
+        return np.zeros(dev.signed.size, bool)
+    return gross_outliers(dev.signed, dev.foot, rule)
 
 
 def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):
