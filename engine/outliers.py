@@ -45,6 +45,11 @@ SUPPORT = 3
 """… this many companions of its own, and it belongs to no group of …"""
 REGION = 4
 """… this many far points linked by companionship (a line of points: a scratch, a burr)."""
+INCLUDED_FIT_ITERATIONS = 10
+"""Gauss-Newton iterations at most of the fit over every point (gross or not) that decides
+which points stay gross with them included: from the kept points' optimum, a few steps bring
+the pose within far less than a gross threshold of the all-point optimum (a mis-probe 10 mm off
+and a kink in the nominal can keep the last digits from settling)."""
 
 
 @dataclass(frozen=True)
@@ -181,7 +186,8 @@ def fit_without_gross(fit, T: np.ndarray, n: int):
     fit(T, included) runs least squares from pose T (opaque here: a pose, or a pose with what
     is known at it) over
     every one of the n points but those gross at its pose and True in ``included`` ((n,) bool;
-    None: every gross point; all False: plain least squares over every point) and returns
+    None: every gross point; all False: plain least squares over every point, at most
+    ``INCLUDED_FIT_ITERATIONS`` iterations, converged or not) and returns
     (T, gross (n,) bool: the rule alone at the returned pose, kept (n,) bool, converged, result).
     Returns (the chosen fit's tuple, number of fits run). When the first fit keeps every point
     (the usual case) nothing else runs."""

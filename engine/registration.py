@@ -46,7 +46,8 @@ from .geometry import (
     uniform_rotations,
 )
 from .nominal import Nominal
-from .outliers import GrossRule, fit_without_gross, gross_outliers, gross_rule
+from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
+                       gross_rule)
 from .progress import report
 
 _SEED = 7
@@ -621,8 +622,11 @@ def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, 
 
     def fit(start, included):
         nonlocal used
-        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor,
-                                    budget - used, included)
+        left = budget - used
+        if included is not None and not included.any():
+            left = min(left, INCLUDED_FIT_ITERATIONS)
+        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
+                                    included)
         used += out[2]
         T1, converged, _, keep, _, d1, s1, gross = out
         return (T1, d1, s1), gross, keep, converged, out

@@ -26,7 +26,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
-from .outliers import GrossRule, fit_without_gross, gross_outliers, gross_rule
+from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
+                       gross_rule)
 from .progress import report
 from .registration import min_norm_solve, robust_cut
 
@@ -395,7 +396,10 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
 
     def fit(T0, included):
         nonlocal used
-        out = _rounds2(index, p, T0, zone_width, floor, tol, max_iter, included)
+        everything = included is not None and not included.any()
+        out = _rounds2(index, p, T0, zone_width, floor, tol,
+                       min(max_iter, INCLUDED_FIT_ITERATIONS) if everything else max_iter,
+                       included)
         used += out[2]
         return out[0], out[6], out[3], out[1], out
 
