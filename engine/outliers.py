@@ -43,7 +43,7 @@ COMPANIONS = 2
 any of its companions has …"""
 SUPPORT = 3
 """… this many companions of its own, and it belongs to no group of …"""
-REGION = 4
+REGION = 5
 """… this many far points linked by companionship (a line of points: a scratch, a burr)."""
 INCLUDED_FIT_ITERATIONS = 10
 """Gauss-Newton iterations at most of the fit over every point (gross or not) that decides

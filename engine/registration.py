@@ -32,6 +32,7 @@ excluded). Excluded points stay in the deviation table and the verdict.
 from __future__ import annotations
 
 import time
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -562,8 +563,10 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
                                                min(ROBUST_ITERATIONS, budget))
     floor = _gross_floor(nominal, settings, zone_width)
-    T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
-        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)
+    # On a subset, the final stage over every point checks the points left out.
+    rounds = _confirmed_rounds if fsub.size == n else _least_squares_rounds
+    T, converged, it, keep, rule, dev, dev_s = rounds(
+        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)[:7]
     total += it
     if fsub.size < n:
         X = measured @ T[:3, :3].T + T[:3, 3]
@@ -573,20 +576,20 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
         rule = gross_rule(dev.signed, zone_width, floor)
         keep = ~gross_outliers(dev.signed, dev.foot, rule)
         finished = False
-        # With points left out, iterate over all points (which checks each is gross with it
-        # included too); the one-step finish is for the usual case, nothing left out.
-        if converged and keep.all():
-            delta, c = _gn_step(X, dev.normal, dev.signed)
+        if converged and keep.sum() >= 6:
+            delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
             total += 1
-            if _largest_motion(delta, X - c) <= settings.finish_step_mm:
-                motion = np.cross(delta[:3], X - c) + delta[3:]
-                along = np.einsum("ij,ij->i", motion, dev.normal)
-                moved = Deviations(dev.signed + along,
-                                   dev.foot + motion - along[:, None] * dev.normal,
-                                   dev.normal, dev.curved)
+            if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
+                moved, X_m = _moved(dev, X, delta, c)
                 rule_m = gross_rule(moved.signed, zone_width, floor)
                 keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
-                if keep_m.all():
+                # Points left out must stay gross with them included (engine.outliers); else
+                # iterate over all points, which fits with them.
+                ok = np.array_equal(keep_m, keep)
+                if ok and not keep.all():
+                    gross = _gross_included(X_m, moved, zone_width, floor)
+                    ok = gross is not None and bool(np.all(gross[~keep]))
+                if ok:
                     T = _compose_update(T[None], delta[None], c[None])[0]
                     dev, rule, finished = moved, rule_m, True
         if not finished:
@@ -624,6 +627,13 @@ def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, 
         nonlocal used
         left = budget - used
         if included is not None and not included.any():
+            T0, d0, _ = start
+            # Every point included usually moves the pose so little that the deviations can
+            # follow to first order: no new evaluation (mis-probes among many points).
+            gross = _gross_included(pts @ T0[:3, :3].T + T0[:3, 3], d0, zone_width, floor)
+            used += 1
+            if gross is not None:
+                return start, gross, np.ones(len(pts), bool), True, None
             left = min(left, INCLUDED_FIT_ITERATIONS)
         out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
                                     included)
@@ -676,6 +686,39 @@ def _gross(dev, rule, included):
     if included is not None and not included.any():
         return np.zeros(dev.signed.size, bool)
     return gross_outliers(dev.signed, dev.foot, rule)
+
+
+def _moved(dev: Deviations, X: np.ndarray, delta: np.ndarray, c: np.ndarray):
+    """The deviations ``dev`` of the points ``X`` (n, 3) after the small step ``delta`` about
+    ``c`` (from _gn_step), to first order (exact to ~step^2 x curvature), and the moved points."""
+    motion = np.cross(delta[:3], X - c) + delta[3:]
+    along = np.einsum("ij,ij->i", motion, dev.normal)
+    return Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
+                      dev.normal, dev.curved), X + motion
+
+
+LINEAR_INCLUDED = 0.1
+"""The fit over every point that decides which points stay gross with them included is one
+linear step when that step moves no point by more than this fraction of the gross threshold."""
+
+
+def _gross_included(X: np.ndarray, dev: Deviations, zone_width, floor):
+    """(n,) bool: the points of ``X`` (n, 3), deviations ``dev``, gross at the least-squares pose
+    over all of them, when one linear step reaches it; None when the step is too long to trust
+    (then iterate instead).
+
+    The step moves no point by more than m <= LINEAR_INCLUDED x the gross threshold; a distance
+    changes by no more than the point moves, so the deviations followed to first order are
+    within 2 m of the true ones whatever the nominal's shape (an edge crossed, a kink): a point
+    counts as gross only beyond the threshold + 2 m."""
+    delta, c = _gn_step(X, dev.normal, dev.signed)
+    moved, _ = _moved(dev, X, delta, c)
+    rule = gross_rule(moved.signed, zone_width, floor)
+    m = _largest_motion(delta, X - c)
+    if m > LINEAR_INCLUDED * rule.threshold_mm:
+        return None
+    return gross_outliers(moved.signed, moved.foot,
+                          dataclasses.replace(rule, threshold_mm=rule.threshold_mm + 2.0 * m))
 
 
 def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):

@@ -277,15 +277,17 @@ def d_shaft():
     return Nominal.from_point_set(point_set(pts, nrm, (721, 60)))
 
 
-@pytest.mark.parametrize("turn_deg", [10.0, 12.0, 14.0, 16.0])
-def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft, turn_deg):
+@pytest.mark.parametrize("turn_deg, subset", [(10.0, None), (12.0, None), (14.0, None),
+                                               (16.0, None), (10.0, 256), (12.0, 256)])
+def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft, turn_deg,
+                                                                         subset):
     """600 points on the D shaft's round part only (three 4-5 deg clear of the flat, the rest
     12 deg or more) and one 10 mm mis-probe. The final fit starts turned about the axis (the
     cylinder leaves the turn free), with a few good points over the flat, far off and on their
     own: the fit with every point included turns them back onto the round, so they are kept;
     the mis-probe stays gross with it included, and is the only point excluded. Before, the good
     points were excluded too, and nothing turned the pose back (sum d^2 over 1,000 times the
-    optimum).
+    optimum). ``subset``: the fit runs on that many points first, then over every point.
 
     Sum d^2 is within 2% of an independent optimiser's (scipy, from the true pose): a point
     can end exactly at the flat's edge, where the one point that constrains the turn has a
@@ -302,7 +304,7 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft
     T0 = np.eye(4)
     T0[:3, :3] = rotation_from_rotvec(np.radians(turn_deg) * np.array([[0, 0, 1.0]]))[0]
     T, converged, _, keep, rule, dev = _point_to_surface_fit(
-        d_shaft, q, T0, RegistrationSettings(), 0.06)[:6]
+        d_shaft, q, T0, RegistrationSettings(fit_measured=subset or 16384), 0.06)[:6]
     assert converged and rule.threshold_mm == pytest.approx(0.3)
     assert np.flatnonzero(~keep).tolist() == [bad]
     best = _optimum(d_shaft, q, np.eye(4), keep)
