@@ -25,8 +25,9 @@ The coarse stages weight robustly (trimmed pairs in ICP; a robust cut of ``outli
 the first ``ROBUST_ITERATIONS`` point-to-surface iterations) so that they reach the right basin.
 The final fit is plain least squares: the only points it excludes from the alignment are the
 gross outliers of :mod:`engine.outliers` (a mis-probed point, far beyond any plausible deviation
-of the part and isolated from its neighbours; a dent or bump, in or out of tolerance, is never
-excluded). Excluded points stay in the deviation table and the verdict.
+of the part and isolated from its neighbours, both at the fit without it and at the fit with
+every point; a dent or bump, in or out of tolerance, is never excluded). Excluded points stay in
+the deviation table and the verdict.
 """
 
 from __future__ import annotations
@@ -544,14 +545,18 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     The first ``ROBUST_ITERATIONS`` Gauss-Newton iterations use the robust cut (a pose from the
     ICP stages may still be off by more than the spread of the deviations); then the fit is
     plain least squares over the points the gross-outlier rule keeps at the current pose, run to
-    convergence, the rule applied again at the new pose, until the kept set is stable.
+    convergence, the rule applied again at the new pose, until the kept set is stable; a point
+    is left out only if it is gross at the least-squares pose over every point too (one linear
+    step from there when it moves no point by more than ``LINEAR_INCLUDED`` x the threshold,
+    else iterated: _confirmed_rounds).
     Measurements larger than ``fit_measured`` points iterate on a seeded subset of that size;
     then the rule is applied to every point and one Gauss-Newton step over every kept point
     moves the pose to the all-point optimum (the subset's optimum is within noise /
     sqrt(subset) of it, so one step of a nearly linear problem suffices; should it move any
-    point by more than ``finish_step_mm``, or change the kept set, iteration over all points
-    continues instead). The deviations follow that last step to first order (exact to
-    ~step^2 x curvature, far below a nanometre). Returns (T, converged, iterations, kept mask
+    point by more than ``finish_step_mm``, change the kept set, or a point left out not stay
+    gross with every point included, iteration over all points continues instead). The
+    deviations follow that last step to first order (exact to ~step^2 x curvature, far below
+    a nanometre). Returns (T, converged, iterations, kept mask
     (all points), GrossRule at T, Deviations of all points at T, seconds the evaluation of those
     deviations took, message).
     """

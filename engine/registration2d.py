@@ -8,7 +8,8 @@ along theirs), ICP on a dense sampling of the contours (point-to-line
 against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
 distance. Robust cuts (6 robust sigmas) steer the coarse stages only; the final fit is plain least
 squares over every point but the gross outliers of :mod:`engine.outliers` (re-applied at each new
-pose until the set is stable), converged on the pose step, working relative to the centroid of
+pose until the set is stable; a point left out only if gross at the fit over every point too),
+converged on the pose step, working relative to the centroid of
 the fitted points, so that the pose comes out exact whatever the size and position of the
 coordinates. Left-out points stay in the verdict.
 
