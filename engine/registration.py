@@ -25,13 +25,15 @@ The coarse stages weight robustly (trimmed pairs in ICP; a robust cut of ``outli
 the first ``ROBUST_ITERATIONS`` point-to-surface iterations) so that they reach the right basin.
 The final fit is plain least squares: the only points it excludes from the alignment are the
 gross outliers of :mod:`engine.outliers` (a mis-probed point, far beyond any plausible deviation
-of the part and isolated from its neighbours; a dent or bump, in or out of tolerance, is never
-excluded). Excluded points stay in the deviation table and the verdict.
+of the part and isolated from its neighbours, both at the fit without it and at the fit with
+every point; a dent or bump, in or out of tolerance, is never excluded). Excluded points stay in
+the deviation table and the verdict.
 """
 
 from __future__ import annotations
 
 import time
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,7 +48,8 @@ from .geometry import (
     uniform_rotations,
 )
 from .nominal import Nominal
-from .outliers import GrossRule, gross_outliers, gross_rule
+from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
+                       gross_rule)
 from .progress import report
 
 _SEED = 7
@@ -542,14 +545,18 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     The first ``ROBUST_ITERATIONS`` Gauss-Newton iterations use the robust cut (a pose from the
     ICP stages may still be off by more than the spread of the deviations); then the fit is
     plain least squares over the points the gross-outlier rule keeps at the current pose, run to
-    convergence, the rule applied again at the new pose, until the kept set is stable.
+    convergence, the rule applied again at the new pose, until the kept set is stable; a point
+    is left out only if it is gross at the least-squares pose over every point too (one linear
+    step from there when it moves no point by more than ``LINEAR_INCLUDED`` x the threshold,
+    else iterated: _confirmed_rounds).
     Measurements larger than ``fit_measured`` points iterate on a seeded subset of that size;
     then the rule is applied to every point and one Gauss-Newton step over every kept point
     moves the pose to the all-point optimum (the subset's optimum is within noise /
     sqrt(subset) of it, so one step of a nearly linear problem suffices; should it move any
-    point by more than ``finish_step_mm``, or change the kept set, iteration over all points
-    continues instead). The deviations follow that last step to first order (exact to
-    ~step^2 x curvature, far below a nanometre). Returns (T, converged, iterations, kept mask
+    point by more than ``finish_step_mm``, change the kept set, or a point left out not stay
+    gross with every point included, iteration over all points continues instead). The
+    deviations follow that last step to first order (exact to ~step^2 x curvature, far below
+    a nanometre). Returns (T, converged, iterations, kept mask
     (all points), GrossRule at T, Deviations of all points at T, seconds the evaluation of those
     deviations took, message).
     """
@@ -561,8 +568,10 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
                                                min(ROBUST_ITERATIONS, budget))
     floor = _gross_floor(nominal, settings, zone_width)
-    T, converged, it, keep, rule, dev, dev_s = _least_squares_rounds(
-        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)
+    # On a subset, the final stage over every point checks the points left out.
+    rounds = _confirmed_rounds if fsub.size == n else _least_squares_rounds
+    T, converged, it, keep, rule, dev, dev_s = rounds(
+        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)[:7]
     total += it
     if fsub.size < n:
         X = measured @ T[:3, :3].T + T[:3, 3]
@@ -576,18 +585,20 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
             delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
             total += 1
             if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
-                motion = np.cross(delta[:3], X - c) + delta[3:]
-                along = np.einsum("ij,ij->i", motion, dev.normal)
-                moved = Deviations(dev.signed + along,
-                                   dev.foot + motion - along[:, None] * dev.normal,
-                                   dev.normal, dev.curved)
+                moved, X_m = _moved(dev, X, delta, c)
                 rule_m = gross_rule(moved.signed, zone_width, floor)
                 keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
-                if np.array_equal(keep_m, keep):
+                # Points left out must stay gross with them included (engine.outliers); else
+                # iterate over all points, which fits with them.
+                ok = np.array_equal(keep_m, keep)
+                if ok and not keep.all():
+                    gross = _gross_included(X_m, moved, zone_width, floor)
+                    ok = gross is not None and bool(np.all(gross[~keep]))
+                if ok:
                     T = _compose_update(T[None], delta[None], c[None])[0]
                     dev, rule, finished = moved, rule_m, True
         if not finished:
-            T, converged, it, keep, rule, dev, dev_s = _least_squares_rounds(
+            T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
                 nominal, measured, T, dev, dev_s, settings, zone_width, floor, budget)
             total += it
     message = ""
@@ -610,16 +621,50 @@ def _gross_floor(nominal: Nominal, settings: RegistrationSettings,
     return fraction * nominal.diagonal
 
 
-def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+    """Least squares over every point of ``pts`` but the gross outliers, a point left out only
+    if it is gross with it included too (engine.outliers.fit_without_gross): _least_squares_rounds
+    once, and when it leaves points out, over every point and then again. Same arguments and
+    returns as _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
+    used = 0
+
+    def fit(start, included):
+        nonlocal used
+        left = budget - used
+        if included is not None and not included.any():
+            T0, d0, _ = start
+            # Every point included usually moves the pose so little that the deviations can
+            # follow to first order: no new evaluation (mis-probes among many points).
+            gross = _gross_included(pts @ T0[:3, :3].T + T0[:3, 3], d0, zone_width, floor)
+            used += 1
+            if gross is not None:
+                return start, gross, np.ones(len(pts), bool), True, None
+            left = min(left, INCLUDED_FIT_ITERATIONS)
+        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
+                                    included)
+        used += out[2]
+        T1, converged, _, keep, _, d1, s1, gross = out
+        return (T1, d1, s1), gross, keep, converged, out
+
+    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0])
+    T1, _, _, keep, rule, d1, s1, _ = out
+    return T1, converged and used <= budget, used, keep, rule, d1, s1
+
+
+def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget,
+                          included=None):
     """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
     (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
     at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
-    Gauss-Newton iterations in all). Returns (T, converged, iterations, kept mask, GrossRule,
-    Deviations at T, seconds their evaluation took)."""
+    Gauss-Newton iterations in all). included : (m,) bool, only these may be left out (None:
+    any; all False: plain least squares over every point). Returns (T, converged, iterations,
+    kept mask, GrossRule, Deviations at T, seconds their evaluation took, (m,) bool gross by the
+    rule alone at T)."""
     total, converged, keep = 0, False, None
     for _ in range(MAX_ROUNDS):
         rule = gross_rule(dev.signed, zone_width, floor)
-        new = ~gross_outliers(dev.signed, dev.foot, rule)
+        gross = _gross(dev, rule, included)
+        new = ~gross if included is None else ~(gross & included)
         if keep is not None and converged and np.array_equal(new, keep):
             break
         keep = new
@@ -633,9 +678,52 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
         # The last fit's set is the one its pose was fitted on; the rule at that pose may
         # differ by a point at the threshold (the fit is reported as not settled then).
         rule = gross_rule(dev.signed, zone_width, floor)
-        if not np.array_equal(~gross_outliers(dev.signed, dev.foot, rule), keep):
+        gross = _gross(dev, rule, included)
+        if not np.array_equal(~gross if included is None else ~(gross & included), keep):
             converged = False
-    return T, converged, total, keep, rule, dev, dev_s
+    if included is not None and not included.any():
+        gross = gross_outliers(dev.signed, dev.foot, rule)
+    return T, converged, total, keep, rule, dev, dev_s, gross
+
+
+def _gross(dev, rule, included):
+    """The rule's gross outliers at ``dev`` (none looked for where ``included`` is all False)."""
+    if included is not None and not included.any():
+        return np.zeros(dev.signed.size, bool)
+    return gross_outliers(dev.signed, dev.foot, rule)
+
+
+def _moved(dev: Deviations, X: np.ndarray, delta: np.ndarray, c: np.ndarray):
+    """The deviations ``dev`` of the points ``X`` (n, 3) after the small step ``delta`` about
+    ``c`` (from _gn_step), to first order (exact to ~step^2 x curvature), and the moved points."""
+    motion = np.cross(delta[:3], X - c) + delta[3:]
+    along = np.einsum("ij,ij->i", motion, dev.normal)
+    return Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
+                      dev.normal, dev.curved), X + motion
+
+
+LINEAR_INCLUDED = 0.1
+"""The fit over every point that decides which points stay gross with them included is one
+linear step when that step moves no point by more than this fraction of the gross threshold."""
+
+
+def _gross_included(X: np.ndarray, dev: Deviations, zone_width, floor):
+    """(n,) bool: the points of ``X`` (n, 3), deviations ``dev``, gross at the least-squares pose
+    over all of them, when one linear step reaches it; None when the step is too long to trust
+    (then iterate instead).
+
+    The step moves no point by more than m <= LINEAR_INCLUDED x the gross threshold; a distance
+    changes by no more than the point moves, so the deviations followed to first order are
+    within 2 m of the true ones whatever the nominal's shape (an edge crossed, a kink): a point
+    counts as gross only beyond the threshold + 2 m."""
+    delta, c = _gn_step(X, dev.normal, dev.signed)
+    moved, _ = _moved(dev, X, delta, c)
+    rule = gross_rule(moved.signed, zone_width, floor)
+    m = _largest_motion(delta, X - c)
+    if m > LINEAR_INCLUDED * rule.threshold_mm:
+        return None
+    return gross_outliers(moved.signed, moved.foot,
+                          dataclasses.replace(rule, threshold_mm=rule.threshold_mm + 2.0 * m))
 
 
 def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):

@@ -8,7 +8,8 @@ along theirs), ICP on a dense sampling of the contours (point-to-line
 against the nearest sample's tangent), then Gauss-Newton on the exact signed point-to-contour
 distance. Robust cuts (6 robust sigmas) steer the coarse stages only; the final fit is plain least
 squares over every point but the gross outliers of :mod:`engine.outliers` (re-applied at each new
-pose until the set is stable), converged on the pose step, working relative to the centroid of
+pose until the set is stable; a point left out only if gross at the fit over every point too),
+converged on the pose step, working relative to the centroid of
 the fitted points, so that the pose comes out exact whatever the size and position of the
 coordinates. Left-out points stay in the verdict.
 
@@ -26,7 +27,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
-from .outliers import GrossRule, gross_outliers, gross_rule
+from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
+                       gross_rule)
 from .progress import report
 from .registration import min_norm_solve, robust_cut
 
@@ -386,7 +388,32 @@ def _distinct(T1, T2, p, tol) -> bool:
 def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
                    zone_width: float | None, floor: float, tol: float, max_iter: int):
     """The final fit: Gauss-Newton on the exact signed point-to-contour distance over every
-    point of ``p`` (n, 2) but the gross outliers, from pose ``T``.
+    point of ``p`` (n, 2) but the gross outliers, from pose ``T``; a point is left out only if
+    it is gross with it included too (engine.outliers.fit_without_gross: when _rounds2 leaves
+    points out, least squares over every point, then _rounds2 again with only the points gross
+    there allowed out). Returns (T, converged, iterations of every fit, kept (n,) bool,
+    GrossRule, Deviations2D at T)."""
+    used = 0
+
+    def fit(T0, included):
+        nonlocal used
+        everything = included is not None and not included.any()
+        out = _rounds2(index, p, T0, zone_width, floor, tol,
+                       min(max_iter, INCLUDED_FIT_ITERATIONS) if everything else max_iter,
+                       included)
+        used += out[2]
+        return out[0], out[6], out[3], out[1], out
+
+    (_, _, _, _, out), _ = fit_without_gross(fit, T, p.shape[0])
+    T1, converged, _, kept, rule, dev, _ = out
+    return T1, converged, used, kept, rule, dev
+
+
+def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: float | None,
+             floor: float, tol: float, max_iter: int, included: np.ndarray | None):
+    """Gauss-Newton on the exact signed point-to-contour distance over every point of ``p``
+    (n, 2) but the gross outliers (only those True in ``included`` (n,) when given; all False:
+    plain least squares over every point), from pose ``T``.
 
     At each pose the gross-outlier rule is applied again (until the left-out set has changed
     RULE_ROUNDS times); the fit has converged when the step over the points the rule keeps at
@@ -396,38 +423,59 @@ def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
     points, so its size does not depend on where the coordinates lie. The deviations returned
     are exact at the returned pose.
 
-    Returns (T, converged, iterations, kept (n,) bool, GrossRule, Deviations2D at T).
+    Returns (T, converged, iterations, kept (n,) bool, GrossRule, Deviations2D at T, (n,) bool
+    gross by the rule alone at T).
     """
+    everything = included is not None and not included.any()
+
+    def rule_at(dev):
+        rule = gross_rule(dev.signed, zone_width, floor)
+        if everything:
+            return rule, np.zeros(dev.signed.size, bool)
+        gross = gross_outliers(dev.signed, dev.foot, rule)
+        return rule, gross if included is None else gross & included
+
     changes = 0
     kept = None
     last = np.inf
+    result = None
     for it in range(1, max_iter + 1):
         X = apply2(T, p)
         dev = deviations_2d(index, X)
         d = dev.signed
         # The set is the rule's at this very pose (until it has changed RULE_ROUNDS times).
         if changes <= RULE_ROUNDS:
-            rule = gross_rule(d, zone_width, floor)
-            new = ~gross_outliers(d, dev.foot, rule)
-            if kept is not None and not np.array_equal(new, kept):
+            rule, out = rule_at(dev)
+            if kept is not None and not np.array_equal(~out, kept):
                 changes += 1
-            kept = new
+            kept = ~out
         if kept.sum() < 3:
-            return T, False, it, kept, rule, dev
+            result = (T, False, it, kept, rule, dev)
+            break
         delta, c, moved = _gn_step2(X, dev, kept)
         dk = d[kept]
         # Converged: the step is negligible, or it has stopped shrinking at a size that only
         # rounding can explain (Gauss-Newton steps shrink fast until they reach that floor).
         if (moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk)))
                 or (moved <= 10.0 * tol and moved >= 0.5 * last)):
-            return T, True, it, kept, rule, dev
+            result = (T, True, it, kept, rule, dev)
+            break
         last = moved
         T = _compose(T[None], delta[None], c[None])[0]
-    dev = deviations_2d(index, apply2(T, p))
-    if changes <= RULE_ROUNDS:
-        rule = gross_rule(dev.signed, zone_width, floor)
-        kept = ~gross_outliers(dev.signed, dev.foot, rule)
-    return T, False, max_iter, kept, rule, dev
+    if result is None:
+        dev = deviations_2d(index, apply2(T, p))
+        if changes <= RULE_ROUNDS:
+            rule, out = rule_at(dev)
+            kept = ~out
+        result = (T, False, max_iter, kept, rule, dev)
+    dev, rule = result[5], result[4]
+    if everything:
+        gross = gross_outliers(dev.signed, dev.foot, rule)
+    elif included is None:
+        gross = ~result[3]
+    else:
+        gross = None  # not asked for
+    return result + (gross,)
 
 
 def _gn_step2(X: np.ndarray, dev: Deviations2D, use: np.ndarray):

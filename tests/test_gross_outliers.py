@@ -225,3 +225,87 @@ def test_outputs_state_the_rule_and_mark_only_the_excluded_points(fairing):
                         namespaces=ns)
     assert [i for i, c in enumerate(value) if c == "1"] == idx.tolist()
     assert not root.xpath("//q:AttributeStr[@name='qa-inspect:outlier']", namespaces=ns)
+
+
+def _grid_part(rng, line, offset):
+    """5,151 points on a 2 mm grid over x in [-100, 100], y in [-50, 50] of the fairing, 0.004 mm
+    noise, the points ``line(x, y)`` (a line one probe-row wide) moved ``offset`` mm along the
+    normal. Returns (measured points, the line's mask, the planted deviations)."""
+    X, Y = np.meshgrid(np.arange(-100, 100.1, 2.0), np.arange(-50, 50.1, 2.0))
+    x, y = X.ravel(), Y.ravel()
+    d = rng.normal(0, 0.004, x.size)
+    on = line(x, y)
+    d[on] += offset
+    q = np.column_stack([x, y, height(x, y)]) + d[:, None] * height_normal(x, y)
+    return apply_transform(make_transform(random_rotation(rng), rng.uniform(-800, 800, 3)), q), \
+        on, d
+
+
+@pytest.mark.parametrize("where, offset", [
+    ("scratch", -1.5),  # a scratch 60 mm long, one probe-row wide, 1.5 mm deep, mid-part
+    ("burr", 1.5),      # a burr 60 mm long, 1.5 mm high, along the measured edge
+])
+def test_a_scratch_or_a_burr_one_row_wide_is_never_excluded(fairing, where, offset):
+    """A line of points far off (1.5 mm, beyond the 1 mm gross threshold of +-0.1): each has
+    only its two neighbours along the line among its 8 nearest (one at the line's ends), yet
+    the line is a region, not a row of mis-probes: every point stays in the fit and is judged
+    at its planted deviation."""
+    rng = np.random.default_rng(3 if where == "scratch" else 4)
+    row = 10.0 if where == "scratch" else 50.0
+    measured, on, d = _grid_part(rng, lambda x, y: (np.abs(y - row) < 0.1) & (np.abs(x) < 30),
+                                 offset)
+    res = inspect(fairing, measured, Tolerance.symmetric(0.1))
+    assert on.sum() == 29 and res.registration.gross_rule.threshold_mm == pytest.approx(1.0)
+    assert res.registration.converged
+    assert not res.outlier.any()
+    assert np.max(np.abs(res.deviations.signed - d)) < 0.05
+    assert not res.in_tolerance[on].any()
+
+
+@pytest.fixture(scope="module")
+def d_shaft():
+    """A D shaft: cylinder R40 about z, 200 mm long, with a flat at x = 40 cos 20 deg (40 deg
+    wide), as a point-set nominal on a 0.5 deg x 3.4 mm grid."""
+    R0, half = 40.0, np.radians(20.0)
+    a, z = np.meshgrid(np.linspace(-np.pi, np.pi, 721), np.linspace(-100, 100, 60))
+    a = a.ravel()
+    flat = np.abs(a) < half
+    r = np.where(flat, R0 * np.cos(half) / np.cos(a), R0)
+    nrm = np.column_stack([np.where(flat, 1.0, np.cos(a)), np.where(flat, 0.0, np.sin(a)),
+                           np.zeros(a.size)])
+    pts = np.column_stack([r * np.cos(a), r * np.sin(a), z.ravel()])
+    return Nominal.from_point_set(point_set(pts, nrm, (721, 60)))
+
+
+@pytest.mark.parametrize("turn_deg, subset", [(10.0, None), (12.0, None), (14.0, None),
+                                               (16.0, None), (10.0, 256), (12.0, 256)])
+def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft, turn_deg,
+                                                                         subset):
+    """600 points on the D shaft's round part only (three 4-5 deg clear of the flat, the rest
+    12 deg or more) and one 10 mm mis-probe. The final fit starts turned about the axis (the
+    cylinder leaves the turn free), with a few good points over the flat, far off and on their
+    own: the fit with every point included turns them back onto the round, so they are kept;
+    the mis-probe stays gross with it included, and is the only point excluded. Before, the good
+    points were excluded too, and nothing turned the pose back (sum d^2 over 1,000 times the
+    optimum). ``subset``: the fit runs on that many points first, then over every point.
+
+    Sum d^2 is within 2% of an independent optimiser's (scipy, from the true pose): a point
+    can end exactly at the flat's edge, where the one point that constrains the turn has a
+    lever under 1 mm and the Gauss-Newton step leaves that direction alone."""
+    from engine.registration import _point_to_surface_fit
+
+    rng = np.random.default_rng(5)
+    m, R0 = 600, 40.0
+    a = np.r_[np.radians([24.3, 24.6, 24.9]), rng.uniform(np.radians(32), np.radians(336), m - 3)]
+    q = np.column_stack([(R0 + rng.normal(0, 0.003, m))[:, None]
+                         * np.column_stack([np.cos(a), np.sin(a)]), rng.uniform(-60, 60, m)])
+    bad = 300
+    q[bad, :2] *= (R0 + 10.0) / R0
+    T0 = np.eye(4)
+    T0[:3, :3] = rotation_from_rotvec(np.radians(turn_deg) * np.array([[0, 0, 1.0]]))[0]
+    T, converged, _, keep, rule, dev = _point_to_surface_fit(
+        d_shaft, q, T0, RegistrationSettings(fit_measured=subset or 16384), 0.06)[:6]
+    assert converged and rule.threshold_mm == pytest.approx(0.3)
+    assert np.flatnonzero(~keep).tolist() == [bad]
+    best = _optimum(d_shaft, q, np.eye(4), keep)
+    assert float(np.sum(dev.signed[keep] ** 2)) <= best * 1.02
