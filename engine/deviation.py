@@ -6,7 +6,8 @@ nominal's outward normal** (excess material), negative inside the material.
 Method, for each registered point ``p`` (nominal frame):
 
 1. Local facets. Bare nominal points: the 4 nearest points and the 4 triangles they form (the
-   paper's Fig. 5). Meshes and u-v grids: their real triangles around the nearest point, widened
+   paper's Fig. 5); where these are slivers, fans from the nearest point to its neighbours (to
+   neighbours spread in direction where the sampling is anisotropic, up to 15:1). Meshes and u-v grids: their real triangles around the nearest point, widened
    to those around the 4 nearest points when the closest point lands on the rim of that first
    neighbourhood. The exact closest point on each triangle (face, edge or vertex) is computed and
    the nearest facet kept.
@@ -29,6 +30,8 @@ from .geometry import closest_point_on_triangles
 from .nominal import Nominal
 
 MAX_NORMAL_TILT_DEG = 25.0
+SPREAD_NEIGHBOURS = 48  # neighbours searched for directions where the 8 nearest are collinear
+SPREAD_SECTORS = 12     # angular sectors of the tangent plane, 30 degrees each
 _QUAD_TRIS = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]])
 
 
@@ -101,6 +104,9 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
     Where those facets are slivers (4 nearly collinear neighbours, as on a u-v grid) or the foot
     point falls on a facet's border, the fan of triangles from the nearest point to pairs of its
     8 nearest neighbours is searched as well, preferring a well-shaped facet that holds the foot.
+    Where none does (anisotropic sampling: the 8 nearest lie in one row), the fan to neighbours
+    spread in direction (:func:`_spread_fan`) is searched; if that finds none either, the choice
+    so far stands (a foot beyond the sampled surface's border).
     """
     k = min(4, nominal.n)
     _, nn = nominal.tree.query(pts, k=k, workers=-1)
@@ -114,9 +120,53 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
         fan = np.stack([np.broadcast_to(nn8[:, :1], (bad.size, i.size)),
                         nn8[:, 1:][:, i], nn8[:, 1:][:, j]], axis=2)
         tris2 = np.concatenate([sel[bad][:, None, :], fan], axis=1)
-        sel2, b2, _ = _pick_facet(nominal, pts[bad], tris2)
+        sel2, b2, good2 = _pick_facet(nominal, pts[bad], tris2)
         sel[bad], b[bad] = sel2, b2
+        bad = bad[~good2]
+    if bad.size and nominal.n > 8:
+        sel3, b3, good3 = _pick_facet(nominal, pts[bad], _spread_fan(nominal, pts[bad]))
+        keep = bad[good3]
+        sel[keep], b[keep] = sel3[good3], b3[good3]
     return nominal.points[sel], nominal.normals(sel), b
+
+
+def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
+    """Fan facets (m, t, 3) from the nearest nominal point to neighbours spread in direction.
+
+    On anisotropic bare points (a CAD u-v sample written without its grid: 0.35 mm apart along
+    one direction, 2 mm along the other) the 8 nearest neighbours all lie in the same row, nearly
+    collinear, and no well-shaped facet holds the foot. Here ``SPREAD_NEIGHBOURS`` neighbours
+    are taken instead and, in ``SPREAD_SECTORS`` equal angular sectors of the tangent plane (the
+    nominal normal at the nearest point), the nearest one in each sector is kept; the fan from
+    the nearest point to every pair of those is returned. Neighbours steeper than 45 degrees
+    out of the tangent plane (the far side of a thin wall) and copies of the nearest point are
+    left out; an empty sector repeats the nearest point (a degenerate facet, never chosen as
+    well shaped).
+    """
+    m = pts.shape[0]
+    k = min(SPREAD_NEIGHBOURS, nominal.n)
+    _, nb = nominal.tree.query(pts, k=k, workers=-1)
+    centre = nb[:, 0]
+    n0 = nominal.normals(centre)
+    d = nominal.points[nb[:, 1:]] - nominal.points[centre][:, None, :]  # (m, k-1, 3) mm
+    h = np.einsum("mkj,mj->mk", d, n0)
+    t = d - h[..., None] * n0[:, None, :]
+    # Any orthonormal frame (e1, e2) of the tangent plane: the sectors need no particular start.
+    helper = np.where(np.abs(n0[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+    e1 = np.cross(n0, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(n0, e1)
+    ang = np.arctan2(np.einsum("mkj,mj->mk", t, e2), np.einsum("mkj,mj->mk", t, e1))
+    sector = np.minimum(((ang + np.pi) / (2 * np.pi) * SPREAD_SECTORS).astype(np.int64),
+                        SPREAD_SECTORS - 1)
+    flat_enough = np.abs(h) < np.linalg.norm(t, axis=2)  # also drops copies of the centre
+    sector = np.where(flat_enough, sector, SPREAD_SECTORS)  # a discard column
+    rep = np.repeat(centre[:, None], SPREAD_SECTORS + 1, axis=1)
+    rows = np.arange(m)
+    for col in range(k - 2, -1, -1):  # farthest first, so the nearest in each sector stays
+        rep[rows, sector[:, col]] = nb[:, col + 1]
+    i, j = np.triu_indices(SPREAD_SECTORS, 1)
+    return np.stack([np.broadcast_to(centre[:, None], (m, i.size)), rep[:, i], rep[:, j]], axis=2)
 
 
 def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
