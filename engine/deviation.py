@@ -7,8 +7,9 @@ Method, for each registered point ``p`` (nominal frame):
 
 1. Local facets. Bare nominal points: the 4 nearest points and the 4 triangles they form (the
    paper's Fig. 5); where these are slivers, fans from the nearest point to its neighbours (to
-   neighbours spread in direction where the sampling is anisotropic, up to 15:1). Meshes and u-v grids: their real triangles around the nearest point, widened
-   to those around the 4 nearest points when the closest point lands on the rim of that first
+   neighbours spread in direction where the sampling is anisotropic, tested up to 15:1).
+   Meshes and u-v grids: their real triangles around the nearest point, widened to those
+   around the 4 nearest points when the closest point lands on the rim of that first
    neighbourhood. The exact closest point on each triangle (face, edge or vertex) is computed and
    the nearest facet kept.
 2. Curvature between samples. A flat facet cuts the chord of a curved surface, off by about

@@ -203,6 +203,7 @@ def test_anisotropic_bare_points_estimated_normals():
     rng = np.random.default_rng(9)
     b = rng.uniform(-np.pi, np.pi, 2000)
     dev = rng.uniform(-0.3, 0.3, 2000)
-    q = np.column_stack([(r0 + dev) * np.cos(b), (r0 + dev) * np.sin(b), rng.uniform(-28, 28, 2000)])
+    z = rng.uniform(-28, 28, 2000)
+    q = np.column_stack([(r0 + dev) * np.cos(b), (r0 + dev) * np.sin(b), z])
     d = point_to_surface(nom, q).signed
     assert np.max(np.abs(d - dev)) < 5e-3  # mm, and so the sign is right beyond 5 um
