@@ -105,14 +105,16 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
     Where those facets are slivers (4 nearly collinear neighbours, as on a u-v grid) or the foot
     point falls on a facet's border, the fan of triangles from the nearest point to pairs of its
     8 nearest neighbours is searched as well, preferring a well-shaped facet that holds the foot.
-    Where none does (anisotropic sampling: the 8 nearest lie in one row), the fan to neighbours
-    spread in direction (:func:`_spread_fan`) is searched; if that finds none either, the choice
-    so far stands (a foot beyond the sampled surface's border).
+    Where the choice is still a sliver (anisotropic sampling, the 8 nearest in one row; the
+    border row of a sample), the fan to neighbours spread in direction (:func:`_spread_fan`) is
+    searched: its nearest well-shaped facet holding the foot, else its nearest well-shaped one
+    (the foot on a vertex of a convex sample, or beyond the border), replaces the sliver, whose
+    own normal is meaningless. Points whose facet is already well shaped never get here.
     """
     k = min(4, nominal.n)
     _, nn = nominal.tree.query(pts, k=k, workers=-1)
     tris = nn[:, _QUAD_TRIS] if k == 4 else nn[:, None, :3]  # (n, t, 3) point indices
-    sel, b, good = _pick_facet(nominal, pts, tris)
+    sel, b, good, shaped = _pick_facet(nominal, pts, tris)
     bad = np.flatnonzero(~good)
     if bad.size and nominal.n > 4:
         k8 = min(8, nominal.n)
@@ -121,13 +123,15 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
         fan = np.stack([np.broadcast_to(nn8[:, :1], (bad.size, i.size)),
                         nn8[:, 1:][:, i], nn8[:, 1:][:, j]], axis=2)
         tris2 = np.concatenate([sel[bad][:, None, :], fan], axis=1)
-        sel2, b2, good2 = _pick_facet(nominal, pts[bad], tris2)
-        sel[bad], b[bad] = sel2, b2
+        sel2, b2, good2, shaped2 = _pick_facet(nominal, pts[bad], tris2)
+        sel[bad], b[bad], shaped[bad] = sel2, b2, shaped2
         bad = bad[~good2]
+    bad = bad[~shaped[bad]]
     if bad.size and nominal.n > 8:
-        sel3, b3, good3 = _pick_facet(nominal, pts[bad], _spread_fan(nominal, pts[bad]))
-        keep = bad[good3]
-        sel[keep], b[keep] = sel3[good3], b3[good3]
+        sel3, b3, _, shaped3 = _pick_facet(nominal, pts[bad], _spread_fan(nominal, pts[bad]),
+                                           shaped_next=True)
+        take = bad[shaped3]
+        sel[take], b[take] = sel3[shaped3], b3[shaped3]
     return nominal.points[sel], nominal.normals(sel), b
 
 
@@ -138,18 +142,19 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
     one direction, 2 mm along the other) the 8 nearest neighbours all lie in the same row, nearly
     collinear, and no well-shaped facet holds the foot. Here ``SPREAD_NEIGHBOURS`` neighbours
     are taken instead and, in ``SPREAD_SECTORS`` equal angular sectors of the tangent plane (the
-    nominal normal at the nearest point), the nearest one in each sector is kept; the fan from
-    the nearest point to every pair of those is returned. Neighbours steeper than 45 degrees
-    out of the tangent plane (the far side of a thin wall) and copies of the nearest point are
-    left out; an empty sector repeats the nearest point (a degenerate facet, never chosen as
-    well shaped).
+    nominal normal at the nearest point), the nearest one in each sector is kept; the facets from
+    the nearest point to each kept neighbour and the next (and the next but one) around it
+    are returned. Neighbours steeper than 45 degrees out of the tangent plane (the far side of a
+    thin wall) and copies of the nearest point are left out; a missing neighbour repeats the
+    nearest point (a degenerate facet, never chosen as well shaped).
     """
     m = pts.shape[0]
     k = min(SPREAD_NEIGHBOURS, nominal.n)
     _, nb = nominal.tree.query(pts, k=k, workers=-1)
     centre = nb[:, 0]
     n0 = nominal.normals(centre)
-    d = nominal.points[nb[:, 1:]] - nominal.points[centre][:, None, :]  # (m, k-1, 3) mm
+    c = nominal.points[centre]
+    d = nominal.points[nb[:, 1:]] - c[:, None, :]  # (m, k-1, 3) mm
     h = np.einsum("mkj,mj->mk", d, n0)
     t = d - h[..., None] * n0[:, None, :]
     # Any orthonormal frame (e1, e2) of the tangent plane: the sectors need no particular start.
@@ -162,19 +167,38 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
                         SPREAD_SECTORS - 1)
     flat_enough = np.abs(h) < np.linalg.norm(t, axis=2)  # also drops copies of the centre
     sector = np.where(flat_enough, sector, SPREAD_SECTORS)  # a discard column
-    rep = np.repeat(centre[:, None], SPREAD_SECTORS + 1, axis=1)
+    # The nearest neighbour in each sector: the first column (neighbours come nearest first).
+    first = np.full((m, SPREAD_SECTORS + 1), k - 1)
     rows = np.arange(m)
-    for col in range(k - 2, -1, -1):  # farthest first, so the nearest in each sector stays
-        rep[rows, sector[:, col]] = nb[:, col + 1]
-    i, j = np.triu_indices(SPREAD_SECTORS, 1)
-    return np.stack([np.broadcast_to(centre[:, None], (m, i.size)), rep[:, i], rep[:, j]], axis=2)
+    np.minimum.at(first, (np.repeat(rows, k - 1), sector.ravel()), np.tile(np.arange(k - 1), m))
+    found = first < k - 1
+    col = np.minimum(first, k - 2)
+    rep = np.where(found, np.take_along_axis(nb[:, 1:], col, axis=1), -1)
+    rep_ang = np.take_along_axis(ang, col, axis=1)
+    # The kept neighbours in angular order around the centre (missing ones last), and the ring
+    # of facets between each and the next one and the one after (the closed star of the centre,
+    # which holds any foot near it whatever side of the centre it falls on).
+    order = np.argsort(np.where(rep[:, :-1] >= 0, rep_ang[:, :-1], np.inf), axis=1)
+    ring = np.take_along_axis(rep, order, axis=1)
+    count = np.sum(ring >= 0, axis=1, keepdims=True)
+    slot = np.arange(SPREAD_SECTORS)
+    first, second = [], []
+    for step in (1, 2):
+        nxt = np.take_along_axis(ring, (slot + step) % np.maximum(count, 1), axis=1)
+        usable = (slot < count) & (count > step)
+        first.append(np.where(usable, ring, centre[:, None]))
+        second.append(np.where(usable, nxt, centre[:, None]))
+    first, second = np.concatenate(first, axis=1), np.concatenate(second, axis=1)
+    return np.stack([np.broadcast_to(centre[:, None], first.shape), first, second], axis=2)
 
 
-def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
+def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray, shaped_next: bool = False):
     """Among candidate facets (n, t, 3) pick per point the nearest well-shaped one holding the foot.
 
-    Returns (chosen facet (n, 3) point indices, barycentrics (n, 3), good (n,)) where ``good`` says
-    the chosen facet is well shaped and its foot point interior.
+    Where none holds the foot, the nearest facet (with ``shaped_next``, the nearest well-shaped
+    one if any). Returns (chosen facet (n, 3) point indices, barycentrics (n, 3), good (n,),
+    shaped (n,)) where ``good`` says the chosen facet is well shaped and its foot point interior,
+    ``shaped`` that it is well shaped.
     """
     n, t = tris.shape[:2]
     P = np.repeat(pts, t, axis=0)
@@ -184,12 +208,19 @@ def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
     area2 = np.linalg.norm(np.cross(Vt[:, 1] - Vt[:, 0], Vt[:, 2] - Vt[:, 0]), axis=1)
     edges2 = np.sum((Vt - np.roll(Vt, 1, axis=1)) ** 2, axis=(1, 2))
     quality = (2.0 * np.sqrt(3.0) * area2 / np.maximum(edges2, 1e-300)).reshape(n, t)
-    ok = (quality > 0.1) & np.all(b > 1e-9, axis=1).reshape(n, t)
+    shaped = quality > 0.1
+    ok = shaped & np.all(b > 1e-9, axis=1).reshape(n, t)
     # Prefer facets that are well shaped and hold the foot; among them (or all) the nearest.
     key = np.where(ok, d2, d2 + np.inf)
-    best = np.where(ok.any(axis=1), np.argmin(key, axis=1), np.argmin(d2, axis=1))
+    fallback = np.argmin(d2, axis=1)
+    if shaped_next:
+        # Then well-shaped facets: a sliver's own normal is meaningless.
+        fallback = np.where(shaped.any(axis=1), np.argmin(np.where(shaped, d2, np.inf), axis=1),
+                            fallback)
+    best = np.where(ok.any(axis=1), np.argmin(key, axis=1), fallback)
     rows = np.arange(n)
-    return tris[rows, best], b.reshape(n, t, 3)[rows, best], ok[rows, best]
+    return (tris[rows, best], b.reshape(n, t, 3)[rows, best], ok[rows, best],
+            shaped[rows, best])
 
 
 def _mesh_facets(nominal: Nominal, pts: np.ndarray):

@@ -7,8 +7,8 @@ from scipy.spatial import ConvexHull
 from engine.deviation import point_to_surface
 from engine.nominal import Nominal
 from naive import distance_to_mesh
-from surfaces import (exact_signed_distance, height_grid, points_off_surface, point_set,
-                      sphere_points)
+from surfaces import (exact_signed_distance, height, height_grid, height_normal,
+                      points_off_surface, point_set, sphere_points)
 
 
 def outward_hull(pts):
@@ -207,3 +207,25 @@ def test_anisotropic_bare_points_estimated_normals():
     q = np.column_stack([(r0 + dev) * np.cos(b), (r0 + dev) * np.sin(b), z])
     d = point_to_surface(nom, q).signed
     assert np.max(np.abs(d - dev)) < 5e-3  # mm, and so the sign is right beyond 5 um
+
+
+@pytest.mark.parametrize("with_normals", [True, False])
+def test_bare_points_at_the_border_of_the_sample(with_normals):
+    """Near the edge of a bare-point sample the nearest 4 and 8 samples lie along the border row,
+    nearly collinear: a sliver facet's own normal is meaningless (0.3 mm off). Feet up to 0.3 mm
+    beyond the border stay on the surface continued (``_finish``: less than a facet's edge,
+    here 1.3-1.7 mm). Truth: the offsets along the analytic surface's normal."""
+    pts, nrm, _ = height_grid(300, 200)
+    nom = Nominal.from_point_set(point_set(pts, nrm if with_normals else None))
+    rng = np.random.default_rng(12)
+    m = 2000
+    along = rng.uniform(-240, 240, m)
+    inset = rng.uniform(-0.3, 0.5, m)  # mm inside the border row (negative: beyond it)
+    side = rng.integers(0, 4, m)
+    x = np.where(side == 0, -250 + inset, np.where(side == 1, 250 - inset, along))
+    y = np.where(side == 2, -125 + inset, np.where(side == 3, 125 - inset,
+                                                   np.clip(along / 2, -115, 115)))
+    dev = rng.uniform(-0.4, 0.4, m)
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    d = point_to_surface(nom, q).signed
+    assert np.max(np.abs(d - dev)) < 1e-3  # mm
