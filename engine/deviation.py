@@ -7,7 +7,8 @@ Method, for each registered point ``p`` (nominal frame):
 
 1. Local facets. Bare nominal points: the 4 nearest points and the 4 triangles they form (the
    paper's Fig. 5); where these are slivers, fans from the nearest point to its neighbours (to
-   neighbours spread in direction where the sampling is anisotropic, tested up to 15:1).
+   neighbours spread in direction where the sampling is anisotropic, tested up to 15:1, and
+   along a sample's border row).
    Meshes and u-v grids: their real triangles around the nearest point, widened to those
    around the 4 nearest points when the closest point lands on the rim of that first
    neighbourhood. The exact closest point on each triangle (face, edge or vertex) is computed and
@@ -140,11 +141,11 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
 
     On anisotropic bare points (a CAD u-v sample written without its grid: 0.35 mm apart along
     one direction, 2 mm along the other) the 8 nearest neighbours all lie in the same row, nearly
-    collinear, and no well-shaped facet holds the foot. Here ``SPREAD_NEIGHBOURS`` neighbours
-    are taken instead and, in ``SPREAD_SECTORS`` equal angular sectors of the tangent plane (the
-    nominal normal at the nearest point), the nearest one in each sector is kept; the facets from
-    the nearest point to each kept neighbour and the next (and the next but one) around it
-    are returned. Neighbours steeper than 45 degrees out of the tangent plane (the far side of a
+    collinear (so do those along a sample's border row), and every facet among them is a sliver.
+    Here ``SPREAD_NEIGHBOURS`` neighbours are taken instead and, in ``SPREAD_SECTORS`` equal
+    angular sectors of the tangent plane (the nominal normal at the nearest point), the nearest
+    one in each sector is kept; the facets from the nearest point to each kept neighbour and the
+    next (and the next but one) around it are returned (m, 2 x SPREAD_SECTORS, 3). Neighbours steeper than 45 degrees out of the tangent plane (the far side of a
     thin wall) and copies of the nearest point are left out; a missing neighbour repeats the
     nearest point (a degenerate facet, never chosen as well shaped).
     """
@@ -182,14 +183,14 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
     ring = np.take_along_axis(rep, order, axis=1)
     count = np.sum(ring >= 0, axis=1, keepdims=True)
     slot = np.arange(SPREAD_SECTORS)
-    first, second = [], []
+    one, two = [], []
     for step in (1, 2):
         nxt = np.take_along_axis(ring, (slot + step) % np.maximum(count, 1), axis=1)
         usable = (slot < count) & (count > step)
-        first.append(np.where(usable, ring, centre[:, None]))
-        second.append(np.where(usable, nxt, centre[:, None]))
-    first, second = np.concatenate(first, axis=1), np.concatenate(second, axis=1)
-    return np.stack([np.broadcast_to(centre[:, None], first.shape), first, second], axis=2)
+        one.append(np.where(usable, ring, centre[:, None]))
+        two.append(np.where(usable, nxt, centre[:, None]))
+    one, two = np.concatenate(one, axis=1), np.concatenate(two, axis=1)
+    return np.stack([np.broadcast_to(centre[:, None], one.shape), one, two], axis=2)
 
 
 def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray, shaped_next: bool = False):
