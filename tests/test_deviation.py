@@ -229,3 +229,22 @@ def test_bare_points_at_the_border_of_the_sample(with_normals):
     q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
     d = point_to_surface(nom, q).signed
     assert np.max(np.abs(d - dev)) < 1e-3  # mm
+
+
+def test_lat_long_sphere_near_its_poles():
+    """A sphere sampled on latitudes and longitudes as bare points with normals: towards the
+    poles the longitudes close in (6:1 to 18:1 between 10 and 3 degrees from a pole), and the
+    nearest samples all lie on one latitude (0.75 mm off there). Truth: the radial offset."""
+    r = 50.0
+    pts, nrm = sphere_points(r=r)
+    nom = Nominal.from_point_set(point_set(pts, nrm))
+    rng = np.random.default_rng(13)
+    m = 2000
+    polar = np.radians(rng.uniform(3.0, 10.0, m))  # from the nearer pole; the samples stop at 2.9
+    azim = rng.uniform(0, 2 * np.pi, m)
+    up = np.where(rng.random(m) < 0.5, 1.0, -1.0)
+    dirs = np.column_stack([np.sin(polar) * np.cos(azim), np.sin(polar) * np.sin(azim),
+                            up * np.cos(polar)])
+    dev = rng.uniform(-1.0, 1.0, m)
+    d = point_to_surface(nom, dirs * (r + dev)[:, None]).signed
+    assert np.max(np.abs(d - dev)) < 1e-3  # mm
