@@ -6,8 +6,11 @@ nominal's outward normal** (excess material), negative inside the material.
 Method, for each registered point ``p`` (nominal frame):
 
 1. Local facets. Bare nominal points: the 4 nearest points and the 4 triangles they form (the
-   paper's Fig. 5). Meshes and u-v grids: their real triangles around the nearest point, widened
-   to those around the 4 nearest points when the closest point lands on the rim of that first
+   paper's Fig. 5); where these are slivers, fans from the nearest point to its neighbours (to
+   neighbours spread in direction where the sampling is anisotropic, tested up to 15:1, and
+   along a sample's border row).
+   Meshes and u-v grids: their real triangles around the nearest point, widened to those
+   around the 4 nearest points when the closest point lands on the rim of that first
    neighbourhood. The exact closest point on each triangle (face, edge or vertex) is computed and
    the nearest facet kept.
 2. Curvature between samples. A flat facet cuts the chord of a curved surface, off by about
@@ -29,6 +32,8 @@ from .geometry import closest_point_on_triangles
 from .nominal import Nominal
 
 MAX_NORMAL_TILT_DEG = 25.0
+SPREAD_NEIGHBOURS = 48  # neighbours searched for directions where the 8 nearest are collinear
+SPREAD_SECTORS = 12     # angular sectors of the tangent plane, 30 degrees each
 _QUAD_TRIS = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]])
 
 
@@ -101,11 +106,16 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
     Where those facets are slivers (4 nearly collinear neighbours, as on a u-v grid) or the foot
     point falls on a facet's border, the fan of triangles from the nearest point to pairs of its
     8 nearest neighbours is searched as well, preferring a well-shaped facet that holds the foot.
+    Where the choice is still a sliver (anisotropic sampling, the 8 nearest in one row; the
+    border row of a sample), the fan to neighbours spread in direction (:func:`_spread_fan`) is
+    searched: its nearest well-shaped facet holding the foot, else its nearest well-shaped one
+    (the foot on a vertex of a convex sample, or beyond the border), replaces the sliver, whose
+    own normal is meaningless. Points whose facet is already well shaped never get here.
     """
     k = min(4, nominal.n)
     _, nn = nominal.tree.query(pts, k=k, workers=-1)
     tris = nn[:, _QUAD_TRIS] if k == 4 else nn[:, None, :3]  # (n, t, 3) point indices
-    sel, b, good = _pick_facet(nominal, pts, tris)
+    sel, b, good, shaped = _pick_facet(nominal, pts, tris)
     bad = np.flatnonzero(~good)
     if bad.size and nominal.n > 4:
         k8 = min(8, nominal.n)
@@ -114,16 +124,82 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
         fan = np.stack([np.broadcast_to(nn8[:, :1], (bad.size, i.size)),
                         nn8[:, 1:][:, i], nn8[:, 1:][:, j]], axis=2)
         tris2 = np.concatenate([sel[bad][:, None, :], fan], axis=1)
-        sel2, b2, _ = _pick_facet(nominal, pts[bad], tris2)
-        sel[bad], b[bad] = sel2, b2
+        sel2, b2, good2, shaped2 = _pick_facet(nominal, pts[bad], tris2)
+        sel[bad], b[bad], shaped[bad] = sel2, b2, shaped2
+        bad = bad[~good2]
+    bad = bad[~shaped[bad]]
+    if bad.size and nominal.n > 8:
+        sel3, b3, _, shaped3 = _pick_facet(nominal, pts[bad], _spread_fan(nominal, pts[bad]),
+                                           shaped_next=True)
+        take = bad[shaped3]
+        sel[take], b[take] = sel3[shaped3], b3[shaped3]
     return nominal.points[sel], nominal.normals(sel), b
 
 
-def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
+def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
+    """Fan facets (m, t, 3) from the nearest nominal point to neighbours spread in direction.
+
+    On anisotropic bare points (a CAD u-v sample written without its grid: 0.35 mm apart along
+    one direction, 2 mm along the other) the 8 nearest neighbours all lie in the same row, nearly
+    collinear (so do those along a sample's border row), and every facet among them is a sliver.
+    Here ``SPREAD_NEIGHBOURS`` neighbours are taken instead and, in ``SPREAD_SECTORS`` equal
+    angular sectors of the tangent plane (the nominal normal at the nearest point), the nearest
+    one in each sector is kept; the facets from the nearest point to each kept neighbour and the
+    next (and the next but one) around it are returned (m, 2 x SPREAD_SECTORS, 3). Neighbours steeper than 45 degrees out of the tangent plane (the far side of a
+    thin wall) and copies of the nearest point are left out; a missing neighbour repeats the
+    nearest point (a degenerate facet, never chosen as well shaped).
+    """
+    m = pts.shape[0]
+    k = min(SPREAD_NEIGHBOURS, nominal.n)
+    _, nb = nominal.tree.query(pts, k=k, workers=-1)
+    centre = nb[:, 0]
+    n0 = nominal.normals(centre)
+    c = nominal.points[centre]
+    d = nominal.points[nb[:, 1:]] - c[:, None, :]  # (m, k-1, 3) mm
+    h = np.einsum("mkj,mj->mk", d, n0)
+    t = d - h[..., None] * n0[:, None, :]
+    # Any orthonormal frame (e1, e2) of the tangent plane: the sectors need no particular start.
+    helper = np.where(np.abs(n0[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+    e1 = np.cross(n0, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(n0, e1)
+    ang = np.arctan2(np.einsum("mkj,mj->mk", t, e2), np.einsum("mkj,mj->mk", t, e1))
+    sector = np.minimum(((ang + np.pi) / (2 * np.pi) * SPREAD_SECTORS).astype(np.int64),
+                        SPREAD_SECTORS - 1)
+    flat_enough = np.abs(h) < np.linalg.norm(t, axis=2)  # also drops copies of the centre
+    sector = np.where(flat_enough, sector, SPREAD_SECTORS)  # a discard column
+    # The nearest neighbour in each sector: the first column (neighbours come nearest first).
+    first = np.full((m, SPREAD_SECTORS + 1), k - 1)
+    rows = np.arange(m)
+    np.minimum.at(first, (np.repeat(rows, k - 1), sector.ravel()), np.tile(np.arange(k - 1), m))
+    found = first < k - 1
+    col = np.minimum(first, k - 2)
+    rep = np.where(found, np.take_along_axis(nb[:, 1:], col, axis=1), -1)
+    rep_ang = np.take_along_axis(ang, col, axis=1)
+    # The kept neighbours in angular order around the centre (missing ones last), and the ring
+    # of facets between each and the next one and the one after (the closed star of the centre,
+    # which holds any foot near it whatever side of the centre it falls on).
+    order = np.argsort(np.where(rep[:, :-1] >= 0, rep_ang[:, :-1], np.inf), axis=1)
+    ring = np.take_along_axis(rep, order, axis=1)
+    count = np.sum(ring >= 0, axis=1, keepdims=True)
+    slot = np.arange(SPREAD_SECTORS)
+    one, two = [], []
+    for step in (1, 2):
+        nxt = np.take_along_axis(ring, (slot + step) % np.maximum(count, 1), axis=1)
+        usable = (slot < count) & (count > step)
+        one.append(np.where(usable, ring, centre[:, None]))
+        two.append(np.where(usable, nxt, centre[:, None]))
+    one, two = np.concatenate(one, axis=1), np.concatenate(two, axis=1)
+    return np.stack([np.broadcast_to(centre[:, None], one.shape), one, two], axis=2)
+
+
+def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray, shaped_next: bool = False):
     """Among candidate facets (n, t, 3) pick per point the nearest well-shaped one holding the foot.
 
-    Returns (chosen facet (n, 3) point indices, barycentrics (n, 3), good (n,)) where ``good`` says
-    the chosen facet is well shaped and its foot point interior.
+    Where none holds the foot, the nearest facet (with ``shaped_next``, the nearest well-shaped
+    one if any). Returns (chosen facet (n, 3) point indices, barycentrics (n, 3), good (n,),
+    shaped (n,)) where ``good`` says the chosen facet is well shaped and its foot point interior,
+    ``shaped`` that it is well shaped.
     """
     n, t = tris.shape[:2]
     P = np.repeat(pts, t, axis=0)
@@ -133,12 +209,19 @@ def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray):
     area2 = np.linalg.norm(np.cross(Vt[:, 1] - Vt[:, 0], Vt[:, 2] - Vt[:, 0]), axis=1)
     edges2 = np.sum((Vt - np.roll(Vt, 1, axis=1)) ** 2, axis=(1, 2))
     quality = (2.0 * np.sqrt(3.0) * area2 / np.maximum(edges2, 1e-300)).reshape(n, t)
-    ok = (quality > 0.1) & np.all(b > 1e-9, axis=1).reshape(n, t)
+    shaped = quality > 0.1
+    ok = shaped & np.all(b > 1e-9, axis=1).reshape(n, t)
     # Prefer facets that are well shaped and hold the foot; among them (or all) the nearest.
     key = np.where(ok, d2, d2 + np.inf)
-    best = np.where(ok.any(axis=1), np.argmin(key, axis=1), np.argmin(d2, axis=1))
+    fallback = np.argmin(d2, axis=1)
+    if shaped_next:
+        # Then well-shaped facets: a sliver's own normal is meaningless.
+        fallback = np.where(shaped.any(axis=1), np.argmin(np.where(shaped, d2, np.inf), axis=1),
+                            fallback)
+    best = np.where(ok.any(axis=1), np.argmin(key, axis=1), fallback)
     rows = np.arange(n)
-    return tris[rows, best], b.reshape(n, t, 3)[rows, best], ok[rows, best]
+    return (tris[rows, best], b.reshape(n, t, 3)[rows, best], ok[rows, best],
+            shaped[rows, best])
 
 
 def _mesh_facets(nominal: Nominal, pts: np.ndarray):

@@ -7,8 +7,8 @@ from scipy.spatial import ConvexHull
 from engine.deviation import point_to_surface
 from engine.nominal import Nominal
 from naive import distance_to_mesh
-from surfaces import (exact_signed_distance, height_grid, points_off_surface, point_set,
-                      sphere_points)
+from surfaces import (exact_signed_distance, height, height_grid, height_normal,
+                      points_off_surface, point_set, sphere_points)
 
 
 def outward_hull(pts):
@@ -158,3 +158,93 @@ def test_an_unwelded_mesh_is_seen_across_its_duplicated_vertices():
     du = point_to_surface(unwelded, q).signed
     assert np.max(np.abs(du - dw)) < 3e-3
     assert np.max(np.abs(dw - dev)) < 0.05  # a coarse mesh: flat facets sag 0.15 mm at most
+
+
+def anisotropic_cylinder(r0, along, ratio, length, with_normals):
+    """A cylinder of radius r0 sampled as bare points (no grid header, no mesh) on a u-v pattern
+    ``along`` mm apart along its axis and ``ratio`` times closer around it: a CAD u-v sample
+    written without ``# grid:``. Returns (Nominal, outward normals of the samples)."""
+    nu = int(round(2 * np.pi * r0 * ratio / along))
+    nv = int(round(length / along)) + 1
+    A, Z = np.meshgrid(np.linspace(-np.pi, np.pi, nu, endpoint=False),
+                       np.linspace(-length / 2, length / 2, nv))
+    nrm = np.column_stack([np.cos(A.ravel()), np.sin(A.ravel()), np.zeros(A.size)])
+    pts = np.column_stack([r0 * nrm[:, :2], Z.ravel()])
+    return Nominal.from_point_set(point_set(pts, nrm if with_normals else None)), nrm
+
+
+@pytest.mark.parametrize("ratio", [5.8, 10.0])
+def test_anisotropic_bare_points_with_normals(ratio):
+    """At 5.8:1 or 10:1 the 8 nearest samples all lie in one row, nearly collinear: the facets
+    must come from neighbours spread in direction (they came from slivers, 0.6-0.9 mm off for
+    points on the surface). Truth: the radial offset from the cylinder, on and off it."""
+    r0 = 40.0
+    nom, _ = anisotropic_cylinder(r0, 2.0, ratio, 60.0, with_normals=True)
+    rng = np.random.default_rng(8)
+    m = 3000
+    b = rng.uniform(-np.pi, np.pi, m)
+    dev = np.where(np.arange(m) < m // 3, 0.0, rng.uniform(-0.3, 0.3, m))  # a third exactly on it
+    q = np.column_stack([(r0 + dev) * np.cos(b), (r0 + dev) * np.sin(b), rng.uniform(-28, 28, m)])
+    res = point_to_surface(nom, q)
+    assert np.max(np.abs(res.signed - dev)) < 2e-3  # mm
+    # The foot lies on the cylinder, under the point.
+    foot_r = np.hypot(res.foot[:, 0], res.foot[:, 1])
+    assert np.max(np.abs(foot_r - r0)) < 2e-3
+    turn = np.angle(np.exp(1j * (np.arctan2(res.foot[:, 1], res.foot[:, 0]) - b)))
+    assert np.max(np.abs(turn)) * r0 < 2e-3
+    assert np.max(np.abs(res.foot[:, 2] - q[:, 2])) < 2e-3
+
+
+def test_anisotropic_bare_points_estimated_normals():
+    """The same 5.8:1 sample without normals: the estimated normals (0.3 degrees off there: their
+    12 neighbours hold one sample of the next row) cost a few micrometres, not 0.6 mm."""
+    r0 = 40.0
+    nom, _ = anisotropic_cylinder(r0, 2.0, 5.8, 60.0, with_normals=False)
+    rng = np.random.default_rng(9)
+    b = rng.uniform(-np.pi, np.pi, 2000)
+    dev = rng.uniform(-0.3, 0.3, 2000)
+    z = rng.uniform(-28, 28, 2000)
+    q = np.column_stack([(r0 + dev) * np.cos(b), (r0 + dev) * np.sin(b), z])
+    d = point_to_surface(nom, q).signed
+    assert np.max(np.abs(d - dev)) < 5e-3  # mm, and so the sign is right beyond 5 um
+
+
+@pytest.mark.parametrize("with_normals", [True, False])
+def test_bare_points_at_the_border_of_the_sample(with_normals):
+    """Near the edge of a bare-point sample the nearest 4 and 8 samples lie along the border row,
+    nearly collinear: a sliver facet's own normal is meaningless (0.3 mm off). Feet up to 0.3 mm
+    beyond the border stay on the surface continued (``_finish``: less than a facet's edge,
+    here 1.3-1.7 mm). Truth: the offsets along the analytic surface's normal."""
+    pts, nrm, _ = height_grid(300, 200)
+    nom = Nominal.from_point_set(point_set(pts, nrm if with_normals else None))
+    rng = np.random.default_rng(12)
+    m = 2000
+    along = rng.uniform(-240, 240, m)
+    inset = rng.uniform(-0.3, 0.5, m)  # mm inside the border row (negative: beyond it)
+    side = rng.integers(0, 4, m)
+    x = np.where(side == 0, -250 + inset, np.where(side == 1, 250 - inset, along))
+    y = np.where(side == 2, -125 + inset, np.where(side == 3, 125 - inset,
+                                                   np.clip(along / 2, -115, 115)))
+    dev = rng.uniform(-0.4, 0.4, m)
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    d = point_to_surface(nom, q).signed
+    assert np.max(np.abs(d - dev)) < 1e-3  # mm
+
+
+def test_lat_long_sphere_near_its_poles():
+    """A sphere sampled on latitudes and longitudes as bare points with normals: towards the
+    poles the longitudes close in (6:1 to 18:1 between 10 and 3 degrees from a pole), and the
+    nearest samples all lie on one latitude (0.75 mm off there). Truth: the radial offset."""
+    r = 50.0
+    pts, nrm = sphere_points(r=r)
+    nom = Nominal.from_point_set(point_set(pts, nrm))
+    rng = np.random.default_rng(13)
+    m = 2000
+    polar = np.radians(rng.uniform(3.0, 10.0, m))  # from the nearer pole; the samples stop at 2.9
+    azim = rng.uniform(0, 2 * np.pi, m)
+    up = np.where(rng.random(m) < 0.5, 1.0, -1.0)
+    dirs = np.column_stack([np.sin(polar) * np.cos(azim), np.sin(polar) * np.sin(azim),
+                            up * np.cos(polar)])
+    dev = rng.uniform(-1.0, 1.0, m)
+    d = point_to_surface(nom, dirs * (r + dev)[:, None]).signed
+    assert np.max(np.abs(d - dev)) < 1e-3  # mm
