@@ -17,13 +17,15 @@ writing (:func:`write_all`), both by :func:`output_kind`:
   the link by a file would silently cut whatever the link was there for).
 * A character device or a FIFO (``/dev/null``, ``/dev/stdout`` on a pipe or terminal, a named
   pipe a reader waits on), or a path through ``/dev/stdout``, ``/dev/fd/N``, ``/proc/*/fd/N``:
-  written *through*, opened for appending without creating or truncating (one of this process's
-  own descriptors is written through a duplicate, sharing its position: ``--json /dev/stdout >
-  out.txt`` puts the JSON and what is printed after it one after the other in out.txt). Renaming a temporary file onto such a target would replace the system's ``/dev/null``
-  (as root), cut the pipe's reader off for ever and print nothing where the user asked for it.
-  A stream cannot be taken back, so "all or none" cannot hold for it: streams are written last,
-  after every regular file was renamed, in the order given; a failure then leaves the regular
-  files written and says so.
+  written *through*, opened for appending without creating or truncating, as ``cp``, ``tee``
+  and the shell's ``>`` do; these are what users name to discard or pipe an output
+  (``--json /dev/null``, ``--csv /dev/stdout | ...``). One of this process's own descriptors is
+  written through a duplicate, sharing its position with what is printed afterwards
+  (``--json /dev/stdout > out.txt`` gives the JSON, then the summary). Renaming a temporary
+  file onto such a target would replace the system's ``/dev/null`` (as root), leave a pipe's
+  reader waiting for ever and print nothing where the user asked for it. A stream cannot be
+  taken back, so "all or none" cannot hold for it: streams are written last, after every
+  regular file was renamed, in the order given; a failure then names the files written.
 * A folder, a socket, a block device (a disk: never written by an inspection tool) or anything
   else: refused, a usage error (OutputConflictError).
 * A regular file that is a signing identity or a certificate of trust (a PKCS#12 file, a PEM or
