@@ -4,12 +4,15 @@ Exit codes (a contract): 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE, 64 usage error, 65 
 66 input file not found, 73 an output could not be written, 70 internal error, 130 interrupted.
 
 Usage errors (64) include an empty file name, an output that is one of the run's inputs (NOMINAL,
-MEASURED, the --sign identity) or another output, an --inspector who is not the signer, and a
-signed ACCEPTED certificate without --part-number and --serial (found after the run; nothing is
-written). A signing identity that cannot sign certificates (wrong passphrase, not valid now, key
-usage without digitalSignature and nonRepudiation) is bad input (65), found before any work;
-``verify`` fails (1) a certificate signed with one. The outputs of one run are written all
-together or not at all (73 leaves every target as it was).
+MEASURED, the --sign identity) or another output, an output onto a folder, a socket, a block
+device or a key or certificate file (reports.outputs), ``--report -``, ``--csv -`` with
+``--json -``, an --inspector who is not the signer, and a signed ACCEPTED certificate without
+--part-number and --serial (found after the run; nothing is written). A signing identity that
+cannot sign certificates (wrong passphrase, not valid now, key usage without digitalSignature and
+nonRepudiation) is bad input (65), found before any work; ``verify`` fails (1) a certificate
+signed with one. The output files of one run are written all together or not at all (73 leaves
+every target as it was); a character device or pipe (/dev/null, /dev/stdout) is written through,
+after the files.
 """
 
 from __future__ import annotations
@@ -79,7 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simple: every point inside the zone (default); guarded: limits guarded "
                         "by each point's nominal-sampling margin, INCONCLUSIVE between")
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
-    i.add_argument("--csv", metavar="FILE", help="write one CSV row per measured point")
+    i.add_argument("--csv", metavar="FILE|-",
+                   help="write one CSV row per measured point (- for stdout)")
     c = i.add_argument_group("certificate")
     c.add_argument("--report", metavar="FILE.pdf",
                    help="write the inspection certificate (PDF; an UNSIGNED DRAFT without "
@@ -126,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
-                  [--json FILE|-] [--csv FILE] [--layer NAME] [--units U] [--scale CHORD]
+                  [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U] [--scale CHORD]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
        qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]
@@ -228,8 +232,14 @@ def _cmd_inspect(args) -> int:
     tol = _tolerance(args)  # usage errors first, before any process is started
     if args.sign and not args.report:
         raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
+    if args.report == "-":
+        raise UsageError("qa-inspect inspect: --report needs a file name (a PDF is not written "
+                         "to standard output)")
+    if args.csv == "-" and args.json == "-":
+        raise UsageError("qa-inspect inspect: --csv - and --json - both ask for standard "
+                         "output; give one of them a file name")
     try:
-        check_outputs({"--report": args.report, "--csv": args.csv,
+        check_outputs({"--report": args.report, "--csv": None if args.csv == "-" else args.csv,
                        "--json": None if args.json == "-" else args.json},
                       {"NOMINAL": args.nominal, "MEASURED": args.measured,
                        "--sign identity": args.sign})
@@ -361,7 +371,7 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
 
-    from .outputs import Output, write_all
+    from .outputs import Output, OutputConflictError, write_all
     from .pipeline import InspectionSettings, run_files
     from .results import points_csv, result_json
 
@@ -403,15 +413,25 @@ def _run_inspect(args, tol, renderer) -> int:
             raise UsageError(f"qa-inspect inspect: {e}") from e
         outputs.append(Output(args.report, make_certificate(run, info, identity,
                                                             renderer=renderer)))
+    stdout = None  # "-": the one output written to standard output
     if args.csv:
-        outputs.append(Output(args.csv, points_csv(result, run.measured.points,
-                                                   run.measured.labels)))
-    if args.json and args.json != "-":
-        outputs.append(Output(args.json, result_json(run.doc)))
-    write_all(outputs)  # every file or none; stdout only after they all succeeded
+        csv_text = points_csv(result, run.measured.points, run.measured.labels)
+        if args.csv == "-":
+            stdout = csv_text
+        else:
+            outputs.append(Output(args.csv, csv_text))
+    if args.json:
+        if args.json == "-":
+            stdout = result_json(run.doc)
+        else:
+            outputs.append(Output(args.json, result_json(run.doc)))
+    try:
+        write_all(outputs)  # every file or none; stdout only after they all succeeded
+    except OutputConflictError as e:  # the target changed into a folder, key... during the run
+        raise UsageError(f"qa-inspect inspect: {e}") from e
     written = [o.path for o in outputs]
-    if args.json == "-":
-        sys.stdout.write(result_json(run.doc))
+    if stdout is not None:
+        sys.stdout.write(stdout)
     else:
         print(_summary(result, written))
     return EXIT[result.verdict]

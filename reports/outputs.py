@@ -8,11 +8,38 @@ written all together or not at all.
   onto their targets only when every one was written. A failure removes every temporary file and
   leaves each target as it was; a rename that fails midway undoes the renames already done (a
   replaced target gets its previous content back from a hard link kept until the end).
+
+What a target may be, decided before any work (:func:`check_outputs`) and again just before
+writing (:func:`write_all`), both by :func:`output_kind`:
+
+* A regular file, or no file yet: replaced atomically as above. A symbolic link is followed: the
+  file it points to is replaced and the link stays a link (what ``>`` in a shell does; replacing
+  the link by a file would silently cut whatever the link was there for).
+* A character device or a FIFO (``/dev/null``, ``/dev/stdout`` on a pipe or terminal, a named
+  pipe a reader waits on), or a path through ``/dev/stdout``, ``/dev/fd/N``, ``/proc/*/fd/N``:
+  written *through*, opened for appending without creating or truncating, as ``cp``, ``tee``
+  and the shell's ``>`` do; these are what users name to discard or pipe an output
+  (``--json /dev/null``, ``--csv /dev/stdout | ...``). One of this process's own descriptors is
+  written through a duplicate, sharing its position with what is printed afterwards
+  (``--json /dev/stdout > out.txt`` gives the JSON, then the summary). Renaming a temporary
+  file onto such a target would replace the system's ``/dev/null`` (as root), leave a pipe's
+  reader waiting for ever and print nothing where the user asked for it. A stream cannot be
+  taken back, so "all or none" cannot hold for it: streams are written last, after every
+  regular file was renamed, in the order given; a failure then names the files written.
+* A folder, a socket, a block device (a disk: never written by an inspection tool) or anything
+  else: refused, a usage error (OutputConflictError).
+* A regular file that is a signing identity or a certificate of trust (a PKCS#12 file, a PEM or
+  DER key or certificate, see :func:`is_key_material`): refused. Losing ``inspector.p12`` or
+  ``ca.pem`` to a mistyped ``--csv`` cannot be undone; the earlier outputs of qa-inspect (PDF,
+  CSV, JSON, QIF, sessions) start with text or ``%PDF`` and stay replaceable.
 """
 
 from __future__ import annotations
 
 import os
+import re
+import stat
+import sys
 import tempfile
 from dataclasses import dataclass
 
@@ -20,7 +47,95 @@ from engine.errors import SettingsError
 
 
 class OutputConflictError(SettingsError):
-    """An output path is empty, is an input, or is another output (a usage error)."""
+    """An output path is empty, is an input, is another output, is no file to write (a folder,
+    socket, block device) or is a key or certificate (a usage error)."""
+
+
+#: Paths that are one of this process's open files: written through, never renamed onto.
+_FD_PATH = re.compile(r"^/(?:dev/(?:std(?:in|out|err)|fd/\d+)|proc/[^/]+/fd/\d+)$")
+#: PEM armour of keys and certificates at the start of a line ("-----BEGIN CERTIFICATE-----",
+#: "-----BEGIN ENCRYPTED PRIVATE KEY-----", "-----BEGIN PKCS7-----", ...). JSON escapes its
+#: line breaks and a PDF compresses its text, so no output of this product matches.
+_PEM = re.compile(rb"(?:^|\n)-----BEGIN [A-Z0-9 ]*(?:CERTIFICATE|PRIVATE KEY|PKCS7|PKCS12|"
+                  rb"X509 CRL|PUBLIC KEY)[A-Z0-9 ]*-----\r?\n")
+_SNIFF = 1 << 16  # bytes read to look for PEM armour (text before it, e.g. openssl -text)
+
+
+def is_key_material(head: bytes, size: int) -> bool:
+    """True when a file of ``size`` bytes starting with ``head`` is a key, a certificate or a
+    PKCS#12 identity: PEM armour at a line start, or one DER SEQUENCE spanning exactly the
+    whole file (PKCS#12, X.509, PKCS#8, PKCS#7 in DER; tag 0x30 and a definite length whose
+    value ends at the last byte: a text, PDF or random binary file does not satisfy that)."""
+    if _PEM.search(head):
+        return True
+    if len(head) < 2 or head[0] != 0x30:
+        return False
+    n = head[1]
+    if n < 0x80:
+        return 2 + n == size
+    k = n & 0x7F
+    if not 1 <= k <= 4 or len(head) < 2 + k:
+        return False
+    length = int.from_bytes(head[2:2 + k], "big")
+    return length >= 0x80 and 2 + k + length == size
+
+
+def _fd_path(path: str) -> str | None:
+    """The first of ``path`` and the symbolic links it leads through that names an open file
+    descriptor (/dev/stdout, /dev/fd/N, /proc/PID/fd/N), else None."""
+    hop = os.path.abspath(path)
+    for _ in range(40):  # the link chain: a link to /dev/stdout is stdout
+        if _FD_PATH.match(hop):
+            return hop
+        if not os.path.islink(hop):
+            return None
+        hop = os.path.normpath(os.path.join(os.path.dirname(hop), os.readlink(hop)))
+    return None
+
+
+def _own_fd(path: str) -> int | None:
+    """The descriptor of this process that ``path`` names (/dev/stdout: 1), else None."""
+    hop = _fd_path(path)
+    if hop is None:
+        return None
+    std = {"/dev/stdin": 0, "/dev/stdout": 1, "/dev/stderr": 2}
+    if hop in std:
+        return std[hop]
+    parts = hop.split("/")  # ["", "dev", "fd", N] or ["", "proc", PID, "fd", N]
+    if parts[1] == "dev" or parts[2] in ("self", "thread-self", str(os.getpid())):
+        return int(parts[-1])
+    return None
+
+
+def output_kind(path: str) -> str:
+    """How ``path`` is written: "file" (a regular file or none yet; a symbolic link is
+    followed) or "stream" (written through, see the module docstring). Raises
+    OutputConflictError for a target that is not to be written."""
+    if _fd_path(path) is not None:
+        return "stream"
+    try:
+        st = os.stat(path)  # follows links
+    except OSError:
+        return "file"  # new (or a dangling link: its target is created), or the write will say
+    mode = st.st_mode
+    if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
+        return "stream"
+    if stat.S_ISDIR(mode):
+        raise OutputConflictError(f"{path} is a folder: give a file name")
+    if not stat.S_ISREG(mode):
+        what = ("a socket" if stat.S_ISSOCK(mode) else "a block device (a disk)"
+                if stat.S_ISBLK(mode) else "not a regular file")
+        raise OutputConflictError(f"{path} is {what}: an output is written to a file, "
+                                  "a character device such as /dev/null or a pipe")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(_SNIFF)
+    except OSError:
+        return "file"  # unreadable: the write decides (and reports) whether it may replace it
+    if is_key_material(head, st.st_size):
+        raise OutputConflictError(f"{path} holds a key or certificate (a signing identity or "
+                                  "a trust anchor): an output never replaces one")
+    return "file"
 
 
 @dataclass(frozen=True)
@@ -44,7 +159,7 @@ def same_file(a: str, b: str) -> bool:
 
 def check_outputs(outputs: dict[str, str | None], inputs: dict[str, str | None]) -> None:
     """Raise OutputConflictError unless every output is a non-empty path that is neither an
-    input nor another output.
+    input nor another output, and is a file or stream that may be written (:func:`output_kind`).
 
     outputs, inputs : {option or role as the user gave it (e.g. "--csv", "MEASURED"): path or
         None when not given}. The message names both options and the path.
@@ -64,19 +179,32 @@ def check_outputs(outputs: dict[str, str | None], inputs: dict[str, str | None])
                 both = path if path == path2 else f"{path} and {path2}"
                 raise OutputConflictError(f"{name} and {other} name the same file ({both}); "
                                           "give each output its own file")
+    for name, path in given:
+        try:
+            output_kind(path)
+        except OutputConflictError as e:
+            raise OutputConflictError(f"{name} {e}") from e
 
 
 def write_all(outputs: list[Output]) -> None:
-    """Write every output or none (see the module docstring).
+    """Write every output or none (see the module docstring); streams (devices, pipes) last.
 
-    Raises OSError naming the target that failed (``filename``), with what was left when a
-    rename could not be undone in the message.
+    Raises OutputConflictError for a target that is not to be written (checked again here:
+    the target may have changed since :func:`check_outputs`), else OSError naming the target
+    that failed (``filename``), with what was left when a rename could not be undone in the
+    message.
     """
+    kinds = [output_kind(out.path) for out in outputs]
+    streams = [out for out, kind in zip(outputs, kinds) if kind == "stream"]
     staged: list[tuple[Output, str]] = []  # (output, temporary file beside it)
     made: list[str] = []  # folders created here, removed again on failure
     try:
-        for out in outputs:
-            staged.append((out, _stage(out, made)))
+        for out, kind in zip(outputs, kinds):
+            if kind == "file":
+                # A symbolic link is followed: its target file is replaced, the link stays.
+                real = (Output(os.path.realpath(out.path), out.data, out.private)
+                        if os.path.islink(out.path) else out)
+                staged.append((real, _stage(real, made, out.path)))
     except BaseException:
         for _, tmp in staged:
             _remove(tmp)
@@ -84,18 +212,44 @@ def write_all(outputs: list[Output]) -> None:
             _rmdir(folder)
         raise
     _commit(staged, made)
+    for out in streams:
+        _write_through(out, written=[o.path for o, k in zip(outputs, kinds) if k == "file"])
 
 
-def _stage(out: Output, made: list[str]) -> str:
+def _write_through(out: Output, written: list[str]) -> None:
+    """Write ``out`` to the device or pipe it names, neither creating nor truncating it. A
+    descriptor of this process (/dev/stdout) is written through a duplicate: it shares the
+    position with what the process prints, so both land in order even on a regular file."""
+    try:
+        own = _own_fd(out.path)
+        if own is not None:
+            for stream in (sys.stdout, sys.stderr):
+                if stream is not None:
+                    stream.flush()
+            fd = os.dup(own)
+        else:
+            fd = os.open(out.path, os.O_WRONLY | os.O_APPEND | os.O_NOCTTY)
+        with os.fdopen(fd, "wb") as f:
+            data = out.data
+            f.write(data.encode("utf-8") if isinstance(data, str) else data)
+    except OSError as e:
+        msg = e.strerror or str(e)
+        if written:
+            msg += "; written already: " + ", ".join(written)
+        raise OSError(e.errno, msg, out.path) from e
+
+
+def _stage(out: Output, made: list[str], given: str | None = None) -> str:
     path = out.path
+    given = given or path  # the name the user gave, for messages
     try:
         if not path or os.path.isdir(path):
-            raise IsADirectoryError(21, "is a folder or no file name", path)
+            raise IsADirectoryError(21, "is a folder or no file name", given)
         folder = os.path.dirname(os.path.abspath(path))
         _makedirs(folder, made)
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
     except OSError as e:
-        raise OSError(e.errno, e.strerror, path) from e
+        raise OSError(e.errno, e.strerror, given) from e
     try:
         with os.fdopen(fd, "wb") as f:
             # mkstemp makes 0600; an ordinary output gets the usual permissions.
@@ -107,7 +261,7 @@ def _stage(out: Output, made: list[str]) -> str:
     except BaseException as e:
         _remove(tmp)
         if isinstance(e, OSError):
-            raise OSError(e.errno, e.strerror, path) from e
+            raise OSError(e.errno, e.strerror, given) from e
         raise
     return tmp
 

@@ -4,8 +4,10 @@ import csv
 import hashlib
 import json
 import os
+import stat
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -250,6 +252,90 @@ def test_outputs_replace_their_previous_versions(work, capsys):
     assert (work / "c.csv").read_text().startswith("index,label,")
     assert sorted(p.name for p in work.iterdir()) == ["c.csv", "good.csv", "nominal.csv",
                                                       "r.json"]
+
+
+def test_csv_dash_is_stdout(work, capsys, monkeypatch):
+    """``--csv -`` writes the CSV to standard output, like ``--json -`` (not a file named -)."""
+    monkeypatch.chdir(work)
+    assert run("inspect", "nominal.csv", "good.csv", "--tol", "0.05", "--csv", "-") == 0
+    rows = list(csv.DictReader(capsys.readouterr().out.splitlines()))
+    assert len(rows) == 300 and rows[7]["label"] == "P007"
+    assert not os.path.lexists(work / "-")
+
+
+@pytest.mark.parametrize("args, text", [
+    (["--csv", "-", "--json", "-"], "both ask for standard output"),
+    (["--report", "-"], "--report needs a file name"),
+])
+def test_dash_usage_errors(work, capsys, monkeypatch, args, text):
+    monkeypatch.chdir(work)
+    before = _snapshot(work)
+    assert run("inspect", "nominal.csv", "good.csv", "--tol", "0.05", *args) == 64
+    cap = capsys.readouterr()
+    assert text in cap.err and cap.out == ""
+    assert _snapshot(work) == before and not os.path.lexists(work / "-")
+
+
+def test_devices_and_links_to_stdout_are_written_through(work, capfd, monkeypatch):
+    """``--csv mynull`` (a null device: mknod as root, as in CI, else a link to /dev/null) and
+    ``--json mystdout`` (a link to /proc/self/fd/1) are written to, never replaced by files."""
+    monkeypatch.chdir(work)
+    if os.geteuid() == 0:
+        os.mknod("mynull", 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+    else:
+        os.symlink("/dev/null", "mynull")
+    null_kind = stat.S_IFMT(os.lstat("mynull").st_mode)
+    os.symlink("/proc/self/fd/1", "mystdout")
+    capfd.readouterr()
+    assert run("inspect", "nominal.csv", "good.csv", "--tol", "0.05", "--csv", "mynull",
+               "--json", "mystdout") == 0
+    out = capfd.readouterr().out
+    doc, end = json.JSONDecoder().raw_decode(out)  # the JSON, then the summary after it
+    assert doc["verdict"] == "ACCEPT" and out[end:].lstrip().startswith("ACCEPT: all 300")
+    assert stat.S_IFMT(os.lstat("mynull").st_mode) == null_kind
+    assert stat.S_ISCHR(os.stat("mynull").st_mode)
+    assert os.readlink("mystdout") == "/proc/self/fd/1"
+
+
+def test_a_fifo_output_reaches_its_reader(work, capsys):
+    fifo = work / "myfifo"
+    os.mkfifo(fifo)
+    os.link(fifo, work / ".spare")  # to release the reader should the FIFO be replaced
+    got = []
+
+    def read():
+        with open(fifo, "rb") as f:
+            got.append(f.read())
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    try:
+        assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+                   "--json", fifo) == 0
+        reader.join(timeout=20)
+        assert not reader.is_alive() and json.loads(got[0])["verdict"] == "ACCEPT"
+        assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    finally:
+        if reader.is_alive():
+            os.close(os.open(work / ".spare", os.O_WRONLY | os.O_NONBLOCK))
+
+
+def test_an_output_never_replaces_a_signing_identity_or_trust_anchor(work, capsys,
+                                                                      monkeypatch):
+    """Not inputs of this run, yet never to be lost: keygen's inspector.p12 and ca.pem."""
+    monkeypatch.setenv("QA_TEST_OUTPUTS_PASS", "pass phrase")
+    ids = work / "id"
+    assert run("keygen", "--name", "A. Inspector", "--out", ids,
+               "--pass-env", "QA_TEST_OUTPUTS_PASS") == 0
+    capsys.readouterr()
+    before = _snapshot(ids)
+    for option, target in (("--report", "inspector.p12"), ("--csv", "ca.pem"),
+                           ("--json", "inspector.p12")):
+        assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
+                   option, ids / target) == 64
+        err = capsys.readouterr().err
+        assert f"{option} {ids / target} holds a key or certificate" in err
+        assert _snapshot(ids) == before
 
 
 # ---------------------------------------------------------------------------- --version (10.9)
