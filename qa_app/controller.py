@@ -313,7 +313,7 @@ class Controller:
         try:
             doc = self._session_doc(path)
             write_all([Output(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")])
-        except (OSError, InputError) as e:
+        except (OSError, InputError, SettingsError) as e:  # SettingsError: the target changed
             from reports.messages import user_message
 
             s.tell("error", user_message(e))
