@@ -179,7 +179,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     ts = time.perf_counter()
     sens, statements = _sensitivity(
         lambda Tc, idx: point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed,
-        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit)
+        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit, registered)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin, sens, statements)
@@ -355,11 +355,13 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
                           "a tolerance limit (guarded decision rule)")
 
 
-def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str):
+def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
+                 points: np.ndarray | None = None):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
-    minimax fit it is judged at its own minimax pose, as the chosen one is."""
+    minimax fit it is judged at its own minimax pose, as the chosen one is. points : the measured
+    points at pose T (nominal frame), for the bound on how far a probed pose moves each."""
     from .trust import pose_sensitivity, trust_statements
 
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
@@ -372,7 +374,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
         alternatives.append(Tr)
     sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
-                            alternatives)
+                            alternatives, points=points)
     return sens, trust_statements(sens, reg.score, reg.runner_up_score)
 
 
@@ -456,7 +458,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     ts = time.perf_counter()
     sens, statements = _sensitivity(
         lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
-        reg, tolerance, margin, fit)
+        reg, tolerance, margin, fit, apply2(T2, q2))
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
                                      sens, statements)

@@ -306,11 +306,10 @@ engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone wid
 the end of a cylinder, or rotated into a sphere's unsampled pole, they do not: such a pose is
 not a place the part could be, and its verdict does not count."""
 SENSITIVITY_POINTS = 16384
-"""Points evaluated at every probed pose at most (a seeded subset beyond, then every point
-within NEAR_FACTOR x the subset's largest change of a limit): a rigid motion changes the
-deviations smoothly over the part, so the subset sees the largest change, and only points that
-close to a limit can cross one."""
-NEAR_FACTOR = 2.0
+"""Points evaluated at every probed pose at most (a seeded subset beyond), for the RMS and the
+scan's steps; the verdict at a probed pose is then completed exactly for every other point
+that the motion displaces by at least its distance to a limit (a deviation cannot change by
+more than the point's displacement), so it holds for every point."""
 
 
 @dataclass(frozen=True)
@@ -412,7 +411,8 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
                      T: np.ndarray, d: np.ndarray, lower: float, upper: float,
                      cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
                      margin: np.ndarray | None = None, alternatives=(),
-                     max_points: int = SENSITIVITY_POINTS) -> PoseSensitivity:
+                     max_points: int = SENSITIVITY_POINTS,
+                     points: np.ndarray | None = None) -> PoseSensitivity:
     """Does the verdict survive the pose's uncertainty?
 
     deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
@@ -422,78 +422,111 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
     cond : the fit's conditioning; each weak direction is probed by the exact screw motion
         along it (``WeakDirection.twist``) applied in the nominal frame before ``T``, at
         +-PROBE_SIGMAS x its sigma, or for a free one at +-FREE_PROBES x FREE_REACH x
-        ``cond.length`` (both capped at that reach).
+        ``cond.length`` (both capped at that reach; along a free one only the poses where the
+        points still fit count, PLAUSIBLE_RMS_RATIO).
     verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'.
     margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
     alternatives : other plausible poses (the runner-up), each judged as a whole.
+    points : (n, 3) or (n, 2) the measured points at pose T (nominal frame, mm). With more
+        than ``max_points`` points, a seeded subset is evaluated at every pose and, given
+        ``points``, every other point the motion displaces by at least its distance to a
+        value where its pointwise verdict changes (a deviation, a distance to the nominal,
+        cannot change by more than that); without ``points``, every point.
     """
     d = np.asarray(d, float)
     n = d.size
     width = upper - lower
     m = np.zeros(n) if margin is None else np.asarray(margin, float)
-    # Distance of each point to the nearest value where its pointwise verdict changes.
-    dist = np.min(np.abs(np.stack([d - (lower - m), d - (lower + m), d - (upper - m),
-                                   d - (upper + m)])), axis=0)
+    cuts = (lower - m, lower + m, upper - m, upper + m)
+
+    def to_limit(dd, sel=slice(None)):
+        """Distance of each point to the nearest value where its pointwise verdict changes."""
+        return np.min(np.abs(np.stack([dd - c[sel] for c in cuts])), axis=0)
+
+    dist = to_limit(d)
     signed = np.minimum(d - lower, upper - d)
     closest = float(signed[np.argmin(np.abs(signed))]) if n else 0.0
     worst = float(signed.min()) if n else 0.0
     base = verdict_of(d)
-    plans = []  # (kind, axis, free, amplitudes, poses, through, sigma)
-    reach = FREE_REACH * cond.length
-    for w in cond.weak:
-        if not w.twist:
-            continue
-        free = w.sigma_mm is None
-        steps = ([f * reach for f in FREE_PROBES] if free else
-                 [min(k * w.sigma_mm, reach) for k in PROBE_SIGMAS])
-        amps = tuple(sorted({float(s) for a in steps for s in (-a, a)}))
-        poses = [_twist_matrix(w.twist, a, cond.centre, cond.length) @ T for a in amps]
-        through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
-            else None
-        plans.append((w.type, w.axis, free, amps, poses, through, w.sigma_mm))
-    for Ta in alternatives:
-        plans.append(("runner-up", None, False, (), [np.asarray(Ta, float)], None, None))
-    if not plans or n == 0:
+    weak = [w for w in cond.weak if w.twist]
+    if not (weak or len(alternatives)) or n == 0:
         return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
-    poses = [P for plan in plans for P in plan[4]]
-    free = np.array([plan[2] for plan in plans for _ in plan[4]])
     if n <= max_points:
         idx = np.arange(n)
     else:
         idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
-    change = np.stack([deviations_at(P, idx) - d[idx] for P in poses])
-    # Along a free direction a pose counts only while the points still fit there.
+    seen = np.zeros(n, bool)
+    seen[idx] = True
     rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
-    rms = np.sqrt(np.mean((d[idx] + change) ** 2, axis=1))
-    ok = ~free | (rms <= PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width)
-    if idx.size < n and ok.any():
-        # Only a point within the largest change (with room) of a limit can cross it.
-        near = np.flatnonzero(dist <= NEAR_FACTOR * float(np.abs(change[ok]).max()))
-        near = np.setdiff1d(near, idx)
-        if near.size:
-            more = np.zeros((len(poses), near.size))
-            for k in np.flatnonzero(ok):
-                more[k] = deviations_at(poses[k], near) - d[near]
-            idx = np.concatenate([idx, near])
-            change = np.concatenate([change, more], axis=1)
+    fits = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width
+    T_inv = np.linalg.inv(T)
+    P_pts = None if points is None else np.asarray(points, float)
+
+    def subset_at(P):
+        dI = deviations_at(P, idx)
+        return dI, float(np.sqrt(np.mean(dI ** 2)))
+
+    def verdict_at(P, dI):
+        """(verdict, largest |change|) at pose P over every point: the subset's deviations
+        dI, and exactly every other point that the motion could have carried across a limit."""
+        dd = d.copy()
+        dd[idx] = dI
+        if idx.size < n:
+            if P_pts is None:
+                rest = np.ones(n, bool)
+            else:
+                G = P @ T_inv  # the motion, nominal frame
+                k = P_pts.shape[1]
+                disp = np.linalg.norm(P_pts @ G[:k, :k].T + G[:k, k] - P_pts, axis=1)
+                rest = disp >= dist
+            rest[idx] = False
+            rest = np.flatnonzero(rest)
+            if rest.size:
+                dd[rest] = deviations_at(P, rest)
+                seen[rest] = True
+        return verdict_of(dd), float(np.abs(dd - d).max())
+
+    reach = FREE_REACH * cond.length
     probes = []
-    row = 0
-    for kind, axis, is_free, amps, ps, through, sigma in plans:
-        ch = change[row:row + len(ps)]
-        fit = ok[row:row + len(ps)]
-        row += len(ps)
-        verdicts = []
-        for k in range(len(ps)):
-            dd = d.copy()
-            dd[idx] += ch[k]
-            verdicts.append(verdict_of(dd))
-        mx = float(np.abs(ch[fit]).max()) if fit.any() else 0.0
-        probes.append(PoseProbe(kind, axis, is_free, amps, mx, tuple(verdicts),
-                                mx <= INVARIANT_FRACTION * width, tuple(bool(o) for o in fit),
-                                through, sigma))
+    for w in weak:
+        through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
+            else None
+        free = w.sigma_mm is None
+        rec = []  # (amplitude, verdict, plausible, change)
+        if not free:
+            for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
+                             for s in (-1, 1)}):
+                P = _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
+                dI, _ = subset_at(P)
+                v, ch = verdict_at(P, dI)
+                rec.append((a, v, True, ch))
+        else:
+            for a in sorted({float(s * f * reach) for f in FREE_PROBES for s in (-1, 1)}):
+                P = _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
+                dI, r = subset_at(P)
+                if r > fits:  # not a pose the part can be in: judged on the subset only
+                    dd = d.copy()
+                    dd[idx] = dI
+                    rec.append((a, verdict_of(dd), False, 0.0))
+                else:
+                    v, ch = verdict_at(P, dI)
+                    rec.append((a, v, True, ch))
+        rec.sort(key=lambda t: t[0])
+        fit = [o for _, _, o, _ in rec]
+        verdicts = tuple(v for _, v, _, _ in rec)
+        mx = max((c for _, _, o, c in rec if o), default=0.0)
+        probes.append(PoseProbe(w.type, w.axis, free, tuple(a for a, *_ in rec), mx, verdicts,
+                                mx <= INVARIANT_FRACTION * width, tuple(fit), through,
+                                w.sigma_mm))
+    for Ta in alternatives:
+        P = np.asarray(Ta, float)
+        dI, _ = subset_at(P)
+        v, ch = verdict_at(P, dI)
+        probes.append(PoseProbe("runner-up", None, False, (), ch, (v,),
+                                ch <= INVARIANT_FRACTION * width, (True,), None, None))
     stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
     return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
-                           closest, worst, int(idx.size), cond.length)
+                           closest, worst, int(seen.sum()), cond.length)
 
 
 def _vec(a) -> str:
@@ -523,12 +556,18 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
                                f"{changed[0]}, so it depends on which pose is right"))
             continue
         reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
+        lo = max((-a for a, o in zip(p.amplitudes, ok) if o and a < 0), default=0.0)
+        hi = max((a for a, o in zip(p.amplitudes, ok) if o and a > 0), default=0.0)
+        scale, unit = (1.0, " mm") if p.kind == "translation" else \
+            (np.degrees(1.0 / (sens.length_mm or 1.0)), "°")
+        how = f"±{reach * scale:.3g}{unit}"
+        span = how if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" else \
+            f"−{lo * scale:.3g}{unit} to +{hi * scale:.3g}{unit}"
         if p.kind == "translation":
-            what, how, along = f"position along {_vec(p.axis)}", f"±{reach:.3g} mm", "along"
+            what, along = f"position along {_vec(p.axis)}", "along"
             every = "position"
         else:
             what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
-            how = f"±{np.degrees(reach / (sens.length_mm or 1.0)):.3g}°"
             along, every = "about", "orientation"
         if p.free:
             fixed = f"{what} is not determined by the measured points"
@@ -539,13 +578,13 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
             fixed = f"{what} is determined only to {how} (3σ)"
         if changed:
             out.append(f"the measured points do not constrain the pose: {fixed}; moving the part "
-                       f"{along} it (within {how}) changes deviations by up to "
+                       f"{along} it (within {span}) changes deviations by up to "
                        f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
         elif p.free and p.invariant:
-            out.append(f"{fixed}; the deviations do not change {along} it (probed to {how}): "
+            out.append(f"{fixed}; the deviations do not change {along} it (probed to {span}): "
                        f"the verdict is about form and holds for every such {every}")
         elif p.free:
-            out.append(f"{fixed}; moving the part {along} it (probed to {how}) changes "
+            out.append(f"{fixed}; moving the part {along} it (probed to {span}) changes "
                        f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
                        f"same at every {every} probed")
         else:

@@ -635,14 +635,75 @@ def test_pose_sensitivity_on_a_subset_agrees_with_every_point(seed):
     d = X[:, 2]
     full = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of)
     sub = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
-                           max_points=200)
+                           max_points=200, points=X)
     # +-3 sigma = 0.006 mm at L: 1.2e-4 rad, 11 um at x = 95 (above the 1 um margin).
     assert not full.verdict_stable and not sub.verdict_stable
     assert sub.points_evaluated < n and full.points_evaluated == n
-    assert sub.max_change_mm == pytest.approx(full.max_change_mm, rel=0.01)  # smooth change
+    assert sub.max_change_mm == pytest.approx(full.max_change_mm, rel=0.05)  # smooth change
     assert full.max_change_mm == pytest.approx(3 * 0.002 / L * 100, rel=0.05)
     assert full.min_limit_margin_mm == pytest.approx(0.05 - 0.049, abs=1e-9)
     X[k, 2] = 0.03  # well inside: stable, on the subset as on every point
     d = X[:, 2]
     assert pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
                             max_points=200).verdict_stable
+
+
+def _d_shaft(r=40.0, flat_deg=20.0, nu=720, nv=100):
+    """A shaft of radius r (mm) with a flat cutting the circle at +-flat_deg about +x, length
+    200 mm along z: its nominal samples and outward normals."""
+    al = np.radians(flat_deg)
+    A, Z = np.meshgrid(np.linspace(-np.pi, np.pi, nu + 1), np.linspace(-100, 100, nv))
+    a = A.ravel()
+    on = np.abs(np.mod(a + np.pi, 2 * np.pi) - np.pi) < al
+    rad = np.where(on, r * np.cos(al) / np.cos(a), r)
+    nrm = np.column_stack([np.where(on, 1.0, np.cos(a)), np.where(on, 0.0, np.sin(a)),
+                           np.zeros(a.size)])
+    return Nominal.from_point_set(point_set(
+        np.column_stack([rad * np.cos(a), rad * np.sin(a), Z.ravel()]), nrm, (nu + 1, nv)))
+
+
+def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
+    """30,000 points on the round part of a D-shaft (more than the subset evaluated at every
+    probed pose), 3 of them 2.0-2.6 degrees from the flat's edge, the rest 3.5 degrees or more:
+    turning the part about its (free) axis by the probe's 2.9 degrees carries those 3 onto the
+    flat and out of the +-0.05 mm zone, while a subset is unlikely to hold any of them. Every
+    point that the motion displaces by at least its distance to a limit is evaluated, so the
+    verdict is seen to depend on the pose; truth: all points evaluated at that pose."""
+    from engine.deviation import point_to_surface
+    from engine.inspection import pointwise_verdict
+    from engine.trust import SENSITIVITY_POINTS, pose_sensitivity
+
+    nominal = _d_shaft()
+    rng = np.random.default_rng(1)
+    m = 30_000
+    assert m > SENSITIVITY_POINTS
+    a = rng.uniform(np.radians(23.5), np.radians(336.5), m)
+    a[[11, 12_345, 29_999]] = np.radians([22.0, 22.3, 22.6])
+    z = rng.uniform(-60, 60, m)
+    dev = rng.normal(0, 0.003, m)
+    X = np.column_stack([(40 + dev) * np.cos(a), (40 + dev) * np.sin(a), z])  # nominal frame
+    tol = Tolerance.symmetric(0.05)
+    dv = point_to_surface(nominal, X)
+    d = dv.signed
+    cond = conditioning(X, dv.normal, float(np.sqrt(np.mean(d ** 2))), 0.25 * 0.1)
+    assert sorted(w.sigma_mm is None for w in cond.weak) == [True, True]
+
+    def deviations_at(T, idx):
+        return point_to_surface(nominal, apply_transform(T, X[idx])).signed
+
+    def verdict(dd):
+        return pointwise_verdict(dd, tol)[0]
+
+    sens = pose_sensitivity(deviations_at, np.eye(4), d, tol.lower, tol.upper, cond, verdict,
+                            points=X)
+    assert verdict(d) == ACCEPT and not sens.verdict_stable
+    rot = next(p for p in sens.probes if p.kind == "rotation")
+    k = next(i for i, (v, o) in enumerate(zip(rot.verdicts, rot.plausible)) if o and v != ACCEPT)
+    # Truth at that pose, every point: some of the three near the flat, and only they, are out.
+    w = next(w for w in cond.weak if w.type == "rotation")
+    from engine.trust import _twist_matrix
+    moved = deviations_at(_twist_matrix(w.twist, rot.amplitudes[k], cond.centre, cond.length),
+                          np.arange(m))
+    out = set(np.flatnonzero(np.abs(moved) > 0.05))
+    assert out and out <= {11, 12_345, 29_999}
+    assert rot.verdicts[k] == REJECT
