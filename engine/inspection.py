@@ -177,9 +177,8 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         dev = point_to_surface(nominal, registered)
     margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
     ts = time.perf_counter()
-    sens, statements = _sensitivity(
-        lambda Tc, idx: point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed,
-        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit, registered)
+    sens, statements = _sensitivity(_deviations_and_border(nominal, measured), evaluate, T,
+                                    dev.signed, cond, reg, tolerance, margin, fit, registered)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin, sens, statements)
@@ -196,6 +195,28 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                             decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
                             ambiguity_spread=spread, margin=margin, pose_sensitivity=sens,
                             trust_statements=statements)
+
+
+def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
+    """deviations_at(T, idx) for engine.trust.pose_sensitivity: the signed deviations (mm) of
+    measured points ``idx`` at pose T, and which of them lie past the nominal's border: the
+    direction from its closest point to the point more than acos(BORDER_COSINE) from the
+    nominal's normal at the sample nearest that closest point (past a mesh's or grid's border
+    the distance is to its edge; past bare points' last facet, the facet continued ends too)."""
+    from .deviation import point_to_surface
+    from .trust import BORDER_COSINE, BORDER_MIN_MM
+
+    def deviations_at(Tc, idx):
+        X = apply_transform(Tc, measured[idx])
+        dv = point_to_surface(nominal, X)
+        _, near = nominal.tree.query(dv.foot)
+        off = X - dv.foot
+        size = np.linalg.norm(off, axis=1)
+        along = np.abs(np.einsum("ij,ij->i", nominal.normals(np.atleast_1d(near)), off))
+        # A point on the surface (no offset to speak of) is over it.
+        return dv.signed, (size > BORDER_MIN_MM) & (along < BORDER_COSINE * size)
+
+    return deviations_at
 
 
 AMBIGUITY_POINTS = 16384

@@ -293,8 +293,21 @@ FREE_REACH = 0.5
 radius ``Conditioning.length`` (a translation in mm; a rotation by that arc at the RMS radius:
 0.5 rad, about 29 degrees) — far enough to matter at the part's scale, short enough to keep the
 points on the nominal they were measured on (a cylinder measured over 60% of its length)."""
-FREE_PROBES = (0.01, 0.1, 1.0)
-"""… at +- these fractions of that reach: a deviation that changes at all shows at some scale."""
+FREE_FIRST = 0.01
+"""A free direction is scanned outward from the fitted pose, each way, starting at this
+fraction of that reach, …"""
+FREE_GROWTH = 1.5
+"""… each step at most this factor of the amplitude reached, and shorter where the deviations
+change: short enough that, changing at FREE_SAFETY times the fastest rate seen so far, none
+reaches a limit within it. A step onto a pose where the points stop fitting is halved, down to
+FREE_RESOLUTION, so the scan ends next to where they stop fitting: a point that slides onto a
+neighbouring face (the flat of a D-shaft) leaves the zone there, before the RMS gives way."""
+FREE_SAFETY = 2.0
+FREE_RESOLUTION = 0.1
+"""The scan's finest step: the motion that moves the fastest point by this fraction of the zone
+width."""
+FREE_MAX_STEPS = 200
+"""Poses tried at most each way along a free direction (the statement says how far it got)."""
 INVARIANT_FRACTION = 0.02
 """A free direction is one the deviations are invariant along when no probe changes any
 deviation by more than this fraction of the zone width (the nominal's sampling moves them by a
@@ -302,9 +315,17 @@ few micrometres at most)."""
 PLAUSIBLE_RMS_RATIO = 1.5
 """A pose along a free direction is one the measurement allows only while the points still fit
 there: the RMS of their deviations at most this factor (the runner-up's score ratio, see
-engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone width. Slid past
-the end of a cylinder, or rotated into a sphere's unsampled pole, they do not: such a pose is
-not a place the part could be, and its verdict does not count."""
+engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone width, and no
+point that lay over the nominal carried past its border. Slid past the end of a cylinder, or
+rotated into a sphere's unsampled pole, they do not: such a pose is not a place the part could
+be (the points were measured on the nominal), and its verdict does not count."""
+BORDER_COSINE = 0.5
+"""A point lies past the nominal's border when the direction to it from its closest point
+makes more than 60 degrees with the nominal's normal at the sample nearest that closest point
+(over the surface the two agree within its curvature between samples): its closest point is on
+the border (engine.inspection)."""
+BORDER_MIN_MM = 1e-4
+"""… and lies farther than this from it (closer, the direction is rounding)."""
 SENSITIVITY_POINTS = 16384
 """Points evaluated at every probed pose at most (a seeded subset beyond), for the RMS and the
 scan's steps; the verdict at a probed pose is then completed exactly for every other point
@@ -339,6 +360,10 @@ class PoseProbe:
     """A rotation: a point of its axis (nominal frame, mm)."""
     sigma_mm: float | None = None
     """WeakDirection.sigma_mm (None: free or the runner-up)."""
+    ends: tuple[bool, ...] = ()
+    """A free direction, per side (negative, positive amplitudes): True where the scan ended
+    next to where the points stop fitting (False: at the reach FREE_REACH, at a changed verdict,
+    or after FREE_MAX_STEPS)."""
 
 
 @dataclass(frozen=True)
@@ -407,9 +432,8 @@ def _axis_point(twist, centre, length: float) -> tuple[float, ...]:
     return tuple(float(a) for a in p)
 
 
-def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                     T: np.ndarray, d: np.ndarray, lower: float, upper: float,
-                     cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
+def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lower: float,
+                     upper: float, cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
                      margin: np.ndarray | None = None, alternatives=(),
                      max_points: int = SENSITIVITY_POINTS,
                      points: np.ndarray | None = None) -> PoseSensitivity:
@@ -417,21 +441,27 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
 
     deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
         pose T' (the same kind of transform as ``T``: 4x4 measured -> nominal, or the 3x3 2D
-        one), exactly (the flow's own deviation function).
+        one), exactly (the flow's own deviation function); or a pair (deviations, beyond) with
+        ``beyond`` (len(idx),) bool: the point lies past the nominal's border (its closest point
+        is on the border, not over the surface).
     T, d : the chosen pose and the (n,) deviations there.
     cond : the fit's conditioning; each weak direction is probed by the exact screw motion
         along it (``WeakDirection.twist``) applied in the nominal frame before ``T``, at
-        +-PROBE_SIGMAS x its sigma, or for a free one at +-FREE_PROBES x FREE_REACH x
-        ``cond.length`` (both capped at that reach; along a free one only the poses where the
-        points still fit count, PLAUSIBLE_RMS_RATIO).
+        +-PROBE_SIGMAS x its sigma (capped at the free reach); a free one is scanned outward
+        both ways from the fitted pose (FREE_FIRST, FREE_GROWTH, FREE_SAFETY, FREE_RESOLUTION)
+        up to FREE_REACH x ``cond.length`` or to where the points stop fitting: their RMS above
+        PLAUSIBLE_RMS_RATIO x the fitted one's (+ INVARIANT_FRACTION of the zone), or a point
+        that lay over the nominal carried past its border. The verdict is checked at every
+        step.
     verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'.
     margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
     alternatives : other plausible poses (the runner-up), each judged as a whole.
     points : (n, 3) or (n, 2) the measured points at pose T (nominal frame, mm). With more
         than ``max_points`` points, a seeded subset is evaluated at every pose and, given
-        ``points``, every other point the motion displaces by at least its distance to a
+        ``points``, every other point that the motion displaces by at least its distance to a
         value where its pointwise verdict changes (a deviation, a distance to the nominal,
-        cannot change by more than that); without ``points``, every point.
+        cannot change by more than the point's displacement); without ``points``, every point.
+        The verdict at every probed pose is thus that of every point.
     """
     d = np.asarray(d, float)
     n = d.size
@@ -459,74 +489,125 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
     seen[idx] = True
     rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
     fits = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width
+    T = np.asarray(T, float)
     T_inv = np.linalg.inv(T)
-    P_pts = None if points is None else np.asarray(points, float)
+    X = None if points is None else np.asarray(points, float)
+    beyond0 = np.full(n, -1, np.int8)  # past the nominal's border at T: -1 not yet known
+
+    def evaluate(P, sel):
+        """(deviations, newly past the border) of points ``sel`` at pose P."""
+        out = deviations_at(P, sel)
+        if not isinstance(out, tuple):
+            return np.asarray(out, float), np.zeros(sel.size, bool)
+        dv, past = np.asarray(out[0], float), np.asarray(out[1], bool)
+        unknown = sel[beyond0[sel] < 0]
+        if unknown.size:
+            beyond0[unknown] = np.asarray(deviations_at(T, unknown)[1], bool)
+        return dv, past & (beyond0[sel] == 0)
 
     def subset_at(P):
-        dI = deviations_at(P, idx)
-        return dI, float(np.sqrt(np.mean(dI ** 2)))
+        dI, left = evaluate(P, idx)
+        return dI, float(np.sqrt(np.mean(dI ** 2))), bool(left.any())
 
-    def verdict_at(P, dI):
-        """(verdict, largest |change|) at pose P over every point: the subset's deviations
-        dI, and exactly every other point that the motion could have carried across a limit."""
+    def complete(P, dI):
+        """(deviations of every point, any point left the nominal) at pose P: the subset's
+        dI, and exactly every other point the motion could have carried across a limit."""
         dd = d.copy()
         dd[idx] = dI
+        left = False
         if idx.size < n:
-            if P_pts is None:
+            if X is None:
                 rest = np.ones(n, bool)
             else:
                 G = P @ T_inv  # the motion, nominal frame
-                k = P_pts.shape[1]
-                disp = np.linalg.norm(P_pts @ G[:k, :k].T + G[:k, k] - P_pts, axis=1)
-                rest = disp >= dist
+                k = X.shape[1]
+                rest = np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1) >= dist
             rest[idx] = False
             rest = np.flatnonzero(rest)
             if rest.size:
-                dd[rest] = deviations_at(P, rest)
+                dd[rest], past = evaluate(P, rest)
                 seen[rest] = True
-        return verdict_of(dd), float(np.abs(dd - d).max())
+                left = bool(past.any())
+        return dd, left
 
     reach = FREE_REACH * cond.length
     probes = []
     for w in weak:
         through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
             else None
-        free = w.sigma_mm is None
-        rec = []  # (amplitude, verdict, plausible, change)
-        if not free:
+
+        def pose(a):
+            return _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
+
+        rec = []  # (amplitude, verdict, plausible, largest change)
+        ends = []
+        if w.sigma_mm is not None:  # weak: the uncertainty region, every pose in it counts
             for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
                              for s in (-1, 1)}):
-                P = _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
-                dI, _ = subset_at(P)
-                v, ch = verdict_at(P, dI)
-                rec.append((a, v, True, ch))
+                P = pose(a)
+                dd, _ = complete(P, subset_at(P)[0])
+                rec.append((a, verdict_of(dd), True, float(np.abs(dd - d).max())))
         else:
-            for a in sorted({float(s * f * reach) for f in FREE_PROBES for s in (-1, 1)}):
-                P = _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
-                dI, r = subset_at(P)
-                if r > fits:  # not a pose the part can be in: judged on the subset only
-                    dd = d.copy()
-                    dd[idx] = dI
-                    rec.append((a, verdict_of(dd), False, 0.0))
-                else:
-                    v, ch = verdict_at(P, dI)
-                    rec.append((a, v, True, ch))
+            h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx],
+                                                                              cond))
+            for sgn in (-1.0, 1.0):
+                a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
+                end = False
+                for _ in range(FREE_MAX_STEPS):
+                    if bad - a <= h_min:
+                        end = True  # next to where the points stop fitting
+                        break
+                    a_new = min(a + h, reach, 0.5 * (a + bad))
+                    P = pose(sgn * a_new)
+                    dI, r, left = subset_at(P)
+                    dd = None
+                    if not (r > fits or left):
+                        dd, left = complete(P, dI)
+                    if dd is None or left:  # not a pose the part can be in
+                        sub = d.copy()
+                        sub[idx] = dI
+                        rec.append((sgn * a_new, verdict_of(sub), False, 0.0))
+                        bad = a_new
+                        continue
+                    v = verdict_of(dd)
+                    rec.append((sgn * a_new, v, True, float(np.abs(dd - d).max())))
+                    rate = max(rate, float(np.abs(dI - prev).max()) / (a_new - a))
+                    prev, a = dI, a_new
+                    if v != base or a >= reach:
+                        break
+                    # The next step may not let the deviations, changing at twice the fastest
+                    # rate seen so far, carry the point nearest a limit to it; it grows at
+                    # most geometrically and is never below the resolution.
+                    near = float(to_limit(dI, idx).min())
+                    h_rate = near / (FREE_SAFETY * rate) if rate > 0 else np.inf
+                    h = max(h_min, min(h_rate, (FREE_GROWTH - 1.0) * a))
+                ends.append(end)
         rec.sort(key=lambda t: t[0])
-        fit = [o for _, _, o, _ in rec]
-        verdicts = tuple(v for _, v, _, _ in rec)
         mx = max((c for _, _, o, c in rec if o), default=0.0)
-        probes.append(PoseProbe(w.type, w.axis, free, tuple(a for a, *_ in rec), mx, verdicts,
-                                mx <= INVARIANT_FRACTION * width, tuple(fit), through,
-                                w.sigma_mm))
+        probes.append(PoseProbe(w.type, w.axis, w.sigma_mm is None, tuple(r[0] for r in rec),
+                                mx, tuple(r[1] for r in rec), mx <= INVARIANT_FRACTION * width,
+                                tuple(r[2] for r in rec), through, w.sigma_mm, tuple(ends)))
     for Ta in alternatives:
         P = np.asarray(Ta, float)
-        dI, _ = subset_at(P)
-        v, ch = verdict_at(P, dI)
-        probes.append(PoseProbe("runner-up", None, False, (), ch, (v,),
+        dd, _ = complete(P, subset_at(P)[0])
+        ch = float(np.abs(dd - d).max())
+        probes.append(PoseProbe("runner-up", None, False, (), ch, (verdict_of(dd),),
                                 ch <= INVARIANT_FRACTION * width, (True,), None, None))
     stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
     return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
                            closest, worst, int(seen.sum()), cond.length)
+
+
+def _speed(twist, X: np.ndarray, cond: Conditioning) -> float:
+    """Largest speed (mm per mm of amplitude) of points ``X`` under the unit ``twist``: a screw
+    motion moves each point at a constant speed."""
+    v = np.asarray(twist, float)
+    r = X - np.asarray(cond.centre, float)
+    if X.shape[1] == 3:
+        vel = np.cross(v[:3] / cond.length, r) + v[3:]
+    else:
+        vel = v[0] / cond.length * np.column_stack([-r[:, 1], r[:, 0]]) + v[1:]
+    return max(float(np.linalg.norm(vel, axis=1).max()), 1e-12)
 
 
 def _vec(a) -> str:
@@ -561,8 +642,13 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
         scale, unit = (1.0, " mm") if p.kind == "translation" else \
             (np.degrees(1.0 / (sens.length_mm or 1.0)), "°")
         how = f"±{reach * scale:.3g}{unit}"
-        span = how if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" else \
-            f"−{lo * scale:.3g}{unit} to +{hi * scale:.3g}{unit}"
+        stop = ", where the points stop fitting"
+        ends = p.ends or (False, False)
+        if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" and ends[0] == ends[1]:
+            span = "to " + how + (stop if ends[0] else "")
+        else:
+            span = (f"from −{lo * scale:.3g}{unit}{stop + ',' if ends[0] else ''} to "
+                    f"+{hi * scale:.3g}{unit}{stop if ends[1] else ''}")
         if p.kind == "translation":
             what, along = f"position along {_vec(p.axis)}", "along"
             every = "position"
@@ -578,13 +664,13 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
             fixed = f"{what} is determined only to {how} (3σ)"
         if changed:
             out.append(f"the measured points do not constrain the pose: {fixed}; moving the part "
-                       f"{along} it (within {span}) changes deviations by up to "
+                       f"{along} it (probed {span}) changes deviations by up to "
                        f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
         elif p.free and p.invariant:
-            out.append(f"{fixed}; the deviations do not change {along} it (probed to {span}): "
+            out.append(f"{fixed}; the deviations do not change {along} it (probed {span}): "
                        f"the verdict is about form and holds for every such {every}")
         elif p.free:
-            out.append(f"{fixed}; moving the part {along} it (probed to {span}) changes "
+            out.append(f"{fixed}; moving the part {along} it (probed {span}) changes "
                        f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
                        f"same at every {every} probed")
         else:

@@ -698,8 +698,10 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
                             points=X)
     assert verdict(d) == ACCEPT and not sens.verdict_stable
     rot = next(p for p in sens.probes if p.kind == "rotation")
-    k = next(i for i, (v, o) in enumerate(zip(rot.verdicts, rot.plausible)) if o and v != ACCEPT)
-    # Truth at that pose, every point: some of the three near the flat, and only they, are out.
+    k = min((i for i, (v, o) in enumerate(zip(rot.verdicts, rot.plausible)) if o and v != ACCEPT),
+            key=lambda i: abs(rot.amplitudes[i]))
+    # Truth at the smallest turn found that changes the verdict, every point: some of the three
+    # near the flat, and only they, are out.
     w = next(w for w in cond.weak if w.type == "rotation")
     from engine.trust import _twist_matrix
     moved = deviations_at(_twist_matrix(w.twist, rot.amplitudes[k], cond.centre, cond.length),
@@ -707,3 +709,79 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     out = set(np.flatnonzero(np.abs(moved) > 0.05))
     assert out and out <= {11, 12_345, 29_999}
     assert rot.verdicts[k] == REJECT
+
+
+def test_a_d_shaft_measured_clear_of_its_flat_is_inconclusive_from_every_pose():
+    """A D-shaft (R40, a flat at +-20 degrees) measured on its round part only, 10 degrees clear
+    of the flat: turning it about its axis is free, and a few degrees' turn (a pose where the
+    points still fit) carries a point onto the flat and out of the +-0.05 mm zone. The scan
+    along the free rotation finds it from every starting pose: INCONCLUSIVE, the same verdict
+    in every pose. Truth, independently: turned about the true axis (z) in 0.1 degree steps,
+    some turn keeps the RMS within the plausibility limit and puts a point out."""
+    from engine.deviation import point_to_surface
+    from engine.geometry import rotation_from_rotvec
+    from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
+
+    nominal = _d_shaft()
+    rng = np.random.default_rng(1)
+    m = 400
+    a = rng.uniform(np.radians(30), np.radians(330), m)
+    z = rng.uniform(-60, 60, m)
+    dev = rng.normal(0, 0.003, m)
+    q = np.column_stack([(40 + dev) * np.cos(a), (40 + dev) * np.sin(a), z])
+    tol = Tolerance.symmetric(0.05)
+    verdicts = []
+    for seed in range(8):
+        r = np.random.default_rng(200 + seed)
+        res = inspect(nominal, apply_transform(make_transform(random_rotation(r),
+                                                              r.uniform(-500, 500, 3)), q), tol)
+        verdicts.append(res.verdict)
+        assert np.abs(res.deviations.signed).max() < 0.05  # every point in at the fitted pose
+    assert verdicts == [INCONCLUSIVE] * 8
+    said = " ".join(res.reasons)
+    assert "orientation about the axis" in said and "the verdict to REJECT" in said
+    X, d0 = res.registered, res.deviations.signed
+    limit = PLAUSIBLE_RMS_RATIO * np.sqrt(np.mean(d0 ** 2)) + INVARIANT_FRACTION * 0.1
+    found = False
+    for deg in np.arange(-20, 20.01, 0.1):
+        turn = rotation_from_rotvec(np.radians(deg) * np.array([[0.0, 0.0, 1.0]]))[0]
+        dd = point_to_surface(nominal, X @ turn.T).signed
+        found |= bool(np.sqrt(np.mean(dd ** 2)) <= limit and np.abs(dd).max() > 0.05)
+    assert found
+
+
+def test_a_2d_d_profile_measured_clear_of_its_flat_is_inconclusive_from_every_pose():
+    """The 2D twin: a circle R30 with a flat at +-20 degrees, 300 points on the arc 8 degrees
+    clear of the flat, +-0.03 mm: INCONCLUSIVE from each of 8 poses; truth as for the shaft."""
+    from engine.contour import ContourIndex, arc, build_template, deviations_2d, segment
+    from engine.inspection import inspect_2d
+    from engine.registration2d import _pose, apply2
+    from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
+
+    al = np.radians(20)
+    p0, p1 = (30 * np.cos(al), 30 * np.sin(al)), (30 * np.cos(al), -30 * np.sin(al))
+    tpl = build_template([([arc((0.0, 0.0), 30.0, al, 2 * np.pi - 2 * al), segment(p1, p0)],
+                           True)])
+    rng = np.random.default_rng(1)
+    m = 300
+    a = rng.uniform(al + np.radians(8), 2 * np.pi - al - np.radians(8), m)
+    q = (30 + rng.normal(0, 0.002, m))[:, None] * np.column_stack([np.cos(a), np.sin(a)])
+    tol = Tolerance.symmetric(0.03)
+    verdicts = []
+    for seed in range(8):
+        r = np.random.default_rng(300 + seed)
+        measured = np.column_stack([apply2(_pose(r.uniform(0, 2 * np.pi),
+                                                 r.uniform(-300, 300, 2)), q), np.zeros(m)])
+        res = inspect_2d(tpl, measured, 2, tol)
+        verdicts.append(res.verdict)
+    assert verdicts == [INCONCLUSIVE] * 8
+    X, d0 = res.registered[:, :2], res.deviations.signed
+    limit = PLAUSIBLE_RMS_RATIO * np.sqrt(np.mean(d0 ** 2)) + INVARIANT_FRACTION * 0.06
+    index = ContourIndex(tpl)
+    found = False
+    for deg in np.arange(-20, 20.01, 0.1):
+        t = np.radians(deg)
+        R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+        dd = deviations_2d(index, X @ R.T).signed
+        found |= bool(np.sqrt(np.mean(dd ** 2)) <= limit and np.abs(dd).max() > 0.03)
+    assert found
