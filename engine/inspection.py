@@ -177,8 +177,9 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         dev = point_to_surface(nominal, registered)
     margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
     ts = time.perf_counter()
-    sens, statements = _sensitivity(_deviations_and_border(nominal, measured), evaluate, T,
-                                    dev.signed, cond, reg, tolerance, margin, fit, registered)
+    deviations_at, beyond_at = _deviations_and_border(nominal, measured)
+    sens, statements = _sensitivity(deviations_at, evaluate, T, dev.signed, cond, reg, tolerance,
+                                    margin, fit, registered, beyond_at)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin, sens, statements)
@@ -198,15 +199,19 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
 
 
 def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
-    """deviations_at(T, idx) for engine.trust.pose_sensitivity: the signed deviations (mm) of
-    measured points ``idx`` at pose T, and which of them lie past the nominal's border: the
-    direction from its closest point to the point more than acos(BORDER_COSINE) from the
-    nominal's normal at the sample nearest that closest point (past a mesh's or grid's border
-    the distance is to its edge; past bare points' last facet, the facet continued ends too)."""
+    """(deviations_at, beyond_at)(T, idx) for engine.trust.pose_sensitivity: the signed
+    deviations (mm) of measured points ``idx`` at pose T, and which of them lie past the
+    nominal's border: the direction from its closest point to the point more than
+    acos(BORDER_COSINE) from the nominal's normal at the sample nearest that closest point
+    (past a mesh's or grid's border the distance is to its edge; past bare points' last facet,
+    the facet continued ends too)."""
     from .deviation import point_to_surface
     from .trust import BORDER_COSINE, BORDER_MIN_MM
 
     def deviations_at(Tc, idx):
+        return point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed
+
+    def beyond_at(Tc, idx):
         X = apply_transform(Tc, measured[idx])
         dv = point_to_surface(nominal, X)
         _, near = nominal.tree.query(dv.foot)
@@ -214,9 +219,9 @@ def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
         size = np.linalg.norm(off, axis=1)
         along = np.abs(np.einsum("ij,ij->i", nominal.normals(np.atleast_1d(near)), off))
         # A point on the surface (no offset to speak of) is over it.
-        return dv.signed, (size > BORDER_MIN_MM) & (along < BORDER_COSINE * size)
+        return (size > BORDER_MIN_MM) & (along < BORDER_COSINE * size)
 
-    return deviations_at
+    return deviations_at, beyond_at
 
 
 AMBIGUITY_POINTS = 16384
@@ -377,12 +382,13 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
 
 
 def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
-                 points: np.ndarray | None = None):
+                 points: np.ndarray | None = None, beyond_at=None):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
     minimax fit it is judged at its own minimax pose, as the chosen one is. points : the measured
-    points at pose T (nominal frame), for the bound on how far a probed pose moves each."""
+    points at pose T (nominal frame), for the bound on how far a probed pose moves each;
+    beyond_at(T, idx): which lie past the nominal's border (None: a closed 2D contour)."""
     from .trust import pose_sensitivity, trust_statements
 
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
@@ -395,7 +401,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
         alternatives.append(Tr)
     sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
-                            alternatives, points=points)
+                            alternatives, points=points, beyond_at=beyond_at)
     return sens, trust_statements(sens, reg.score, reg.runner_up_score)
 
 

@@ -328,9 +328,14 @@ BORDER_MIN_MM = 1e-4
 """… and lies farther than this from it (closer, the direction is rounding)."""
 SENSITIVITY_POINTS = 16384
 """Points evaluated at every probed pose at most (a seeded subset beyond), for the RMS and the
-scan's steps; the verdict at a probed pose is then completed exactly for every other point
-that the motion displaces by at least its distance to a limit (a deviation cannot change by
-more than the point's displacement), so it holds for every point."""
+scan's steps. The verdict at a probed pose is completed exactly for every other point that
+the motion displaces by at least its distance to a limit (a deviation cannot change by more
+than the point's displacement), so that it holds for every point: at every weak direction's
+probe and the runner-up, and along a free direction at the first pose scanned beyond
+FREE_EVERY_POINT of the reach and the farthest pose reached each way (on a large cloud every
+point can move that far: checking every point at every scanned pose would cost the whole
+cloud's deviations 20-odd times per direction)."""
+FREE_EVERY_POINT = 0.1
 
 
 @dataclass(frozen=True)
@@ -364,6 +369,9 @@ class PoseProbe:
     """A free direction, per side (negative, positive amplitudes): True where the scan ended
     next to where the points stop fitting (False: at the reach FREE_REACH, at a changed verdict,
     or after FREE_MAX_STEPS)."""
+    every_point: tuple[bool, ...] = ()
+    """Per probed pose: its verdict is that of every point (else of the SENSITIVITY_POINTS
+    subset: between the scan's checks of every point, see FREE_EVERY_POINT)."""
 
 
 @dataclass(frozen=True)
@@ -436,14 +444,13 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
                      upper: float, cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
                      margin: np.ndarray | None = None, alternatives=(),
                      max_points: int = SENSITIVITY_POINTS,
-                     points: np.ndarray | None = None) -> PoseSensitivity:
+                     points: np.ndarray | None = None,
+                     beyond_at: Callable | None = None) -> PoseSensitivity:
     """Does the verdict survive the pose's uncertainty?
 
     deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
         pose T' (the same kind of transform as ``T``: 4x4 measured -> nominal, or the 3x3 2D
-        one), exactly (the flow's own deviation function); or a pair (deviations, beyond) with
-        ``beyond`` (len(idx),) bool: the point lies past the nominal's border (its closest point
-        is on the border, not over the surface).
+        one), exactly (the flow's own deviation function).
     T, d : the chosen pose and the (n,) deviations there.
     cond : the fit's conditioning; each weak direction is probed by the exact screw motion
         along it (``WeakDirection.twist``) applied in the nominal frame before ``T``, at
@@ -451,9 +458,10 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         both ways from the fitted pose (FREE_FIRST, FREE_GROWTH, FREE_SAFETY, FREE_RESOLUTION)
         up to FREE_REACH x ``cond.length`` or to where the points stop fitting: their RMS above
         PLAUSIBLE_RMS_RATIO x the fitted one's (+ INVARIANT_FRACTION of the zone), or a point
-        that lay over the nominal carried past its border. The verdict is checked at every
-        step.
-    verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'.
+        whose deviation changes (its pointwise verdict, or by INVARIANT_FRACTION of the zone)
+        carried past the nominal's border. The verdict is checked at every step.
+    verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'; "REJECT"
+        as soon as one point is out, whatever the others (both rules of engine.inspection).
     margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
     alternatives : other plausible poses (the runner-up), each judged as a whole.
     points : (n, 3) or (n, 2) the measured points at pose T (nominal frame, mm). With more
@@ -462,6 +470,8 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         value where its pointwise verdict changes (a deviation, a distance to the nominal,
         cannot change by more than the point's displacement); without ``points``, every point.
         The verdict at every probed pose is thus that of every point.
+    beyond_at(T', idx) : optional, (len(idx),) bool: the points lie past the nominal's border
+        at pose T' (their closest point on it, not over the surface; see engine.inspection).
     """
     d = np.asarray(d, float)
     n = d.size
@@ -492,30 +502,29 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
     T = np.asarray(T, float)
     T_inv = np.linalg.inv(T)
     X = None if points is None else np.asarray(points, float)
-    beyond0 = np.full(n, -1, np.int8)  # past the nominal's border at T: -1 not yet known
 
-    def evaluate(P, sel):
-        """(deviations, newly past the border) of points ``sel`` at pose P."""
-        out = deviations_at(P, sel)
-        if not isinstance(out, tuple):
-            return np.asarray(out, float), np.zeros(sel.size, bool)
-        dv, past = np.asarray(out[0], float), np.asarray(out[1], bool)
-        unknown = sel[beyond0[sel] < 0]
-        if unknown.size:
-            beyond0[unknown] = np.asarray(deviations_at(T, unknown)[1], bool)
-        return dv, past & (beyond0[sel] == 0)
+    def category(dd, sel):
+        """Which side of each cut a deviation lies: its pointwise verdict's case."""
+        return sum((dd > c[sel]).astype(np.int8) for c in cuts)
+
+    cat0 = category(d, slice(None))
 
     def subset_at(P):
-        dI, left = evaluate(P, idx)
-        return dI, float(np.sqrt(np.mean(dI ** 2))), bool(left.any())
+        dI = np.asarray(deviations_at(P, idx), float)
+        return dI, float(np.sqrt(np.mean(dI ** 2)))
 
-    def complete(P, dI):
-        """(deviations of every point, any point left the nominal) at pose P: the subset's
-        dI, and exactly every other point the motion could have carried across a limit."""
+    full = idx.size == n
+
+    def judge_at(P, dI, every=True):
+        """(verdict, largest |change|, a point whose deviation changes there lies past the
+        nominal's border) at pose P: the subset's deviations dI, then (``every``) exactly every
+        other point the motion displaces by at least its distance to a cut, so the verdict is
+        that of every point."""
         dd = d.copy()
         dd[idx] = dI
-        left = False
-        if idx.size < n:
+        v = verdict_of(dd)
+        if every and not full and not (v == "REJECT" and base != "REJECT"):
+            # (One point out makes a REJECT whatever the others do.)
             if X is None:
                 rest = np.ones(n, bool)
             else:
@@ -525,10 +534,17 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
             rest[idx] = False
             rest = np.flatnonzero(rest)
             if rest.size:
-                dd[rest], past = evaluate(P, rest)
+                dd[rest] = deviations_at(P, rest)
                 seen[rest] = True
-                left = bool(past.any())
-        return dd, left
+                v = verdict_of(dd)
+        # Points whose deviation moved at all (a point past the border measures to its edge).
+        changed = np.flatnonzero((category(dd, slice(None)) != cat0)
+                                 | (np.abs(dd - d) > INVARIANT_FRACTION * width))
+        left = False
+        if beyond_at is not None and changed.size:
+            left = bool(np.any(np.asarray(beyond_at(P, changed), bool)
+                               & ~np.asarray(beyond_at(T, changed), bool)))
+        return v, float(np.abs(dd - d).max()), left
 
     reach = FREE_REACH * cond.length
     probes = []
@@ -545,32 +561,32 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
             for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
                              for s in (-1, 1)}):
                 P = pose(a)
-                dd, _ = complete(P, subset_at(P)[0])
-                rec.append((a, verdict_of(dd), True, float(np.abs(dd - d).max())))
+                v, ch, _ = judge_at(P, subset_at(P)[0], True)
+                rec.append([a, v, True, ch, True])
         else:
             h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx],
                                                                               cond))
             for sgn in (-1.0, 1.0):
                 a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
-                end = False
+                end, checked, last = False, False, None
                 for _ in range(FREE_MAX_STEPS):
                     if bad - a <= h_min:
                         end = True  # next to where the points stop fitting
                         break
                     a_new = min(a + h, reach, 0.5 * (a + bad))
                     P = pose(sgn * a_new)
-                    dI, r, left = subset_at(P)
-                    dd = None
-                    if not (r > fits or left):
-                        dd, left = complete(P, dI)
-                    if dd is None or left:  # not a pose the part can be in
+                    dI, r = subset_at(P)
+                    every = full or (not checked and a_new >= FREE_EVERY_POINT * reach)
+                    v, ch, left = judge_at(P, dI, every) if r <= fits else (None, 0.0, True)
+                    if left:  # not a pose the part can be in
                         sub = d.copy()
                         sub[idx] = dI
-                        rec.append((sgn * a_new, verdict_of(sub), False, 0.0))
+                        rec.append([sgn * a_new, verdict_of(sub), False, 0.0, False])
                         bad = a_new
                         continue
-                    v = verdict_of(dd)
-                    rec.append((sgn * a_new, v, True, float(np.abs(dd - d).max())))
+                    checked |= every
+                    rec.append([sgn * a_new, v, True, ch, every])
+                    last = (len(rec) - 1, P, dI)
                     rate = max(rate, float(np.abs(dI - prev).max()) / (a_new - a))
                     prev, a = dI, a_new
                     if v != base or a >= reach:
@@ -581,18 +597,23 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
                     near = float(to_limit(dI, idx).min())
                     h_rate = near / (FREE_SAFETY * rate) if rate > 0 else np.inf
                     h = max(h_min, min(h_rate, (FREE_GROWTH - 1.0) * a))
+                if last is not None and not rec[last[0]][4]:
+                    # The farthest pose reached this way, judged on every point too.
+                    v, ch, left = judge_at(last[1], last[2], True)
+                    rec[last[0]][1:] = [v, not left, ch, True]
                 ends.append(end)
         rec.sort(key=lambda t: t[0])
-        mx = max((c for _, _, o, c in rec if o), default=0.0)
+        mx = max((c for _, _, o, c, _ in rec if o), default=0.0)
         probes.append(PoseProbe(w.type, w.axis, w.sigma_mm is None, tuple(r[0] for r in rec),
                                 mx, tuple(r[1] for r in rec), mx <= INVARIANT_FRACTION * width,
-                                tuple(r[2] for r in rec), through, w.sigma_mm, tuple(ends)))
+                                tuple(r[2] for r in rec), through, w.sigma_mm, tuple(ends),
+                                tuple(r[4] for r in rec)))
     for Ta in alternatives:
         P = np.asarray(Ta, float)
-        dd, _ = complete(P, subset_at(P)[0])
-        ch = float(np.abs(dd - d).max())
-        probes.append(PoseProbe("runner-up", None, False, (), ch, (verdict_of(dd),),
-                                ch <= INVARIANT_FRACTION * width, (True,), None, None))
+        v, ch, _ = judge_at(P, subset_at(P)[0], True)
+        probes.append(PoseProbe("runner-up", None, False, (), ch, (v,),
+                                ch <= INVARIANT_FRACTION * width, (True,), None, None, (),
+                                (True,)))
     stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
     return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
                            closest, worst, int(seen.sum()), cond.length)
