@@ -665,8 +665,8 @@ def _d_shaft(r=40.0, flat_deg=20.0, nu=720, nv=100):
 def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     """30,000 points on the round part of a D-shaft (more than the subset evaluated at every
     probed pose), 3 of them 2.0-2.6 degrees from the flat's edge, the rest 3.5 degrees or more:
-    turning the part about its (free) axis by the probe's 2.9 degrees carries those 3 onto the
-    flat and out of the +-0.05 mm zone, while a subset is unlikely to hold any of them. Every
+    turning the part about its (free) axis by 3 degrees carries those 3 onto the flat and out
+    of the +-0.05 mm zone, while the subset does not hold them. Every
     point that the motion displaces by at least its distance to a limit is evaluated, so the
     verdict is seen to depend on the pose; truth: all points evaluated at that pose."""
     from engine.deviation import point_to_surface
@@ -678,7 +678,11 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     m = 30_000
     assert m > SENSITIVITY_POINTS
     a = rng.uniform(np.radians(23.5), np.radians(336.5), m)
-    a[[11, 12_345, 29_999]] = np.radians([22.0, 22.3, 22.6])
+    # The worst case: three points outside the seeded subset the engine draws (its seed 7
+    # today; whatever the subset, every point must count).
+    subset = np.random.default_rng(7).choice(m, SENSITIVITY_POINTS, replace=False)
+    three = np.setdiff1d(np.arange(m), subset)[[0, 5000, -1]]
+    a[three] = np.radians([22.0, 22.3, 22.6])
     z = rng.uniform(-60, 60, m)
     dev = rng.normal(0, 0.003, m)
     X = np.column_stack([(40 + dev) * np.cos(a), (40 + dev) * np.sin(a), z])  # nominal frame
@@ -707,7 +711,7 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     moved = deviations_at(_twist_matrix(w.twist, rot.amplitudes[k], cond.centre, cond.length),
                           np.arange(m))
     out = set(np.flatnonzero(np.abs(moved) > 0.05))
-    assert out and out <= {11, 12_345, 29_999}
+    assert out and out <= set(three)
     assert rot.verdicts[k] == REJECT
 
 
