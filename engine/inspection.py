@@ -179,7 +179,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     ts = time.perf_counter()
     deviations_at, beyond_at = _deviations_and_border(nominal, measured)
     sens, statements = _sensitivity(deviations_at, evaluate, T, dev.signed, cond, reg, tolerance,
-                                    margin, fit, registered, beyond_at)
+                                    margin, fit, registered, beyond_at, dev.normal)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin, sens, statements)
@@ -382,14 +382,17 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
 
 
 def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
-                 points: np.ndarray | None = None, beyond_at=None):
+                 points: np.ndarray | None = None, beyond_at=None,
+                 normals: np.ndarray | None = None):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
     minimax fit it is judged at its own minimax pose, as the chosen one is. points : the measured
     points at pose T (nominal frame), for the bound on how far a probed pose moves each;
-    beyond_at(T, idx): which lie past the nominal's border (None: a closed 2D contour)."""
-    from .trust import pose_sensitivity, trust_statements
+    beyond_at(T, idx): which lie past the nominal's border (None: a closed 2D contour);
+    normals : the nominal's normals at the points (with ``points``: the pose's uncertainty
+    region, engine.trust.uncertainty_poses, is probed too)."""
+    from .trust import pose_sensitivity, trust_statements, uncertainty_poses
 
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
         return None, ()
@@ -399,9 +402,12 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
         if fit == "minimax":
             Tr = _minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
+    region = [] if points is None or normals is None else uncertainty_poses(
+        points[reg.inlier], normals[reg.inlier], reg.rms, T, d[reg.inlier], tol.lower, tol.upper,
+        cond, None if margin is None else margin[reg.inlier])
     sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
-                            alternatives, points=points, beyond_at=beyond_at)
+                            alternatives, points=points, beyond_at=beyond_at, region=region)
     return sens, trust_statements(sens, reg.score, reg.runner_up_score)
 
 
@@ -485,7 +491,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     ts = time.perf_counter()
     sens, statements = _sensitivity(
         lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
-        reg, tolerance, margin, fit, apply2(T2, q2))
+        reg, tolerance, margin, fit, apply2(T2, q2), None, dev2.normal)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
                                      sens, statements)

@@ -338,12 +338,74 @@ cloud's deviations 20-odd times per direction)."""
 FREE_EVERY_POINT = 0.1
 
 
+UNCERTAINTY_SIGMAS = 3.0
+"""The pose's uncertainty region from the fit's residuals, all directions together: the
+ellipsoid of this many sigma of the full pose covariance (weak and strong directions and their
+combinations; the free ones are scanned on their own)."""
+UNCERTAINTY_POINTS = 32
+"""Points whose margin is within UNCERTAINTY_SIGMAS of their deviation's sigma get a pose of
+their own at most (the nearest to a limit in sigmas first)."""
+
+
+def uncertainty_poses(X: np.ndarray, normals: np.ndarray, residual_rms: float, T: np.ndarray,
+                      d: np.ndarray, lower: float, upper: float, cond: Conditioning,
+                      margin: np.ndarray | None = None) -> list[np.ndarray]:
+    """Poses on the edge of the pose's uncertainty region that move a point across a limit.
+
+    X, normals : (n, 3) or (n, 2) fitted points at pose T (nominal frame) and their nominal
+        normals; d : (n,) their deviations (mm); residual_rms : the fit's RMS residual (mm).
+    The pose covariance is s^2 (J^T J)^-1 over the directions that are not free (s^2 the
+    residuals' variance, n / (n - dof) x rms^2; J the points' deviation Jacobian); a point's
+    deviation then has sigma_i = sqrt(J_i Sigma J_i^T) from the pose alone. For each point whose
+    distance to the nearest value where its pointwise verdict changes (a limit, or a guarded
+    margin's) is below UNCERTAINTY_SIGMAS x sigma_i (at most UNCERTAINTY_POINTS of them), the
+    pose UNCERTAINTY_SIGMAS sigma away along the direction that moves its deviation most
+    towards that value (Sigma J_i^T / sigma_i), as the exact rigid motion before T: 4x4 (3x3
+    in 2D). [] when no point is that close or the fit has too few points."""
+    X = np.asarray(X, float)
+    normals = np.asarray(normals, float)
+    d = np.asarray(d, float)
+    n, dim = X.shape
+    nrot = 3 if dim == 3 else 1
+    dof = nrot + dim
+    if n <= dof or not np.isfinite(residual_rms) or not cond.length or not cond.centre:
+        return []
+    c = np.asarray(cond.centre, float)
+    J = _jacobian(X, normals, c)
+    J[:, :nrot] /= cond.length  # the twists' units (rotation x length, mm)
+    A = J.T @ J
+    free = [np.asarray(w.twist, float) for w in cond.weak if w.sigma_mm is None and w.twist]
+    if free:
+        F = np.linalg.qr(np.array(free).T)[0]
+        Pc = np.eye(dof) - F @ F.T
+        A = Pc @ A @ Pc
+    lam, V = np.linalg.eigh(A)
+    keep = lam > DEGENERATE_STRENGTH * max(float(lam[-1]), 1e-300)
+    cov = (residual_rms ** 2 * n / (n - dof)) * (V[:, keep] / lam[keep]) @ V[:, keep].T
+    JS = J @ cov
+    sd = np.sqrt(np.maximum(np.einsum("ij,ij->i", JS, J), 0.0))
+    m = np.zeros(n) if margin is None else np.asarray(margin, float)
+    cuts = np.stack([lower - m, lower + m, upper - m, upper + m])
+    gap = cuts - d
+    k = np.argmin(np.abs(gap), axis=0)
+    toward = gap[k, np.arange(n)]
+    ratio = np.abs(toward) / np.maximum(sd, 1e-300)
+    risk = np.flatnonzero((ratio < UNCERTAINTY_SIGMAS) & (sd > 0))
+    risk = risk[np.argsort(ratio[risk])][:UNCERTAINTY_POINTS]
+    poses = []
+    for i in risk:
+        p = UNCERTAINTY_SIGMAS * (np.sign(toward[i]) or 1.0) * JS[i] / sd[i]
+        poses.append(_twist_matrix(p, 1.0, c, cond.length) @ np.asarray(T, float))
+    return poses
+
+
 @dataclass(frozen=True)
 class PoseProbe:
     """The part moved along one weak or free direction, or to the runner-up pose."""
 
     kind: str
-    """"translation", "rotation" or "runner-up"."""
+    """"translation", "rotation", "runner-up" or "uncertainty" (the poses of
+    :func:`uncertainty_poses`, one per point near a limit)."""
     axis: tuple[float, ...] | None
     """The direction (WeakDirection.axis); None for the runner-up."""
     free: bool
@@ -445,7 +507,7 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
                      margin: np.ndarray | None = None, alternatives=(),
                      max_points: int = SENSITIVITY_POINTS,
                      points: np.ndarray | None = None,
-                     beyond_at: Callable | None = None) -> PoseSensitivity:
+                     beyond_at: Callable | None = None, region=()) -> PoseSensitivity:
     """Does the verdict survive the pose's uncertainty?
 
     deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
@@ -472,6 +534,8 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         The verdict at every probed pose is thus that of every point.
     beyond_at(T', idx) : optional, (len(idx),) bool: the points lie past the nominal's border
         at pose T' (their closest point on it, not over the surface; see engine.inspection).
+    region : poses on the edge of the pose's uncertainty region (:func:`uncertainty_poses`),
+        judged together as one probe of kind "uncertainty".
     """
     d = np.asarray(d, float)
     n = d.size
@@ -489,7 +553,7 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
     worst = float(signed.min()) if n else 0.0
     base = verdict_of(d)
     weak = [w for w in cond.weak if w.twist]
-    if not (weak or len(alternatives)) or n == 0:
+    if not (weak or len(alternatives) or len(region)) or n == 0:
         return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
     if n <= max_points:
         idx = np.arange(n)
@@ -614,6 +678,12 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         probes.append(PoseProbe("runner-up", None, False, (), ch, (v,),
                                 ch <= INVARIANT_FRACTION * width, (True,), None, None, (),
                                 (True,)))
+    if len(region):
+        judged = [judge_at(P, subset_at(P)[0], True) for P in region]
+        ch = max(j[1] for j in judged)
+        probes.append(PoseProbe("uncertainty", None, False, (), ch, tuple(j[0] for j in judged),
+                                ch <= INVARIANT_FRACTION * width, (True,) * len(judged), None,
+                                None, (), (True,) * len(judged)))
     stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
     return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
                            closest, worst, int(seen.sum()), cond.length)
@@ -646,6 +716,16 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
     for p in sens.probes:
         ok = p.plausible or (True,) * len(p.verdicts)
         changed = [v for v, o in zip(p.verdicts, ok) if o and v != sens.verdict]
+        if p.kind == "uncertainty":
+            k = len(p.verdicts)
+            head = (f"{k} point{'s lie' if k > 1 else ' lies'} nearer a tolerance limit than 3 "
+                    f"standard deviations of what the pose's uncertainty (from the fit's "
+                    f"residuals) does to {'their deviations' if k > 1 else 'its deviation'}")
+            out.append(head + (f"; at a pose within that uncertainty the verdict would be "
+                               f"{changed[0]}, so it depends on the pose" if changed else
+                               f"; at the poses 3σ away that move {'them' if k > 1 else 'it'} "
+                               f"most towards the limit the verdict is the same"))
+            continue
         if p.kind == "runner-up":
             if p.invariant and not changed:
                 continue  # the same deviations: an equivalent pose (a symmetry), not news
