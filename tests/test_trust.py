@@ -789,3 +789,45 @@ def test_a_2d_d_profile_measured_clear_of_its_flat_is_inconclusive_from_every_po
         dd = deviations_2d(index, X @ R.T).signed
         found |= bool(np.sqrt(np.mean(dd ** 2)) <= limit and np.abs(dd).max() > 0.03)
     assert found
+
+
+def test_a_point_within_the_pose_uncertainty_of_a_limit_makes_a_sparse_fit_inconclusive():
+    """25 points on a gently curved patch, +-0.03 mm: every point is inside at the fitted pose,
+    but the pose, as uncertain as the residuals make it in all six directions together (not
+    one weak direction at a time), puts a point out 3 sigma away. Truth, independently: the
+    covariance rms^2 (J^T J)^-1 of the registered points, the pose 3 sigma along the most
+    endangered point's worst direction, applied with scipy's rotation, exactly evaluated."""
+    from scipy.spatial.transform import Rotation
+
+    from engine.deviation import point_to_surface
+
+    pts, nrm, grid = height_grid(300, 200)
+    nominal = Nominal.from_point_set(point_set(pts, nrm, grid))
+    rng = np.random.default_rng(2)
+    m = 25
+    x, y = rng.uniform(-60, 60, m), rng.uniform(-40, 40, m)
+    q = np.column_stack([x, y, height(x, y)]) + rng.normal(0, 0.012, m)[:, None] * \
+        height_normal(x, y)
+    measured = apply_transform(make_transform(random_rotation(rng), rng.uniform(-800, 800, 3)),
+                               q)
+    tol = Tolerance.symmetric(0.03)
+    res = inspect(nominal, measured, tol)
+    d = res.deviations.signed
+    assert np.all(np.abs(d) < 0.03)
+    X, N = res.registered, res.deviations.normal
+    c = X.mean(axis=0)
+    J = np.column_stack([np.cross(X - c, N), N])
+    cov = res.registration.rms ** 2 * np.linalg.inv(J.T @ J)
+    sd = np.sqrt(np.einsum("ij,jk,ik->i", J, cov, J))
+    margin = np.minimum(d - tol.lower, tol.upper - d)
+    i = int(np.argmin(margin / sd))
+    g = np.sign(d[i]) * 3.0 * cov @ J[i] / sd[i]
+    moved = point_to_surface(nominal, (X - c) @ Rotation.from_rotvec(g[:3]).as_matrix().T + c
+                             + g[3:]).signed
+    assert np.any(np.abs(moved) > 0.03)  # truth: a pose 3 sigma away puts a point out
+    assert res.verdict == INCONCLUSIVE and not res.pose_sensitivity.verdict_stable
+    probe = next(p for p in res.pose_sensitivity.probes if p.kind == "uncertainty")
+    assert REJECT in probe.verdicts
+    assert any("pose's uncertainty" in r and "REJECT" in r for r in res.reasons)
+    # With a zone twice as wide no point is that near a limit: the verdict stands.
+    assert inspect(nominal, measured, Tolerance.symmetric(0.06)).verdict == ACCEPT
