@@ -10,8 +10,10 @@
 * :func:`sampling_margin`: per point, how far facets through sampled nominal points can lie from
   the true surface: curvature x spacing^2 / 8.
 * :func:`pose_sensitivity`: whether the verdict survives the pose's uncertainty: the part moved
-  along each weak or free direction (exact screw motions, +-3 sigma, or far along a free one)
-  and to the runner-up pose, every deviation that can cross a limit evaluated exactly there;
+  along each weak direction (exact screw motions, +-3 sigma), scanned along each free one out
+  to where the points stop fitting, moved to the edge of the full uncertainty region for each
+  point near a limit (:func:`uncertainty_poses`) and to the runner-up pose, every deviation
+  that can cross a limit evaluated exactly there;
   :func:`trust_statements` says in plain words what the measurement does not fix.
 
 Shapes: points and normals are (n, 3) in 3D, (n, 2) for a 2D template (3 degrees of freedom:
