@@ -177,9 +177,9 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         dev = point_to_surface(nominal, registered)
     margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
     ts = time.perf_counter()
-    sens, statements = _sensitivity(
-        lambda Tc, idx: point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed,
-        evaluate, T, dev.signed, cond, reg, tolerance, margin, fit)
+    deviations_at, beyond_at = _deviations_and_border(nominal, measured)
+    sens, statements = _sensitivity(deviations_at, evaluate, T, dev.signed, cond, reg, tolerance,
+                                    margin, fit, registered, beyond_at, dev.normal)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
                                      margin, sens, statements)
@@ -196,6 +196,32 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                             decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
                             ambiguity_spread=spread, margin=margin, pose_sensitivity=sens,
                             trust_statements=statements)
+
+
+def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
+    """(deviations_at, beyond_at)(T, idx) for engine.trust.pose_sensitivity: the signed
+    deviations (mm) of measured points ``idx`` at pose T, and which of them lie past the
+    nominal's border: the direction from its closest point to the point more than
+    acos(BORDER_COSINE) from the nominal's normal at the sample nearest that closest point
+    (past a mesh's or grid's border the distance is to its edge; past bare points' last facet,
+    the facet continued ends too)."""
+    from .deviation import point_to_surface
+    from .trust import BORDER_COSINE, BORDER_MIN_MM
+
+    def deviations_at(Tc, idx):
+        return point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed
+
+    def beyond_at(Tc, idx):
+        X = apply_transform(Tc, measured[idx])
+        dv = point_to_surface(nominal, X)
+        _, near = nominal.tree.query(dv.foot)
+        off = X - dv.foot
+        size = np.linalg.norm(off, axis=1)
+        along = np.abs(np.einsum("ij,ij->i", nominal.normals(np.atleast_1d(near)), off))
+        # A point on the surface (no offset to speak of) is over it.
+        return (size > BORDER_MIN_MM) & (along < BORDER_COSINE * size)
+
+    return deviations_at, beyond_at
 
 
 AMBIGUITY_POINTS = 16384
@@ -355,12 +381,18 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
                           "a tolerance limit (guarded decision rule)")
 
 
-def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str):
+def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
+                 points: np.ndarray | None = None, beyond_at=None,
+                 normals: np.ndarray | None = None):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
-    minimax fit it is judged at its own minimax pose, as the chosen one is."""
-    from .trust import pose_sensitivity, trust_statements
+    minimax fit it is judged at its own minimax pose, as the chosen one is. points : the measured
+    points at pose T (nominal frame), for the bound on how far a probed pose moves each;
+    beyond_at(T, idx): which lie past the nominal's border (None: a closed 2D contour);
+    normals : the nominal's normals at the points (with ``points``: the pose's uncertainty
+    region, engine.trust.uncertainty_poses, is probed too)."""
+    from .trust import pose_sensitivity, trust_statements, uncertainty_poses
 
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
         return None, ()
@@ -370,9 +402,12 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
         if fit == "minimax":
             Tr = _minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
+    region = [] if points is None or normals is None else uncertainty_poses(
+        points[reg.inlier], normals[reg.inlier], reg.rms, T, d[reg.inlier], tol.lower, tol.upper,
+        cond, None if margin is None else margin[reg.inlier])
     sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
-                            alternatives)
+                            alternatives, points=points, beyond_at=beyond_at, region=region)
     return sens, trust_statements(sens, reg.score, reg.runner_up_score)
 
 
@@ -456,7 +491,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     ts = time.perf_counter()
     sens, statements = _sensitivity(
         lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
-        reg, tolerance, margin, fit)
+        reg, tolerance, margin, fit, apply2(T2, q2), None, dev2.normal)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
                                      sens, statements)

@@ -10,8 +10,10 @@
 * :func:`sampling_margin`: per point, how far facets through sampled nominal points can lie from
   the true surface: curvature x spacing^2 / 8.
 * :func:`pose_sensitivity`: whether the verdict survives the pose's uncertainty: the part moved
-  along each weak or free direction (exact screw motions, +-3 sigma, or far along a free one)
-  and to the runner-up pose, every deviation that can cross a limit evaluated exactly there;
+  along each weak direction (exact screw motions, +-3 sigma), scanned along each free one out
+  to where the points stop fitting, moved to the edge of the full uncertainty region for each
+  point near a limit (:func:`uncertainty_poses`) and to the runner-up pose, every deviation
+  that can cross a limit evaluated exactly there;
   :func:`trust_statements` says in plain words what the measurement does not fix.
 
 Shapes: points and normals are (n, 3) in 3D, (n, 2) for a 2D template (3 degrees of freedom:
@@ -293,8 +295,21 @@ FREE_REACH = 0.5
 radius ``Conditioning.length`` (a translation in mm; a rotation by that arc at the RMS radius:
 0.5 rad, about 29 degrees) — far enough to matter at the part's scale, short enough to keep the
 points on the nominal they were measured on (a cylinder measured over 60% of its length)."""
-FREE_PROBES = (0.01, 0.1, 1.0)
-"""… at +- these fractions of that reach: a deviation that changes at all shows at some scale."""
+FREE_FIRST = 0.01
+"""A free direction is scanned outward from the fitted pose, each way, starting at this
+fraction of that reach, …"""
+FREE_GROWTH = 1.5
+"""… each step at most this factor of the amplitude reached, and shorter where the deviations
+change: short enough that, changing at FREE_SAFETY times the fastest rate seen so far, none
+reaches a limit within it. A step onto a pose where the points stop fitting is halved, down to
+FREE_RESOLUTION, so the scan ends next to where they stop fitting: a point that slides onto a
+neighbouring face (the flat of a D-shaft) leaves the zone there, before the RMS gives way."""
+FREE_SAFETY = 2.0
+FREE_RESOLUTION = 0.1
+"""The scan's finest step: the motion that moves the fastest point by this fraction of the zone
+width."""
+FREE_MAX_STEPS = 200
+"""Poses tried at most each way along a free direction (the statement says how far it got)."""
 INVARIANT_FRACTION = 0.02
 """A free direction is one the deviations are invariant along when no probe changes any
 deviation by more than this fraction of the zone width (the nominal's sampling moves them by a
@@ -302,15 +317,88 @@ few micrometres at most)."""
 PLAUSIBLE_RMS_RATIO = 1.5
 """A pose along a free direction is one the measurement allows only while the points still fit
 there: the RMS of their deviations at most this factor (the runner-up's score ratio, see
-engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone width. Slid past
-the end of a cylinder, or rotated into a sphere's unsampled pole, they do not: such a pose is
-not a place the part could be, and its verdict does not count."""
+engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone width, and no
+point that lay over the nominal carried past its border. Slid past the end of a cylinder, or
+rotated into a sphere's unsampled pole, they do not: such a pose is not a place the part could
+be (the points were measured on the nominal), and its verdict does not count."""
+BORDER_COSINE = 0.5
+"""A point lies past the nominal's border when the direction to it from its closest point
+makes more than 60 degrees with the nominal's normal at the sample nearest that closest point
+(over the surface the two agree within its curvature between samples): its closest point is on
+the border (engine.inspection)."""
+BORDER_MIN_MM = 1e-4
+"""… and lies farther than this from it (closer, the direction is rounding)."""
 SENSITIVITY_POINTS = 16384
-"""Points evaluated at every probed pose at most (a seeded subset beyond, then every point
-within NEAR_FACTOR x the subset's largest change of a limit): a rigid motion changes the
-deviations smoothly over the part, so the subset sees the largest change, and only points that
-close to a limit can cross one."""
-NEAR_FACTOR = 2.0
+"""Points evaluated at every probed pose at most (a seeded subset beyond), for the RMS and the
+scan's steps. The verdict at a probed pose is completed exactly for every other point that
+the motion displaces by at least its distance to a limit (a deviation cannot change by more
+than the point's displacement), so that it holds for every point: at every weak direction's
+probe and the runner-up, and along a free direction at the first pose scanned beyond
+FREE_EVERY_POINT of the reach and the farthest pose reached each way (on a large cloud every
+point can move that far: checking every point at every scanned pose would cost the whole
+cloud's deviations 20-odd times per direction)."""
+FREE_EVERY_POINT = 0.1
+
+
+UNCERTAINTY_SIGMAS = 3.0
+"""The pose's uncertainty region from the fit's residuals, all directions together: the
+ellipsoid of this many sigma of the full pose covariance (weak and strong directions and their
+combinations; the free ones are scanned on their own)."""
+UNCERTAINTY_POINTS = 32
+"""Points whose margin is within UNCERTAINTY_SIGMAS of their deviation's sigma get a pose of
+their own at most (the nearest to a limit in sigmas first)."""
+
+
+def uncertainty_poses(X: np.ndarray, normals: np.ndarray, residual_rms: float, T: np.ndarray,
+                      d: np.ndarray, lower: float, upper: float, cond: Conditioning,
+                      margin: np.ndarray | None = None) -> list[np.ndarray]:
+    """Poses on the edge of the pose's uncertainty region that move a point across a limit.
+
+    X, normals : (n, 3) or (n, 2) fitted points at pose T (nominal frame) and their nominal
+        normals; d : (n,) their deviations (mm); residual_rms : the fit's RMS residual (mm).
+    The pose covariance is s^2 (J^T J)^-1 over the directions that are not free (s^2 the
+    residuals' variance, n / (n - dof) x rms^2; J the points' deviation Jacobian); a point's
+    deviation then has sigma_i = sqrt(J_i Sigma J_i^T) from the pose alone. For each point whose
+    distance to the nearest value where its pointwise verdict changes (a limit, or a guarded
+    margin's) is below UNCERTAINTY_SIGMAS x sigma_i (at most UNCERTAINTY_POINTS of them), the
+    pose UNCERTAINTY_SIGMAS sigma away along the direction that moves its deviation most
+    towards that value (Sigma J_i^T / sigma_i), as the exact rigid motion before T: 4x4 (3x3
+    in 2D). [] when no point is that close or the fit has too few points."""
+    X = np.asarray(X, float)
+    normals = np.asarray(normals, float)
+    d = np.asarray(d, float)
+    n, dim = X.shape
+    nrot = 3 if dim == 3 else 1
+    dof = nrot + dim
+    if n <= dof or not np.isfinite(residual_rms) or not cond.length or not cond.centre:
+        return []
+    c = np.asarray(cond.centre, float)
+    J = _jacobian(X, normals, c)
+    J[:, :nrot] /= cond.length  # the twists' units (rotation x length, mm)
+    A = J.T @ J
+    free = [np.asarray(w.twist, float) for w in cond.weak if w.sigma_mm is None and w.twist]
+    if free:
+        F = np.linalg.qr(np.array(free).T)[0]
+        Pc = np.eye(dof) - F @ F.T
+        A = Pc @ A @ Pc
+    lam, V = np.linalg.eigh(A)
+    keep = lam > DEGENERATE_STRENGTH * max(float(lam[-1]), 1e-300)
+    cov = (residual_rms ** 2 * n / (n - dof)) * (V[:, keep] / lam[keep]) @ V[:, keep].T
+    JS = J @ cov
+    sd = np.sqrt(np.maximum(np.einsum("ij,ij->i", JS, J), 0.0))
+    m = np.zeros(n) if margin is None else np.asarray(margin, float)
+    cuts = np.stack([lower - m, lower + m, upper - m, upper + m])
+    gap = cuts - d
+    k = np.argmin(np.abs(gap), axis=0)
+    toward = gap[k, np.arange(n)]
+    ratio = np.abs(toward) / np.maximum(sd, 1e-300)
+    risk = np.flatnonzero((ratio < UNCERTAINTY_SIGMAS) & (sd > 0))
+    risk = risk[np.argsort(ratio[risk])][:UNCERTAINTY_POINTS]
+    poses = []
+    for i in risk:
+        p = UNCERTAINTY_SIGMAS * (np.sign(toward[i]) or 1.0) * JS[i] / sd[i]
+        poses.append(_twist_matrix(p, 1.0, c, cond.length) @ np.asarray(T, float))
+    return poses
 
 
 @dataclass(frozen=True)
@@ -318,7 +406,8 @@ class PoseProbe:
     """The part moved along one weak or free direction, or to the runner-up pose."""
 
     kind: str
-    """"translation", "rotation" or "runner-up"."""
+    """"translation", "rotation", "runner-up" or "uncertainty" (the poses of
+    :func:`uncertainty_poses`, one per point near a limit)."""
     axis: tuple[float, ...] | None
     """The direction (WeakDirection.axis); None for the runner-up."""
     free: bool
@@ -340,6 +429,13 @@ class PoseProbe:
     """A rotation: a point of its axis (nominal frame, mm)."""
     sigma_mm: float | None = None
     """WeakDirection.sigma_mm (None: free or the runner-up)."""
+    ends: tuple[bool, ...] = ()
+    """A free direction, per side (negative, positive amplitudes): True where the scan ended
+    next to where the points stop fitting (False: at the reach FREE_REACH, at a changed verdict,
+    or after FREE_MAX_STEPS)."""
+    every_point: tuple[bool, ...] = ()
+    """Per probed pose: its verdict is that of every point (else of the SENSITIVITY_POINTS
+    subset: between the scan's checks of every point, see FREE_EVERY_POINT)."""
 
 
 @dataclass(frozen=True)
@@ -408,11 +504,12 @@ def _axis_point(twist, centre, length: float) -> tuple[float, ...]:
     return tuple(float(a) for a in p)
 
 
-def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                     T: np.ndarray, d: np.ndarray, lower: float, upper: float,
-                     cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
+def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lower: float,
+                     upper: float, cond: Conditioning, verdict_of: Callable[[np.ndarray], str],
                      margin: np.ndarray | None = None, alternatives=(),
-                     max_points: int = SENSITIVITY_POINTS) -> PoseSensitivity:
+                     max_points: int = SENSITIVITY_POINTS,
+                     points: np.ndarray | None = None,
+                     beyond_at: Callable | None = None, region=()) -> PoseSensitivity:
     """Does the verdict survive the pose's uncertainty?
 
     deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
@@ -421,79 +518,189 @@ def pose_sensitivity(deviations_at: Callable[[np.ndarray, np.ndarray], np.ndarra
     T, d : the chosen pose and the (n,) deviations there.
     cond : the fit's conditioning; each weak direction is probed by the exact screw motion
         along it (``WeakDirection.twist``) applied in the nominal frame before ``T``, at
-        +-PROBE_SIGMAS x its sigma, or for a free one at +-FREE_PROBES x FREE_REACH x
-        ``cond.length`` (both capped at that reach).
-    verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'.
+        +-PROBE_SIGMAS x its sigma (capped at the free reach); a free one is scanned outward
+        both ways from the fitted pose (FREE_FIRST, FREE_GROWTH, FREE_SAFETY, FREE_RESOLUTION)
+        up to FREE_REACH x ``cond.length`` or to where the points stop fitting: their RMS above
+        PLAUSIBLE_RMS_RATIO x the fitted one's (+ INVARIANT_FRACTION of the zone), or a point
+        whose deviation changes (its pointwise verdict, or by INVARIANT_FRACTION of the zone)
+        carried past the nominal's border. The verdict is checked at every step.
+    verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'; "REJECT"
+        as soon as one point is out, whatever the others (both rules of engine.inspection).
     margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
     alternatives : other plausible poses (the runner-up), each judged as a whole.
+    points : (n, 3) or (n, 2) the measured points at pose T (nominal frame, mm). With more
+        than ``max_points`` points, a seeded subset is evaluated at every pose and, given
+        ``points``, every other point that the motion displaces by at least its distance to a
+        value where its pointwise verdict changes (a deviation, a distance to the nominal,
+        cannot change by more than the point's displacement); without ``points``, every point.
+        The verdict at every probed pose is thus that of every point.
+    beyond_at(T', idx) : optional, (len(idx),) bool: the points lie past the nominal's border
+        at pose T' (their closest point on it, not over the surface; see engine.inspection).
+    region : poses on the edge of the pose's uncertainty region (:func:`uncertainty_poses`),
+        judged together as one probe of kind "uncertainty".
     """
     d = np.asarray(d, float)
     n = d.size
     width = upper - lower
     m = np.zeros(n) if margin is None else np.asarray(margin, float)
-    # Distance of each point to the nearest value where its pointwise verdict changes.
-    dist = np.min(np.abs(np.stack([d - (lower - m), d - (lower + m), d - (upper - m),
-                                   d - (upper + m)])), axis=0)
+    cuts = (lower - m, lower + m, upper - m, upper + m)
+
+    def to_limit(dd, sel=slice(None)):
+        """Distance of each point to the nearest value where its pointwise verdict changes."""
+        return np.min(np.abs(np.stack([dd - c[sel] for c in cuts])), axis=0)
+
+    dist = to_limit(d)
     signed = np.minimum(d - lower, upper - d)
     closest = float(signed[np.argmin(np.abs(signed))]) if n else 0.0
     worst = float(signed.min()) if n else 0.0
     base = verdict_of(d)
-    plans = []  # (kind, axis, free, amplitudes, poses, through, sigma)
-    reach = FREE_REACH * cond.length
-    for w in cond.weak:
-        if not w.twist:
-            continue
-        free = w.sigma_mm is None
-        steps = ([f * reach for f in FREE_PROBES] if free else
-                 [min(k * w.sigma_mm, reach) for k in PROBE_SIGMAS])
-        amps = tuple(sorted({float(s) for a in steps for s in (-a, a)}))
-        poses = [_twist_matrix(w.twist, a, cond.centre, cond.length) @ T for a in amps]
-        through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
-            else None
-        plans.append((w.type, w.axis, free, amps, poses, through, w.sigma_mm))
-    for Ta in alternatives:
-        plans.append(("runner-up", None, False, (), [np.asarray(Ta, float)], None, None))
-    if not plans or n == 0:
+    weak = [w for w in cond.weak if w.twist]
+    if not (weak or len(alternatives) or len(region)) or n == 0:
         return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
-    poses = [P for plan in plans for P in plan[4]]
-    free = np.array([plan[2] for plan in plans for _ in plan[4]])
     if n <= max_points:
         idx = np.arange(n)
     else:
         idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
-    change = np.stack([deviations_at(P, idx) - d[idx] for P in poses])
-    # Along a free direction a pose counts only while the points still fit there.
+    seen = np.zeros(n, bool)
+    seen[idx] = True
     rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
-    rms = np.sqrt(np.mean((d[idx] + change) ** 2, axis=1))
-    ok = ~free | (rms <= PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width)
-    if idx.size < n and ok.any():
-        # Only a point within the largest change (with room) of a limit can cross it.
-        near = np.flatnonzero(dist <= NEAR_FACTOR * float(np.abs(change[ok]).max()))
-        near = np.setdiff1d(near, idx)
-        if near.size:
-            more = np.zeros((len(poses), near.size))
-            for k in np.flatnonzero(ok):
-                more[k] = deviations_at(poses[k], near) - d[near]
-            idx = np.concatenate([idx, near])
-            change = np.concatenate([change, more], axis=1)
+    fits = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width
+    T = np.asarray(T, float)
+    T_inv = np.linalg.inv(T)
+    X = None if points is None else np.asarray(points, float)
+
+    def category(dd, sel):
+        """Which side of each cut a deviation lies: its pointwise verdict's case."""
+        return sum((dd > c[sel]).astype(np.int8) for c in cuts)
+
+    cat0 = category(d, slice(None))
+
+    def subset_at(P):
+        dI = np.asarray(deviations_at(P, idx), float)
+        return dI, float(np.sqrt(np.mean(dI ** 2)))
+
+    full = idx.size == n
+
+    def judge_at(P, dI, every=True):
+        """(verdict, largest |change|, a point whose deviation changes there lies past the
+        nominal's border) at pose P: the subset's deviations dI, then (``every``) exactly every
+        other point the motion displaces by at least its distance to a cut, so the verdict is
+        that of every point."""
+        dd = d.copy()
+        dd[idx] = dI
+        v = verdict_of(dd)
+        if every and not full and not (v == "REJECT" and base != "REJECT"):
+            # (One point out makes a REJECT whatever the others do.)
+            if X is None:
+                rest = np.ones(n, bool)
+            else:
+                G = P @ T_inv  # the motion, nominal frame
+                k = X.shape[1]
+                rest = np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1) >= dist
+            rest[idx] = False
+            rest = np.flatnonzero(rest)
+            if rest.size:
+                dd[rest] = deviations_at(P, rest)
+                seen[rest] = True
+                v = verdict_of(dd)
+        # Points whose deviation moved at all (a point past the border measures to its edge).
+        changed = np.flatnonzero((category(dd, slice(None)) != cat0)
+                                 | (np.abs(dd - d) > INVARIANT_FRACTION * width))
+        left = False
+        if beyond_at is not None and changed.size:
+            left = bool(np.any(np.asarray(beyond_at(P, changed), bool)
+                               & ~np.asarray(beyond_at(T, changed), bool)))
+        return v, float(np.abs(dd - d).max()), left
+
+    reach = FREE_REACH * cond.length
     probes = []
-    row = 0
-    for kind, axis, is_free, amps, ps, through, sigma in plans:
-        ch = change[row:row + len(ps)]
-        fit = ok[row:row + len(ps)]
-        row += len(ps)
-        verdicts = []
-        for k in range(len(ps)):
-            dd = d.copy()
-            dd[idx] += ch[k]
-            verdicts.append(verdict_of(dd))
-        mx = float(np.abs(ch[fit]).max()) if fit.any() else 0.0
-        probes.append(PoseProbe(kind, axis, is_free, amps, mx, tuple(verdicts),
-                                mx <= INVARIANT_FRACTION * width, tuple(bool(o) for o in fit),
-                                through, sigma))
+    for w in weak:
+        through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
+            else None
+
+        def pose(a):
+            return _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
+
+        rec = []  # (amplitude, verdict, plausible, largest change)
+        ends = []
+        if w.sigma_mm is not None:  # weak: the uncertainty region, every pose in it counts
+            for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
+                             for s in (-1, 1)}):
+                P = pose(a)
+                v, ch, _ = judge_at(P, subset_at(P)[0], True)
+                rec.append([a, v, True, ch, True])
+        else:
+            h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx],
+                                                                              cond))
+            for sgn in (-1.0, 1.0):
+                a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
+                end, checked, last = False, False, None
+                for _ in range(FREE_MAX_STEPS):
+                    if bad - a <= h_min:
+                        end = True  # next to where the points stop fitting
+                        break
+                    a_new = min(a + h, reach, 0.5 * (a + bad))
+                    P = pose(sgn * a_new)
+                    dI, r = subset_at(P)
+                    every = full or (not checked and a_new >= FREE_EVERY_POINT * reach)
+                    v, ch, left = judge_at(P, dI, every) if r <= fits else (None, 0.0, True)
+                    if left:  # not a pose the part can be in
+                        sub = d.copy()
+                        sub[idx] = dI
+                        rec.append([sgn * a_new, verdict_of(sub), False, 0.0, False])
+                        bad = a_new
+                        continue
+                    checked |= every
+                    rec.append([sgn * a_new, v, True, ch, every])
+                    last = (len(rec) - 1, P, dI)
+                    rate = max(rate, float(np.abs(dI - prev).max()) / (a_new - a))
+                    prev, a = dI, a_new
+                    if v != base or a >= reach:
+                        break
+                    # The next step may not let the deviations, changing at twice the fastest
+                    # rate seen so far, carry the point nearest a limit to it; it grows at
+                    # most geometrically and is never below the resolution.
+                    near = float(to_limit(dI, idx).min())
+                    h_rate = near / (FREE_SAFETY * rate) if rate > 0 else np.inf
+                    h = max(h_min, min(h_rate, (FREE_GROWTH - 1.0) * a))
+                if last is not None and not rec[last[0]][4]:
+                    # The farthest pose reached this way, judged on every point too.
+                    v, ch, left = judge_at(last[1], last[2], True)
+                    rec[last[0]][1:] = [v, not left, ch, True]
+                ends.append(end)
+        rec.sort(key=lambda t: t[0])
+        mx = max((c for _, _, o, c, _ in rec if o), default=0.0)
+        probes.append(PoseProbe(w.type, w.axis, w.sigma_mm is None, tuple(r[0] for r in rec),
+                                mx, tuple(r[1] for r in rec), mx <= INVARIANT_FRACTION * width,
+                                tuple(r[2] for r in rec), through, w.sigma_mm, tuple(ends),
+                                tuple(r[4] for r in rec)))
+    for Ta in alternatives:
+        P = np.asarray(Ta, float)
+        v, ch, _ = judge_at(P, subset_at(P)[0], True)
+        probes.append(PoseProbe("runner-up", None, False, (), ch, (v,),
+                                ch <= INVARIANT_FRACTION * width, (True,), None, None, (),
+                                (True,)))
+    if len(region):
+        judged = [judge_at(P, subset_at(P)[0], True) for P in region]
+        ch = max(j[1] for j in judged)
+        probes.append(PoseProbe("uncertainty", None, False, (), ch, tuple(j[0] for j in judged),
+                                ch <= INVARIANT_FRACTION * width, (True,) * len(judged), None,
+                                None, (), (True,) * len(judged)))
     stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
     return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
-                           closest, worst, int(idx.size), cond.length)
+                           closest, worst, int(seen.sum()), cond.length)
+
+
+def _speed(twist, X: np.ndarray, cond: Conditioning) -> float:
+    """Largest speed (mm per mm of amplitude) of points ``X`` under the unit ``twist``: a screw
+    motion moves each point at a constant speed."""
+    v = np.asarray(twist, float)
+    r = X - np.asarray(cond.centre, float)
+    if X.shape[1] == 3:
+        vel = np.cross(v[:3] / cond.length, r) + v[3:]
+    else:
+        vel = v[0] / cond.length * np.column_stack([-r[:, 1], r[:, 0]]) + v[1:]
+    return max(float(np.linalg.norm(vel, axis=1).max()), 1e-12)
 
 
 def _vec(a) -> str:
@@ -511,6 +718,16 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
     for p in sens.probes:
         ok = p.plausible or (True,) * len(p.verdicts)
         changed = [v for v, o in zip(p.verdicts, ok) if o and v != sens.verdict]
+        if p.kind == "uncertainty":
+            k = len(p.verdicts)
+            head = (f"{k} point{'s lie' if k > 1 else ' lies'} nearer a tolerance limit than 3 "
+                    f"standard deviations of what the pose's uncertainty (from the fit's "
+                    f"residuals) does to {'their deviations' if k > 1 else 'its deviation'}")
+            out.append(head + (f"; at a pose within that uncertainty the verdict would be "
+                               f"{changed[0]}, so it depends on the pose" if changed else
+                               f"; at the poses 3σ away that move {'them' if k > 1 else 'it'} "
+                               f"most towards the limit the verdict is the same"))
+            continue
         if p.kind == "runner-up":
             if p.invariant and not changed:
                 continue  # the same deviations: an equivalent pose (a symmetry), not news
@@ -523,12 +740,23 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
                                f"{changed[0]}, so it depends on which pose is right"))
             continue
         reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
+        lo = max((-a for a, o in zip(p.amplitudes, ok) if o and a < 0), default=0.0)
+        hi = max((a for a, o in zip(p.amplitudes, ok) if o and a > 0), default=0.0)
+        scale, unit = (1.0, " mm") if p.kind == "translation" else \
+            (np.degrees(1.0 / (sens.length_mm or 1.0)), "°")
+        how = f"±{reach * scale:.3g}{unit}"
+        stop = ", where the points stop fitting"
+        ends = p.ends or (False, False)
+        if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" and ends[0] == ends[1]:
+            span = "to " + how + (stop if ends[0] else "")
+        else:
+            span = (f"from −{lo * scale:.3g}{unit}{stop + ',' if ends[0] else ''} to "
+                    f"+{hi * scale:.3g}{unit}{stop if ends[1] else ''}")
         if p.kind == "translation":
-            what, how, along = f"position along {_vec(p.axis)}", f"±{reach:.3g} mm", "along"
+            what, along = f"position along {_vec(p.axis)}", "along"
             every = "position"
         else:
             what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
-            how = f"±{np.degrees(reach / (sens.length_mm or 1.0)):.3g}°"
             along, every = "about", "orientation"
         if p.free:
             fixed = f"{what} is not determined by the measured points"
@@ -539,13 +767,13 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
             fixed = f"{what} is determined only to {how} (3σ)"
         if changed:
             out.append(f"the measured points do not constrain the pose: {fixed}; moving the part "
-                       f"{along} it (within {how}) changes deviations by up to "
+                       f"{along} it (probed {span}) changes deviations by up to "
                        f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
         elif p.free and p.invariant:
-            out.append(f"{fixed}; the deviations do not change {along} it (probed to {how}): "
+            out.append(f"{fixed}; the deviations do not change {along} it (probed {span}): "
                        f"the verdict is about form and holds for every such {every}")
         elif p.free:
-            out.append(f"{fixed}; moving the part {along} it (probed to {how}) changes "
+            out.append(f"{fixed}; moving the part {along} it (probed {span}) changes "
                        f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
                        f"same at every {every} probed")
         else:

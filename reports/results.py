@@ -139,15 +139,27 @@ def pose_sensitivity_json(result: InspectionResult) -> dict | None:
                     "sigma_mm": None if p.sigma_mm is None else _num(p.sigma_mm),
                     "amplitudes_mm": [_num(a) for a in p.amplitudes],
                     "verdicts": list(p.verdicts), "plausible": [bool(o) for o in p.plausible],
+                    "every_point": [bool(e) for e in p.every_point],
+                    "stopped_where_points_stop_fitting": [bool(e) for e in p.ends],
                     "max_change_mm": _num(p.max_change_mm), "invariant": bool(p.invariant)}
                    for p in sens.probes],
         "statements": list(result.trust_statements),
         "definition": "the pointwise verdict re-evaluated with the part moved along each weak "
-                      "direction by +-1.5 and +-3 sigma, along each free one by up to half the "
-                      "fitted points' RMS radius (a rotation: that arc at that radius) where the "
-                      "points still fit (RMS of deviations within 1.5x the fitted pose's plus 2% "
-                      "of the zone), and at a runner-up pose scoring within 1.5x; the verdict is "
-                      "INCONCLUSIVE when it differs at any of them. amplitudes_mm: motion at the "
+                      "direction by +-1.5 and +-3 sigma, along each free one scanned outward "
+                      "both ways from the fitted pose (steps growing by at most 1.5x, cut where "
+                      "deviations change, refined to where the points stop fitting) up to half "
+                      "the fitted points' RMS radius (a rotation: that arc at that radius) or to "
+                      "where the points stop fitting (RMS of deviations above 1.5x the fitted "
+                      "pose's plus 2% of the zone, or a point carried past the nominal's border), "
+                      "at a runner-up pose scoring within 1.5x, and (kind uncertainty) for "
+                      "each point nearer a limit than 3 sigma of its deviation under the full "
+                      "pose covariance from the residuals, at the pose 3 sigma away that moves "
+                      "it most towards that limit; the verdict is INCONCLUSIVE "
+                      "when it differs at any pose where the points fit. every_point: the "
+                      "verdict there is that of every point (each point the motion displaces by "
+                      "at least its distance to a limit evaluated exactly), else of a seeded "
+                      "subset of 16384; stopped_where_points_stop_fitting: per side (negative, "
+                      "positive). amplitudes_mm: motion at the "
                       "RMS radius; min_limit_margin_mm: signed distance (positive inside) to its "
                       "nearest limit of the point closest to one; max_change_mm: largest "
                       "|deviation change| over the poses probed",

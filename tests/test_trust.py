@@ -635,14 +635,199 @@ def test_pose_sensitivity_on_a_subset_agrees_with_every_point(seed):
     d = X[:, 2]
     full = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of)
     sub = pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
-                           max_points=200)
+                           max_points=200, points=X)
     # +-3 sigma = 0.006 mm at L: 1.2e-4 rad, 11 um at x = 95 (above the 1 um margin).
     assert not full.verdict_stable and not sub.verdict_stable
     assert sub.points_evaluated < n and full.points_evaluated == n
-    assert sub.max_change_mm == pytest.approx(full.max_change_mm, rel=0.01)  # smooth change
+    assert sub.max_change_mm == pytest.approx(full.max_change_mm, rel=0.05)  # smooth change
     assert full.max_change_mm == pytest.approx(3 * 0.002 / L * 100, rel=0.05)
     assert full.min_limit_margin_mm == pytest.approx(0.05 - 0.049, abs=1e-9)
     X[k, 2] = 0.03  # well inside: stable, on the subset as on every point
     d = X[:, 2]
     assert pose_sensitivity(deviations_at, np.eye(4), d, -0.05, 0.05, cond, verdict_of,
                             max_points=200).verdict_stable
+
+
+def _d_shaft(r=40.0, flat_deg=20.0, nu=720, nv=100):
+    """A shaft of radius r (mm) with a flat cutting the circle at +-flat_deg about +x, length
+    200 mm along z: its nominal samples and outward normals."""
+    al = np.radians(flat_deg)
+    A, Z = np.meshgrid(np.linspace(-np.pi, np.pi, nu + 1), np.linspace(-100, 100, nv))
+    a = A.ravel()
+    on = np.abs(np.mod(a + np.pi, 2 * np.pi) - np.pi) < al
+    rad = np.where(on, r * np.cos(al) / np.cos(a), r)
+    nrm = np.column_stack([np.where(on, 1.0, np.cos(a)), np.where(on, 0.0, np.sin(a)),
+                           np.zeros(a.size)])
+    return Nominal.from_point_set(point_set(
+        np.column_stack([rad * np.cos(a), rad * np.sin(a), Z.ravel()]), nrm, (nu + 1, nv)))
+
+
+def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
+    """30,000 points on the round part of a D-shaft (more than the subset evaluated at every
+    probed pose), 3 of them 2.0-2.6 degrees from the flat's edge, the rest 3.5 degrees or more:
+    turning the part about its (free) axis by 3 degrees carries those 3 onto the flat and out
+    of the +-0.05 mm zone, while the subset does not hold them. Every
+    point that the motion displaces by at least its distance to a limit is evaluated, so the
+    verdict is seen to depend on the pose; truth: all points evaluated at that pose."""
+    from engine.deviation import point_to_surface
+    from engine.inspection import pointwise_verdict
+    from engine.trust import SENSITIVITY_POINTS, pose_sensitivity
+
+    nominal = _d_shaft()
+    rng = np.random.default_rng(1)
+    m = 30_000
+    assert m > SENSITIVITY_POINTS
+    a = rng.uniform(np.radians(23.5), np.radians(336.5), m)
+    # The worst case: three points outside the seeded subset the engine draws (its seed 7
+    # today; whatever the subset, every point must count).
+    subset = np.random.default_rng(7).choice(m, SENSITIVITY_POINTS, replace=False)
+    three = np.setdiff1d(np.arange(m), subset)[[0, 5000, -1]]
+    a[three] = np.radians([22.0, 22.3, 22.6])
+    z = rng.uniform(-60, 60, m)
+    dev = rng.normal(0, 0.003, m)
+    X = np.column_stack([(40 + dev) * np.cos(a), (40 + dev) * np.sin(a), z])  # nominal frame
+    tol = Tolerance.symmetric(0.05)
+    dv = point_to_surface(nominal, X)
+    d = dv.signed
+    cond = conditioning(X, dv.normal, float(np.sqrt(np.mean(d ** 2))), 0.25 * 0.1)
+    assert sorted(w.sigma_mm is None for w in cond.weak) == [True, True]
+
+    def deviations_at(T, idx):
+        return point_to_surface(nominal, apply_transform(T, X[idx])).signed
+
+    def verdict(dd):
+        return pointwise_verdict(dd, tol)[0]
+
+    sens = pose_sensitivity(deviations_at, np.eye(4), d, tol.lower, tol.upper, cond, verdict,
+                            points=X)
+    assert verdict(d) == ACCEPT and not sens.verdict_stable
+    rot = next(p for p in sens.probes if p.kind == "rotation")
+    k = min((i for i, (v, o) in enumerate(zip(rot.verdicts, rot.plausible)) if o and v != ACCEPT),
+            key=lambda i: abs(rot.amplitudes[i]))
+    # Truth at the smallest turn found that changes the verdict, every point: some of the three
+    # near the flat, and only they, are out.
+    w = next(w for w in cond.weak if w.type == "rotation")
+    from engine.trust import _twist_matrix
+    moved = deviations_at(_twist_matrix(w.twist, rot.amplitudes[k], cond.centre, cond.length),
+                          np.arange(m))
+    out = set(np.flatnonzero(np.abs(moved) > 0.05))
+    assert out and out <= set(three)
+    assert rot.verdicts[k] == REJECT
+
+
+def test_a_d_shaft_measured_clear_of_its_flat_is_inconclusive_from_every_pose():
+    """A D-shaft (R40, a flat at +-20 degrees) measured on its round part only, 10 degrees clear
+    of the flat: turning it about its axis is free, and a few degrees' turn (a pose where the
+    points still fit) carries a point onto the flat and out of the +-0.05 mm zone. The scan
+    along the free rotation finds it from every starting pose: INCONCLUSIVE, the same verdict
+    in every pose. Truth, independently: turned about the true axis (z) in 0.1 degree steps,
+    some turn keeps the RMS within the plausibility limit and puts a point out."""
+    from engine.deviation import point_to_surface
+    from engine.geometry import rotation_from_rotvec
+    from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
+
+    nominal = _d_shaft()
+    rng = np.random.default_rng(1)
+    m = 400
+    a = rng.uniform(np.radians(30), np.radians(330), m)
+    z = rng.uniform(-60, 60, m)
+    dev = rng.normal(0, 0.003, m)
+    q = np.column_stack([(40 + dev) * np.cos(a), (40 + dev) * np.sin(a), z])
+    tol = Tolerance.symmetric(0.05)
+    verdicts = []
+    for seed in range(8):
+        r = np.random.default_rng(200 + seed)
+        res = inspect(nominal, apply_transform(make_transform(random_rotation(r),
+                                                              r.uniform(-500, 500, 3)), q), tol)
+        verdicts.append(res.verdict)
+        assert np.abs(res.deviations.signed).max() < 0.05  # every point in at the fitted pose
+    assert verdicts == [INCONCLUSIVE] * 8
+    said = " ".join(res.reasons)
+    assert "orientation about the axis" in said and "the verdict to REJECT" in said
+    X, d0 = res.registered, res.deviations.signed
+    limit = PLAUSIBLE_RMS_RATIO * np.sqrt(np.mean(d0 ** 2)) + INVARIANT_FRACTION * 0.1
+    found = False
+    for deg in np.arange(-20, 20.01, 0.1):
+        turn = rotation_from_rotvec(np.radians(deg) * np.array([[0.0, 0.0, 1.0]]))[0]
+        dd = point_to_surface(nominal, X @ turn.T).signed
+        found |= bool(np.sqrt(np.mean(dd ** 2)) <= limit and np.abs(dd).max() > 0.05)
+    assert found
+
+
+def test_a_2d_d_profile_measured_clear_of_its_flat_is_inconclusive_from_every_pose():
+    """The 2D twin: a circle R30 with a flat at +-20 degrees, 300 points on the arc 8 degrees
+    clear of the flat, +-0.03 mm: INCONCLUSIVE from each of 8 poses; truth as for the shaft."""
+    from engine.contour import ContourIndex, arc, build_template, deviations_2d, segment
+    from engine.inspection import inspect_2d
+    from engine.registration2d import _pose, apply2
+    from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
+
+    al = np.radians(20)
+    p0, p1 = (30 * np.cos(al), 30 * np.sin(al)), (30 * np.cos(al), -30 * np.sin(al))
+    tpl = build_template([([arc((0.0, 0.0), 30.0, al, 2 * np.pi - 2 * al), segment(p1, p0)],
+                           True)])
+    rng = np.random.default_rng(1)
+    m = 300
+    a = rng.uniform(al + np.radians(8), 2 * np.pi - al - np.radians(8), m)
+    q = (30 + rng.normal(0, 0.002, m))[:, None] * np.column_stack([np.cos(a), np.sin(a)])
+    tol = Tolerance.symmetric(0.03)
+    verdicts = []
+    for seed in range(8):
+        r = np.random.default_rng(300 + seed)
+        measured = np.column_stack([apply2(_pose(r.uniform(0, 2 * np.pi),
+                                                 r.uniform(-300, 300, 2)), q), np.zeros(m)])
+        res = inspect_2d(tpl, measured, 2, tol)
+        verdicts.append(res.verdict)
+    assert verdicts == [INCONCLUSIVE] * 8
+    X, d0 = res.registered[:, :2], res.deviations.signed
+    limit = PLAUSIBLE_RMS_RATIO * np.sqrt(np.mean(d0 ** 2)) + INVARIANT_FRACTION * 0.06
+    index = ContourIndex(tpl)
+    found = False
+    for deg in np.arange(-20, 20.01, 0.1):
+        t = np.radians(deg)
+        R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+        dd = deviations_2d(index, X @ R.T).signed
+        found |= bool(np.sqrt(np.mean(dd ** 2)) <= limit and np.abs(dd).max() > 0.03)
+    assert found
+
+
+def test_a_point_within_the_pose_uncertainty_of_a_limit_makes_a_sparse_fit_inconclusive():
+    """25 points on a gently curved patch, +-0.03 mm: every point is inside at the fitted pose,
+    but the pose, as uncertain as the residuals make it in all six directions together (not
+    one weak direction at a time), puts a point out 3 sigma away. Truth, independently: the
+    covariance rms^2 (J^T J)^-1 of the registered points, the pose 3 sigma along the most
+    endangered point's worst direction, applied with scipy's rotation, exactly evaluated."""
+    from scipy.spatial.transform import Rotation
+
+    from engine.deviation import point_to_surface
+
+    pts, nrm, grid = height_grid(300, 200)
+    nominal = Nominal.from_point_set(point_set(pts, nrm, grid))
+    rng = np.random.default_rng(2)
+    m = 25
+    x, y = rng.uniform(-60, 60, m), rng.uniform(-40, 40, m)
+    q = np.column_stack([x, y, height(x, y)]) + rng.normal(0, 0.012, m)[:, None] * \
+        height_normal(x, y)
+    measured = apply_transform(make_transform(random_rotation(rng), rng.uniform(-800, 800, 3)),
+                               q)
+    tol = Tolerance.symmetric(0.03)
+    res = inspect(nominal, measured, tol)
+    d = res.deviations.signed
+    assert np.all(np.abs(d) < 0.03)
+    X, N = res.registered, res.deviations.normal
+    c = X.mean(axis=0)
+    J = np.column_stack([np.cross(X - c, N), N])
+    cov = res.registration.rms ** 2 * np.linalg.inv(J.T @ J)
+    sd = np.sqrt(np.einsum("ij,jk,ik->i", J, cov, J))
+    margin = np.minimum(d - tol.lower, tol.upper - d)
+    i = int(np.argmin(margin / sd))
+    g = np.sign(d[i]) * 3.0 * cov @ J[i] / sd[i]
+    moved = point_to_surface(nominal, (X - c) @ Rotation.from_rotvec(g[:3]).as_matrix().T + c
+                             + g[3:]).signed
+    assert np.any(np.abs(moved) > 0.03)  # truth: a pose 3 sigma away puts a point out
+    assert res.verdict == INCONCLUSIVE and not res.pose_sensitivity.verdict_stable
+    probe = next(p for p in res.pose_sensitivity.probes if p.kind == "uncertainty")
+    assert REJECT in probe.verdicts
+    assert any("pose's uncertainty" in r and "REJECT" in r for r in res.reasons)
+    # With a zone twice as wide no point is that near a limit: the verdict stands.
+    assert inspect(nominal, measured, Tolerance.symmetric(0.06)).verdict == ACCEPT
