@@ -68,3 +68,37 @@ def random_rotation(rng):
 
 def point_set(points, normals=None, grid=None, triangles=None):
     return PointSet(np.asarray(points, float), normals, None, grid, triangles, 3, "<test>")
+
+
+def half_turn_symmetric_part(bump: float, dent: float = 0.0, seed: int = 0):
+    """A surface symmetric under a half turn about z, with an optional small bump on one side
+    only (an asymmetric feature a half-turned part would miss); the measured part (1,500
+    points, seeded pose) has an optional ``dent`` (mm deep) of its own. Returns (Nominal,
+    measured (1500, 3))."""
+    from engine.geometry import apply_transform, make_transform
+    from engine.nominal import Nominal
+
+    def h(x, y):
+        return -x ** 2 / 800.0 - y ** 2 / 300.0 + bump * np.exp(
+            -((x - 150) ** 2 + (y - 40) ** 2) / (2 * 15.0 ** 2))
+
+    def n(x, y, e=1e-4):
+        hx = (h(x + e, y) - h(x - e, y)) / (2 * e)
+        hy = (h(x, y + e) - h(x, y - e)) / (2 * e)
+        v = np.stack([-hx, -hy, np.ones_like(x)], axis=-1)
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    X, Y = np.meshgrid(np.linspace(-250, 250, 400), np.linspace(-125, 125, 200))
+    x, y = X.ravel(), Y.ravel()
+    nominal = Nominal.from_point_set(point_set(np.column_stack([x, y, h(x, y)]), n(x, y),
+                                               (400, 200)))
+    rng = np.random.default_rng(21)
+    mx, my = rng.uniform(-245, 245, 1500), rng.uniform(-120, 120, 1500)
+    d = rng.normal(0, 0.005, 1500) - dent * np.exp(-((mx + 60) ** 2 + (my + 50) ** 2)
+                                                   / (2 * 20.0 ** 2))
+    q = np.column_stack([mx, my, h(mx, my)]) + d[:, None] * n(mx, my)
+    T = make_transform(random_rotation(rng), [300.0, 100.0, -50.0])
+    if seed:
+        prng = np.random.default_rng(1000 + seed)
+        T = make_transform(random_rotation(prng), prng.uniform(-1000, 1000, 3))
+    return nominal, apply_transform(T, q)

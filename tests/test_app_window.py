@@ -431,33 +431,6 @@ def test_exporting_the_csv_onto_the_measured_file_is_refused(window, tmp_path):
     assert "is the measured file: an output never replaces an input" in w.message_bar.text
 
 
-def _half_turn_symmetric_part(bump: float):
-    """A surface symmetric under a half turn about z but for a small bump on one side
-    (tests/test_trust.py's part): the half-turned pose fits nearly as well and misses the bump
-    by ``bump`` mm. Returns (nominal, measured points at a seeded pose)."""
-    from engine.geometry import apply_transform, make_transform
-    from engine.nominal import Nominal
-    from surfaces import point_set, random_rotation
-
-    def h(x, y):
-        return -x ** 2 / 800.0 - y ** 2 / 300.0 + bump * np.exp(
-            -((x - 150) ** 2 + (y - 40) ** 2) / (2 * 15.0 ** 2))
-
-    def n(x, y, e=1e-4):
-        v = np.stack([-(h(x + e, y) - h(x - e, y)) / (2 * e),
-                      -(h(x, y + e) - h(x, y - e)) / (2 * e), np.ones_like(x)], axis=-1)
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-    X, Y = np.meshgrid(np.linspace(-250, 250, 400), np.linspace(-125, 125, 200))
-    x, y = X.ravel(), Y.ravel()
-    nominal = Nominal.from_point_set(point_set(np.column_stack([x, y, h(x, y)]), n(x, y),
-                                               (400, 200)))
-    rng = np.random.default_rng(21)
-    mx, my = rng.uniform(-245, 245, 1500), rng.uniform(-120, 120, 1500)
-    q = np.column_stack([mx, my, h(mx, my)]) + rng.normal(0, 0.005, 1500)[:, None] * n(mx, my)
-    return nominal, apply_transform(make_transform(random_rotation(rng), [300.0, 100, -50]), q)
-
-
 def test_the_banner_says_whether_the_verdict_depends_on_the_pose(qtbot):
     """A runner-up pose that fits nearly as well is a fact: while the verdict is the same there
     the banner says the verdict holds (never "AMBIGUOUS"), with the plain-word statements as
@@ -470,10 +443,11 @@ def test_the_banner_says_whether_the_verdict_depends_on_the_pose(qtbot):
     from engine.inspection import Tolerance, inspect
     from qa_app.model import Session
     from qa_app.widgets import VerdictBanner
+    from surfaces import half_turn_symmetric_part
 
     banner = VerdictBanner(Session())
     qtbot.addWidget(banner)
-    nominal, measured = _half_turn_symmetric_part(bump=0.04)
+    nominal, measured = half_turn_symmetric_part(bump=0.04)
     for tol in (0.1, 0.03):
         res = inspect(nominal, measured, Tolerance.symmetric(tol))
         assert res.ambiguous  # the runner-up moves deviations by over a tenth of the zone

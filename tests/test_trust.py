@@ -10,7 +10,8 @@ from engine.geometry import apply_transform, make_transform
 from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT, Tolerance, inspect, judge
 from engine.nominal import Nominal
 from engine.trust import conditioning, minimax_pose
-from surfaces import height, height_grid, height_normal, point_set, random_rotation
+from surfaces import (half_turn_symmetric_part, height, height_grid, height_normal, point_set,
+                      random_rotation)
 
 
 @pytest.fixture(scope="module")
@@ -273,46 +274,15 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
                  os.path.join(belly, "measured.csv"), "--tol", "0.12"]) == 1
 
 
-def _symmetric_part(bump: float, dent: float = 0.0, seed: int = 0):
-    """A surface symmetric under a half turn about z, with an optional small bump on one side
-    only (an asymmetric feature a half-turned part would miss); the measured part (1,500
-    points, seeded pose) has an optional ``dent`` (mm deep) of its own."""
-
-    def h(x, y):
-        return -x ** 2 / 800.0 - y ** 2 / 300.0 + bump * np.exp(
-            -((x - 150) ** 2 + (y - 40) ** 2) / (2 * 15.0 ** 2))
-
-    def n(x, y, e=1e-4):
-        hx = (h(x + e, y) - h(x - e, y)) / (2 * e)
-        hy = (h(x, y + e) - h(x, y - e)) / (2 * e)
-        v = np.stack([-hx, -hy, np.ones_like(x)], axis=-1)
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-    X, Y = np.meshgrid(np.linspace(-250, 250, 400), np.linspace(-125, 125, 200))
-    x, y = X.ravel(), Y.ravel()
-    nominal = Nominal.from_point_set(point_set(np.column_stack([x, y, h(x, y)]), n(x, y),
-                                               (400, 200)))
-    rng = np.random.default_rng(21)
-    mx, my = rng.uniform(-245, 245, 1500), rng.uniform(-120, 120, 1500)
-    d = rng.normal(0, 0.005, 1500) - dent * np.exp(-((mx + 60) ** 2 + (my + 50) ** 2)
-                                                   / (2 * 20.0 ** 2))
-    q = np.column_stack([mx, my, h(mx, my)]) + d[:, None] * n(mx, my)
-    T = make_transform(random_rotation(rng), [300.0, 100.0, -50.0])
-    if seed:
-        prng = np.random.default_rng(1000 + seed)
-        T = make_transform(random_rotation(prng), prng.uniform(-1000, 1000, 3))
-    return nominal, apply_transform(T, q)
-
-
 def test_an_ambiguous_pose_is_inconclusive_only_when_the_verdict_differs():
-    nominal, measured = _symmetric_part(bump=0.0)
+    nominal, measured = half_turn_symmetric_part(bump=0.0)
     res = inspect(nominal, measured, Tolerance.symmetric(0.1))
     # The half-turned pose fits as well and gives the same deviations: a symmetry.
     assert res.verdict == ACCEPT and not res.ambiguous
 
     # The half-turned pose misses the 0.04 mm bump, but at both poses every point lies well
     # inside +-0.1: the verdict is the same at both, and the runner-up is reported.
-    nominal, measured = _symmetric_part(bump=0.04)
+    nominal, measured = half_turn_symmetric_part(bump=0.04)
     res = inspect(nominal, measured, Tolerance.symmetric(0.1))
     reg = res.registration
     assert reg.runner_up_score is not None and reg.runner_up_score <= 1.5 * reg.score
@@ -339,7 +309,7 @@ def test_the_minimax_fit_judges_the_runner_up_at_its_own_minimax_pose():
     """With the minimax fit, the plausible runner-up is placed by the same fit before it is
     judged: the bump's 0.04 mm misfit at the half-turned pose is still there, and the verdict
     is the same as the least-squares one's where both poses agree."""
-    nominal, measured = _symmetric_part(bump=0.04)
+    nominal, measured = half_turn_symmetric_part(bump=0.04)
     res = inspect(nominal, measured, Tolerance.symmetric(0.1), fit="minimax")
     assert res.fit == "minimax" and res.extra["minimax"]["excursion"] <= 1.0
     assert res.verdict == ACCEPT and res.pose_sensitivity.verdict_stable
@@ -351,7 +321,7 @@ def test_a_dented_part_rejects_from_any_pose(seed):
     """A 0.4 mm dent on a part with a nearly-as-good half-turned pose (the nominal symmetric
     but for a small bump): far out of tolerance at either pose, so REJECT from every pose the
     part is measured in — not INCONCLUSIVE because the runner-up moves some deviations."""
-    nominal, measured = _symmetric_part(bump=0.08, dent=0.4, seed=seed)
+    nominal, measured = half_turn_symmetric_part(bump=0.08, dent=0.4, seed=seed)
     res = inspect(nominal, measured, Tolerance.symmetric(0.25))
     assert res.statistics.n_out > 0 and res.statistics.min < -0.3
     assert res.verdict == REJECT
