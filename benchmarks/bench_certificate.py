@@ -46,7 +46,8 @@ def main() -> None:
                 t = time.perf_counter()
                 r = subprocess.run([QA, "inspect", nominal, measured, "--tol", tol, "--report",
                                     pdf, "--sign", os.path.join(tmp, "inspector.p12"),
-                                    "--sign-pass-env", "QA_BENCH_PASS"], env=env, cwd=ROOT,
+                                    "--sign-pass-env", "QA_BENCH_PASS", "--part-number",
+                                    "BENCH-1", "--serial", "SN-BENCH"], env=env, cwd=ROOT,
                                    capture_output=True, text=True)
                 times.append(time.perf_counter() - t)
                 if r.returncode not in (0, 1, 2):

@@ -70,7 +70,7 @@ class Nominal:
             return cls(ps.points, normals, "file" if ps.normals is not None else "mesh", tris,
                        "mesh", None, ps.path)
         if ps.grid_shape is not None:
-            tris = _grid_triangles(ps.points, *ps.grid_shape)
+            tris = _closed_grid_triangles(ps.points, *ps.grid_shape)
             tris, normals = _orient_mesh(ps.points, tris, ps.normals, closed_check=False)
             return cls(ps.points, normals, "file" if ps.normals is not None else "grid", tris,
                        "grid", ps.grid_shape, ps.path)
@@ -360,6 +360,37 @@ def _quadric_normals(centre: np.ndarray, nbh: np.ndarray) -> np.ndarray:
     coef = np.linalg.solve(AtA, Atz[..., None])[..., 0]
     nrm = n0 - coef[:, 1:2] * e1 - coef[:, 2:3] * e2
     return nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+
+
+CLOSING_GAP = 1.5
+"""A grid whose last column lies within this many times the typical column spacing of its first,
+in every row, wraps round (a revolved surface sampled over [0, 2 pi) without repeating the seam);
+likewise for rows."""
+
+
+def _closed_grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:
+    """The grid's triangles, with the cells across the seam added where the grid wraps round in
+    u or v (see CLOSING_GAP): without them the strip between the last and the first column would
+    hold no facet, and a point measured on it would be judged against the grid's border."""
+    P = points.reshape(nv, nu, 3)
+    wrap_u = nu > 2 and _wraps(P)
+    wrap_v = nv > 2 and _wraps(np.swapaxes(P, 0, 1))
+    if not (wrap_u or wrap_v):
+        return _grid_triangles(points, nu, nv)
+    iu = np.r_[np.arange(nu), 0] if wrap_u else np.arange(nu)
+    iv = np.r_[np.arange(nv), 0] if wrap_v else np.arange(nv)
+    ids = (iv[:, None] * nu + iu[None, :]).ravel()
+    tris = _grid_triangles(points[ids], iu.size, iv.size)
+    return ids[tris]
+
+
+def _wraps(P: np.ndarray) -> bool:
+    """(nv, nu, 3) grid: does its last column close onto its first, in every row?"""
+    step = np.linalg.norm(np.diff(P, axis=1), axis=2)  # (nv, nu - 1)
+    typical = np.median(step, axis=1)
+    gap = np.linalg.norm(P[:, -1] - P[:, 0], axis=1)
+    # A repeated seam (gap 0) is closed already; its copies share their facets (_build_stars).
+    return bool(np.all((gap > 0) & (typical > 0) & (gap <= CLOSING_GAP * typical)))
 
 
 def _grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:

@@ -111,17 +111,22 @@ def test_plane_offsets_exact():
 
 
 @pytest.mark.parametrize("with_normals", [True, False])
-def test_a_closed_grid_seam_is_seen_from_both_sides(with_normals):
-    """A revolved surface exported as a closed u-v grid repeats its first column as its last
-    (angle 0 and 2 pi, the same coordinates): a point near the seam whose nearest sample is one
-    copy must still find the facets on the other side. Truth: the radial offset from the
-    cylinder (the grid's chords at 1 degree sag 1.5 um; curvature-corrected, far less)."""
+@pytest.mark.parametrize("seam", ["repeated", "open"])
+def test_a_closed_grid_seam_is_seen_from_both_sides(with_normals, seam):
+    """A revolved surface exported as a u-v grid over the whole turn: either its last column
+    repeats its first (angle 0 and 2 pi, the same coordinates: a point near the seam whose
+    nearest sample is one copy must still find the facets on the other side), or it stops one
+    step short of it (the cells across the seam must be there, or the strip holds no facet).
+    Truth: the radial offset from the cylinder (the grid's chords at 1 degree sag 1.5 um;
+    curvature-corrected, far less)."""
     r0, nu, nv = 40.0, 360, 60
-    a = np.r_[np.linspace(0, 2 * np.pi, nu, endpoint=False), 0.0]
+    a = np.linspace(0, 2 * np.pi, nu, endpoint=False)
+    if seam == "repeated":
+        a = np.r_[a, 0.0]
     A, Z = np.meshgrid(a, np.linspace(-100, 100, nv))
     pts = np.column_stack([r0 * np.cos(A.ravel()), r0 * np.sin(A.ravel()), Z.ravel()])
     nrm = np.column_stack([np.cos(A.ravel()), np.sin(A.ravel()), np.zeros(A.size)])
-    nom = Nominal.from_point_set(point_set(pts, nrm if with_normals else None, (nu + 1, nv)))
+    nom = Nominal.from_point_set(point_set(pts, nrm if with_normals else None, (a.size, nv)))
     rng = np.random.default_rng(3)
     b = np.radians(rng.uniform(-3.0, 3.0, 2000))  # both sides of the seam at angle 0
     dev = rng.uniform(-0.3, 0.3, 2000)
@@ -248,3 +253,15 @@ def test_lat_long_sphere_near_its_poles():
     dev = rng.uniform(-1.0, 1.0, m)
     d = point_to_surface(nom, dirs * (r + dev)[:, None]).signed
     assert np.max(np.abs(d - dev)) < 1e-3  # mm
+
+
+def test_an_open_grid_is_not_closed():
+    """Half a cylinder (a C section: its ends 80 mm apart, the columns 0.7 mm) keeps its border:
+    a point beyond it is measured to the border, not to a facet across the gap."""
+    r0, nu, nv = 40.0, 180, 40
+    a = np.linspace(0, np.pi, nu)
+    A, Z = np.meshgrid(a, np.linspace(-50, 50, nv))
+    pts = np.column_stack([r0 * np.cos(A.ravel()), r0 * np.sin(A.ravel()), Z.ravel()])
+    nom = Nominal.from_point_set(point_set(pts, None, (nu, nv)))
+    assert nom.triangles.shape[0] == 2 * (nu - 1) * (nv - 1)
+
