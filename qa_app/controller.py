@@ -49,7 +49,7 @@ class Controller:
 
             from engine.inspection import inspect
             from engine.nominal import Nominal
-            from engine.pointio import PointSet
+            from engine.io.points import PointSet
             from engine.tolerance import Tolerance
 
             g = PointSet(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]]),
@@ -84,7 +84,7 @@ class Controller:
     def open_files(self, paths: list[str]) -> None:
         """Dropped or command-line files: a template or the first file is the nominal when none
         is set yet, the next one the measured points; a session file opens the session."""
-        from reports.loading import is_template
+        from engine.io import is_template
 
         for p in paths:
             if p.endswith(SESSION_SUFFIX):
@@ -95,7 +95,7 @@ class Controller:
                 self.open_measured(p)
 
     def _check_file(self, path: str) -> bool:
-        from reports.loading import ALL_SUFFIXES, TEMPLATE_SUFFIXES
+        from engine.io.formats import ALL_SUFFIXES, TEMPLATE_SUFFIXES
 
         if not os.path.isfile(path):
             self.session.tell("error", f"{path}: no such file")
@@ -163,7 +163,7 @@ class Controller:
         """Compare the files the result was computed from with the files on disk (SHA-256); any
         difference marks the result stale. Returns True when there is a result and it is
         current."""
-        from reports.loading import sha256_of
+        from engine.io import sha256_of
 
         s = self.session
         if s.run is None:
@@ -321,7 +321,7 @@ class Controller:
         s.tell("info", f"Session saved: {path}")
 
     def _session_doc(self, path: str) -> dict:
-        from reports.loading import sha256_of
+        from engine.io import sha256_of
 
         s = self.session
         return {"format": SESSION_FORMAT, "version": 1,
@@ -338,7 +338,7 @@ class Controller:
         """Reopen a saved session: its inputs and settings; warns about any input changed since
         (by SHA-256), and re-runs the inspection when all are unchanged (the engine is
         deterministic: the same results)."""
-        from reports.loading import sha256_of
+        from engine.io import sha256_of
 
         s = self.session
         if self._refuse_while_busy():

@@ -223,7 +223,7 @@ def _guarded(command, args) -> int:
 
 
 def _cmd_inspect(args) -> int:
-    from .loading import is_template
+    from engine.io import is_template
     from .outputs import OutputConflictError, check_outputs
 
     _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
@@ -338,7 +338,7 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
     problems (and append what was confirmed to ``notes``)."""
     from engine.errors import InputNotFoundError
 
-    from .loading import sha256_of
+    from engine.io import sha256_of
     from .pipeline import InspectionSettings, run_files
 
     problems = []

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import os
 import time
 from dataclasses import dataclass
 
@@ -17,10 +16,10 @@ import numpy as np
 from engine.errors import InputError, SettingsError
 from engine.inspection import ACCEPT, InspectionResult, inspect, inspect_2d
 from engine.nominal import Nominal
-from engine.pointio import PointSet
+from engine.io import formats, is_template, load_point_set, sha256_of
+from engine.io.points import PointSet
 from engine.progress import Callback, report, reporting
 
-from .loading import is_template, load_point_set, sha256_of
 from .results import InputRecord, result_document
 from .settings import InspectionSettings
 
@@ -52,11 +51,11 @@ class Run:
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
     """Raise SettingsError for options that do not apply to this kind of nominal."""
-    suffix = os.path.splitext(nominal_path)[1].lower()
-    if suffix == ".dxf":
+    kind = formats.kind_of(nominal_path)
+    if kind == formats.DXF:
         if settings.scale is not None:
             raise SettingsError("--scale applies to airfoil ordinate templates (.dat) only")
-    elif suffix == ".dat":
+    elif kind == formats.AIRFOIL:
         if settings.scale is None:
             raise SettingsError("an airfoil ordinate template needs --scale CHORD (the chord "
                                 "length in mm)")
@@ -141,12 +140,10 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     t0 = time.perf_counter()
     nominal = tpl = None
     if is_template(nominal_path):
-        from .template2d import read_airfoil_template, read_dxf_template
+        from engine.io.templates import read_template
 
-        if nominal_path.lower().endswith(".dxf"):
-            tpl = read_dxf_template(nominal_path, layers=settings.layers, units=settings.units)
-        else:
-            tpl = read_airfoil_template(nominal_path, settings.scale)
+        tpl = read_template(nominal_path, layers=settings.layers, units=settings.units,
+                            scale=settings.scale)
         nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path), None,
                                      tpl.template.n_primitives)
     else:
