@@ -337,9 +337,11 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
     """Compare the files with the certificate's SHA-256s and re-run the inspection; return the
     problems (and append what was confirmed to ``notes``)."""
     from engine.errors import InputNotFoundError
-
     from engine.io import sha256_of
-    from .pipeline import InspectionSettings, run_files
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+
+    from .results import run_document
 
     problems = []
     for role, path in (("nominal", nominal), ("measured", measured)):
@@ -355,7 +357,7 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
     if problems:
         return problems
     run = run_files(nominal, measured, InspectionSettings.from_json(doc["settings"]))
-    got = run.doc["deviations"]["max_abs"]
+    got = run_document(run)["deviations"]["max_abs"]
     want = doc["deviations"]["max_abs"]
     if run.result.verdict != doc["verdict"]:
         problems.append(f"re-run verdict {run.result.verdict} differs from the certified "
@@ -370,10 +372,11 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
 
     from .outputs import Output, OutputConflictError, write_all
-    from .pipeline import InspectionSettings, run_files
-    from .results import points_csv, result_json
+    from .results import points_csv, result_json, run_document
 
     info = identity = None
     if args.report:
@@ -422,9 +425,9 @@ def _run_inspect(args, tol, renderer) -> int:
             outputs.append(Output(args.csv, csv_text))
     if args.json:
         if args.json == "-":
-            stdout = result_json(run.doc)
+            stdout = result_json(run_document(run))
         else:
-            outputs.append(Output(args.json, result_json(run.doc)))
+            outputs.append(Output(args.json, result_json(run_document(run))))
     try:
         write_all(outputs)  # every file or none; stdout only after they all succeeded
     except OutputConflictError as e:  # the target changed into a folder, key... during the run

@@ -376,7 +376,7 @@ def test_swap_hint_spares_dense_scans():
     """Only the files' make-up says 'swapped': a dense bare scan against a coarser nominal with
     normals, or two bare clouds, are not."""
     from engine.io.points import PointSet
-    from reports.pipeline import swap_hint
+    from engine.pipeline import swap_hint
 
     rng = np.random.default_rng(3)
 
