@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from qa_app.controller import Controller
-from qa_app.model import Session, Step
-from reports.cli import main as cli_main
+from qa_app.cli import main as cli_main
+from qa_app.desktop.controller import Controller
+from qa_app.desktop.model import Session, Step
 from reports.results import run_document
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -25,7 +25,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from reports.cli import main
+from qa_app.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BELLY_NOMINAL = os.path.join(ROOT, "samples", "belly_fairing", "nominal.csv")

@@ -65,7 +65,7 @@ def _cli(tmp_path, nominal, measured=None):
         measured = tmp_path / "measured.xyz"
         np.savetxt(measured, _cloud(), fmt="%.6f")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, "-m", "reports.cli", "inspect", str(nominal),
+    return subprocess.run([sys.executable, "-m", "qa_app.cli", "inspect", str(nominal),
                            str(measured), "--tol", "0.1"], capture_output=True, text=True,
                           cwd=ROOT, env=env, timeout=120)
 

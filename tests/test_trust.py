@@ -249,7 +249,7 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
     import json
     import os
 
-    from reports.cli import main
+    from qa_app.cli import main
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     belly = os.path.join(root, "samples", "belly_fairing")

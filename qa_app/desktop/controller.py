@@ -1,5 +1,5 @@
 """The controller: turns the inspector's actions into engine runs and exports, and their outcomes
-into changes of the :class:`qa_app.model.Session`. No Qt here.
+into changes of the :class:`qa_app.desktop.model.Session`. No Qt here.
 
 Work runs in a worker thread (``synchronous=False``); what it produces is handed back through
 ``post`` (the window passes a function that queues the call into the GUI thread), so the session
