@@ -71,7 +71,7 @@ def main() -> int:
     for r in rows:
         print(f"| {r['entities']:,} | {r['points']:,} | {r['engine_s']:.3f} | "
               f"{r['pose_err_um']:.3f} | {r['max_dev_um']:.3f} | {r['verdict']} |")
-    from reports.template2d import read_dxf_template
+    from engine.io.templates import read_dxf_template
 
     t0 = time.perf_counter()
     read_dxf_template(os.path.join(ROOT, "samples", "fuselage_frame", "template.dxf"))

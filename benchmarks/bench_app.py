@@ -54,7 +54,7 @@ STATE = {"last": 0.0, "phase": None}
 
 def _timed_show_run():
     """Time the viewport's drawing of a result (it runs in the GUI thread)."""
-    from qa_app.viewport import Viewport3D
+    from qa_app.desktop.viewport import Viewport3D
 
     original = Viewport3D.show_run
 
@@ -73,8 +73,8 @@ def _timed_show_run():
 def run_case(app, name, nominal, measured, tol):
     from PySide6.QtCore import QEventLoop, QSettings, QTimer
 
-    from qa_app.model import Step
-    from qa_app.window import MainWindow
+    from qa_app.desktop.model import Step
+    from qa_app.desktop.window import MainWindow
 
     folder = tempfile.mkdtemp()
     w = MainWindow(settings=QSettings(os.path.join(folder, "s.ini"), QSettings.IniFormat))

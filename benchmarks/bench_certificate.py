@@ -62,8 +62,9 @@ def main() -> None:
 
 
 def stages(p12: str) -> None:
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
     from reports import certificate, figures, signing
-    from reports.pipeline import InspectionSettings, run_files
 
     identity = signing.load_identity(p12, b"benchmark")
     identity.signer

@@ -22,8 +22,8 @@ def main() -> None:
     from engine.inspection import inspect, inspect_2d
     from engine.nominal import Nominal
     from engine.tolerance import Tolerance
-    from reports.loading import load_point_set
-    from reports.template2d import read_dxf_template
+    from engine.io import load_point_set
+    from engine.io.templates import read_dxf_template
 
     belly = os.path.join(ROOT, "samples", "belly_fairing")
     nominal = Nominal.from_point_set(load_point_set(os.path.join(belly, "nominal.csv")))

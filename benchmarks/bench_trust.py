@@ -24,7 +24,7 @@ sys.path.insert(0, ROOT)
 def cylinder(n_measured: int, seed: int = 4):
     from engine.geometry import apply_transform, make_transform
     from engine.nominal import Nominal
-    from engine.pointio import PointSet
+    from engine.io.points import PointSet
 
     a = np.linspace(0, 2 * np.pi, 720, endpoint=False)
     z = np.linspace(-100, 100, 200)
@@ -43,7 +43,7 @@ def cylinder(n_measured: int, seed: int = 4):
 
 def fairing():
     from engine.nominal import Nominal
-    from reports.loading import load_point_set
+    from engine.io import load_point_set
 
     folder = os.path.join(ROOT, "samples", "belly_fairing")
     nominal = Nominal.from_point_set(load_point_set(os.path.join(folder, "nominal.csv")))

@@ -1,1 +1,2 @@
-"""qa-app: the desktop application over the engine (PySide6 + pyvistaqt)."""
+"""The two front ends, side by side over engine.pipeline and reports: ``cli`` (qa-inspect, no
+Qt) and ``desktop`` (qa-app, PySide6 + pyvistaqt; its session model and controller are Qt-free)."""

@@ -1,6 +1,6 @@
 """The inspection certificate: a PDF laid out after ISO/IEC 17025 §7.8 and AS9102 Form 3.
 
-:func:`make_certificate` builds it from one :class:`reports.pipeline.Run`: the figures, the
+:func:`make_certificate` builds it from one :class:`engine.pipeline.Run`: the figures, the
 evidence files embedded in it (per-point CSV, QIF 3.0 results, the JSON results with the settings
 needed to re-run the inspection) and, given an identity, a PAdES signature over all of it.
 Without an identity every page says UNSIGNED DRAFT.
@@ -20,12 +20,12 @@ import numpy as np
 
 from engine.errors import SettingsError
 from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
+from engine.pipeline import Run
 
 from . import figures
 from .messages import VERDICT_RGB, VERDICT_WORD
-from .pipeline import Run
 from .qif import qif_results_document
-from .results import SOFTWARE_NAME, points_csv, result_json, software_version
+from .results import SOFTWARE_NAME, points_csv, result_json, run_document, software_version
 from .signing import (
     APPROVER_FIELD,
     INSPECTOR_FIELD,
@@ -110,7 +110,7 @@ def certificate_number(run: Run, issued: dt.datetime) -> str:
     h = hashlib.sha256()
     for r in run.inputs:
         h.update(r.sha256.encode())
-    h.update(json.dumps(run.doc.get("settings"), sort_keys=True).encode())
+    h.update(json.dumps(run.settings.to_json(), sort_keys=True).encode())
     h.update(issued.isoformat().encode())
     return f"QA-{issued:%Y%m%d}-{h.hexdigest()[:8].upper()}"
 
@@ -180,7 +180,7 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     cert_doc = {k: v for k, v in asdict(info).items()}
     cert_doc.update(number=number, issued=issued.isoformat().replace("+00:00", "Z"),
                     signed_by=None if identity is None else identity.common_name)
-    doc = dict(run.doc, certificate=cert_doc)
+    doc = dict(run_document(run), certificate=cert_doc)
     attachments = [
         Attachment("points.csv", points_csv(res, run.measured.points,
                                             run.measured.labels).encode(),
@@ -374,7 +374,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     _fonts()
     S = _styles()
     res = run.result
-    doc = run.doc
+    doc = run_document(run)
     st = res.statistics
     tol = res.tolerance
     reg = res.registration

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.inspection import InspectionResult
+from engine.pipeline import InputRecord, Run
 
 SOFTWARE_NAME = "qa-inspect"
 CSV_COLUMNS = ("index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
@@ -33,17 +34,12 @@ def software_version() -> str:
         return "0+unknown"
 
 
-@dataclass(frozen=True)
-class InputRecord:
-    """One input file as the results cite it."""
-
-    role: str  # "nominal" or "measured"
-    path: str
-    sha256: str
-    n_points: int | None
-    """Points in the file (None for a 2D template, which has primitives instead)."""
-    n_primitives: int | None = None
-    """Line segments and arcs of a 2D template."""
+def run_document(run: Run) -> dict:
+    """The JSON document of one run of the pipeline: :func:`result_document` and the settings
+    needed to re-run it (``settings``)."""
+    doc = result_document(run.result, run.inputs, run.timings_s)
+    doc["settings"] = run.settings.to_json()
+    return doc
 
 
 def result_document(result: InspectionResult, inputs: list[InputRecord],

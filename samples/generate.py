@@ -282,7 +282,7 @@ def make_frame(out: str) -> dict:
     import ezdxf
 
     from engine.contour import SEGMENT, ContourIndex, deviations_2d, points_on
-    from reports.template2d import read_dxf_template
+    from engine.io.templates import read_dxf_template
 
     os.makedirs(out, exist_ok=True)
     # Fixed dates, GUIDs and writer stamps, so that the file is reproducible byte for byte.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from engine.pointio import PointSet
+from engine.io.points import PointSet
 
 
 def height(x, y):

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from qa_app.controller import Controller
-from qa_app.model import Session, Step
-from reports.cli import main as cli_main
+from qa_app.cli import main as cli_main
+from qa_app.desktop.controller import Controller
+from qa_app.desktop.model import Session, Step
+from reports.results import run_document
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BELLY = os.path.join(ROOT, "samples", "belly_fairing")
@@ -120,7 +121,8 @@ def test_session_round_trip_and_changed_input_warning(tmp_path):
     c2.open_session(str(path))
     assert s2.settings.tol_lower == -0.1 and s2.settings.tol_upper == 0.3
     assert s2.nominal_path == str(nominal) and s2.run is not None
-    assert s2.run.doc["deviations"]["max_abs"] == s.run.doc["deviations"]["max_abs"]
+    assert (run_document(s2.run)["deviations"]["max_abs"]
+            == run_document(s.run)["deviations"]["max_abs"])
 
     with open(measured, "a") as f:
         f.write("P9999,0,0,0\n")
@@ -237,7 +239,7 @@ def test_fit_and_decision_rule_reach_the_engine_and_the_session_file(tmp_path):
     s.set_settings(fit="minimax", decision_rule="guarded")
     c.inspect()
     assert s.run.result.fit == "minimax" and s.run.result.decision_rule == "guarded"
-    assert s.run.result.verdict == "ACCEPT" and s.run.doc["fit"] == "minimax"
+    assert s.run.result.verdict == "ACCEPT" and run_document(s.run)["fit"] == "minimax"
     c.save_session(str(tmp_path / "s.qasession"))
     s2, c2, _ = make()
     c2.open_session(str(tmp_path / "s.qasession"))

@@ -10,9 +10,9 @@ import pytest
 from PySide6.QtCore import QMimeData, QPointF, QSettings, Qt, QUrl
 from PySide6.QtGui import QDropEvent
 
-from qa_app.dialogs import CertificateDialog
-from qa_app.model import Step
-from qa_app.window import MainWindow
+from qa_app.desktop.dialogs import CertificateDialog
+from qa_app.desktop.model import Step
+from qa_app.desktop.window import MainWindow
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BELLY = os.path.join(ROOT, "samples", "belly_fairing")
@@ -173,14 +173,14 @@ def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_pa
 
     from PySide6.QtWidgets import QApplication
 
-    from qa_app import app as qa_app_main
+    from qa_app.desktop import app as qa_app_main
 
     monkeypatch.setattr(QApplication, "exec", lambda self: 0)
     monkeypatch.setattr(sys, "excepthook", sys.excepthook)
     import threading
 
     monkeypatch.setattr(threading, "excepthook", threading.excepthook)
-    monkeypatch.setattr("qa_app.window.QSettings", lambda *a: QSettings(
+    monkeypatch.setattr("qa_app.desktop.window.QSettings", lambda *a: QSettings(
         str(tmp_path / "s.ini"), QSettings.IniFormat))
     assert qa_app_main.main([os.path.join(BELLY, "nominal.csv"),
                              os.path.join(BELLY, "measured.csv"), "--tol", "0.25"]) == 0
@@ -357,7 +357,7 @@ def test_the_certificate_dialog_names_the_signer_and_says_what_it_refuses(window
     import json
 
     from reports.certificate import CertificateInfo, CertificationError, certified_info
-    from reports.cli import main as cli_main
+    from qa_app.cli import main as cli_main
     from reports.signing import load_identity, read_trust_roots, verify_pdf
 
     monkeypatch.setenv("QA_APP_TEST_PASS", "pw")
@@ -441,8 +441,8 @@ def test_the_banner_says_whether_the_verdict_depends_on_the_pose(qtbot):
     from engine.deviation import point_to_surface
     from engine.geometry import apply_transform
     from engine.inspection import Tolerance, inspect
-    from qa_app.model import Session
-    from qa_app.widgets import VerdictBanner
+    from qa_app.desktop.model import Session
+    from qa_app.desktop.widgets import VerdictBanner
     from surfaces import half_turn_symmetric_part
 
     banner = VerdictBanner(Session())
@@ -478,8 +478,8 @@ def test_a_cylinder_measured_all_round_holds_its_verdict_in_the_banner(qtbot):
     from engine.geometry import apply_transform, make_transform
     from engine.inspection import Tolerance, inspect
     from engine.nominal import Nominal
-    from qa_app.model import Session
-    from qa_app.widgets import VerdictBanner
+    from qa_app.desktop.model import Session
+    from qa_app.desktop.widgets import VerdictBanner
     from surfaces import point_set, random_rotation
 
     A, Z = np.meshgrid(np.linspace(0, 2 * np.pi, 160, endpoint=False),

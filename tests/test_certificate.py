@@ -25,7 +25,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from reports.cli import main
+from qa_app.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BELLY_NOMINAL = os.path.join(ROOT, "samples", "belly_fairing", "nominal.csv")
@@ -773,9 +773,10 @@ def test_verify_fails_a_certificate_naming_another_inspector(signed, tmp_path, c
     import datetime as dt
     from dataclasses import asdict
 
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
     from reports.certificate import CertificateInfo, build_pdf, certificate_number
-    from reports.pipeline import InspectionSettings, run_files
-    from reports.results import result_json
+    from reports.results import result_json, run_document
     from reports.signing import Attachment, finish_pdf, load_identity
 
     run = run_files(FRAME_TEMPLATE, FRAME_MEASURED, InspectionSettings(-0.05, 0.05))
@@ -784,8 +785,9 @@ def test_verify_fails_a_certificate_naming_another_inspector(signed, tmp_path, c
     info = CertificateInfo(part_number="FR-12", serial="SN-2D", inspector="Carol Other")
     issued = dt.datetime.now(dt.timezone.utc).replace(microsecond=0)
     number = certificate_number(run, issued)
-    doc = dict(run.doc, certificate=dict(asdict(info), number=number, issued=issued.isoformat(),
-                                         signed_by=identity.common_name))
+    doc = dict(run_document(run), certificate=dict(asdict(info), number=number,
+                                                   issued=issued.isoformat(),
+                                                   signed_by=identity.common_name))
     attachments = [Attachment("results.json", result_json(doc).encode(), "application/json",
                               "results")]
     pdf, slots = build_pdf(run, info, number, issued, identity, attachments, None)
@@ -845,8 +847,9 @@ def test_no_signed_certificate_is_left_when_another_output_fails(signed, tmp_pat
 
 def test_make_certificate_keeps_the_rules_for_every_caller(signed):
     """The desktop app calls make_certificate directly: the same rules hold there."""
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
     from reports.certificate import CertificateInfo, CertificationError, make_certificate
-    from reports.pipeline import InspectionSettings, run_files
     from reports.signing import load_identity
 
     run = run_files(FRAME_TEMPLATE, FRAME_MEASURED, InspectionSettings(-0.05, 0.05))

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from engine.geometry import apply_transform, make_transform
-from reports.cli import main
+from qa_app.cli import main
 from surfaces import height, height_grid, height_normal, random_rotation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -135,10 +135,18 @@ def test_unwritable_output_exit_73_and_no_partial_file(files, tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["file"]
 
 
-def test_installed_console_script_runs():
-    """The entry point the README uses exists and speaks the contract (usage error → 64)."""
-    exe = os.path.join(os.path.dirname(sys.executable), "qa-inspect")
-    r = subprocess.run([exe, "inspect"], capture_output=True, text=True)
+def test_console_script_entry_point_runs():
+    """The entry point pyproject.toml declares for the command the README uses exists and speaks
+    the contract (usage error → 64): run the way the installed ``qa-inspect`` wrapper runs it."""
+    import tomllib
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, "pyproject.toml"), "rb") as f:
+        target = tomllib.load(f)["project"]["scripts"]["qa-inspect"]
+    module, func = target.split(":")
+    wrapper = (f"import sys; from {module} import {func}; sys.argv[0] = 'qa-inspect'; "
+               f"sys.exit({func}())")
+    r = subprocess.run([sys.executable, "-c", wrapper, "inspect"], capture_output=True, text=True)
     assert r.returncode == 64 and "usage: qa-inspect inspect" in r.stderr
 
 
@@ -375,8 +383,8 @@ def test_swapped_files_say_so(files, tmp_path, capsys):
 def test_swap_hint_spares_dense_scans():
     """Only the files' make-up says 'swapped': a dense bare scan against a coarser nominal with
     normals, or two bare clouds, are not."""
-    from engine.pointio import PointSet
-    from reports.pipeline import swap_hint
+    from engine.io.points import PointSet
+    from engine.pipeline import swap_hint
 
     rng = np.random.default_rng(3)
 

@@ -20,7 +20,7 @@ from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.outliers import gross_outliers, gross_rule
 from engine.registration import RegistrationSettings, register
-from reports.loading import load_point_set
+from engine.io import load_point_set
 from surfaces import height, height_grid, height_normal, point_set, random_rotation
 
 ZONE = Tolerance.symmetric(0.25)

@@ -11,9 +11,9 @@ import pytest
 
 from engine.contour import ContourIndex, deviations_2d, points_on
 from engine.inspection import ACCEPT, REJECT, Tolerance, inspect_2d
+from engine.io.templates import read_airfoil_template, read_dxf_template
 from engine.registration2d import _pose, apply2, register_2d
-from reports.cli import main
-from reports.template2d import read_airfoil_template, read_dxf_template
+from qa_app.cli import main
 from surfaces import random_rotation
 from test_contour import slotted_plate
 

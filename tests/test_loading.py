@@ -1,4 +1,4 @@
-"""Mesh and VTK formats through reports.loading, and their bad-input classes."""
+"""Mesh and VTK formats through engine.io, and their bad-input classes."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ import pyvista as pv
 
 from engine.errors import InputError, InputNotFoundError
 from engine.nominal import Nominal
-from reports.loading import load_point_set
+from engine.io import load_point_set
 
 
 def _sphere():

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from engine.errors import InputError
-from engine.pointio import read_points
-from reports.loading import load_point_set
-from reports.template2d import read_airfoil_template, read_dxf_template
+from engine.io.points import read_points
+from engine.io import load_point_set
+from engine.io.templates import read_airfoil_template, read_dxf_template
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -65,7 +65,7 @@ def _cli(tmp_path, nominal, measured=None):
         measured = tmp_path / "measured.xyz"
         np.savetxt(measured, _cloud(), fmt="%.6f")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, "-m", "reports.cli", "inspect", str(nominal),
+    return subprocess.run([sys.executable, "-m", "qa_app.cli", "inspect", str(nominal),
                            str(measured), "--tol", "0.1"], capture_output=True, text=True,
                           cwd=ROOT, env=env, timeout=120)
 
@@ -226,7 +226,7 @@ def test_cli_refuses_with_exit_65_and_one_line(tmp_path, make):
 _FUZZ_CHILD = """
 import sys
 from engine.errors import InputError
-from reports.loading import load_point_set
+from engine.io import load_point_set
 for path in sys.argv[1:]:
     try:
         load_point_set(path)

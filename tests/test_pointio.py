@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from engine.errors import InputError, InputNotFoundError
-from engine.pointio import read_points
+from engine.io.points import read_points
 
 P = np.array([[1.5, -2.25, 3.0], [4.0, 5.5, -6.125], [7.0, 8.0, 9.5], [0.1, 0.2, 0.3]])
 

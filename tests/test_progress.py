@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from engine.errors import Cancelled
-from reports.pipeline import InspectionSettings, run_files
+from engine.pipeline import run_files
+from engine.settings import InspectionSettings
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLES = os.path.join(ROOT, "samples")

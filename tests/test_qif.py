@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from lxml import etree
 
-from reports.cli import main
+from qa_app.cli import main
 from reports.qif import qif_results_document
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

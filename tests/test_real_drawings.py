@@ -16,7 +16,7 @@ import pytest
 from engine.contour import ContourIndex, deviations_2d, points_on
 from engine.inspection import ACCEPT, Tolerance, inspect_2d
 from engine.registration2d import _pose, apply2
-from reports.template2d import read_dxf_template
+from engine.io.templates import read_dxf_template
 
 DATA = os.path.join(os.path.dirname(__file__), "data", "dxf")
 DRAWINGS = ["leica_disto_s910.dxf", "forms.dxf", "sample_jamesbremner.dxf", "polylines_site.dxf",

@@ -14,8 +14,8 @@ import samples.generate as gen
 from engine.geometry import apply_transform
 from engine.inspection import Tolerance, inspect, inspect_2d
 from engine.nominal import Nominal
-from reports.loading import load_point_set
-from reports.template2d import read_dxf_template
+from engine.io import load_point_set
+from engine.io.templates import read_dxf_template
 
 SAMPLES = os.path.dirname(os.path.abspath(gen.__file__))
 

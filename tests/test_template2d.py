@@ -8,7 +8,7 @@ import pytest
 
 from engine.contour import ARC, ContourIndex, deviations_2d, signed_area
 from engine.errors import InputError, InputNotFoundError
-from reports.template2d import FLATTEN_MM, read_dxf_template
+from engine.io.templates import FLATTEN_MM, read_dxf_template
 
 
 def new_doc(insunits=4):

@@ -249,7 +249,7 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
     import json
     import os
 
-    from reports.cli import main
+    from qa_app.cli import main
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     belly = os.path.join(root, "samples", "belly_fairing")
@@ -334,8 +334,8 @@ def test_minimax_in_2d_and_on_partial_coverage(fairing):
     import os
 
     from engine.inspection import inspect_2d
-    from reports.loading import load_point_set
-    from reports.template2d import read_dxf_template
+    from engine.io import load_point_set
+    from engine.io.templates import read_dxf_template
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     frame = os.path.join(root, "samples", "fuselage_frame")
@@ -410,7 +410,7 @@ def test_a_weak_direction_counts_only_when_the_measurement_leaves_it_uncertain(f
     mm, above a quarter of a ±0.05 zone): unconstrained. A small patch of a gently curved panel
     is as weak by shape, but its points pin the pose to a few micrometres: constrained."""
     import samples.generate as gen
-    from engine.pointio import PointSet
+    from engine.io.points import PointSet
 
     rng = np.random.default_rng(77)
     nom = gen.bracket_points(200_000, rng)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings
 
-from qa_app.dialogs import CertificateDialog
-from qa_app.model import Step
-from qa_app.window import MainWindow
+from qa_app.cli import main as cli_main
+from qa_app.desktop.dialogs import CertificateDialog
+from qa_app.desktop.model import Step
+from qa_app.desktop.window import MainWindow
 from reports import figures
-from reports.cli import main as cli_main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BELLY = os.path.join(ROOT, "samples", "belly_fairing")

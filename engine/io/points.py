@@ -18,8 +18,7 @@ Every problem raises :class:`~engine.errors.InputError` naming the file and 1-ba
 coordinate beyond ``COORD_LIMIT_MM`` (1e9 mm, 1000 km) is refused: no part is that large, and
 squaring such numbers overflows. ``.npy`` files must hold real numbers (float or integer) in an
 (n, 2), (n, 3) or (n, 6) array whose declared size matches the file's length.
-Meshes are read by ``reports.loading`` (``reports.meshfiles``, VTK), which builds the same
-:class:`PointSet`.
+Meshes are read by ``engine.io.meshes`` (numpy, VTK), which builds the same :class:`PointSet`.
 """
 
 from __future__ import annotations
@@ -33,9 +32,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError, InputNotFoundError
+from engine.errors import InputError, InputNotFoundError
 
-TEXT_SUFFIXES = (".csv", ".txt", ".xyz", ".asc")
+from . import formats
+from .formats import TEXT_SUFFIXES
+
 COORD_LIMIT_MM = 1e9
 """Largest |coordinate| accepted (mm): 1000 km; beyond it a number is an export error, and its
 square (used by every fit) approaches float64's range."""
@@ -82,12 +83,12 @@ def read_points(path: str | os.PathLike) -> PointSet:
     suffix = os.path.splitext(path)[1].lower()
     if not os.path.isfile(path):
         raise InputNotFoundError("no such file", path)
-    if suffix == ".npy":
+    if formats.KIND.get(suffix) == formats.NPY:
         return _read_npy(path)
     if suffix in TEXT_SUFFIXES:
         return _read_text(path)
     raise InputError(f"unsupported point file type '{suffix}' (expected one of "
-                     f"{', '.join(TEXT_SUFFIXES + ('.npy',))})", path)
+                     f"{', '.join(formats.suffixes(formats.POINT_TEXT, formats.NPY))})", path)
 
 
 def _read_npy(path: str) -> PointSet:

@@ -28,6 +28,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from engine.io import formats
 from reports import figures
 from reports.messages import VERDICT_RGB, VERDICT_WORD
 
@@ -621,7 +622,7 @@ class ToleranceForm(QWidget):
         empty one at Inspect), fit, decision rule, and the chord for a .dat nominal only."""
         lo, hi = self.zone()
         options = self.options()
-        if not (self.session.nominal_path or "").lower().endswith(".dat"):
+        if formats.kind_of(self.session.nominal_path or "") != formats.AIRFOIL:
             options["scale"] = None  # the chord applies to airfoil ordinates only
         return {"tol_lower": float(lo), "tol_upper": float(hi), **options}
 

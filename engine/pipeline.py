@@ -1,36 +1,49 @@
 """One inspection from files: read the nominal and the measured points, register, judge.
 
 The command line, the certificate's ``verify --nominal/--measured`` re-run and the desktop app all
-go through :func:`run_files`, so one set of settings gives one answer everywhere.
+go through :func:`run_files`, so one set of settings gives one answer everywhere. Nothing here
+writes an output: the results document, the CSV, QIF and the certificate are made from the
+:class:`Run` by ``reports`` (``reports.results.run_document``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import os
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from engine.errors import InputError, SettingsError
-from engine.inspection import ACCEPT, InspectionResult, inspect, inspect_2d
-from engine.nominal import Nominal
-from engine.pointio import PointSet
-from engine.progress import Callback, report, reporting
-
-from .loading import is_template, load_point_set, sha256_of
-from .results import InputRecord, result_document
+from .errors import InputError, SettingsError
+from .inspection import ACCEPT, InspectionResult, inspect, inspect_2d
+from .io import formats, is_template, load_point_set, sha256_of
+from .io.points import PointSet
+from .nominal import Nominal
+from .progress import Callback, report, reporting
 from .settings import InspectionSettings
 
 
-@dataclass
+@dataclass(frozen=True)
+class InputRecord:
+    """One input file as the results cite it."""
+
+    role: str  # "nominal" or "measured"
+    path: str
+    sha256: str
+    n_points: int | None
+    """Points in the file (None for a 2D template, which has primitives instead)."""
+    n_primitives: int | None = None
+    """Line segments and arcs of a 2D template."""
+
+
+@dataclass(frozen=True)
 class Run:
     """One inspection and what its outputs need.
 
     nominal : the 3D nominal (None for a 2D template); template : the 2D template file (None for
-    a 3D nominal); measured : the measured point set as read; doc : the JSON results document.
+    a 3D nominal); measured : the measured point set as read; timings_s : seconds spent
+    ``load``-ing the files, in ``register`` and ``deviation``, and in ``total``.
     """
 
     settings: InspectionSettings
@@ -39,9 +52,7 @@ class Run:
     measured: PointSet
     nominal: Nominal | None
     template: object | None
-    doc: dict
-    display: dict | None = None
-    """What a viewer prepared for showing this run (the desktop app's worker fills it)."""
+    timings_s: dict
 
     @functools.cached_property
     def worst_order(self) -> np.ndarray:
@@ -52,11 +63,11 @@ class Run:
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
     """Raise SettingsError for options that do not apply to this kind of nominal."""
-    suffix = os.path.splitext(nominal_path)[1].lower()
-    if suffix == ".dxf":
+    kind = formats.kind_of(nominal_path)
+    if kind == formats.DXF:
         if settings.scale is not None:
             raise SettingsError("--scale applies to airfoil ordinate templates (.dat) only")
-    elif suffix == ".dat":
+    elif kind == formats.AIRFOIL:
         if settings.scale is None:
             raise SettingsError("an airfoil ordinate template needs --scale CHORD (the chord "
                                 "length in mm)")
@@ -141,12 +152,10 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     t0 = time.perf_counter()
     nominal = tpl = None
     if is_template(nominal_path):
-        from .template2d import read_airfoil_template, read_dxf_template
+        from .io.templates import read_template
 
-        if nominal_path.lower().endswith(".dxf"):
-            tpl = read_dxf_template(nominal_path, layers=settings.layers, units=settings.units)
-        else:
-            tpl = read_airfoil_template(nominal_path, settings.scale)
+        tpl = read_template(nominal_path, layers=settings.layers, units=settings.units,
+                            scale=settings.scale)
         nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path), None,
                                      tpl.template.n_primitives)
     else:
@@ -188,7 +197,5 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
-    doc = result_document(result, inputs, timings)
-    doc["settings"] = settings.to_json()
-    return Run(settings, result, inputs, measured_ps, nominal, tpl, doc)
+    return Run(settings, result, inputs, measured_ps, nominal, tpl, timings)
 

@@ -30,7 +30,8 @@ import numpy as np
 
 from engine.contour import Template2D, arc, build_template, segment
 from engine.errors import InputError, InputNotFoundError
-from engine.pointio import COORD_LIMIT_MM, UNIT_SCALE_TO_MM, text_lines
+from . import formats
+from .points import COORD_LIMIT_MM, UNIT_SCALE_TO_MM, text_lines
 
 FLATTEN_MM = 1e-4
 GEOMETRY = {"LINE", "ARC", "CIRCLE", "LWPOLYLINE", "POLYLINE", "SPLINE", "ELLIPSE"}
@@ -54,6 +55,15 @@ class TemplateFile:
     ignored: dict = field(default_factory=dict)
     flattened: int = 0
     recovered: bool = False
+
+
+def read_template(path: str | os.PathLike, layers: list[str] | None = None,
+                  units: str | None = None, scale: float | None = None) -> TemplateFile:
+    """A 2D template file of either kind (see :mod:`engine.io.formats`): a DXF drawing (``layers``,
+    ``units``) or airfoil ordinates (``scale`` = chord length, mm)."""
+    if formats.kind_of(path) == formats.DXF:
+        return read_dxf_template(path, layers=layers, units=units)
+    return read_airfoil_template(path, scale)
 
 
 def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,

@@ -9,7 +9,7 @@ import enum
 from collections.abc import Callable
 from dataclasses import replace
 
-from reports.settings import InspectionSettings
+from engine.settings import InspectionSettings
 
 
 class Event:
@@ -58,7 +58,10 @@ class Session:
         self.nominal_path: str | None = None
         self.measured_path: str | None = None
         self.settings = InspectionSettings(-0.1, 0.1)
-        self.run = None  # reports.pipeline.Run of the last inspection, or None
+        self.run = None  # engine.pipeline.Run of the last inspection, or None
+        self.display = None
+        """What the views prepared for showing ``run`` in the worker (the controller's
+        ``prepare``), or None."""
         self.running = False
         self.selected: int | None = None
         self.changed_inputs: tuple[str, ...] = ()
@@ -157,10 +160,11 @@ class Session:
         self.running = running
         self.step_changed.emit(self.step)
 
-    def set_run(self, run) -> None:
+    def set_run(self, run, display=None) -> None:
         if run is None and self.run is None:
             return
         self.run = run
+        self.display = display
         self.selected = None
         self.changed_inputs = ()
         self.result_changed.emit(run)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from engine.tolerance import Tolerance
+from .tolerance import Tolerance
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""``qa-inspect``: the command line over the engine.
+"""``qa-inspect``: the command line over the engine's pipeline and the reports.
 
 Exit codes (a contract): 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE, 64 usage error, 65 bad input data,
 66 input file not found, 73 an output could not be written, 70 internal error, 130 interrupted.
@@ -201,9 +201,8 @@ def _tolerance(args):
 def _guarded(command, args) -> int:
     """Run a command; user mistakes become one-line messages and exit codes, never tracebacks."""
     from engine.errors import InputError, InputNotFoundError
-
-    from .messages import user_message
-    from .signing import OutputExistsError
+    from reports.messages import user_message
+    from reports.signing import OutputExistsError
 
     try:
         return command(args)
@@ -223,8 +222,8 @@ def _guarded(command, args) -> int:
 
 
 def _cmd_inspect(args) -> int:
-    from .loading import is_template
-    from .outputs import OutputConflictError, check_outputs
+    from engine.io import is_template
+    from reports.outputs import OutputConflictError, check_outputs
 
     _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
                                 "--report": args.report, "--csv": args.csv, "--json": args.json,
@@ -247,7 +246,7 @@ def _cmd_inspect(args) -> int:
         raise UsageError(f"qa-inspect inspect: {e}") from e
     renderer = None
     if args.report and not is_template(args.nominal):
-        from .figures import RenderProcess
+        from reports.figures import RenderProcess
 
         renderer = RenderProcess()  # pyvista/OpenGL start-up overlaps all the work below
     try:
@@ -258,7 +257,7 @@ def _cmd_inspect(args) -> int:
 
 
 def _cmd_keygen(args) -> int:
-    from .signing import make_demo_identity
+    from reports.signing import make_demo_identity
 
     if not args.name.strip():
         raise UsageError("qa-inspect keygen: --name must not be empty")
@@ -278,9 +277,9 @@ def _cmd_keygen(args) -> int:
 def _cmd_verify(args) -> int:
     import json
 
-    from .certificate import same_person
-    from .messages import VERDICT_WORD
-    from .signing import read_input, read_trust_roots, verify_pdf
+    from reports.certificate import same_person
+    from reports.messages import VERDICT_WORD
+    from reports.signing import read_input, read_trust_roots, verify_pdf
 
     _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
                                "--nominal": args.nominal, "--measured": args.measured})
@@ -337,9 +336,10 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
     """Compare the files with the certificate's SHA-256s and re-run the inspection; return the
     problems (and append what was confirmed to ``notes``)."""
     from engine.errors import InputNotFoundError
-
-    from .loading import sha256_of
-    from .pipeline import InspectionSettings, run_files
+    from engine.io import sha256_of
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from reports.results import run_document
 
     problems = []
     for role, path in (("nominal", nominal), ("measured", measured)):
@@ -355,7 +355,7 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
     if problems:
         return problems
     run = run_files(nominal, measured, InspectionSettings.from_json(doc["settings"]))
-    got = run.doc["deviations"]["max_abs"]
+    got = run_document(run)["deviations"]["max_abs"]
     want = doc["deviations"]["max_abs"]
     if run.result.verdict != doc["verdict"]:
         problems.append(f"re-run verdict {run.result.verdict} differs from the certified "
@@ -370,21 +370,21 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
-
-    from .outputs import Output, OutputConflictError, write_all
-    from .pipeline import InspectionSettings, run_files
-    from .results import points_csv, result_json
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from reports.outputs import Output, OutputConflictError, write_all
+    from reports.results import points_csv, result_json, run_document
 
     info = identity = None
     if args.report:
-        from .certificate import CertificateInfo
+        from reports.certificate import CertificateInfo
 
         info = CertificateInfo(**{k: getattr(args, k) for k in (
             "part_number", "part_name", "revision", "serial", "order", "inspector",
             "organisation", "device", "notes")})
     if args.sign:
-        from .certificate import CertificationError, check_inspector
-        from .signing import load_identity
+        from reports.certificate import CertificationError, check_inspector
+        from reports.signing import load_identity
 
         # The key first: a wrong passphrase or an unsuitable key must not cost an inspection.
         identity = load_identity(args.sign, _passphrase(args.sign_pass_env, "PKCS#12 passphrase "
@@ -405,7 +405,7 @@ def _run_inspect(args, tol, renderer) -> int:
     result = run.result
     outputs = []
     if args.report:
-        from .certificate import CertificationError, certified_info, make_certificate
+        from reports.certificate import CertificationError, certified_info, make_certificate
 
         try:
             info = certified_info(info, identity, result.verdict)
@@ -422,9 +422,9 @@ def _run_inspect(args, tol, renderer) -> int:
             outputs.append(Output(args.csv, csv_text))
     if args.json:
         if args.json == "-":
-            stdout = result_json(run.doc)
+            stdout = result_json(run_document(run))
         else:
-            outputs.append(Output(args.json, result_json(run.doc)))
+            outputs.append(Output(args.json, result_json(run_document(run))))
     try:
         write_all(outputs)  # every file or none; stdout only after they all succeeded
     except OutputConflictError as e:  # the target changed into a folder, key... during the run

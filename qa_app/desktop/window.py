@@ -25,6 +25,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from engine.io.formats import ALL_SUFFIXES, MEASURED_SUFFIXES, TEMPLATE_SUFFIXES
+
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
 from .model import Session, Step
@@ -39,9 +41,10 @@ from .widgets import (
     VerdictBanner,
 )
 
-NOMINAL_FILTER = ("Nominals (*.csv *.txt *.xyz *.asc *.npy *.stl *.ply *.obj *.vtk *.vtp *.vts "
-                  "*.dxf *.dat);;All files (*)")
-MEASURED_FILTER = "Measured points (*.csv *.txt *.xyz *.asc *.npy *.ply);;All files (*)"
+NOMINAL_FILTER = (f"Nominals ({' '.join('*' + s for s in ALL_SUFFIXES + TEMPLATE_SUFFIXES)});;"
+                  "All files (*)")
+MEASURED_FILTER = (f"Measured points ({' '.join('*' + s for s in MEASURED_SUFFIXES)});;"
+                   "All files (*)")
 MAX_RECENT = 8
 DEFAULT_SIZE = (1400, 900)
 """The window's size on a screen big enough; it never exceeds the screen's available area."""

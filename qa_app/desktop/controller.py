@@ -1,5 +1,5 @@
 """The controller: turns the inspector's actions into engine runs and exports, and their outcomes
-into changes of the :class:`qa_app.model.Session`. No Qt here.
+into changes of the :class:`qa_app.desktop.model.Session`. No Qt here.
 
 Work runs in a worker thread (``synchronous=False``); what it produces is handed back through
 ``post`` (the window passes a function that queues the call into the GUI thread), so the session
@@ -16,7 +16,7 @@ import threading
 from collections.abc import Callable
 
 from engine.errors import Cancelled, InputError, SettingsError
-from reports.settings import InspectionSettings
+from engine.settings import InspectionSettings
 
 from .model import Session
 
@@ -28,8 +28,8 @@ class Controller:
     def __init__(self, session: Session, synchronous: bool = False,
                  post: Callable[[Callable[[], None]], None] | None = None,
                  prepare: Callable | None = None):
-        """prepare : called in the worker with each finished run; what it returns is attached
-        as ``run.display`` (the views' heavy preparation, kept off the GUI thread)."""
+        """prepare : called in the worker with each finished run; what it returns is kept
+        as ``session.display`` (the views' heavy preparation, kept off the GUI thread)."""
         self.session = session
         self._prepare = prepare
         self.synchronous = synchronous
@@ -49,14 +49,15 @@ class Controller:
 
             from engine.inspection import inspect
             from engine.nominal import Nominal
-            from engine.pointio import PointSet
+            from engine.io.points import PointSet
             from engine.tolerance import Tolerance
 
             g = PointSet(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]]),
                          grid_shape=(2, 2))
             nominal = Nominal.from_point_set(g)
             inspect(nominal, nominal.points + [0, 0, 0.01], Tolerance.symmetric(1.0))
-            import reports.pipeline  # noqa: F401
+            import engine.pipeline  # noqa: F401
+            import reports.results  # noqa: F401
 
         t = threading.Thread(target=work, name="qa-inspect warm-up", daemon=True)
         t.start()
@@ -84,7 +85,7 @@ class Controller:
     def open_files(self, paths: list[str]) -> None:
         """Dropped or command-line files: a template or the first file is the nominal when none
         is set yet, the next one the measured points; a session file opens the session."""
-        from reports.loading import is_template
+        from engine.io import is_template
 
         for p in paths:
             if p.endswith(SESSION_SUFFIX):
@@ -95,7 +96,7 @@ class Controller:
                 self.open_measured(p)
 
     def _check_file(self, path: str) -> bool:
-        from reports.loading import ALL_SUFFIXES, TEMPLATE_SUFFIXES
+        from engine.io.formats import ALL_SUFFIXES, TEMPLATE_SUFFIXES
 
         if not os.path.isfile(path):
             self.session.tell("error", f"{path}: no such file")
@@ -131,17 +132,19 @@ class Controller:
 
         def job():
             # Imported here, in the worker: the engine's first import holds the interpreter.
-            from reports.pipeline import run_files
+            from engine.pipeline import run_files
 
             run = run_files(nominal, measured, st, progress=self._progress)
+            display = None
             if self._prepare is not None:
                 self._progress("preparing the views", 1.0)
-                run.display = self._prepare(run)
-            return run
+                display = self._prepare(run)
+            return run, display
 
-        def done(run):
+        def done(ran):
+            run, display = ran
             s.set_running(False)
-            s.set_run(run)
+            s.set_run(run, display)
             res = run.result
             # The trust statements are the banner's details, not this one-line note.
             reasons = [r for r in res.reasons if r not in res.trust_statements]
@@ -163,7 +166,7 @@ class Controller:
         """Compare the files the result was computed from with the files on disk (SHA-256); any
         difference marks the result stale. Returns True when there is a result and it is
         current."""
-        from reports.loading import sha256_of
+        from engine.io import sha256_of
 
         s = self.session
         if s.run is None:
@@ -251,13 +254,14 @@ class Controller:
 
     def export_qif(self, path: str) -> None:
         from reports.qif import qif_results_document
+        from reports.results import run_document
 
         run = self.session.run
         if self._refuse_stale("QIF") or self._refuse_output("QIF", path):
             return
         res = run.result
         self._export(path, lambda: qif_results_document(
-            run.doc, res.registered, res.deviations.signed, res.in_tolerance, run.measured.labels,
+            run_document(run), res.registered, res.deviations.signed, res.in_tolerance, run.measured.labels,
             res.outlier), "QIF")
 
     def _refuse_output(self, what: str, path: str, identity: str | None = None) -> bool:
@@ -321,7 +325,8 @@ class Controller:
         s.tell("info", f"Session saved: {path}")
 
     def _session_doc(self, path: str) -> dict:
-        from reports.loading import sha256_of
+        from engine.io import sha256_of
+        from reports.results import run_document
 
         s = self.session
         return {"format": SESSION_FORMAT, "version": 1,
@@ -332,13 +337,13 @@ class Controller:
                           for role, p in (("nominal", s.nominal_path),
                                           ("measured", s.measured_path))],
                "settings": s.settings.to_json(),
-               "results": None if s.run is None or s.stale else s.run.doc}
+               "results": None if s.run is None or s.stale else run_document(s.run)}
 
     def open_session(self, path: str) -> None:
         """Reopen a saved session: its inputs and settings; warns about any input changed since
         (by SHA-256), and re-runs the inspection when all are unchanged (the engine is
         deterministic: the same results)."""
-        from reports.loading import sha256_of
+        from engine.io import sha256_of
 
         s = self.session
         if self._refuse_while_busy():

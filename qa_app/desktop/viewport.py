@@ -110,7 +110,7 @@ class Viewport3D(QWidget):
             if self.plotter is not None:
                 self._redraw()
             return
-        disp = getattr(run, "display", None) or self.prepare(run)
+        disp = self.session.display or self.prepare(run)
         self._shown, self._tree, self._home = disp["shown"], disp["tree"], disp["home"]
         if self.plotter is None:
             return

@@ -1,0 +1,71 @@
+"""The one table of input file types: a file's suffix decides what it is and which reader reads it.
+
+Every reader, the check of the options against the nominal, the pipeline and both front ends ask
+this table. A new file format is a row here and its reader in ``engine.io`` (dispatched in
+:func:`engine.io.load_point_set`, or in :func:`engine.io.templates.read_template` for a 2D
+template), plus one test.
+"""
+
+from __future__ import annotations
+
+import os
+
+POINT_TEXT = "point text"
+"""Delimited text point files (``engine.io.points``)."""
+NPY = "npy"
+"""numpy ``.npy`` arrays of points (``engine.io.points``)."""
+MESH = "mesh"
+"""PLY, OBJ and STL meshes, read and checked with numpy (``engine.io.meshes``)."""
+VTK = "VTK"
+"""VTK's own mesh formats, read by VTK in a child process (``engine.io.meshes``)."""
+GRID = "structured grid"
+"""VTK XML structured grids: u-v grids whose cells are the facets (``engine.io.meshes``)."""
+DXF = "DXF template"
+"""2D contour templates drawn in DXF (``engine.io.templates``)."""
+AIRFOIL = "airfoil template"
+"""2D airfoil ordinate templates, Selig order (``engine.io.templates``)."""
+
+KIND = {
+    ".csv": POINT_TEXT, ".txt": POINT_TEXT, ".xyz": POINT_TEXT, ".asc": POINT_TEXT,
+    ".npy": NPY,
+    ".ply": MESH, ".stl": MESH, ".obj": MESH,
+    ".vtk": VTK, ".vtp": VTK,
+    ".vts": GRID,
+    ".dxf": DXF,
+    ".dat": AIRFOIL,
+}
+"""Suffix (lower case, with its dot) -> kind of file."""
+
+POINT_SET_KINDS = (POINT_TEXT, NPY, MESH, VTK, GRID)
+"""Files read into a :class:`engine.io.points.PointSet` (a 3D nominal or measured points)."""
+TEMPLATE_KINDS = (DXF, AIRFOIL)
+"""Files read into a 2D contour template (a nominal only)."""
+
+
+def suffixes(*kinds: str) -> tuple[str, ...]:
+    """The suffixes of the given kinds, in the table's order."""
+    return tuple(s for s, k in KIND.items() if k in kinds)
+
+
+TEXT_SUFFIXES = suffixes(POINT_TEXT)
+MESH_SUFFIXES = suffixes(MESH, VTK, GRID)
+ALL_SUFFIXES = suffixes(*POINT_SET_KINDS)
+TEMPLATE_SUFFIXES = suffixes(*TEMPLATE_KINDS)
+MEASURED_SUFFIXES = suffixes(POINT_TEXT, NPY) + (".ply",)
+"""What CMMs and scanners write: the desktop app's filter for measured files (any point set is
+accepted)."""
+
+
+def suffix_of(path: str | os.PathLike) -> str:
+    """The file's suffix, lower case, with its dot ('' when it has none)."""
+    return os.path.splitext(os.fspath(path))[1].lower()
+
+
+def kind_of(path: str | os.PathLike) -> str | None:
+    """The kind of file ``path`` is by its suffix (one of this module's kinds), or None."""
+    return KIND.get(suffix_of(path))
+
+
+def is_template(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a 2D contour template (DXF drawing or airfoil ordinates)."""
+    return kind_of(path) in TEMPLATE_KINDS

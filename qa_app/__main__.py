@@ -1,5 +1,0 @@
-import sys
-
-from qa_app.app import main
-
-sys.exit(main())

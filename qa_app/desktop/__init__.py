@@ -1,0 +1,1 @@
+"""qa-app: the desktop application over the engine (PySide6 + pyvistaqt)."""
