@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from engine.errors import SettingsError
+from engine.errors import QAError, SettingsError
 from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pipeline import Run
 
@@ -60,6 +60,12 @@ class CertificateInfo:
 class CertificationError(SettingsError):
     """What the certificate would state contradicts its signature (a usage error: nothing is
     written)."""
+
+
+class CertificateError(QAError, RuntimeError):
+    """No certificate can be made from this run: it would certify what the result does not
+    support, or its layout failed. A bug, never the user's doing (unlike
+    :class:`CertificationError`): nothing is written."""
 
 
 def same_person(a: str | None, b: str | None) -> bool:
@@ -155,8 +161,8 @@ def check_trustworthy(run: Run) -> None:
     m = 0.0 if res.margin is None else res.margin
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):
-        raise RuntimeError("refusing to certify ACCEPTED: the registration is not trustworthy "
-                           "or a point is not inside its zone")
+        raise CertificateError("refusing to certify ACCEPTED: the registration is not "
+                               "trustworthy or a point is not inside its zone")
 
 
 def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
@@ -349,6 +355,86 @@ def _numbered_canvas(number: str, verdict: str, draft: bool):
     return NumberedCanvas
 
 
+_GRID_RGB = (0.78, 0.80, 0.84)
+_HEAD_RGB = (0.91, 0.93, 0.96)
+_ZEBRA_RGB = (0.97, 0.975, 0.98)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """What every section of the certificate shares: the run, what the certificate states,
+    the styles and the text width. ``slots`` is filled while the document is laid out."""
+
+    run: Run
+    info: CertificateInfo
+    number: str
+    issued: dt.datetime
+    identity: Identity | None
+    attachments: list[Attachment]
+    views: list[figures.View] | None
+    doc: dict
+    """run_document(run): the results document the certificate states."""
+    styles: dict
+    """Paragraph styles by name (:func:`_styles`)."""
+    width: float
+    """Text width, points (A4 less the margins)."""
+    slots: dict[str, SignatureSlot]
+    """Where each signature box landed, filled by the layout."""
+
+    @property
+    def res(self):
+        return self.run.result
+
+    @property
+    def is_2d(self) -> bool:
+        return self.run.template is not None
+
+    @property
+    def zone(self) -> str:
+        """The tolerance zone in words: "±0.250 mm" or "-0.100 mm … +0.300 mm"."""
+        tol = self.res.tolerance
+        return (f"±{tol.upper:.3f} mm" if math.isclose(-tol.lower, tol.upper) else
+                f"{tol.lower:+.3f} mm … {tol.upper:+.3f} mm")
+
+    @property
+    def reasons(self) -> str:
+        """The verdict's own reasons. The plain-word statements of what the measurement leaves
+        open have their own place in section 6."""
+        res = self.res
+        return "; ".join(r for r in res.reasons if r not in res.trust_statements)
+
+    def table(self, rows, widths, header=True, zebra=False, styles=()):
+        """A grid table in the certificate's style (header row shaded, zebra rows on request)."""
+        from reportlab.lib import colors
+        from reportlab.platypus import Table, TableStyle
+
+        t = Table(rows, colWidths=widths, repeatRows=1 if header else 0)
+        cmds = [("GRID", (0, 0), (-1, -1), 0.4, colors.Color(*_GRID_RGB)),
+                ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+                ("TOPPADDING", (0, 0), (-1, -1), 2), ("BOTTOMPADDING", (0, 0), (-1, -1), 2),
+                ("LEFTPADDING", (0, 0), (-1, -1), 4), ("RIGHTPADDING", (0, 0), (-1, -1), 4),
+                ("FONT", (0, 0), (-1, -1), "Vera", 7.5)]
+        if header:
+            cmds += [("BACKGROUND", (0, 0), (-1, 0), colors.Color(*_HEAD_RGB)),
+                     ("FONT", (0, 0), (-1, 0), "Vera-Bold", 7.5)]
+        if zebra:
+            for r in range(2 if header else 1, len(rows), 2):
+                cmds.append(("BACKGROUND", (0, r), (-1, r), colors.Color(*_ZEBRA_RGB)))
+        t.setStyle(TableStyle(cmds + list(styles)))
+        return t
+
+    def kv(self, pairs, widths):
+        """A two-column table of (label, value) pairs; an empty value reads "—"."""
+        from reportlab.lib import colors
+        from reportlab.platypus import Paragraph as P
+
+        S = self.styles
+        rows = [[P(_esc(k), S["cellb"]), P(_esc(v) if v not in (None, "") else "—", S["cell"])]
+                for k, v in pairs]
+        return self.table(rows, widths, header=False,
+                          styles=[("BACKGROUND", (0, 0), (0, -1), colors.Color(*_HEAD_RGB))])
+
+
 def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
               identity: Identity | None, attachments: list[Attachment],
               views: list[figures.View] | None) -> tuple[bytes, dict[str, SignatureSlot]]:
@@ -356,77 +442,64 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
 
     views : the 3D renders (None for a 2D template, whose map is drawn here).
     """
-    from reportlab.lib import colors
     from reportlab.lib.pagesizes import A4
     from reportlab.lib.units import mm
-    from reportlab.platypus import (
-        CondPageBreak,
-        Image,
-        KeepTogether,
-        PageBreak,
-        Paragraph,
-        SimpleDocTemplate,
-        Spacer,
-        Table,
-        TableStyle,
-    )
+    from reportlab.platypus import SimpleDocTemplate
 
     _fonts()
-    S = _styles()
+    c = _Layout(run, info, number, issued, identity, attachments, views, run_document(run),
+                _styles(), A4[0] - 36 * mm, {})
+    story = [flowable for section in _SECTIONS for flowable in section(c)]
     res = run.result
-    doc = run_document(run)
+    buf = io.BytesIO()
+    pdf = SimpleDocTemplate(buf, pagesize=A4, leftMargin=18 * mm, rightMargin=18 * mm,
+                            topMargin=(26 if identity else 30) * mm, bottomMargin=22 * mm,
+                            title=f"{TITLE} {number}", author=info.inspector or "",
+                            subject=f"{VERDICT_WORD[res.verdict]}: "
+                                    f"{info.part_number or ''} {info.serial or ''}".strip(),
+                            creator=f"{SOFTWARE_NAME} {software_version()}",
+                            pageCompression=0)
+    pdf.build(story, canvasmaker=_numbered_canvas(number, res.verdict, identity is None))
+    if set(c.slots) != {INSPECTOR_FIELD, APPROVER_FIELD}:
+        raise CertificateError("signature boxes were not laid out")
+    return buf.getvalue(), c.slots
+
+
+def _identification(c: _Layout) -> list:
+    """1  Identification: the part (left) and the inspection (right)."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Table
+
+    info, identity, W = c.info, c.identity, c.width
+    left = c.kv([("Organisation", info.organisation), ("Part number", info.part_number),
+                 ("Part name", info.part_name), ("Revision", info.revision),
+                 ("Serial number", info.serial), ("Order", info.order)], [28 * mm, 58 * mm])
+    right = c.kv([("Inspector", identity.common_name if identity else info.inspector),
+                  ("Device", info.device),
+                  ("Date and time", f"{c.issued:%Y-%m-%d %H:%M:%S} UTC"),
+                  ("Software", f"{SOFTWARE_NAME} {software_version()}"),
+                  ("Certificate No.", c.number),
+                  ("Status", "signed (PAdES)" if identity else "UNSIGNED DRAFT")],
+                 [28 * mm, 56 * mm])
+    return [P("1  Identification", c.styles["h"]),
+            Table([[left, right]], colWidths=[W / 2, W / 2],
+                  style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                         ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                         ("RIGHTPADDING", (0, 0), (-1, -1), 0)])]
+
+
+def _result(c: _Layout) -> list:
+    """2  Result: the verdict block with its reasons, and the statistics (placed early: the
+    answer comes first)."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Spacer, Table
+
+    S, W, res = c.styles, c.width, c.res
     st = res.statistics
-    tol = res.tolerance
-    reg = res.registration
-    is_2d = run.template is not None
-    W = A4[0] - 36 * mm
-    P = Paragraph
-    grid = colors.Color(0.78, 0.80, 0.84)
-    head_bg = colors.Color(0.91, 0.93, 0.96)
-
-    def table(rows, widths, header=True, zebra=False, styles=()):
-        t = Table(rows, colWidths=widths, repeatRows=1 if header else 0)
-        cmds = [("GRID", (0, 0), (-1, -1), 0.4, grid), ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
-                ("TOPPADDING", (0, 0), (-1, -1), 2), ("BOTTOMPADDING", (0, 0), (-1, -1), 2),
-                ("LEFTPADDING", (0, 0), (-1, -1), 4), ("RIGHTPADDING", (0, 0), (-1, -1), 4),
-                ("FONT", (0, 0), (-1, -1), "Vera", 7.5)]
-        if header:
-            cmds += [("BACKGROUND", (0, 0), (-1, 0), head_bg),
-                     ("FONT", (0, 0), (-1, 0), "Vera-Bold", 7.5)]
-        if zebra:
-            for r in range(2 if header else 1, len(rows), 2):
-                cmds.append(("BACKGROUND", (0, r), (-1, r), colors.Color(0.97, 0.975, 0.98)))
-        t.setStyle(TableStyle(cmds + list(styles)))
-        return t
-
-    def kv(pairs, widths):
-        rows = [[P(_esc(k), S["cellb"]), P(_esc(v) if v not in (None, "") else "—", S["cell"])]
-                for k, v in pairs]
-        return table(rows, widths, header=False,
-                     styles=[("BACKGROUND", (0, 0), (0, -1), head_bg)])
-
-    story = []
-    # 1-2. identification
-    left = kv([("Organisation", info.organisation), ("Part number", info.part_number),
-               ("Part name", info.part_name), ("Revision", info.revision),
-               ("Serial number", info.serial), ("Order", info.order)], [28 * mm, 58 * mm])
-    right = kv([("Inspector", identity.common_name if identity else info.inspector),
-                ("Device", info.device),
-                ("Date and time", f"{issued:%Y-%m-%d %H:%M:%S} UTC"),
-                ("Software", f"{SOFTWARE_NAME} {software_version()}"),
-                ("Certificate No.", number),
-                ("Status", "signed (PAdES)" if identity else "UNSIGNED DRAFT")],
-               [28 * mm, 56 * mm])
-    story.append(P("1  Identification", S["h"]))
-    story.append(Table([[left, right]], colWidths=[W / 2, W / 2],
-                       style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
-                              ("LEFTPADDING", (0, 0), (-1, -1), 0),
-                              ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
-    # 7. verdict block (placed early: the answer comes first)
-    story.append(P("2  Result", S["h"]))
-    # The plain-word statements of what the measurement leaves open have their own place in
-    # section 6; the verdict block gives the verdict's own reasons.
-    reasons = "; ".join(r for r in res.reasons if r not in res.trust_statements)
+    reasons = c.reasons
     vb = Table([[P(VERDICT_WORD[res.verdict],
                    S["verdict_long" if res.verdict == INCONCLUSIVE else "verdict"]),
                  P(_esc(reasons[:1].upper() + reasons[1:]), S["verdict_sub"])]],
@@ -435,24 +508,28 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                       ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
                       ("TOPPADDING", (0, 0), (-1, -1), 8), ("BOTTOMPADDING", (0, 0), (-1, -1), 8),
                       ("LEFTPADDING", (0, 0), (-1, -1), 10)])
-    story.append(vb)
-    story.append(Spacer(1, 3 * mm))
     stats_rows = [["Points", "Out of tol.", "Min", "Max", "Mean", "Std dev", "RMS",
                    "Max |d|"],
                   [f"{st.count}", f"{st.n_out}", *(figures.fmt_mm(v) for v in
                                                    (st.min, st.max, st.mean)),
                    *(figures.fmt_mm(v, False) for v in (st.std, st.rms, st.max_abs))]]
-    story.append(table(stats_rows, [W / 8] * 8,
-                       styles=[("ALIGN", (0, 0), (-1, -1), "CENTER"),
-                               ("FONT", (0, 1), (-1, 1), "Vera-Bold", 8.5)]))
-    story.append(P("Deviations in mm; statistics over every measured point, points excluded "
-                   "from the alignment included.", S["small"]))
-    # 3. requirement
-    story.append(P("3  Requirement", S["h"]))
-    zone = (f"±{tol.upper:.3f} mm" if math.isclose(-tol.lower, tol.upper) else
-            f"{tol.lower:+.3f} mm … {tol.upper:+.3f} mm")
-    story.append(kv([
-        ("Tolerance zone", f"{'Line' if is_2d else 'Surface'} profile, deviation from the "
+    return [P("2  Result", S["h"]), vb, Spacer(1, 3 * mm),
+            c.table(stats_rows, [W / 8] * 8,
+                    styles=[("ALIGN", (0, 0), (-1, -1), "CENTER"),
+                            ("FONT", (0, 1), (-1, 1), "Vera-Bold", 8.5)]),
+            P("Deviations in mm; statistics over every measured point, points excluded "
+              "from the alignment included.", S["small"])]
+
+
+def _requirement(c: _Layout) -> list:
+    """3  Requirement: the tolerance zone, the sign, the decision rule, the units."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+
+    res, W, zone = c.res, c.width, c.zone
+    tol = res.tolerance
+    return [P("3  Requirement", c.styles["h"]), c.kv([
+        ("Tolerance zone", f"{'Line' if c.is_2d else 'Surface'} profile, deviation from the "
                            f"nominal {zone} (lower limit {tol.lower:+.3f}, upper limit "
                            f"{tol.upper:+.3f}); limits are in tolerance"),
         ("Sign", "Positive along the nominal's outward normal (excess material), negative "
@@ -475,10 +552,17 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                             "nearly as well. Measurement uncertainty is not deducted from the "
                             "zone."),
         ("Units", "millimetres"),
-    ], [28 * mm, W - 28 * mm]))
-    # 4. method
-    story.append(P("4  Method", S["h"]))
-    story.append(kv([
+    ], [28 * mm, W - 28 * mm])]
+
+
+def _method(c: _Layout) -> list:
+    """4  Method: registration, fit criterion, deviation method, normals; then the notes."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+
+    S, W, res, doc, is_2d = c.styles, c.width, c.res, c.doc, c.is_2d
+    reg = res.registration
+    out = [P("4  Method", S["h"]), c.kv([
         ("Registration", "Soft registration without fixture: global search over "
                          f"{reg.hypotheses} pose hypotheses, then modified ICP with "
                          "coarse-to-fine sampling of the nominal" +
@@ -499,114 +583,163 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                      "grid": "from the grid cells", "estimated": "estimated from the nominal "
                      "points (no normals in the file)", "contour": "contour normals"}.get(
                          res.normals_source, res.normals_source)),
-    ], [28 * mm, W - 28 * mm]))
-    if info.notes:
+    ], [28 * mm, W - 28 * mm])]
+    if c.info.notes:
         # Paragraphs of their own: a long note flows over pages (a table cell cannot).
-        story.append(P("Notes", S["cellb"]))
-        for para in str(info.notes).split("\n"):
-            story.append(P(_esc(para), S["base"]))
-    # 5. inputs
-    story.append(CondPageBreak(45 * mm))
-    story.append(P("5  Inputs", S["h"]))
+        out.append(P("Notes", S["cellb"]))
+        for para in str(c.info.notes).split("\n"):
+            out.append(P(_esc(para), S["base"]))
+    return out
+
+
+def _inputs(c: _Layout) -> list:
+    """5  Inputs: each input file with its size and SHA-256."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import CondPageBreak
+    from reportlab.platypus import Paragraph as P
+
+    S = c.styles
     rows = [["Role", "File", "Size", "SHA-256"]]
-    for r in run.inputs:
+    for r in c.run.inputs:
         size = (f"{r.n_points} points" if r.n_points is not None else
                 f"{r.n_primitives} primitives")
         rows.append([r.role, P(_esc(os.path.basename(r.path)), S["cell"]), size,
                      P(r.sha256, S["mono"])])
-    story.append(table(rows, [18 * mm, 50 * mm, 24 * mm, W - 92 * mm]))
-    # 6. registration
-    story.append(CondPageBreak(75 * mm))  # the heading stays with its table
-    story.append(P("6  Registration", S["h"]))
-    T = reg.T_nominal_measured
-    mat = table([[f"{v:+.6f}" if j < 3 else f"{v:+.4f}" for j, v in enumerate(row)]
-                 for row in T], [20 * mm] * 4, header=False,
-                styles=[("FONT", (0, 0), (-1, -1), "Courier", 7), ("ALIGN", (0, 0), (-1, -1),
-                                                                   "RIGHT")])
+    return [CondPageBreak(45 * mm), P("5  Inputs", S["h"]),
+            c.table(rows, [18 * mm, 50 * mm, 24 * mm, c.width - 92 * mm])]
+
+
+def _registration(c: _Layout) -> list:
+    """6  Registration: the transform beside its facts, then what the measurement leaves
+    open in plain words."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import CondPageBreak
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Spacer, Table
+
+    S, W, res = c.styles, c.width, c.res
+    T = res.registration.T_nominal_measured
+    mat = c.table([[f"{v:+.6f}" if j < 3 else f"{v:+.4f}" for j, v in enumerate(row)]
+                   for row in T], [20 * mm] * 4, header=False,
+                  styles=[("FONT", (0, 0), (-1, -1), "Courier", 7),
+                          ("ALIGN", (0, 0), (-1, -1), "RIGHT")])
+    out = [CondPageBreak(75 * mm),  # the heading stays with its table
+           P("6  Registration", S["h"]),
+           Table([[[P("T_nominal_measured (maps measured coordinates into the nominal "
+                      "frame, mm)", S["small"]), Spacer(1, 1 * mm), mat],
+                   c.kv(_registration_rows(c), [26 * mm, W - 26 * mm - 86 * mm])]],
+                 colWidths=[84 * mm, W - 84 * mm],
+                 style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                        ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                        ("RIGHTPADDING", (0, 0), (-1, -1), 0)])]
+    if res.trust_statements:
+        # In plain words: what the measurement leaves open, and why the verdict holds (or not).
+        out.append(Spacer(1, 1.5 * mm))
+        out.append(P("What the measurement does not fix", S["cellb"]))
+        for sentence in res.trust_statements:
+            out.append(P("• " + _esc(sentence[:1].upper() + sentence[1:]) + ".", S["small"]))
+    return out
+
+
+def _registration_rows(c: _Layout) -> list[tuple[str, str]]:
+    """The (label, value) facts of section 6: convergence, what is not fixed, the poses."""
+    res = c.res
+    reg = res.registration
     cond = res.conditioning
     weak = "none: every direction constrained" if cond is None or not cond.weak else "; ".join(
         f"{w.type} {'along' if w.type == 'translation' else 'about'} {_vec(w.axis)}"
         for w in cond.weak)
-    reg_rows = [("Converged", f"{'yes' if reg.converged else 'NO'} after {reg.iterations} "
-                              "iterations"),
-                ("Unconstrained", weak),
-                ("Pose uncertainty", "—" if cond is None or cond.pose_sigma_mm is None else
-                 f"{cond.pose_sigma_mm:.4f} mm (1 sigma at the worst point, from the residuals)"),
-                ("Other poses", (f"a nearly-as-good pose moves deviations by up to "
-                                 f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
-                 "none with different deviations"),
-                ("Verdict holds", _verdict_stability(res)),
-                ("Excluded from the alignment",
-                 f"{int(res.outlier.sum())} point(s) (gross outliers), judged like every other "
-                 "point" if res.outlier.any() else "none: every point was fitted"),
-                ("RMS", f"{reg.rms:.4f} mm over the {reg.n_inliers} fitted points"),
-                ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
-                               f"{'—' if reg.runner_up_score is None else f'{reg.runner_up_score:.4f} mm'})"),
-                ("Near the nominal", f"{100 * reg.near_fraction:.1f}% of points within "
-                                     f"{reg.near_distance:.3g} mm")]
-    if "flatness" in doc:
-        f = doc["flatness"]
-        reg_rows.append(("Flatness", f"{f['peak_to_valley']:.4f} mm peak to valley "
-                                     f"(measured plane)"))
-    story.append(Table([[[P("T_nominal_measured (maps measured coordinates into the nominal "
-                            "frame, mm)", S["small"]), Spacer(1, 1 * mm), mat],
-                         kv(reg_rows, [26 * mm, W - 26 * mm - 86 * mm])]],
-                       colWidths=[84 * mm, W - 84 * mm],
-                       style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
-                              ("LEFTPADDING", (0, 0), (-1, -1), 0),
-                              ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
-    if res.trust_statements:
-        # In plain words: what the measurement leaves open, and why the verdict holds (or not).
-        story.append(Spacer(1, 1.5 * mm))
-        story.append(P("What the measurement does not fix", S["cellb"]))
-        for sentence in res.trust_statements:
-            story.append(P("• " + _esc(sentence[:1].upper() + sentence[1:]) + ".", S["small"]))
-    # 8-9. maps and histogram: on the registration's page when they fit there
-    story.append(CondPageBreak(175 * mm))
-    order = run.worst_order
+    rows = [("Converged", f"{'yes' if reg.converged else 'NO'} after {reg.iterations} "
+                          "iterations"),
+            ("Unconstrained", weak),
+            ("Pose uncertainty", "—" if cond is None or cond.pose_sigma_mm is None else
+             f"{cond.pose_sigma_mm:.4f} mm (1 sigma at the worst point, from the residuals)"),
+            ("Other poses", (f"a nearly-as-good pose moves deviations by up to "
+                             f"{res.ambiguity_spread:.4f} mm") if res.ambiguous else
+             "none with different deviations"),
+            ("Verdict holds", _verdict_stability(res)),
+            ("Excluded from the alignment",
+             f"{int(res.outlier.sum())} point(s) (gross outliers), judged like every other "
+             "point" if res.outlier.any() else "none: every point was fitted"),
+            ("RMS", f"{reg.rms:.4f} mm over the {reg.n_inliers} fitted points"),
+            ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
+                           f"{'—' if reg.runner_up_score is None else f'{reg.runner_up_score:.4f} mm'})"),
+            ("Near the nominal", f"{100 * reg.near_fraction:.1f}% of points within "
+                                 f"{reg.near_distance:.3g} mm")]
+    if "flatness" in c.doc:
+        f = c.doc["flatness"]
+        rows.append(("Flatness", f"{f['peak_to_valley']:.4f} mm peak to valley "
+                                 f"(measured plane)"))
+    return rows
 
-    def name_of(i):
-        return _point_name(run, i)
 
-    legend = figures.legend(tol, res.deviations.signed, 50 * mm, 62 * mm)
-    hist = figures.histogram(res.deviations.signed, tol, W - 56 * mm, 62 * mm)
-    story.append(P("7  Deviation map", S["h"]))
-    if is_2d:
+def _deviation_map(c: _Layout) -> list:
+    """7  Deviation map: the 2D contour map drawn here, or the two 3D renders (on the
+    registration's page when they fit there, with section 8)."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+    from reportlab.platypus import CondPageBreak, Image, Table
+    from reportlab.platypus import Paragraph as P
+
+    S, W, res, run, views = c.styles, c.width, c.res, c.run, c.views
+    out = [CondPageBreak(175 * mm), P("7  Deviation map", S["h"])]
+    if c.is_2d:
         drawing, factor = figures.contour_map(run.template.template, res.deviations.foot,
-                                              res.deviations.normal, res.deviations.signed, tol,
-                                              _worst_labels(run), W, 128 * mm)
-        story.append(drawing)
-        story.append(P(f"Template (dark lines) and every measured point at its foot on the "
-                       f"contour, with its deviation drawn as a whisker magnified {factor:g} "
-                       "times; labels on the five worst points.", S["small"]))
-    else:
-        iw = (W - 4 * mm) / 2
-        ih = iw * figures.RENDER_SIZE[1] / figures.RENDER_SIZE[0]
-        cells = [Image(io.BytesIO(v.png), width=iw, height=ih) for v in views]
-        story.append(Table([cells], colWidths=[W / 2, W / 2],
-                           style=[("BOX", (0, 0), (0, 0), 0.4, grid),
-                                  ("BOX", (1, 0), (1, 0), 0.4, grid),
-                                  ("LEFTPADDING", (0, 0), (-1, -1), 0),
-                                  ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
-        story.append(P(f"Left: face-on, camera along {_vec(views[0].direction)}; right: "
-                       f"oblique, camera along {_vec(views[1].direction)} (nominal frame, "
-                       "parallel projection). Every measured point drawn at its foot on the "
-                       "nominal surface, coloured by deviation; labels on the five worst "
-                       "points.", S["small"]))
-    story.append(P("8  Colour scale and histogram of deviations", S["h"]))
-    story.append(Table([[legend, hist]], colWidths=[54 * mm, W - 54 * mm],
-                       style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
-                              ("LEFTPADDING", (0, 0), (-1, -1), 0)]))
-    story.append(P("Green bands: inside the tolerance zone; blue: below the lower limit "
-                   "(missing material); red: above the upper limit (excess material). Dashed "
-                   "lines: the tolerance limits (LTL, UTL).", S["small"]))
-    # 10. characteristic table
-    story.append(PageBreak())
-    story.append(P("9  Characteristic accountability (AS9102 Form 3 style)", S["h"]))
-    d = res.deviations.signed
+                                              res.deviations.normal, res.deviations.signed,
+                                              res.tolerance, _worst_labels(run), W, 128 * mm)
+        out.append(drawing)
+        out.append(P(f"Template (dark lines) and every measured point at its foot on the "
+                     f"contour, with its deviation drawn as a whisker magnified {factor:g} "
+                     "times; labels on the five worst points.", S["small"]))
+        return out
+    grid = colors.Color(*_GRID_RGB)
+    iw = (W - 4 * mm) / 2
+    ih = iw * figures.RENDER_SIZE[1] / figures.RENDER_SIZE[0]
+    cells = [Image(io.BytesIO(v.png), width=iw, height=ih) for v in views]
+    out.append(Table([cells], colWidths=[W / 2, W / 2],
+                     style=[("BOX", (0, 0), (0, 0), 0.4, grid),
+                            ("BOX", (1, 0), (1, 0), 0.4, grid),
+                            ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                            ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+    out.append(P(f"Left: face-on, camera along {_vec(views[0].direction)}; right: "
+                 f"oblique, camera along {_vec(views[1].direction)} (nominal frame, "
+                 "parallel projection). Every measured point drawn at its foot on the "
+                 "nominal surface, coloured by deviation; labels on the five worst "
+                 "points.", S["small"]))
+    return out
+
+
+def _histogram(c: _Layout) -> list:
+    """8  Colour scale and histogram of deviations."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Table
+
+    W, tol, d = c.width, c.res.tolerance, c.res.deviations.signed
+    legend = figures.legend(tol, d, 50 * mm, 62 * mm)
+    hist = figures.histogram(d, tol, W - 56 * mm, 62 * mm)
+    return [P("8  Colour scale and histogram of deviations", c.styles["h"]),
+            Table([[legend, hist]], colWidths=[54 * mm, W - 54 * mm],
+                  style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                         ("LEFTPADDING", (0, 0), (-1, -1), 0)]),
+            P("Green bands: inside the tolerance zone; blue: below the lower limit "
+              "(missing material); red: above the upper limit (excess material). Dashed "
+              "lines: the tolerance limits (LTL, UTL).", c.styles["small"])]
+
+
+def _characteristics(c: _Layout) -> list:
+    """9  Characteristic accountability (AS9102 Form 3 style): every out-of-tolerance point,
+    then the in-tolerance points nearest to a limit; without a trusted pose the largest
+    deviations, not judged."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+    from reportlab.platypus import PageBreak, Spacer
+    from reportlab.platypus import Paragraph as P
+
+    S, W, res, run = c.styles, c.width, c.res, c.run
+    st, order, d = res.statistics, run.worst_order, res.deviations.signed
     out_idx = order[: min(st.n_out, MAX_OUT_ROWS)]
     rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + WORST_ROWS]]
-    req = zone
     judged = res.verdict != INCONCLUSIVE
     if not judged:  # no pose to trust: the points are listed, not judged
         out_idx = []
@@ -614,15 +747,14 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
     rows = [["Char. No.", "Point", "Requirement", "X (mm)", "Y (mm)", "Z (mm)",
              "Deviation", "Result"]]
     res_styles = []
-    outlier = res.outlier
     for k, i in enumerate(rows_idx):
         p = res.registered[i]
         ok = bool(res.in_tolerance[i])
         result = ("PASS" if ok else "FAIL") if judged else "not judged"
-        name = (P(_esc(name_of(i)) + "<br/><font size=6>excluded from the alignment (gross "
-                  f"outlier, d = {d[i]:+.4f} mm)</font>", S["cell"]) if outlier[i] else
-                name_of(i))
-        rows.append([f"{k + 1}", name, req,
+        name = (P(_esc(_point_name(run, i)) + "<br/><font size=6>excluded from the alignment "
+                  f"(gross outlier, d = {d[i]:+.4f} mm)</font>", S["cell"]) if res.outlier[i]
+                else _point_name(run, i))
+        rows.append([f"{k + 1}", name, c.zone,
                      f"{p[0]:.3f}", f"{p[1]:.3f}", f"{p[2]:.3f}", f"{d[i]:+.4f}", result])
         if judged and not ok:
             res_styles.append(("TEXTCOLOR", (7, k + 1), (7, k + 1), colors.Color(0.72, 0.1, 0.1)))
@@ -636,24 +768,40 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
              " Coordinates of the registered points in the nominal frame. A point excluded from "
              "the alignment (a gross outlier: see section 4) is judged like every other. Every "
              "point is in the attached points.csv.")
-    story.append(P(_esc(intro), S["small"]))
-    story.append(Spacer(1, 2 * mm))
-    story.append(table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,
-                              W - 157 * mm], zebra=True,
-                       styles=[("ALIGN", (3, 1), (6, -1), "RIGHT"),
-                               ("ALIGN", (7, 0), (7, -1), "CENTER"), *res_styles]))
-    # attachments
-    story.append(P("10  Attached evidence (embedded in this PDF, covered by the signature)",
-                   S["h"]))
+    return [PageBreak(),
+            P("9  Characteristic accountability (AS9102 Form 3 style)", S["h"]),
+            P(_esc(intro), S["small"]), Spacer(1, 2 * mm),
+            c.table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,
+                           W - 157 * mm], zebra=True,
+                    styles=[("ALIGN", (3, 1), (6, -1), "RIGHT"),
+                            ("ALIGN", (7, 0), (7, -1), "CENTER"), *res_styles])]
+
+
+def _evidence(c: _Layout) -> list:
+    """10  Attached evidence: each embedded file with its content and SHA-256."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+
+    S = c.styles
     rows = [["File", "Content", "SHA-256"]]
-    for a in attachments:
+    for a in c.attachments:
         rows.append([a.name, P(_esc(a.description), S["cell"]),
                      P(hashlib.sha256(a.data).hexdigest(), S["mono"])])
-    story.append(table(rows, [22 * mm, 62 * mm, W - 84 * mm]))
-    story.append(P("Extract them with any PDF reader's attachment panel or "
-                   "<font name='Courier'>pdfdetach -saveall</font>.", S["small"]))
-    # 11. statement + signatures
-    slots: dict[str, SignatureSlot] = {}
+    return [P("10  Attached evidence (embedded in this PDF, covered by the signature)", S["h"]),
+            c.table(rows, [22 * mm, 62 * mm, c.width - 84 * mm]),
+            P("Extract them with any PDF reader's attachment panel or "
+              "<font name='Courier'>pdfdetach -saveall</font>.", S["small"])]
+
+
+def _statement_and_signatures(c: _Layout) -> list:
+    """11  Statement of conformity and signatures, kept together on one page; the signature
+    boxes record where they land in ``c.slots``."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether, Spacer, Table
+    from reportlab.platypus import Paragraph as P
+
+    S, W, res, identity, zone = c.styles, c.width, c.res, c.identity, c.zone
+    st = res.statistics
     if res.verdict == ACCEPT:
         statement = (f"The part identified above conforms to the stated requirement: all "
                      f"{st.count} measured points lie within the tolerance zone {zone}, "
@@ -664,7 +812,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                      f"{zone} (largest excursion {figures.fmt_mm(_worst_excess(res))} mm beyond "
                      "a limit).")
     else:
-        statement = ("No statement of conformity can be made: " + reasons +
+        statement = ("No statement of conformity can be made: " + c.reasons +
                      ". The part is neither accepted nor rejected by this certificate.")
     sig_text = (f"Signed digitally by {_esc(identity.common_name)}"
                 f"{', ' + _esc(identity.organisation) if identity.organisation else ''}; "
@@ -675,33 +823,25 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                 if identity else "<b>UNSIGNED DRAFT</b>: this document carries no signature "
                 "and is not a valid certificate.")
     bw = (W - 8 * mm) / 2
-    block = [P("11  Statement of conformity and signatures", S["h"]),
-             P(_esc(statement), S["base"]), Spacer(1, 2 * mm),
-             P(sig_text, S["small"]),
-             P("Verify the signature and the evidence: <font name='Courier'>qa-inspect verify "
-               "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE]</font> or any "
-               "PAdES-capable reader with the issuing CA as trust anchor.", S["small"]),
-             Spacer(1, 3 * mm),
-             Table([[_Slot(INSPECTOR_FIELD, "Inspector signature", bw, 24 * mm, slots,
-                           None if identity else "UNSIGNED DRAFT"),
-                     _Slot(APPROVER_FIELD, "Approver signature (optional, second signature)",
-                           bw, 24 * mm, slots)]],
-                   colWidths=[bw + 4 * mm, bw + 4 * mm],
-                   style=[("LEFTPADDING", (0, 0), (-1, -1), 0)])]
-    story.append(KeepTogether(block))
+    return [KeepTogether([
+        P("11  Statement of conformity and signatures", S["h"]),
+        P(_esc(statement), S["base"]), Spacer(1, 2 * mm),
+        P(sig_text, S["small"]),
+        P("Verify the signature and the evidence: <font name='Courier'>qa-inspect verify "
+          "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE]</font> or any "
+          "PAdES-capable reader with the issuing CA as trust anchor.", S["small"]),
+        Spacer(1, 3 * mm),
+        Table([[_Slot(INSPECTOR_FIELD, "Inspector signature", bw, 24 * mm, c.slots,
+                      None if identity else "UNSIGNED DRAFT"),
+                _Slot(APPROVER_FIELD, "Approver signature (optional, second signature)",
+                      bw, 24 * mm, c.slots)]],
+              colWidths=[bw + 4 * mm, bw + 4 * mm],
+              style=[("LEFTPADDING", (0, 0), (-1, -1), 0)])])]
 
-    buf = io.BytesIO()
-    pdf = SimpleDocTemplate(buf, pagesize=A4, leftMargin=18 * mm, rightMargin=18 * mm,
-                            topMargin=(26 if identity else 30) * mm, bottomMargin=22 * mm,
-                            title=f"{TITLE} {number}", author=info.inspector or "",
-                            subject=f"{VERDICT_WORD[res.verdict]}: "
-                                    f"{info.part_number or ''} {info.serial or ''}".strip(),
-                            creator=f"{SOFTWARE_NAME} {software_version()}",
-                            pageCompression=0)
-    pdf.build(story, canvasmaker=_numbered_canvas(number, res.verdict, identity is None))
-    if set(slots) != {INSPECTOR_FIELD, APPROVER_FIELD}:
-        raise RuntimeError("signature boxes were not laid out")
-    return buf.getvalue(), slots
+
+_SECTIONS = (_identification, _result, _requirement, _method, _inputs, _registration,
+             _deviation_map, _histogram, _characteristics, _evidence, _statement_and_signatures)
+"""The certificate's sections in their order; each returns its flowables."""
 
 
 def _point_name(run: Run, i: int) -> str:

@@ -57,10 +57,13 @@ import math
 import os
 import re
 import uuid
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from urllib.parse import quote
 
 import numpy as np
+
+from engine.errors import QAError
 
 QIF_NAMESPACE = "http://qifstandards.org/xsd/qif3"
 QIF_VERSION = "3.0.0"
@@ -71,6 +74,12 @@ _CHAR_STATUS = {"ACCEPT": "PASS", "REJECT": "FAIL", "INCONCLUSIVE": "INDETERMINA
 _INSPECTION_STATUS = {"ACCEPT": "PASS", "REJECT": "FAIL", "INCONCLUSIVE": "UNKNOWN"}
 
 _XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
+
+
+class QIFError(QAError, ValueError):
+    """The arguments of :func:`qif_results_document` do not describe one inspection (arrays of
+    different lengths, an unknown verdict, an issue time that is no ISO 8601 time): a bug in the
+    caller, nothing is written."""
 
 
 def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels=None,
@@ -84,10 +93,22 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
     deviations : (n,) signed deviations, mm, positive along the nominal's outward normal.
     in_tolerance : (n,) bool. labels : (n,) str or None. outlier : (n,) bool or None, the
         points excluded from the alignment as gross outliers (InspectionResult.outlier).
+
+    Raises QIFError when the arguments do not fit together.
     """
+    q = _Qif.of(doc, *_checked_points(registered, deviations, in_tolerance, labels, outlier))
+    o: list[str] = []
+    for section in (_header, _definitions, _product, _features, _characteristics, _results):
+        section(o.append, q)
+    return "".join(o).encode("utf-8")
+
+
+def _checked_points(registered, deviations, in_tolerance, labels, outlier):
+    """The per-point arguments as arrays (pts (n, 3), dev (n,), inside (n,), labels,
+    outlier (n,) or None); QIFError when their lengths differ."""
     pts = np.asarray(registered, dtype=float)
     if pts.ndim != 2 or pts.shape[1] not in (2, 3):
-        raise ValueError(f"registered must be (n, 3), got shape {pts.shape}")
+        raise QIFError(f"registered must be (n, 3), got shape {pts.shape}")
     if pts.shape[1] == 2:
         pts = np.column_stack([pts, np.zeros(len(pts))])
     dev = np.asarray(deviations, dtype=float).reshape(-1)
@@ -95,61 +116,149 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
     n = pts.shape[0]
     for name, arr in (("deviations", dev), ("in_tolerance", inside)):
         if arr.size != n:
-            raise ValueError(f"{name} has {arr.size} entries for {n} points")
+            raise QIFError(f"{name} has {arr.size} entries for {n} points")
     if labels is not None and len(labels) != n:
-        raise ValueError(f"labels has {len(labels)} entries for {n} points")
+        raise QIFError(f"labels has {len(labels)} entries for {n} points")
     if outlier is not None:
         outlier = np.asarray(outlier, dtype=bool).reshape(-1)
         if outlier.size != n:
-            raise ValueError(f"outlier has {outlier.size} entries for {n} points")
+            raise QIFError(f"outlier has {outlier.size} entries for {n} points")
+    return pts, dev, inside, labels, outlier
 
-    verdict = doc["verdict"]
-    if verdict not in _CHAR_STATUS:
-        raise ValueError(f"unknown verdict {verdict!r}")
-    lower = float(doc["tolerance"]["lower"])
-    upper = float(doc["tolerance"]["upper"])
-    cert = {k: v for k, v in (doc.get("certificate") or {}).items() if v not in (None, "")}
-    is_2d = doc.get("template") is not None
-    inputs = {r.get("role"): r for r in doc.get("inputs", [])}
-    nominal = inputs.get("nominal", {})
-    measured = inputs.get("measured", {})
-    software = doc.get("software", {})
-    issued = _xs_datetime(cert["issued"]) if "issued" in cert else None
 
-    ids = _Ids()
-    standard = ids.take()
-    device = ids.take() if "device" in cert else None
-    part, definition, model = ids.take(), ids.take(), ids.take()
-    feat_def, feat_nom, feat_item = ids.take(), ids.take(), ids.take()
-    char_def, char_nom, char_item = ids.take(), ids.take(), ids.take()
-    results, feat_meas, point_set, char_meas = ids.take(), ids.take(), ids.take(), ids.take()
-    T = np.asarray(doc["transform"], dtype=float)
-    transform = ids.take() if T.shape == (4, 4) and np.isfinite(T).all() else None
-    component = ids.take() if "serial" in cert else None
-    if n == 0:
-        point_set = None
+@dataclass(frozen=True)
+class _Refs:
+    """The document's ids, consecutive from 1 in the order of the fields; None: the element is
+    left out (no device named, no finite transform, no serial number, no points)."""
 
-    key = json.dumps({"nominal": nominal.get("sha256"), "measured": measured.get("sha256"),
-                      "certificate": cert.get("number"), "lower": lower, "upper": upper,
-                      "verdict": verdict}, sort_keys=True)
-    qpid = uuid.uuid5(_UUID_NAMESPACE, "document " + key)
-    results_qpid = uuid.uuid5(_UUID_NAMESPACE, "results " + key)
+    standard: int
+    device: int | None
+    part: int
+    definition: int
+    model: int
+    feat_def: int
+    feat_nom: int
+    feat_item: int
+    char_def: int
+    char_nom: int
+    char_item: int
+    results: int
+    feat_meas: int
+    point_set: int | None
+    char_meas: int
+    transform: int | None
+    component: int | None
+    last: int
+    """The largest id (``idMax``)."""
 
-    kind = "Curve" if is_2d else "Surface"
-    profile = "LineProfile" if is_2d else "SurfaceProfile"
-    nominal_path = str(nominal.get("path") or "nominal")
-    nominal_name = os.path.basename(nominal_path) or nominal_path
-    app = f"{software.get('name', 'qa-inspect')} {software.get('version', '')}".strip()
+    @classmethod
+    def take(cls, device: bool, points: bool, transform: bool, component: bool) -> _Refs:
+        ids = _Ids()
+        standard = ids.take()
+        device_id = ids.take() if device else None
+        part, definition, model = ids.take(), ids.take(), ids.take()
+        feat_def, feat_nom, feat_item = ids.take(), ids.take(), ids.take()
+        char_def, char_nom, char_item = ids.take(), ids.take(), ids.take()
+        results, feat_meas, point_set, char_meas = ids.take(), ids.take(), ids.take(), ids.take()
+        transform_id = ids.take() if transform else None
+        component_id = ids.take() if component else None
+        return cls(standard, device_id, part, definition, model, feat_def, feat_nom, feat_item,
+                   char_def, char_nom, char_item, results, feat_meas,
+                   point_set if points else None, char_meas, transform_id, component_id,
+                   ids.last)
 
-    o: list[str] = []
-    w = o.append
+
+@dataclass(frozen=True)
+class _Qif:
+    """What the sections of one QIF document share."""
+
+    ids: _Refs
+    verdict: str
+    """ACCEPT, REJECT or INCONCLUSIVE."""
+    lower: float
+    """Tolerance zone, mm."""
+    upper: float
+    cert: dict
+    """The certificate's entries that are given (no None or empty value)."""
+    is_2d: bool
+    nominal: dict
+    """The nominal's input record (path, sha256, n_points / n_primitives)."""
+    measured: dict
+    app: str
+    """'qa-inspect <version>'."""
+    issued: str | None
+    """The certificate's issue time as an xs:dateTime, UTC."""
+    reasons: str
+    T: np.ndarray
+    """T_nominal_measured, (4, 4)."""
+    pts: np.ndarray
+    """(n, 3) registered points, mm, nominal frame."""
+    dev: np.ndarray
+    inside: np.ndarray
+    labels: object
+    outlier: np.ndarray | None
+    qpid: uuid.UUID
+    results_qpid: uuid.UUID
+
+    @classmethod
+    def of(cls, doc: dict, pts, dev, inside, labels, outlier) -> _Qif:
+        verdict = doc["verdict"]
+        if verdict not in _CHAR_STATUS:
+            raise QIFError(f"unknown verdict {verdict!r}")
+        lower = float(doc["tolerance"]["lower"])
+        upper = float(doc["tolerance"]["upper"])
+        cert = {k: v for k, v in (doc.get("certificate") or {}).items() if v not in (None, "")}
+        inputs = {r.get("role"): r for r in doc.get("inputs", [])}
+        nominal = inputs.get("nominal", {})
+        measured = inputs.get("measured", {})
+        software = doc.get("software", {})
+        issued = _xs_datetime(cert["issued"]) if "issued" in cert else None
+        T = np.asarray(doc["transform"], dtype=float)
+        ids = _Refs.take(device="device" in cert, points=pts.shape[0] != 0,
+                         transform=T.shape == (4, 4) and bool(np.isfinite(T).all()),
+                         component="serial" in cert)
+        key = json.dumps({"nominal": nominal.get("sha256"), "measured": measured.get("sha256"),
+                          "certificate": cert.get("number"), "lower": lower, "upper": upper,
+                          "verdict": verdict}, sort_keys=True)
+        return cls(ids, verdict, lower, upper, cert, doc.get("template") is not None, nominal,
+                   measured,
+                   f"{software.get('name', 'qa-inspect')} {software.get('version', '')}".strip(),
+                   issued, "; ".join(str(r) for r in doc.get("reasons", [])), T, pts, dev,
+                   inside, labels, outlier, uuid.uuid5(_UUID_NAMESPACE, "document " + key),
+                   uuid.uuid5(_UUID_NAMESPACE, "results " + key))
+
+    @property
+    def n(self) -> int:
+        return self.pts.shape[0]
+
+    @property
+    def kind(self) -> str:
+        """The feature kind: 'Curve' (2D template) or 'Surface'."""
+        return "Curve" if self.is_2d else "Surface"
+
+    @property
+    def profile(self) -> str:
+        return "LineProfile" if self.is_2d else "SurfaceProfile"
+
+    @property
+    def nominal_path(self) -> str:
+        return str(self.nominal.get("path") or "nominal")
+
+    @property
+    def nominal_name(self) -> str:
+        return os.path.basename(self.nominal_path) or self.nominal_path
+
+
+def _header(w, q: _Qif) -> None:
+    """The root element, QPId, creation time and Header (application, author)."""
+    cert = q.cert
     w('<?xml version="1.0" encoding="UTF-8"?>\n')
-    w(f'<QIFDocument xmlns="{QIF_NAMESPACE}" versionQIF="{QIF_VERSION}" idMax="{ids.last}">\n')
-    w(f"  <QPId>{qpid}</QPId>\n")
-    if issued:
-        w(f"  <Version>\n    <TimeCreated>{issued}</TimeCreated>\n  </Version>\n")
+    w(f'<QIFDocument xmlns="{QIF_NAMESPACE}" versionQIF="{QIF_VERSION}" idMax="{q.ids.last}">\n')
+    w(f"  <QPId>{q.qpid}</QPId>\n")
+    if q.issued:
+        w(f"  <Version>\n    <TimeCreated>{q.issued}</TimeCreated>\n  </Version>\n")
     w("  <Header>\n    <Application>\n")
-    w(f"      <Name>{_text(app)}</Name>\n")
+    w(f"      <Name>{_text(q.app)}</Name>\n")
     w("    </Application>\n")
     if "inspector" in cert or "organisation" in cert:
         w("    <Author>\n")
@@ -158,13 +267,18 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
         if "organisation" in cert:
             w(f"      <Organization>{_text(cert['organisation'])}</Organization>\n")
         w("    </Author>\n")
-    w(f"    <Description>Dimensional inspection results: {n} measured points against "
-      f"{_text(nominal_name)}, signed deviations along the nominal's outward normal "
+    w(f"    <Description>Dimensional inspection results: {q.n} measured points against "
+      f"{_text(q.nominal_name)}, signed deviations along the nominal's outward normal "
       "(positive = excess material), mm</Description>\n")
     w("  </Header>\n")
+
+
+def _definitions(w, q: _Qif) -> None:
+    """StandardsDefinitions (ASME Y14.5), FileUnits (mm) and, when the certificate names a
+    device, MeasurementResources."""
     # Characteristics must cite a formal standard; OuterDisposition is the ASME form of an
     # unequally disposed profile zone.
-    w(f'  <StandardsDefinitions n="1">\n    <Standard id="{standard}">\n'
+    w(f'  <StandardsDefinitions n="1">\n    <Standard id="{q.ids.standard}">\n'
       "      <Organization>\n        <StandardsOrganizationEnum>ASME</StandardsOrganizationEnum>\n"
       "      </Organization>\n      <Designator>Y14.5</Designator>\n      <Year>2018</Year>\n"
       "    </Standard>\n  </StandardsDefinitions>\n")
@@ -172,13 +286,17 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
       "        <SIUnitName>meter</SIUnitName>\n        <UnitName>mm</UnitName>\n"
       "        <UnitConversion>\n          <Factor>0.001</Factor>\n        </UnitConversion>\n"
       "      </LinearUnit>\n    </PrimaryUnits>\n  </FileUnits>\n")
-    if device:
+    if q.ids.device:
         w('  <MeasurementResources>\n    <MeasurementDevices n="1">\n')
-        w(f'      <MeasurementDevice id="{device}">\n'
-          f"        <Name>{_text(cert['device'])}</Name>\n      </MeasurementDevice>\n")
+        w(f'      <MeasurementDevice id="{q.ids.device}">\n'
+          f"        <Name>{_text(q.cert['device'])}</Name>\n      </MeasurementDevice>\n")
         w("    </MeasurementDevices>\n  </MeasurementResources>\n")
 
-    w(f'  <Product>\n    <PartSet n="1">\n      <Part id="{part}">\n')
+
+def _product(w, q: _Qif) -> None:
+    """Product/PartSet/Part: name, part number, revision and the nominal file."""
+    ids, cert, nominal_path = q.ids, q.cert, q.nominal_path
+    w(f'  <Product>\n    <PartSet n="1">\n      <Part id="{ids.part}">\n')
     if "part_name" in cert:
         w(f"        <Header>\n          <Name>{_text(cert['part_name'])}</Name>\n"
           "        </Header>\n")
@@ -186,43 +304,53 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
         w(f"        <ModelNumber>{_text(cert['part_number'])}</ModelNumber>\n")
     if "revision" in cert:
         w(f"        <Version>{_text(cert['revision'])}</Version>\n")
-    w(f'        <FeatureNominalIds n="1">\n          <Id>{feat_nom}</Id>\n'
+    w(f'        <FeatureNominalIds n="1">\n          <Id>{ids.feat_nom}</Id>\n'
       "        </FeatureNominalIds>\n")
-    w(f'        <CharacteristicNominalIds n="1">\n          <Id>{char_nom}</Id>\n'
+    w(f'        <CharacteristicNominalIds n="1">\n          <Id>{ids.char_nom}</Id>\n'
       "        </CharacteristicNominalIds>\n")
-    w(f'        <DefinitionExternal id="{definition}" n="1">\n'
-      f'          <DigitalModel id="{model}">\n'
-      f"            <Name>{_text(nominal_name)}</Name>\n"
+    w(f'        <DefinitionExternal id="{ids.definition}" n="1">\n'
+      f'          <DigitalModel id="{ids.model}">\n'
+      f"            <Name>{_text(q.nominal_name)}</Name>\n"
       f"            <File>\n              <Name>{_text(nominal_path)}</Name>\n"
       f"              <Format>\n                <OtherDigitalModelFormat>"
-      f"{_text(_format_name(nominal_path, is_2d))}</OtherDigitalModelFormat>\n"
+      f"{_text(_format_name(nominal_path, q.is_2d))}</OtherDigitalModelFormat>\n"
       "              </Format>\n            </File>\n"
-      f"            <Description>{_text(_file_description('nominal', nominal))}"
+      f"            <Description>{_text(_file_description('nominal', q.nominal))}"
       "</Description>\n"
       "          </DigitalModel>\n        </DefinitionExternal>\n")
     w("      </Part>\n    </PartSet>\n  </Product>\n")
 
+
+def _features(w, q: _Qif) -> None:
+    """Features: the nominal as one freeform feature (definition, nominal, item)."""
+    ids, kind, name = q.ids, q.kind, _text(q.nominal_name)
     w("  <Features>\n")
-    w(f'    <FeatureDefinitions n="1">\n      <Other{kind}FeatureDefinition id="{feat_def}"/>\n'
+    w(f'    <FeatureDefinitions n="1">\n'
+      f'      <Other{kind}FeatureDefinition id="{ids.feat_def}"/>\n'
       "    </FeatureDefinitions>\n")
-    w(f'    <FeatureNominals n="1">\n      <Other{kind}FeatureNominal id="{feat_nom}">\n'
-      f"        <Name>{_text(nominal_name)}</Name>\n"
-      f"        <FeatureDefinitionId>{feat_def}</FeatureDefinitionId>\n"
+    w(f'    <FeatureNominals n="1">\n      <Other{kind}FeatureNominal id="{ids.feat_nom}">\n'
+      f"        <Name>{name}</Name>\n"
+      f"        <FeatureDefinitionId>{ids.feat_def}</FeatureDefinitionId>\n"
       f"      </Other{kind}FeatureNominal>\n    </FeatureNominals>\n")
-    w(f'    <FeatureItems n="1">\n      <Other{kind}FeatureItem id="{feat_item}">\n'
-      f"        <FeatureNominalId>{feat_nom}</FeatureNominalId>\n"
-      f"        <FeatureName>{_text(nominal_name)}</FeatureName>\n"
+    w(f'    <FeatureItems n="1">\n      <Other{kind}FeatureItem id="{ids.feat_item}">\n'
+      f"        <FeatureNominalId>{ids.feat_nom}</FeatureNominalId>\n"
+      f"        <FeatureName>{name}</FeatureName>\n"
       "        <DeterminationMode>\n          <Checked>\n            <CheckDetails>\n"
       "              <Measured/>\n            </CheckDetails>\n          </Checked>\n"
       "        </DeterminationMode>\n"
       f"      </Other{kind}FeatureItem>\n    </FeatureItems>\n")
     w("  </Features>\n")
 
+
+def _characteristics(w, q: _Qif) -> None:
+    """Characteristics: the profile tolerance on the feature (definition with the zone,
+    nominal, item)."""
+    ids, profile, lower, upper = q.ids, q.profile, q.lower, q.upper
     symmetric = math.isclose(lower, -upper, rel_tol=0.0, abs_tol=1e-12)
     w("  <Characteristics>\n")
-    w(f"    <FormalStandardId>{standard}</FormalStandardId>\n")
+    w(f"    <FormalStandardId>{ids.standard}</FormalStandardId>\n")
     w(f'    <CharacteristicDefinitions n="1">\n'
-      f'      <{profile}CharacteristicDefinition id="{char_def}">\n'
+      f'      <{profile}CharacteristicDefinition id="{ids.char_def}">\n'
       f"        <Description>tolerance zone {_f(lower)} .. {_f(upper)} mm of the signed "
       "deviation along the nominal's outward normal (positive = excess material); "
       "every point must lie inside</Description>\n"
@@ -231,75 +359,108 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
         w(f"        <OuterDisposition>{_f(upper)}</OuterDisposition>\n")
     w(f"      </{profile}CharacteristicDefinition>\n    </CharacteristicDefinitions>\n")
     w(f'    <CharacteristicNominals n="1">\n'
-      f'      <{profile}CharacteristicNominal id="{char_nom}">\n'
-      f"        <CharacteristicDefinitionId>{char_def}</CharacteristicDefinitionId>\n"
-      f'        <FeatureNominalIds n="1">\n          <Id>{feat_nom}</Id>\n'
+      f'      <{profile}CharacteristicNominal id="{ids.char_nom}">\n'
+      f"        <CharacteristicDefinitionId>{ids.char_def}</CharacteristicDefinitionId>\n"
+      f'        <FeatureNominalIds n="1">\n          <Id>{ids.feat_nom}</Id>\n'
       "        </FeatureNominalIds>\n")
-    if is_2d:
+    if q.is_2d:
         w("        <Vector>0 0 1</Vector>\n")
     w(f"      </{profile}CharacteristicNominal>\n    </CharacteristicNominals>\n")
     w(f'    <CharacteristicItems n="1">\n'
-      f'      <{profile}CharacteristicItem id="{char_item}">\n'
-      f"        <Name>{'Line' if is_2d else 'Surface'} profile</Name>\n"
-      f'        <FeatureItemIds n="1">\n          <Id>{feat_item}</Id>\n'
+      f'      <{profile}CharacteristicItem id="{ids.char_item}">\n'
+      f"        <Name>{'Line' if q.is_2d else 'Surface'} profile</Name>\n"
+      f'        <FeatureItemIds n="1">\n          <Id>{ids.feat_item}</Id>\n'
       "        </FeatureItemIds>\n")
-    if device:
-        w(f'        <MeasurementDeviceIds n="1">\n          <Id>{device}</Id>\n'
+    if ids.device:
+        w(f'        <MeasurementDeviceIds n="1">\n          <Id>{ids.device}</Id>\n'
           "        </MeasurementDeviceIds>\n")
-    w(f"        <CharacteristicNominalId>{char_nom}</CharacteristicNominalId>\n"
+    w(f"        <CharacteristicNominalId>{ids.char_nom}</CharacteristicNominalId>\n"
       f"      </{profile}CharacteristicItem>\n    </CharacteristicItems>\n")
     w("  </Characteristics>\n")
 
+
+def _results(w, q: _Qif) -> None:
+    """Results: one MeasurementResults (traceability, the measured file, the feature
+    measurement, the point set, the characteristic measurement, the transform, the status)
+    and the serial number's ActualComponentSets."""
+    ids = q.ids
     w(f'  <Results>\n    <MeasurementResultsSet n="1">\n'
-      f'      <MeasurementResults id="{results}">\n')
-    _traceability(w, cert, issued)
-    w(f"        <ThisResultsInstanceQPId>{results_qpid}</ThisResultsInstanceQPId>\n")
-    measured_path = str(measured.get("path") or "")
+      f'      <MeasurementResults id="{ids.results}">\n')
+    _traceability(w, q.cert, q.issued)
+    w(f"        <ThisResultsInstanceQPId>{q.results_qpid}</ThisResultsInstanceQPId>\n")
+    measured_path = str(q.measured.get("path") or "")
     if measured_path:
         w('        <ExternalFileReferences n="1">\n          <ExternalFileReference>\n'
           f"            <URI>{_text(_uri(measured_path))}</URI>\n"
           "            <FileSpec>\n              <OtherFileSpec>"
           f"{_text(_format_name(measured_path, False))}</OtherFileSpec>\n"
           "            </FileSpec>\n"
-          f"            <Description>{_text(_file_description('measured', measured))}"
+          f"            <Description>{_text(_file_description('measured', q.measured))}"
           "</Description>\n"
           "          </ExternalFileReference>\n        </ExternalFileReferences>\n")
+    _feature_measurement(w, q)
+    if ids.point_set:
+        _point_set(w, ids.point_set, q.pts, q.dev, q.inside, q.labels, q.outlier, ids.device)
+    _characteristic_measurement(w, q)
+    if ids.transform:
+        _transform(w, ids.transform, q.T)
+    w("        <InspectionStatus>\n          <InspectionStatusEnum>"
+      f"{_INSPECTION_STATUS[q.verdict]}</InspectionStatusEnum>\n        </InspectionStatus>\n")
+    if ids.component:
+        w(f'        <ActualComponentIds n="1">\n          <Id>{ids.component}</Id>\n'
+          "        </ActualComponentIds>\n")
+    w("      </MeasurementResults>\n    </MeasurementResultsSet>\n")
+    if ids.component:
+        w('    <ActualComponentSets n="1">\n      <ActualComponentSet n="1">\n'
+          f'        <ActualComponent id="{ids.component}">\n'
+          f"          <SerialNumber>{_text(q.cert['serial'])}</SerialNumber>\n"
+          "          <Status>\n            <InspectionStatusEnum>"
+          f"{_INSPECTION_STATUS[q.verdict]}</InspectionStatusEnum>\n          </Status>\n"
+          "        </ActualComponent>\n      </ActualComponentSet>\n    </ActualComponentSets>\n")
+    w("  </Results>\n</QIFDocument>\n")
+
+
+def _feature_measurement(w, q: _Qif) -> None:
+    """MeasuredFeatures: the feature measurement, pointing at the device, the registration
+    transform and the point set."""
+    ids, kind = q.ids, q.kind
     w(f'        <MeasuredFeatures n="1">\n'
-      f'          <Other{kind}FeatureMeasurement id="{feat_meas}">\n'
-      f"            <FeatureItemId>{feat_item}</FeatureItemId>\n")
-    if device:
-        w(f'            <MeasurementDeviceIds n="1">\n              <Id>{device}</Id>\n'
+      f'          <Other{kind}FeatureMeasurement id="{ids.feat_meas}">\n'
+      f"            <FeatureItemId>{ids.feat_item}</FeatureItemId>\n")
+    if ids.device:
+        w(f'            <MeasurementDeviceIds n="1">\n              <Id>{ids.device}</Id>\n'
           "            </MeasurementDeviceIds>\n")
-    if transform:
-        w(f"            <ActualTransformId>{transform}</ActualTransformId>\n")
-    if point_set:
+    if ids.transform:
+        w(f"            <ActualTransformId>{ids.transform}</ActualTransformId>\n")
+    if ids.point_set:
         w(f'            <PointList n="1">\n'
-          f"              <WholePointSetId>{point_set}</WholePointSetId>\n"
+          f"              <WholePointSetId>{ids.point_set}</WholePointSetId>\n"
           "            </PointList>\n")
     w(f"          </Other{kind}FeatureMeasurement>\n        </MeasuredFeatures>\n")
-    if point_set:
-        _point_set(w, point_set, pts, dev, inside, labels, outlier, device)
 
+
+def _characteristic_measurement(w, q: _Qif) -> None:
+    """MeasuredCharacteristics: the profile's status, reasons and zone-centred Value."""
+    ids, profile = q.ids, q.profile
     w('        <MeasuredCharacteristics>\n          <CharacteristicMeasurements n="1">\n'
-      f'            <{profile}CharacteristicMeasurement id="{char_meas}">\n')
-    reasons = "; ".join(str(r) for r in doc.get("reasons", []))
-    w(f"              <Description>{_text(f'{app} verdict {verdict}: {reasons}')}"
+      f'            <{profile}CharacteristicMeasurement id="{ids.char_meas}">\n')
+    w(f"              <Description>{_text(f'{q.app} verdict {q.verdict}: {q.reasons}')}"
       "</Description>\n")
     w("              <Status>\n                <CharacteristicStatusEnum>"
-      f"{_CHAR_STATUS[verdict]}</CharacteristicStatusEnum>\n              </Status>\n"
-      f"              <CharacteristicItemId>{char_item}</CharacteristicItemId>\n"
-      f'              <FeatureMeasurementIds n="1">\n                <Id>{feat_meas}</Id>\n'
+      f"{_CHAR_STATUS[q.verdict]}</CharacteristicStatusEnum>\n              </Status>\n"
+      f"              <CharacteristicItemId>{ids.char_item}</CharacteristicItemId>\n"
+      f'              <FeatureMeasurementIds n="1">\n                <Id>{ids.feat_meas}</Id>\n'
       "              </FeatureMeasurementIds>\n")
-    if component:
-        w(f"              <ActualComponentId>{component}</ActualComponentId>\n")
-    if device:
-        w(f'              <MeasurementDeviceIds n="1">\n                <Id>{device}</Id>\n'
+    if ids.component:
+        w(f"              <ActualComponentId>{ids.component}</ActualComponentId>\n")
+    if ids.device:
+        w(f'              <MeasurementDeviceIds n="1">\n                <Id>{ids.device}</Id>\n'
           "              </MeasurementDeviceIds>\n")
-    finite = dev[np.isfinite(dev)]
+    finite = q.dev[np.isfinite(q.dev)]
     if finite.size:
         # Zone-centred width: comparable with ToleranceValue for symmetric, unequal and offset
         # zones alike (Value <= ToleranceValue iff every point is inside).
-        centre = 0.5 * (lower + upper)
+        centre = 0.5 * (q.lower + q.upper)
         w(f"              <Value>{_f(2.0 * float(np.abs(finite - centre).max()))}</Value>\n"
           f"              <WorstPositiveDeviation>{_f(float(finite.max()))}"
           "</WorstPositiveDeviation>\n"
@@ -307,24 +468,6 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
           "</WorstNegativeDeviation>\n")
     w(f"            </{profile}CharacteristicMeasurement>\n"
       "          </CharacteristicMeasurements>\n        </MeasuredCharacteristics>\n")
-
-    if transform:
-        _transform(w, transform, T)
-    w("        <InspectionStatus>\n          <InspectionStatusEnum>"
-      f"{_INSPECTION_STATUS[verdict]}</InspectionStatusEnum>\n        </InspectionStatus>\n")
-    if component:
-        w(f'        <ActualComponentIds n="1">\n          <Id>{component}</Id>\n'
-          "        </ActualComponentIds>\n")
-    w("      </MeasurementResults>\n    </MeasurementResultsSet>\n")
-    if component:
-        w('    <ActualComponentSets n="1">\n      <ActualComponentSet n="1">\n'
-          f'        <ActualComponent id="{component}">\n'
-          f"          <SerialNumber>{_text(cert['serial'])}</SerialNumber>\n"
-          "          <Status>\n            <InspectionStatusEnum>"
-          f"{_INSPECTION_STATUS[verdict]}</InspectionStatusEnum>\n          </Status>\n"
-          "        </ActualComponent>\n      </ActualComponentSet>\n    </ActualComponentSets>\n")
-    w("  </Results>\n</QIFDocument>\n")
-    return "".join(o).encode("utf-8")
 
 
 def _transform(w, tid: int, T: np.ndarray) -> None:
@@ -458,7 +601,7 @@ def _xs_datetime(value) -> str:
     try:
         t = datetime.fromisoformat(text[:-1] + "+00:00" if text.endswith("Z") else text)
     except ValueError:
-        raise ValueError(f"certificate 'issued' is not an ISO 8601 time: {text!r}") from None
+        raise QIFError(f"certificate 'issued' is not an ISO 8601 time: {text!r}") from None
     if t.tzinfo is None:
         t = t.replace(tzinfo=UTC)
     return t.astimezone(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")

@@ -862,3 +862,50 @@ def test_make_certificate_keeps_the_rules_for_every_caller(signed):
         make_certificate(run, CertificateInfo(part_number="FR-12", serial=" "), identity)
     # An unsigned draft may name anyone and lack both.
     assert make_certificate(run, CertificateInfo(inspector="Carol Other"), None)[:5] == b"%PDF-"
+
+
+def test_an_accept_the_result_does_not_support_is_never_certified(tmp_path, monkeypatch):
+    """A bug upstream that calls a run with out-of-tolerance points ACCEPT: make_certificate
+    refuses with an error of the product's family (a RuntimeError too), and the command line
+    writes nothing and exits EX_SOFTWARE with one line, no traceback."""
+    from dataclasses import replace
+
+    import engine.pipeline
+    from engine.errors import QAError
+    from engine.settings import InspectionSettings
+    from reports.certificate import CertificateInfo, make_certificate
+
+    run = engine.pipeline.run_files(FRAME_TEMPLATE, FRAME_MEASURED,
+                                    InspectionSettings(-0.02, 0.02))
+    d, tol = run.result.deviations.signed, run.result.tolerance
+    assert run.result.verdict == "REJECT" and ((d < tol.lower) | (d > tol.upper)).any()
+    wrong = replace(run, result=replace(run.result, verdict="ACCEPT"))
+    with pytest.raises(QAError, match="refusing to certify ACCEPTED") as caught:
+        make_certificate(wrong, CertificateInfo(), None)
+    assert isinstance(caught.value, RuntimeError)
+
+    monkeypatch.delenv("QA_DEBUG", raising=False)
+    monkeypatch.setattr(engine.pipeline, "run_files", lambda *a, **k: wrong)
+    code, out, err = cli("inspect", FRAME_TEMPLATE, FRAME_MEASURED, "--tol", "0.02",
+                         "--report", tmp_path / "c.pdf", "--json", tmp_path / "r.json")
+    assert code == 70, out + err
+    assert "refusing to certify ACCEPTED" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert os.listdir(tmp_path) == []
+
+
+def test_no_function_in_reports_is_a_book():
+    """Every function (method, nested function) of reports/ fits on a screen: at most 80
+    lines from its 'def' to its last line, docstring included. A long layout is split by
+    section (reports.certificate, reports.qif)."""
+    import ast
+    import pathlib
+
+    longest = []
+    for path in sorted(pathlib.Path(ROOT, "reports").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = node.end_lineno - node.lineno + 1
+                longest.append((lines, f"{path.name}:{node.lineno} {node.name}"))
+    assert len(longest) > 50  # the walk saw the package
+    assert [f for n, f in longest if n > 80] == [], sorted(longest)[-3:]

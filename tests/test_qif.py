@@ -234,3 +234,30 @@ def test_full_precision_inputs_and_non_finite(runs):
     np.testing.assert_allclose(back[finite], dev[finite], rtol=0, atol=5e-7 + 1e-12)
     assert ps.xpath("q:Attributes/q:AttributeStr[@name='qa-inspect:labels']",
                     namespaces=NS) == []
+
+
+def test_arguments_that_do_not_fit_are_errors_of_the_product(runs):
+    """Per-point arrays of another length, an unknown verdict or an issue time that is no time:
+    a QAError (also a ValueError, as before) naming the problem, and no document."""
+    from engine.errors import QAError
+
+    run = runs["accept"]
+    n = len(run.deviations)
+    cases = [
+        (lambda: qif_results_document(run.doc, run.registered[:, :1], run.deviations,
+                                      run.inside), r"registered must be \(n, 3\)"),
+        (lambda: qif_results_document(run.doc, run.registered, run.deviations[1:], run.inside),
+         f"deviations has {n - 1} entries for {n} points"),
+        (lambda: qif_results_document(run.doc, run.registered, run.deviations, run.inside[:3]),
+         f"in_tolerance has 3 entries for {n} points"),
+        (lambda: run.qif(outlier=np.zeros(n + 1, bool)), f"outlier has {n + 1} entries"),
+        (lambda: qif_results_document(run.doc, run.registered, run.deviations, run.inside,
+                                      ["a"]), f"labels has 1 entries for {n} points"),
+        (lambda: run.qif(dict(run.doc, verdict="PASSED")), "unknown verdict 'PASSED'"),
+        (lambda: run.qif(dict(run.doc, certificate={"issued": "yesterday"})),
+         "certificate 'issued' is not an ISO 8601 time: 'yesterday'"),
+    ]
+    for make, message in cases:
+        with pytest.raises(QAError, match=message) as caught:
+            make()
+        assert isinstance(caught.value, ValueError)
