@@ -1,12 +1,16 @@
 """One exception family: every error the product (engine, reports, qa_app) defines derives from
 engine.errors.QAError, so a caller can catch "anything qa-inspect raises on purpose" in one
 clause; the builtin second parents (ValueError, FileExistsError, RuntimeError...) keep the
-callers that catch those working."""
+callers that catch those working. And the engine's public warm-up loads what the first inspection
+needs."""
 
 import importlib
 import inspect
+import json
 import os
 import pkgutil
+import subprocess
+import sys
 
 import pytest
 
@@ -72,3 +76,20 @@ def test_output_exists_error_keeps_its_message_and_path():
     assert str(e) == "keys/ca.pem already exists; not overwritten"
     assert user_message(e) == str(e) and e.path == "keys/ca.pem"
 
+
+def test_warm_up_loads_the_pipeline_and_the_compiled_kernels():
+    # A fresh interpreter: in this one the kernels may have run already.
+    code = ("import json, sys, engine\n"
+            "assert 'engine.pipeline' not in sys.modules\n"
+            "engine.warm_up()\n"
+            "from engine import kernels\n"
+            "assert 'engine.pipeline' in sys.modules\n"
+            "assert 'PySide6' not in sys.modules\n"
+            "print(json.dumps([n for n in dir(kernels)\n"
+            "                  if getattr(getattr(kernels, n), 'signatures', None)]))\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    compiled = json.loads(r.stdout.strip().splitlines()[-1])
+    # The measurement's kernels are loaded (numba compiles or loads a kernel on first call).
+    assert "best_in_stars" in compiled and "phong_finish" in compiled, compiled
