@@ -22,12 +22,15 @@ import math
 import os
 import sys
 
+from engine.errors import QAError
+
 EXIT = {"ACCEPT": 0, "REJECT": 1, "INCONCLUSIVE": 2}
 EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 70, 73
 
 
-class UsageError(Exception):
-    pass
+class UsageError(QAError, ValueError):
+    """The command line was used wrongly (exit code 64, EX_USAGE): a missing or contradictory
+    option, not a problem in the files it names."""
 
 
 class _Parser(argparse.ArgumentParser):

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from engine.errors import QAError
+
 if TYPE_CHECKING:  # the render process should not pay for importing the engine
     from engine.inspection import Tolerance
 
@@ -202,6 +204,10 @@ def _frame(pl, pts: np.ndarray, direction: np.ndarray, up: np.ndarray, aspect: f
     pl.renderer.reset_camera_clipping_range()
 
 
+class RenderError(QAError, RuntimeError):
+    """The 3D figures could not be rendered (the worker process died or its render failed)."""
+
+
 class RenderProcess:
     """Runs :func:`render_3d` in a worker process (``python -m reports.figures``) started at
     once, so that importing pyvista/VTK and starting OpenGL (about 1 s) overlap the inspection on
@@ -269,10 +275,10 @@ class _Reply:
             ok, value = pickle.load(proc.stdout)
             self._owner._pending -= 1
         except (OSError, EOFError, pickle.UnpicklingError) as e:
-            raise RuntimeError(f"the 3D rendering process failed "
-                               f"(exit code {proc.poll()})") from e
+            raise RenderError(f"the 3D rendering process failed "
+                              f"(exit code {proc.poll()})") from e
         if not ok:
-            raise RuntimeError(f"3D rendering failed: {value}")
+            raise RenderError(f"3D rendering failed: {value}")
         return value
 
 

@@ -21,7 +21,7 @@ import logging
 import os
 from dataclasses import dataclass, field
 
-from engine.errors import InputError
+from engine.errors import InputError, QAError
 
 from .outputs import Output, write_all
 
@@ -33,8 +33,12 @@ INSPECTOR_FIELD, APPROVER_FIELD = "Inspector", "Approver"
 DEMO_MARK = "DEMONSTRATION identity made by qa-inspect keygen - not for production use"
 
 
-class OutputExistsError(Exception):
-    """An output that must not be overwritten (a signing identity) is already there."""
+class OutputExistsError(QAError, FileExistsError):
+    """An output that must not be overwritten (a signing identity) is already there.
+
+    A ``FileExistsError`` too (with one argument: ``str(error)`` is the message, ``errno`` is
+    None), so callers that treat "cannot create the output" as ``OSError`` keep doing so.
+    """
 
     def __init__(self, path: str):
         super().__init__(f"{path} already exists; not overwritten")

@@ -449,3 +449,16 @@ def test_a_2d_template_against_non_planar_points_names_them(mixed, capsys):
     assert code == 2 and doc["verdict"] == "INCONCLUSIVE"
     hint = [r for r in doc["reasons"] if "not a planar contour" in r]
     assert len(hint) == 1 and str(mixed / "sphere.csv") in hint[0] and "template.dxf" in hint[0]
+
+
+def test_keygen_refuses_to_overwrite_an_identity(tmp_path, monkeypatch, capsys):
+    # An identity in use must survive a repeated keygen: exit 73 (cannot create), the files kept.
+    monkeypatch.setenv("QA_TEST_PASS", "pw")
+    args = ("keygen", "--name", "Ann", "--out", tmp_path, "--pass-env", "QA_TEST_PASS")
+    assert run(*args) == 0
+    before = {n: (tmp_path / n).read_bytes() for n in ("ca.pem", "inspector.p12")}
+    capsys.readouterr()
+    assert run(*args) == 73
+    err = capsys.readouterr().err
+    assert err == f"qa-inspect: error: {tmp_path / 'ca.pem'} already exists; not overwritten\n"
+    assert {n: (tmp_path / n).read_bytes() for n in before} == before

@@ -41,23 +41,15 @@ class Controller:
         """The PKCS#12 signing identity last used (path): an input no export may replace."""
 
     def warm_up(self) -> threading.Thread:
-        """Import the engine and load its compiled kernels in the background while the inspector
-        picks files, so the first inspection does not hold the GUI thread with imports."""
+        """Import the engine and load its compiled kernels (:func:`engine.warm_up`) in the
+        background while the inspector picks files, so the first inspection does not hold the
+        GUI thread with imports."""
 
         def work():
-            import numpy as np
+            import engine
 
-            from engine.inspection import inspect
-            from engine.nominal import Nominal
-            from engine.io.points import PointSet
-            from engine.tolerance import Tolerance
-
-            g = PointSet(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]]),
-                         grid_shape=(2, 2))
-            nominal = Nominal.from_point_set(g)
-            inspect(nominal, nominal.points + [0, 0, 0.01], Tolerance.symmetric(1.0))
-            import engine.pipeline  # noqa: F401
-            import reports.results  # noqa: F401
+            engine.warm_up()
+            import reports.results  # noqa: F401  (the run's document, made after each run)
 
         t = threading.Thread(target=work, name="qa-inspect warm-up", daemon=True)
         t.start()
