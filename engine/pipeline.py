@@ -16,12 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError, SettingsError
-from .inspection import ACCEPT, InspectionResult, inspect, inspect_2d
+from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
 from .io.points import PointSet
 from .nominal import Nominal
 from .progress import Callback, report, reporting
 from .settings import InspectionSettings
+from .verdict import ACCEPT
 
 
 @dataclass(frozen=True)

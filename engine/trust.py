@@ -38,7 +38,7 @@ at right angles, along their common edge, 3e-5; a 180 x 90 mm patch of a gently 
 5.6e-5; a 500 x 250 mm paraboloid panel 3e-4; the belly-fairing sample 2e-3) and counts as
 unconstrained when the measurement leaves it uncertain: when the residuals imply a 1-sigma
 motion along it of more than ``resolution_mm`` (a quarter of the zone width, see
-engine.inspection), the pose along it is a guess at the scale that decides the verdict."""
+engine.verdict), the pose along it is a guess at the scale that decides the verdict."""
 
 
 @dataclass(frozen=True)
@@ -525,7 +525,7 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         whose deviation changes (its pointwise verdict, or by INVARIANT_FRACTION of the zone)
         carried past the nominal's border. The verdict is checked at every step.
     verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'; "REJECT"
-        as soon as one point is out, whatever the others (both rules of engine.inspection).
+        as soon as one point is out, whatever the others (both rules of engine.verdict).
     margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
     alternatives : other plausible poses (the runner-up), each judged as a whole.
     points : (n, 3) or (n, 2) the measured points at pose T (nominal frame, mm). With more

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from engine.contour import ContourIndex, deviations_2d, points_on
-from engine.inspection import ACCEPT, REJECT, Tolerance, inspect_2d
+from engine.inspection import Tolerance, inspect_2d
 from engine.io.templates import read_airfoil_template, read_dxf_template
 from engine.registration2d import _pose, apply2, register_2d
+from engine.verdict import ACCEPT, REJECT
 from qa_app.cli import main
 from surfaces import random_rotation
 from test_contour import slotted_plate
