@@ -17,6 +17,7 @@ import numpy as np
 
 from .deviation import Deviations
 from .errors import SettingsError
+from .fits import FITS, minimax
 from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
@@ -79,9 +80,6 @@ class InspectionResult:
         return ~self.registration.inlier
 
 
-FITS = ("lsq", "minimax")
-
-
 def _check_options(fit: str, decision_rule: str) -> None:
     if fit not in FITS:
         raise SettingsError(f"unknown fit '{fit}'; choose one of {', '.join(FITS)}")
@@ -117,7 +115,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         nominal, apply_transform(Tc, measured[idx])).signed)
     extra: dict = {}
     if fit == "minimax":
-        T = _minimax(evaluate, T, reg.inlier, tolerance, extra)
+        T = minimax(evaluate, T, reg.inlier, tolerance, extra)
         registered = apply_transform(T, measured)
         dev = point_to_surface(nominal, registered)
     margin = margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
@@ -169,30 +167,6 @@ def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
     return deviations_at, beyond_at
 
 
-def _minimax(evaluate, T: np.ndarray, use: np.ndarray, tol: Tolerance,
-             extra: dict) -> np.ndarray:
-    """The minimax pose from the least-squares one (its facts go into ``extra``), fitted on the
-    points ``use`` (n,) bool: the registration's ``inlier``, every point but the gross outliers
-    (engine.outliers) it excluded from the alignment. A local defect stays in: it is what the
-    minimax fit has to place."""
-    from .progress import report
-    from .trust import minimax_pose
-
-    report("minimax fit (linear programs)", 0.97)
-    mm = minimax_pose(evaluate, T, tol.lower, tol.upper, use=use)
-    extra["minimax"] = _minimax_facts(mm)
-    return mm.T
-
-
-def _minimax_facts(mm) -> dict:
-    return {"excursion": mm.excursion, "least_squares_excursion": mm.start_excursion,
-            "iterations": mm.iterations, "linear_programs": mm.linear_programs,
-            "excursion_definition": "max over the fitted points (all but those excluded from "
-                                    "the alignment as gross outliers) of "
-                                    "|d - (lower + upper)/2| / ((upper - lower)/2): <= 1 means "
-                                    "they fit the zone"}
-
-
 def _with_pose(reg, T, dev):
     from dataclasses import replace
 
@@ -218,7 +192,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     if plausible_runner_up(reg):
         Tr = reg.runner_up_T
         if fit == "minimax":
-            Tr = _minimax(evaluate, Tr, reg.inlier, tol, {})
+            Tr = minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
     region = [] if points is None or normals is None else uncertainty_poses(
         points[reg.inlier], normals[reg.inlier], reg.rms, T, d[reg.inlier], tol.lower, tol.upper,
@@ -283,7 +257,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     ambiguous, spread = ambiguity(reg, dev2.signed, tolerance, lambda Tc, idx: deviations_2d(
         index, apply2(Tc, q2[idx])).signed)
     if fit == "minimax":
-        T2 = _minimax(evaluate, T2, reg.inlier, tolerance, extra)
+        T2 = minimax(evaluate, T2, reg.inlier, tolerance, extra)
         dev2 = deviations_2d(index, apply2(T2, q2))
     E = np.eye(4)
     E[:2, :2] = T2[:2, :2]

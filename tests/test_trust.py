@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
+from engine.fits import minimax_pose
 from engine.geometry import apply_transform, make_transform
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
-from engine.trust import conditioning, minimax_pose
+from engine.trust import conditioning
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT, judge
 from surfaces import (half_turn_symmetric_part, height, height_grid, height_normal, point_set,
                       random_rotation)
