@@ -205,13 +205,17 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
 
 def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
                index: "ContourIndex | None" = None, fit: str = "lsq",
-               decision_rule: str = "simple") -> InspectionResult:
+               decision_rule: str = "simple",
+               template_facts: dict | None = None) -> InspectionResult:
     """Register measured points to a 2D contour template and judge them.
 
     measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
         otherwise they are a planar template measured in any 3D pose: a plane is fitted (its
         flatness reported), the points are taken into it, and both ways of laying the plane onto
         the template (face up, face down) are tried.
+    template_facts : what reading the template file found (units, flattened curves, ignored
+        entities), reported with the template's own facts in ``extra["template"]`` (the result
+        is complete when built: nothing is added to it afterwards).
     The result's ``T_nominal_measured`` is the full 4x4 (measured → template frame, the template
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     """
@@ -278,6 +282,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         rms_definition="RMS of signed point-to-contour deviations over the points the final fit "
                        "used: every point but the gross outliers (mm)")
     extra["template"]["symmetric"] = reg.symmetric
+    extra["template"].update(template_facts or {})
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     margin = np.zeros(d.size) if decision_rule == "guarded" else None
     ts = time.perf_counter()

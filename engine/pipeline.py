@@ -182,10 +182,10 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     t1 = time.perf_counter()
     if tpl is not None:
         result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol,
-                            fit=settings.fit, decision_rule=settings.decision_rule)
-        result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
-                                        flattened_curves=tpl.flattened,
-                                        ignored_entities=tpl.ignored)
+                            fit=settings.fit, decision_rule=settings.decision_rule,
+                            template_facts={"units": tpl.units, "unitless": tpl.unitless,
+                                            "flattened_curves": tpl.flattened,
+                                            "ignored_entities": tpl.ignored})
     else:
         result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
                          decision_rule=settings.decision_rule)

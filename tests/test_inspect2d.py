@@ -332,3 +332,33 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_left_out(seed,
                            np.ones(len(q), bool))
     assert float(np.sum(d ** 2)) <= best * 1.0002
     assert res.verdict == drawn.verdict
+
+
+def test_the_pipeline_changes_no_dict_of_a_result_after_inspect_2d_built_it(monkeypatch):
+    """A result is frozen once built: the pipeline passes the template file's facts (units,
+    flattened curves) into inspect_2d instead of writing them into the finished result's
+    ``extra``; the facts still reach the result."""
+    import copy
+
+    import engine.pipeline as pipeline
+    from engine.settings import InspectionSettings
+
+    built = []
+
+    def spy(*args, **kwargs):
+        result = inspect_2d(*args, **kwargs)
+        built.append((result, copy.deepcopy(result.extra), dict(result.timings_s)))
+        return result
+
+    monkeypatch.setattr(pipeline, "inspect_2d", spy)
+    sample = os.path.join(os.path.dirname(__file__), "..", "samples", "fuselage_frame")
+    run = pipeline.run_files(os.path.join(sample, "template.dxf"),
+                             os.path.join(sample, "measured.csv"),
+                             InspectionSettings(tol_lower=-0.2, tol_upper=0.2))
+    (result, extra, timings), = built
+    assert result.extra == extra and result.timings_s == timings
+    facts = run.result.extra["template"]
+    assert facts["units"] == run.template.units and facts["unitless"] == run.template.unitless
+    assert facts["flattened_curves"] == run.template.flattened
+    assert facts["ignored_entities"] == run.template.ignored
+    assert facts["primitives"] == run.template.template.n_primitives
