@@ -10,6 +10,7 @@ objective but judged.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -94,51 +95,100 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
     with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded")."""
     from .deviation import point_to_surface
-    from .trust import conditioning
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
     reg = register(nominal, measured, settings, zone_width=tolerance.upper - tolerance.lower)
     t1 = time.perf_counter()
-    dev = reg.deviations  # the fit's last evaluation: every point at the final pose
-    T = reg.T_nominal_measured
-    registered = apply_transform(T, measured)
-    cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms,
-                        RESOLUTION_OF_ZONE * (tolerance.upper - tolerance.lower))
 
-    def evaluate(Tc):
+    def measure(Tc):
         X = apply_transform(Tc, measured)
-        dv = point_to_surface(nominal, X)
-        return X, dv.signed, dv.normal
+        return X, point_to_surface(nominal, X)
 
-    ambiguous, spread = ambiguity(reg, dev.signed, tolerance, lambda Tc, idx: point_to_surface(
-        nominal, apply_transform(Tc, measured[idx])).signed)
-    extra: dict = {}
-    if fit == "minimax":
-        T = minimax(evaluate, T, reg.inlier, tolerance, extra)
-        registered = apply_transform(T, measured)
-        dev = point_to_surface(nominal, registered)
-    margin = margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
-    ts = time.perf_counter()
     deviations_at, beyond_at = _deviations_and_border(nominal, measured)
-    sens, statements = _sensitivity(deviations_at, evaluate, T, dev.signed, cond, reg, tolerance,
-                                    margin, fit, registered, beyond_at, dev.normal)
-    ts = time.perf_counter() - ts
-    verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
-                                     margin, sens, statements)
-    stats = Statistics.of(dev.signed, tolerance)
+    extra: dict = {}
+    # The flow starts from the registration's last evaluation: every point at its final pose.
+    T = reg.T_nominal_measured
+    j = _judge_pose(reg, T, apply_transform(T, measured), reg.deviations,
+                    _Measure(measure, deviations_at, beyond_at,
+                             lambda dv: margins_3d(nominal, dv.foot)),
+                    tolerance, fit, decision_rule, extra)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
     timings = {"register": t1 - t0 - reg.deviation_s,
-               "deviation": reg.deviation_s + t2 - t1 - ts, "pose_sensitivity": ts}
-    if T is not reg.T_nominal_measured:
-        reg = _with_pose(reg, T, dev)
-    return InspectionResult(verdict, reasons, tolerance, reg, registered, dev, inside, stats,
-                            nominal.normals_source, timings, extra, fit=fit,
-                            decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
-                            ambiguity_spread=spread, margin=margin, pose_sensitivity=sens,
-                            trust_statements=statements)
+               "deviation": reg.deviation_s + t2 - t1 - j.sensitivity_s,
+               "pose_sensitivity": j.sensitivity_s}
+    if j.T is not reg.T_nominal_measured:
+        reg = _with_pose(reg, j.T, j.deviations)
+    return InspectionResult(tolerance=tolerance, registration=reg, registered=j.points,
+                            deviations=j.deviations, normals_source=nominal.normals_source,
+                            timings_s=timings, extra=extra, **j.verdict_fields)
+
+
+@dataclass(frozen=True)
+class _Measure:
+    """How the points are measured at a pose: what differs between 3D and 2D.
+
+    at(T) -> (X, dev): the measured points at pose T (the nominal's frame: (n, 3), or (n, 2) in
+        the template plane) and their deviations there (``signed``, ``normal``, ``foot``).
+    deviations_at(T, idx) -> (len(idx),) signed deviations (mm) of the points ``idx`` at T.
+    beyond_at(T, idx) -> (len(idx),) bool: past the nominal's border (None: closed contours).
+    margin(dev) -> (n,) nominal-sampling margin, mm, for the guarded decision rule.
+    """
+
+    at: Callable
+    deviations_at: Callable
+    beyond_at: Callable | None
+    margin: Callable
+
+
+@dataclass(frozen=True)
+class _Judged:
+    """The pose judged: T the final pose (4x4 in 3D, 3x3 in the template plane), points and
+    deviations there, the InspectionResult's verdict fields, when the fit ended (perf_counter,
+    s) and the time the pose sensitivity took (s)."""
+
+    T: np.ndarray
+    points: np.ndarray
+    deviations: object
+    verdict_fields: dict
+    fitted_at: float
+    sensitivity_s: float
+
+
+def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
+                fit: str, decision_rule: str, extra: dict) -> _Judged:
+    """The flow both kinds share from the registration's pose T (points X and deviations
+    ``dev`` there): conditioning → ambiguity → (minimax refit, its facts into ``extra``) →
+    margins → pose sensitivity → judge → statistics."""
+    from .trust import conditioning
+
+    cond = conditioning(X[reg.inlier], dev.normal[reg.inlier], reg.rms,
+                        RESOLUTION_OF_ZONE * (tol.upper - tol.lower))
+
+    def evaluate(Tc):
+        Xc, dv = measure.at(Tc)
+        return Xc, dv.signed, dv.normal
+
+    ambiguous, spread = ambiguity(reg, dev.signed, tol, measure.deviations_at)
+    if fit == "minimax":
+        T = minimax(evaluate, T, reg.inlier, tol, extra)
+        X, dev = measure.at(T)
+    fitted_at = time.perf_counter()
+    margin = measure.margin(dev) if decision_rule == "guarded" else None
+    ts = time.perf_counter()
+    sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
+                                    tol, margin, fit, X, measure.beyond_at, dev.normal)
+    ts = time.perf_counter() - ts
+    verdict, reasons, inside = judge(dev.signed, tol, reg, cond.weak, ambiguous, spread, margin,
+                                     sens, statements)
+    fields = {"verdict": verdict, "reasons": reasons, "in_tolerance": inside,
+              "statistics": Statistics.of(dev.signed, tol), "fit": fit,
+              "decision_rule": decision_rule, "conditioning": cond, "ambiguous": ambiguous,
+              "ambiguity_spread": spread, "margin": margin, "pose_sensitivity": sens,
+              "trust_statements": statements}
+    return _Judged(T, X, dev, fields, fitted_at, ts)
 
 
 def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
@@ -221,7 +271,6 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     """
     from .contour import ContourIndex, deviations_2d
     from .registration2d import apply2, fit_plane, register_2d
-    from .trust import conditioning
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
@@ -248,30 +297,42 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
             best = (F, reg)
     F, reg = best
     q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
-    dev2, T2 = reg.deviations, reg.T
-    fitted = apply2(T2, q2)
-    cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms,
-                        RESOLUTION_OF_ZONE * (tolerance.upper - tolerance.lower))
 
-    def evaluate(Tc):
+    def measure(Tc):
         X = apply2(Tc, q2)
-        dv = deviations_2d(index, X)
-        return X, dv.signed, dv.normal
+        return X, deviations_2d(index, X)
 
-    ambiguous, spread = ambiguity(reg, dev2.signed, tolerance, lambda Tc, idx: deviations_2d(
-        index, apply2(Tc, q2[idx])).signed)
-    if fit == "minimax":
-        T2 = minimax(evaluate, T2, reg.inlier, tolerance, extra)
-        dev2 = deviations_2d(index, apply2(T2, q2))
+    def deviations_at(Tc, idx):
+        return deviations_2d(index, apply2(Tc, q2[idx])).signed
+
+    T2 = reg.T_template_measured
+    # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
+    j = _judge_pose(reg, T2, apply2(T2, q2), reg.deviations,
+                    _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
+                    tolerance, fit, decision_rule, extra)
+    t1 = j.fitted_at
+    registered, dev, reg3 = _lifted(reg, j.T, F, j.deviations, measured)
+    extra["template"]["symmetric"] = reg.symmetric
+    extra["template"].update(template_facts or {})
+    t2 = time.perf_counter()
+    timings = {"register": t1 - t0, "deviation": t2 - t1 - j.sensitivity_s,
+               "pose_sensitivity": j.sensitivity_s}
+    return InspectionResult(tolerance=tolerance, registration=reg3, registered=registered,
+                            deviations=dev, normals_source="contour", timings_s=timings,
+                            extra=extra, **j.verdict_fields)
+
+
+def _lifted(reg, T2: np.ndarray, F: np.ndarray, dev2, measured: np.ndarray):
+    """The 2D fit in 3D: (registered (n, 3), Deviations, RegistrationResult) of the measured
+    points (n, 3) under the full 4x4 ``T_nominal_measured`` = the in-plane pose T2 (3x3) after
+    the plane frame F (4x4), with the 2D deviations ``dev2`` there (no normal component in z)."""
     E = np.eye(4)
     E[:2, :2] = T2[:2, :2]
     E[:2, 3] = T2[:2, 2]
     T = E @ F
-    t1 = time.perf_counter()
     registered = measured @ T[:3, :3].T + T[:3, 3]
-    d = dev2.signed
-    zeros = np.zeros(d.size)
-    dev = Deviations(d, np.column_stack([dev2.foot, zeros]),
+    zeros = np.zeros(dev2.signed.size)
+    dev = Deviations(dev2.signed, np.column_stack([dev2.foot, zeros]),
                      np.column_stack([dev2.normal, zeros]), zeros.astype(bool))
     reg3 = RegistrationResult(
         T_nominal_measured=T, converged=reg.converged, iterations=reg.iterations, rms=reg.rms,
@@ -281,22 +342,4 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         near_distance=reg.near_distance, message=reg.message, gross_rule=reg.gross_rule,
         rms_definition="RMS of signed point-to-contour deviations over the points the final fit "
                        "used: every point but the gross outliers (mm)")
-    extra["template"]["symmetric"] = reg.symmetric
-    extra["template"].update(template_facts or {})
-    # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
-    margin = np.zeros(d.size) if decision_rule == "guarded" else None
-    ts = time.perf_counter()
-    sens, statements = _sensitivity(
-        lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
-        reg, tolerance, margin, fit, apply2(T2, q2), None, dev2.normal)
-    ts = time.perf_counter() - ts
-    verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
-                                     sens, statements)
-    stats = Statistics.of(d, tolerance)
-    t2 = time.perf_counter()
-    return InspectionResult(verdict, reasons, tolerance, reg3, registered, dev, inside, stats,
-                            "contour", {"register": t1 - t0, "deviation": t2 - t1 - ts,
-                                        "pose_sensitivity": ts}, extra,
-                            fit=fit, decision_rule=decision_rule, conditioning=cond,
-                            ambiguous=ambiguous, ambiguity_spread=spread, margin=margin,
-                            pose_sensitivity=sens, trust_statements=statements)
+    return registered, dev, reg3

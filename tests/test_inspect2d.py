@@ -29,7 +29,7 @@ def test_pose_from_any_angle_and_offset(seed):
     meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-800, 800, 2)), q)
     r = register_2d(ContourIndex(t), meas)
     assert r.converged and not r.symmetric
-    assert np.max(np.linalg.norm(apply2(r.T, meas) - q, axis=1)) < 0.003
+    assert np.max(np.linalg.norm(apply2(r.T_template_measured, meas) - q, axis=1)) < 0.003
 
 
 def test_points_along_part_of_the_contour():
@@ -40,7 +40,7 @@ def test_points_along_part_of_the_contour():
     q = points_on(t, 150, rng, w) + rng.normal(0, 0.002, (150, 2))
     meas = apply2(_pose(2.0, [300.0, -40.0]), q)
     r = register_2d(ContourIndex(t), meas)
-    assert np.max(np.linalg.norm(apply2(r.T, meas) - q, axis=1)) < 0.005
+    assert np.max(np.linalg.norm(apply2(r.T_template_measured, meas) - q, axis=1)) < 0.005
 
 
 def test_symmetric_gear_any_equivalent_pose_is_right():
@@ -51,7 +51,7 @@ def test_symmetric_gear_any_equivalent_pose_is_right():
     meas = apply2(_pose(1.234, [55.0, -20.0]), q)
     r = register_2d(idx, meas)
     assert r.converged and r.symmetric
-    d = deviations_2d(idx, apply2(r.T, meas)).signed
+    d = deviations_2d(idx, apply2(r.T_template_measured, meas)).signed
     assert np.max(np.abs(d)) < 1e-6
 
 
