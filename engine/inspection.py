@@ -1,24 +1,5 @@
-"""The inspection pipeline: register → (minimax refit) → measure deviations → judge, with the
-verdict rules.
-
-Decision rules (the paper's L-infinity argument: one point out is a reject):
-
-* ``simple``: ACCEPT only when every measured point lies inside the tolerance zone
-  [lower, upper]; REJECT when any point, outliers of the fit included, lies outside.
-* ``guarded`` (ISO 14253-1 style): each point's nominal-sampling margin m (facets through sampled
-  nominal points can miss the true surface by about curvature x spacing^2 / 8) guards the limits:
-  ACCEPT only when every point lies inside the zone shrunk by its m, REJECT only when a point
-  lies outside the zone grown by its m, INCONCLUSIVE otherwise.
-
-Whatever the deviations say, the verdict is INCONCLUSIVE when the pose cannot be trusted: the fit
-did not converge, or fewer than half of the points lie within 1% of the nominal's size of its
-surface (the measurement is not of this part). It is INCONCLUSIVE too when the verdict depends on
-a pose the measurement does not fix: when moving the part along a direction the measured points
-leave unconstrained (within +-3 sigma of the pose's uncertainty, or far along a free direction)
-or to another pose that fits about as well changes the verdict (engine.trust.pose_sensitivity).
-A weak or free direction along which the verdict holds (a cylinder measured all round, slid along
-its axis) and a runner-up at which it is the same are reported, in plain words, and the verdict
-stands.
+"""The inspection flow: register → (minimax refit) → measure deviations → judge (engine.verdict
+holds the decision rules, thresholds and reasons; engine.trust what the measurement fixes).
 
 Fits: ``lsq`` (least squares of point-to-surface distances over the inliers) or ``minimax`` (the
 pose minimising the largest normalised excursion from the zone's centre: "can this part be
@@ -29,6 +10,7 @@ objective but judged.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -36,45 +18,19 @@ import numpy as np
 
 from .deviation import Deviations
 from .errors import SettingsError
+from .fits import FITS, minimax
 from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
 from .tolerance import Tolerance
+from .verdict import (DECISION_RULES, MIN_NEAR_FRACTION, RESOLUTION_OF_ZONE, Statistics, ambiguity,
+                      judge, margins_3d, plausible_runner_up, pointwise_verdict)
+# The verdict words, re-exported while reports.certificate still imports them from here.
+from .verdict import ACCEPT, INCONCLUSIVE, REJECT  # noqa: F401
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
     from .trust import Conditioning, PoseSensitivity
-
-ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
-MIN_NEAR_FRACTION = 0.5
-
-
-@dataclass(frozen=True)
-class Statistics:
-    """Statistics of the signed deviations over all measured points (outliers included), mm."""
-
-    count: int
-    min: float
-    max: float
-    mean: float
-    std: float
-    rms: float
-    max_abs: float
-    n_out: int
-    fraction_in: float
-    worst: tuple[int, ...]
-    """Indices of up to 10 points farthest outside (or nearest to leaving) the zone, worst first."""
-
-    @classmethod
-    def of(cls, d: np.ndarray, tol: Tolerance, n_worst: int = 10) -> "Statistics":
-        ex = tol.excess(d)
-        out = ex > 0
-        worst = np.argsort(-ex, kind="stable")[:n_worst]
-        return cls(count=int(d.size), min=float(d.min()), max=float(d.max()),
-                   mean=float(d.mean()), std=float(d.std()),
-                   rms=float(np.sqrt(np.mean(d * d))), max_abs=float(np.abs(d).max()),
-                   n_out=int(out.sum()), fraction_in=float(1.0 - out.mean()),
-                   worst=tuple(int(i) for i in worst))
 
 
 @dataclass(frozen=True)
@@ -125,18 +81,6 @@ class InspectionResult:
         return ~self.registration.inlier
 
 
-FITS = ("lsq", "minimax")
-DECISION_RULES = ("simple", "guarded")
-RESOLUTION_OF_ZONE = 0.25
-"""A weak direction whose implied 1-sigma motion exceeds this fraction of the zone width leaves
-the pose undetermined at the scale of the verdict (engine.trust.conditioning)."""
-AMBIGUITY_SCORE_RATIO = 1.5
-"""A runner-up pose scoring within this factor of the best one is a competitor …"""
-AMBIGUITY_DEVIATION = 0.1
-"""… and it is a material one when it moves some point's deviation by more than this fraction
-of the zone's width."""
-
-
 def _check_options(fit: str, decision_rule: str) -> None:
     if fit not in FITS:
         raise SettingsError(f"unknown fit '{fit}'; choose one of {', '.join(FITS)}")
@@ -151,51 +95,100 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
     with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded")."""
     from .deviation import point_to_surface
-    from .trust import conditioning
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
     reg = register(nominal, measured, settings, zone_width=tolerance.upper - tolerance.lower)
     t1 = time.perf_counter()
-    dev = reg.deviations  # the fit's last evaluation: every point at the final pose
-    T = reg.T_nominal_measured
-    registered = apply_transform(T, measured)
-    cond = conditioning(registered[reg.inlier], dev.normal[reg.inlier], reg.rms,
-                        RESOLUTION_OF_ZONE * (tolerance.upper - tolerance.lower))
 
-    def evaluate(Tc):
+    def measure(Tc):
         X = apply_transform(Tc, measured)
-        dv = point_to_surface(nominal, X)
-        return X, dv.signed, dv.normal
+        return X, point_to_surface(nominal, X)
 
-    ambiguous, spread = _ambiguity(reg, dev.signed, tolerance, lambda Tc, idx: point_to_surface(
-        nominal, apply_transform(Tc, measured[idx])).signed)
-    extra: dict = {}
-    if fit == "minimax":
-        T = _minimax(evaluate, T, reg.inlier, tolerance, extra)
-        registered = apply_transform(T, measured)
-        dev = point_to_surface(nominal, registered)
-    margin = _margins_3d(nominal, dev.foot) if decision_rule == "guarded" else None
-    ts = time.perf_counter()
     deviations_at, beyond_at = _deviations_and_border(nominal, measured)
-    sens, statements = _sensitivity(deviations_at, evaluate, T, dev.signed, cond, reg, tolerance,
-                                    margin, fit, registered, beyond_at, dev.normal)
-    ts = time.perf_counter() - ts
-    verdict, reasons, inside = judge(dev.signed, tolerance, reg, cond.weak, ambiguous, spread,
-                                     margin, sens, statements)
-    stats = Statistics.of(dev.signed, tolerance)
+    extra: dict = {}
+    # The flow starts from the registration's last evaluation: every point at its final pose.
+    T = reg.T_nominal_measured
+    j = _judge_pose(reg, T, apply_transform(T, measured), reg.deviations,
+                    _Measure(measure, deviations_at, beyond_at,
+                             lambda dv: margins_3d(nominal, dv.foot)),
+                    tolerance, fit, decision_rule, extra)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
     timings = {"register": t1 - t0 - reg.deviation_s,
-               "deviation": reg.deviation_s + t2 - t1 - ts, "pose_sensitivity": ts}
-    if T is not reg.T_nominal_measured:
-        reg = _with_pose(reg, T, dev)
-    return InspectionResult(verdict, reasons, tolerance, reg, registered, dev, inside, stats,
-                            nominal.normals_source, timings, extra, fit=fit,
-                            decision_rule=decision_rule, conditioning=cond, ambiguous=ambiguous,
-                            ambiguity_spread=spread, margin=margin, pose_sensitivity=sens,
-                            trust_statements=statements)
+               "deviation": reg.deviation_s + t2 - t1 - j.sensitivity_s,
+               "pose_sensitivity": j.sensitivity_s}
+    if j.T is not reg.T_nominal_measured:
+        reg = _with_pose(reg, j.T, j.deviations)
+    return InspectionResult(tolerance=tolerance, registration=reg, registered=j.points,
+                            deviations=j.deviations, normals_source=nominal.normals_source,
+                            timings_s=timings, extra=extra, **j.verdict_fields)
+
+
+@dataclass(frozen=True)
+class _Measure:
+    """How the points are measured at a pose: what differs between 3D and 2D.
+
+    at(T) -> (X, dev): the measured points at pose T (the nominal's frame: (n, 3), or (n, 2) in
+        the template plane) and their deviations there (``signed``, ``normal``, ``foot``).
+    deviations_at(T, idx) -> (len(idx),) signed deviations (mm) of the points ``idx`` at T.
+    beyond_at(T, idx) -> (len(idx),) bool: past the nominal's border (None: closed contours).
+    margin(dev) -> (n,) nominal-sampling margin, mm, for the guarded decision rule.
+    """
+
+    at: Callable
+    deviations_at: Callable
+    beyond_at: Callable | None
+    margin: Callable
+
+
+@dataclass(frozen=True)
+class _Judged:
+    """The pose judged: T the final pose (4x4 in 3D, 3x3 in the template plane), points and
+    deviations there, the InspectionResult's verdict fields, when the fit ended (perf_counter,
+    s) and the time the pose sensitivity took (s)."""
+
+    T: np.ndarray
+    points: np.ndarray
+    deviations: object
+    verdict_fields: dict
+    fitted_at: float
+    sensitivity_s: float
+
+
+def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
+                fit: str, decision_rule: str, extra: dict) -> _Judged:
+    """The flow both kinds share from the registration's pose T (points X and deviations
+    ``dev`` there): conditioning → ambiguity → (minimax refit, its facts into ``extra``) →
+    margins → pose sensitivity → judge → statistics."""
+    from .trust import conditioning
+
+    cond = conditioning(X[reg.inlier], dev.normal[reg.inlier], reg.rms,
+                        RESOLUTION_OF_ZONE * (tol.upper - tol.lower))
+
+    def evaluate(Tc):
+        Xc, dv = measure.at(Tc)
+        return Xc, dv.signed, dv.normal
+
+    ambiguous, spread = ambiguity(reg, dev.signed, tol, measure.deviations_at)
+    if fit == "minimax":
+        T = minimax(evaluate, T, reg.inlier, tol, extra)
+        X, dev = measure.at(T)
+    fitted_at = time.perf_counter()
+    margin = measure.margin(dev) if decision_rule == "guarded" else None
+    ts = time.perf_counter()
+    sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
+                                    tol, margin, fit, X, measure.beyond_at, dev.normal)
+    ts = time.perf_counter() - ts
+    verdict, reasons, inside = judge(dev.signed, tol, reg, cond.weak, ambiguous, spread, margin,
+                                     sens, statements)
+    fields = {"verdict": verdict, "reasons": reasons, "in_tolerance": inside,
+              "statistics": Statistics.of(dev.signed, tol), "fit": fit,
+              "decision_rule": decision_rule, "conditioning": cond, "ambiguous": ambiguous,
+              "ambiguity_spread": spread, "margin": margin, "pose_sensitivity": sens,
+              "trust_statements": statements}
+    return _Judged(T, X, dev, fields, fitted_at, ts)
 
 
 def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
@@ -224,161 +217,10 @@ def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
     return deviations_at, beyond_at
 
 
-AMBIGUITY_POINTS = 16384
-"""Points compared between the chosen and the runner-up pose (seeded subset beyond that): the
-difference of two rigid poses' deviations varies smoothly over the part, so a subset spread
-over it finds its largest value."""
-
-
-def _plausible_runner_up(reg) -> bool:
-    """A distinct runner-up pose scoring within AMBIGUITY_SCORE_RATIO of the chosen one, and no
-    symmetry of a 2D template (which leaves every deviation as it is)."""
-    return (reg.runner_up_T is not None and reg.runner_up_score is not None
-            and not getattr(reg, "symmetric", False)
-            and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score)
-
-
-def _ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool, float]:
-    """(ambiguous, spread): a nearly-as-good distinct runner-up pose (not a symmetry of a 2D
-    template) that moves some deviation by more than a tenth of the zone width.
-
-    deviations_at(T, idx) : signed deviations of measured points ``idx`` at pose T."""
-    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
-            and _plausible_runner_up(reg)):
-        return False, 0.0
-    idx = np.arange(d.size)
-    if d.size > AMBIGUITY_POINTS:
-        idx = np.sort(np.random.default_rng(3).choice(d.size, AMBIGUITY_POINTS, replace=False))
-    spread = float(np.max(np.abs(deviations_at(reg.runner_up_T, idx) - d[idx])))
-    return spread > AMBIGUITY_DEVIATION * (tol.upper - tol.lower), spread
-
-
-def _minimax(evaluate, T: np.ndarray, use: np.ndarray, tol: Tolerance,
-             extra: dict) -> np.ndarray:
-    """The minimax pose from the least-squares one (its facts go into ``extra``), fitted on the
-    points ``use`` (n,) bool: the registration's ``inlier``, every point but the gross outliers
-    (engine.outliers) it excluded from the alignment. A local defect stays in: it is what the
-    minimax fit has to place."""
-    from .progress import report
-    from .trust import minimax_pose
-
-    report("minimax fit (linear programs)", 0.97)
-    mm = minimax_pose(evaluate, T, tol.lower, tol.upper, use=use)
-    extra["minimax"] = _minimax_facts(mm)
-    return mm.T
-
-
-def _minimax_facts(mm) -> dict:
-    return {"excursion": mm.excursion, "least_squares_excursion": mm.start_excursion,
-            "iterations": mm.iterations, "linear_programs": mm.linear_programs,
-            "excursion_definition": "max over the fitted points (all but those excluded from "
-                                    "the alignment as gross outliers) of "
-                                    "|d - (lower + upper)/2| / ((upper - lower)/2): <= 1 means "
-                                    "they fit the zone"}
-
-
 def _with_pose(reg, T, dev):
     from dataclasses import replace
 
     return replace(reg, T_nominal_measured=T, deviations=dev)
-
-
-MARGIN_NEIGHBOURS = 25
-"""Samples around a point that the margin looks at: enough to see the curvature and the spacing
-in every direction even where the sampling is 5:1 anisotropic."""
-
-
-def _margins_3d(nominal: Nominal, feet: np.ndarray) -> np.ndarray:
-    """Per point, at its nearest nominal sample: max over the principal directions of
-    curvature x (sample spacing along that direction)^2 / 8 — how far a chord between
-    neighbouring samples sags below the curved surface. The same for every point near a sample,
-    wherever its foot lies between them."""
-    from .trust import sampling_margin
-
-    _, near = nominal.tree.query(feet)
-    near = np.atleast_1d(near)
-    uniq, back = np.unique(near, return_inverse=True)
-    k = min(MARGIN_NEIGHBOURS, nominal.n)
-    S = nominal.shape_operators(uniq, k=k)
-    curv, axes = np.linalg.eigh(0.5 * (S + np.swapaxes(S, 1, 2)))
-    _, nb = nominal.tree.query(nominal.points[uniq], k=k)
-    off = nominal.points[nb.reshape(len(uniq), -1)[:, 1:]] - nominal.points[uniq][:, None, :]
-    dist = np.linalg.norm(off, axis=2)
-    margin = np.zeros(len(uniq))
-    for j in range(3):
-        t = axes[:, :, j]
-        along = np.abs(np.einsum("mkc,mc->mk", off, t))
-        # The spacing along t: the nearest neighbour lying mostly in that direction (none in
-        # view: the farthest neighbour, a bound).
-        mostly = along >= 0.7 * np.maximum(dist, 1e-300)
-        h = np.where(mostly.any(axis=1), np.where(mostly, along, np.inf).min(axis=1),
-                     dist.max(axis=1))
-        margin = np.maximum(margin, sampling_margin(curv[:, j], h))
-    return margin[back]
-
-
-def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
-          spread: float = 0.0, margin: np.ndarray | None = None,
-          sensitivity: "PoseSensitivity | None" = None, statements: tuple[str, ...] = ()):
-    """Verdict, reasons and per-point in-tolerance mask for deviations ``d`` at pose ``reg``.
-
-    weak : unconstrained directions (engine.trust.WeakDirection); ambiguous : another pose fits
-    about as well with deviations up to ``spread`` mm apart; margin : per-point sampling margin,
-    mm, for the guarded decision rule (None: the simple rule).
-    sensitivity : whether the pointwise verdict holds over the poses the measurement allows
-    (engine.trust.pose_sensitivity), with ``statements`` saying so in plain words. Given, a weak
-    direction or a runner-up makes the verdict INCONCLUSIVE only when the verdict differs at
-    some of those poses (they are reported as facts otherwise); None: any of them does.
-    """
-    inside = (d >= tol.lower) & (d <= tol.upper)
-    reasons = []
-    if not reg.converged:
-        reasons.append("registration did not converge: " + (reg.message or "no reason given"))
-    if reg.near_fraction < MIN_NEAR_FRACTION:
-        reasons.append(f"only {100 * reg.near_fraction:.0f}% of the {d.size} points lie within "
-                       f"{reg.near_distance:.3g} mm (1% of the nominal's size) of the nominal at "
-                       "the best pose found; the pose cannot be trusted")
-    if sensitivity is None:
-        if ambiguous:
-            reasons.append(f"the pose is ambiguous: another pose fits nearly as well (score "
-                           f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm) and moves "
-                           f"deviations by up to {spread:.4g} mm")
-        if weak:
-            names = "; ".join(f"{w.type} {'along' if w.type == 'translation' else 'about'} "
-                              f"({', '.join(f'{a:+.3f}' for a in w.axis)})" for w in weak)
-            reasons.append(f"the measured points do not constrain the pose: {names}")
-    if reasons:
-        return INCONCLUSIVE, tuple(reasons), inside
-    verdict, reason = pointwise_verdict(d, tol, margin)
-    if sensitivity is not None and not sensitivity.verdict_stable:
-        return INCONCLUSIVE, (
-            f"the verdict depends on the pose: {verdict} at the fitted pose, but not at every "
-            f"pose the measurement allows (deviations change by up to "
-            f"{sensitivity.max_change_mm:.4g} mm; the point nearest a limit is "
-            f"{abs(sensitivity.min_limit_margin_mm):.4g} mm from it)", *statements), inside
-    return verdict, (reason, *statements), inside
-
-
-def pointwise_verdict(d: np.ndarray, tol: Tolerance,
-                      margin: np.ndarray | None = None) -> tuple[str, str]:
-    """(verdict, reason) of the decision rule on deviations ``d`` (n,) alone, the pose taken as
-    right: the simple rule (margin None) or the guarded one with per-point ``margin`` (n,) mm."""
-    if margin is None:
-        n_out = int(((d < tol.lower) | (d > tol.upper)).sum())
-        if n_out:
-            return REJECT, f"{n_out} of {d.size} points lie outside the tolerance zone"
-        return ACCEPT, f"all {d.size} points lie inside the tolerance zone"
-    out_grown = (d < tol.lower - margin) | (d > tol.upper + margin)
-    in_shrunk = (d >= tol.lower + margin) & (d <= tol.upper - margin)
-    if out_grown.any():
-        return REJECT, (f"{int(out_grown.sum())} of {d.size} points lie outside the tolerance "
-                        "zone by more than their nominal-sampling margin")
-    if in_shrunk.all():
-        return ACCEPT, (f"all {d.size} points lie inside the tolerance zone by more than their "
-                        "nominal-sampling margin")
-    k = int((~in_shrunk).sum())
-    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their nominal-sampling margin of "
-                          "a tolerance limit (guarded decision rule)")
 
 
 def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
@@ -397,10 +239,10 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
         return None, ()
     alternatives = []
-    if _plausible_runner_up(reg):
+    if plausible_runner_up(reg):
         Tr = reg.runner_up_T
         if fit == "minimax":
-            Tr = _minimax(evaluate, Tr, reg.inlier, tol, {})
+            Tr = minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
     region = [] if points is None or normals is None else uncertainty_poses(
         points[reg.inlier], normals[reg.inlier], reg.rms, T, d[reg.inlier], tol.lower, tol.upper,
@@ -413,19 +255,22 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
 
 def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
                index: "ContourIndex | None" = None, fit: str = "lsq",
-               decision_rule: str = "simple") -> InspectionResult:
+               decision_rule: str = "simple",
+               template_facts: dict | None = None) -> InspectionResult:
     """Register measured points to a 2D contour template and judge them.
 
     measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
         otherwise they are a planar template measured in any 3D pose: a plane is fitted (its
         flatness reported), the points are taken into it, and both ways of laying the plane onto
         the template (face up, face down) are tried.
+    template_facts : what reading the template file found (units, flattened curves, ignored
+        entities), reported with the template's own facts in ``extra["template"]`` (the result
+        is complete when built: nothing is added to it afterwards).
     The result's ``T_nominal_measured`` is the full 4x4 (measured → template frame, the template
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     """
     from .contour import ContourIndex, deviations_2d
     from .registration2d import apply2, fit_plane, register_2d
-    from .trust import conditioning
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
@@ -452,30 +297,42 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
             best = (F, reg)
     F, reg = best
     q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
-    dev2, T2 = reg.deviations, reg.T
-    fitted = apply2(T2, q2)
-    cond = conditioning(fitted[reg.inlier], dev2.normal[reg.inlier], reg.rms,
-                        RESOLUTION_OF_ZONE * (tolerance.upper - tolerance.lower))
 
-    def evaluate(Tc):
+    def measure(Tc):
         X = apply2(Tc, q2)
-        dv = deviations_2d(index, X)
-        return X, dv.signed, dv.normal
+        return X, deviations_2d(index, X)
 
-    ambiguous, spread = _ambiguity(reg, dev2.signed, tolerance, lambda Tc, idx: deviations_2d(
-        index, apply2(Tc, q2[idx])).signed)
-    if fit == "minimax":
-        T2 = _minimax(evaluate, T2, reg.inlier, tolerance, extra)
-        dev2 = deviations_2d(index, apply2(T2, q2))
+    def deviations_at(Tc, idx):
+        return deviations_2d(index, apply2(Tc, q2[idx])).signed
+
+    T2 = reg.T_template_measured
+    # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
+    j = _judge_pose(reg, T2, apply2(T2, q2), reg.deviations,
+                    _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
+                    tolerance, fit, decision_rule, extra)
+    t1 = j.fitted_at
+    registered, dev, reg3 = _lifted(reg, j.T, F, j.deviations, measured)
+    extra["template"]["symmetric"] = reg.symmetric
+    extra["template"].update(template_facts or {})
+    t2 = time.perf_counter()
+    timings = {"register": t1 - t0, "deviation": t2 - t1 - j.sensitivity_s,
+               "pose_sensitivity": j.sensitivity_s}
+    return InspectionResult(tolerance=tolerance, registration=reg3, registered=registered,
+                            deviations=dev, normals_source="contour", timings_s=timings,
+                            extra=extra, **j.verdict_fields)
+
+
+def _lifted(reg, T2: np.ndarray, F: np.ndarray, dev2, measured: np.ndarray):
+    """The 2D fit in 3D: (registered (n, 3), Deviations, RegistrationResult) of the measured
+    points (n, 3) under the full 4x4 ``T_nominal_measured`` = the in-plane pose T2 (3x3) after
+    the plane frame F (4x4), with the 2D deviations ``dev2`` there (no normal component in z)."""
     E = np.eye(4)
     E[:2, :2] = T2[:2, :2]
     E[:2, 3] = T2[:2, 2]
     T = E @ F
-    t1 = time.perf_counter()
     registered = measured @ T[:3, :3].T + T[:3, 3]
-    d = dev2.signed
-    zeros = np.zeros(d.size)
-    dev = Deviations(d, np.column_stack([dev2.foot, zeros]),
+    zeros = np.zeros(dev2.signed.size)
+    dev = Deviations(dev2.signed, np.column_stack([dev2.foot, zeros]),
                      np.column_stack([dev2.normal, zeros]), zeros.astype(bool))
     reg3 = RegistrationResult(
         T_nominal_measured=T, converged=reg.converged, iterations=reg.iterations, rms=reg.rms,
@@ -485,21 +342,4 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         near_distance=reg.near_distance, message=reg.message, gross_rule=reg.gross_rule,
         rms_definition="RMS of signed point-to-contour deviations over the points the final fit "
                        "used: every point but the gross outliers (mm)")
-    extra["template"]["symmetric"] = reg.symmetric
-    # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
-    margin = np.zeros(d.size) if decision_rule == "guarded" else None
-    ts = time.perf_counter()
-    sens, statements = _sensitivity(
-        lambda Tc, idx: deviations_2d(index, apply2(Tc, q2[idx])).signed, evaluate, T2, d, cond,
-        reg, tolerance, margin, fit, apply2(T2, q2), None, dev2.normal)
-    ts = time.perf_counter() - ts
-    verdict, reasons, inside = judge(d, tolerance, reg3, cond.weak, ambiguous, spread, margin,
-                                     sens, statements)
-    stats = Statistics.of(d, tolerance)
-    t2 = time.perf_counter()
-    return InspectionResult(verdict, reasons, tolerance, reg3, registered, dev, inside, stats,
-                            "contour", {"register": t1 - t0, "deviation": t2 - t1 - ts,
-                                        "pose_sensitivity": ts}, extra,
-                            fit=fit, decision_rule=decision_rule, conditioning=cond,
-                            ambiguous=ambiguous, ambiguity_spread=spread, margin=margin,
-                            pose_sensitivity=sens, trust_statements=statements)
+    return registered, dev, reg3

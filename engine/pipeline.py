@@ -16,12 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError, SettingsError
-from .inspection import ACCEPT, InspectionResult, inspect, inspect_2d
+from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
 from .io.points import PointSet
 from .nominal import Nominal
 from .progress import Callback, report, reporting
 from .settings import InspectionSettings
+from .verdict import ACCEPT
 
 
 @dataclass(frozen=True)
@@ -181,10 +182,10 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     t1 = time.perf_counter()
     if tpl is not None:
         result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol,
-                            fit=settings.fit, decision_rule=settings.decision_rule)
-        result.extra["template"].update(units=tpl.units, unitless=tpl.unitless,
-                                        flattened_curves=tpl.flattened,
-                                        ignored_entities=tpl.ignored)
+                            fit=settings.fit, decision_rule=settings.decision_rule,
+                            template_facts={"units": tpl.units, "unitless": tpl.unitless,
+                                            "flattened_curves": tpl.flattened,
+                                            "ignored_entities": tpl.ignored})
     else:
         result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
                          decision_rule=settings.decision_rule)

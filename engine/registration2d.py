@@ -49,7 +49,8 @@ of itself)."""
 class Registration2D:
     """Outcome of :func:`register_2d`.
 
-    T : (3, 3) homogeneous 2D transform mapping measured plane coordinates into the template.
+    T_template_measured : (3, 3) homogeneous 2D transform mapping the measured points' plane
+        coordinates (x, y as given, or in their fitted plane's frame) into the template frame.
     rms : RMS of the signed deviations over the points of the final fit (mm).
     inlier : (n,) bool, the points of the final least-squares fit: all but the gross outliers;
         outlier_cut : the gross rule's threshold (mm); gross_rule : the rule as applied.
@@ -59,7 +60,7 @@ class Registration2D:
     symmetric : the runner-up pose fits as well and maps the template onto itself.
     """
 
-    T: np.ndarray
+    T_template_measured: np.ndarray
     converged: bool
     iterations: int
     rms: float
@@ -235,7 +236,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     message = "" if conv else (f"the point-to-contour fit did not settle within "
                                f"{max_iterations} iterations")
     return Registration2D(
-        T=Tb, converged=conv, iterations=5 + 6 + 8 + it,
+        T_template_measured=Tb, converged=conv, iterations=5 + 6 + 8 + it,
         rms=float(np.sqrt(np.mean(d_in ** 2))) if inl.any() else float("nan"),
         n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=score,
         hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],

@@ -1,12 +1,9 @@
-"""Whether a fitted pose can be trusted, and the fit that answers the tolerance question.
+"""Whether a fitted pose can be trusted (the fits themselves are engine.fits).
 
 * :func:`conditioning`: how well the measured points constrain each rigid degree of freedom,
   from the point-to-surface normal equations at the final pose; directions they do not constrain
   (a cylinder along and about its axis, a plane within itself) are named, and the pose
   uncertainty the fit's residuals imply at the points is given.
-* :func:`minimax_pose`: the rigid pose that minimises the largest normalised excursion from the
-  tolerance zone's centre (Chebyshev / L-infinity), as a sequence of linear programs on the
-  linearised pose (scipy's HiGHS) with a trust region, each step checked on the exact deviations.
 * :func:`sampling_margin`: per point, how far facets through sampled nominal points can lie from
   the true surface: curvature x spacing^2 / 8.
 * :func:`pose_sensitivity`: whether the verdict survives the pose's uncertainty: the part moved
@@ -27,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .fits import pose_jacobian
+
 CONDITIONING_POINTS = 16384
 """Fitted points the normal matrix is formed from at most (a seeded subset beyond)."""
 DEGENERATE_STRENGTH = 1e-8
@@ -38,7 +37,7 @@ at right angles, along their common edge, 3e-5; a 180 x 90 mm patch of a gently 
 5.6e-5; a 500 x 250 mm paraboloid panel 3e-4; the belly-fairing sample 2e-3) and counts as
 unconstrained when the measurement leaves it uncertain: when the residuals imply a 1-sigma
 motion along it of more than ``resolution_mm`` (a quarter of the zone width, see
-engine.inspection), the pose along it is a guess at the scale that decides the verdict."""
+engine.verdict), the pose along it is a guess at the scale that decides the verdict."""
 
 
 @dataclass(frozen=True)
@@ -79,15 +78,6 @@ class Conditioning:
     """Centroid of the fitted points (nominal frame, mm): the rotations' origin in ``twist``."""
 
 
-def _jacobian(X: np.ndarray, normals: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """d(deviation)/d[rotation, translation] of the update x' = c + R(w)(x - c) + t."""
-    r = X - c
-    if X.shape[1] == 3:
-        return np.concatenate([np.cross(r, normals), normals], axis=1)
-    rot = r[:, 0] * normals[:, 1] - r[:, 1] * normals[:, 0]
-    return np.column_stack([rot, normals])
-
-
 def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
                  resolution_mm: float | None = None) -> Conditioning:
     """Conditioning of fitting points ``X`` (registered, nominal frame) with surface ``normals``.
@@ -109,7 +99,7 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
         X, normals = X[sub], normals[sub]
     c = X.mean(axis=0)
     length = float(np.sqrt(np.mean(np.sum((X - c) ** 2, axis=1)))) or 1.0
-    J = _jacobian(X, normals, c)
+    J = pose_jacobian(X, normals, c)
     J[:, :nrot] /= length
     A = J.T @ J / X.shape[0]
     lam, V = np.linalg.eigh(A)
@@ -166,116 +156,6 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
 _LEVI = np.zeros((3, 3, 3))
 for _i, _j, _k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
     _LEVI[_i, _j, _k], _LEVI[_i, _k, _j] = 1.0, -1.0
-
-
-# ---------------------------------------------------------------------------- minimax fit
-@dataclass(frozen=True)
-class MinimaxResult:
-    T: np.ndarray
-    """The pose (4x4 in 3D, 3x3 homogeneous 2D) that minimises the largest excursion."""
-    excursion: float
-    """max |d - centre| / half-width over the points used: <= 1 means they all fit the zone."""
-    start_excursion: float
-    """The same at the starting (least-squares) pose."""
-    iterations: int
-    linear_programs: int
-
-
-def minimax_pose(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
-                 T0: np.ndarray, lower: float, upper: float, use: np.ndarray | None = None,
-                 max_iterations: int = 40, tol_mm: float = 1e-7) -> MinimaxResult:
-    """Minimise max over points of |d - (lower + upper)/2| / ((upper - lower)/2) over rigid poses.
-
-    evaluate(T) -> (X, d, normals): registered points, their signed deviations (mm) and surface
-    normals at pose T, exactly. ``use`` masks the points that take part (the fit's inliers: a
-    gross outlier must not drag the pose; it is still judged). Each iteration solves the linear
-    program of the linearised problem within a trust region on the points near the current
-    maximum (an active set, grown with the points a rejected step showed rising), accepts the
-    step only if the exact maximum went down (growing the region when the step was held back by
-    it), and otherwise shrinks the region; it stops at an interior optimum of the linear model
-    that the exact deviations confirm. The result is never worse than the start.
-    """
-    from scipy.optimize import linprog
-
-    centre, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
-    T = np.array(T0, float)
-    X, d, nrm = evaluate(T)
-    use = np.ones(d.size, bool) if use is None else np.asarray(use, bool)
-    idx_all = np.flatnonzero(use)
-    if idx_all.size == 0:
-        e0 = float(np.max(np.abs(d - centre)) / half) if d.size else 0.0
-        return MinimaxResult(T, e0, e0, 0, 0)
-    dim = X.shape[1]
-    nrot = 3 if dim == 3 else 1
-    dof = nrot + dim
-
-    def excursion(dd):
-        return float(np.max(np.abs(dd[idx_all] - centre)))
-
-    e = excursion(d)
-    start = e
-    radius = max(e, half)  # trust region, mm of motion at the points' scale
-    forced = np.zeros(0, dtype=np.int64)  # points a rejected step showed to matter
-    lps = 0
-    it = 0
-    for it in range(1, max_iterations + 1):
-        ex = np.abs(d[idx_all] - centre)
-        k = min(idx_all.size, max(64, 4 * dof))
-        active = np.unique(np.concatenate([
-            idx_all[np.argpartition(-ex, k - 1)[:k]], idx_all[ex >= 0.5 * e], forced]))
-        c = X[active].mean(axis=0)
-        length = float(np.sqrt(np.mean(np.sum((X[idx_all] - c) ** 2, axis=1)))) or 1.0
-        J = _jacobian(X[active], nrm[active], c)
-        J[:, :nrot] /= length
-        r = d[active] - centre
-        m = active.size
-        # Variables [p (dof), s]; minimise s subject to |r + J p| <= s.
-        A = np.block([[J, -np.ones((m, 1))], [-J, -np.ones((m, 1))]])
-        b = np.concatenate([-r, r])
-        cost = np.zeros(dof + 1)
-        cost[-1] = 1.0
-        bounds = [(-radius, radius)] * dof + [(0, None)]
-        sol = linprog(cost, A_ub=A, b_ub=b, bounds=bounds, method="highs")
-        lps += 1
-        if sol.status != 0:
-            break
-        p = sol.x[:dof].copy()
-        interior = bool(np.max(np.abs(p)) < 0.999 * radius)
-        p[:nrot] /= length
-        T_new = _apply_update(T, p, c)
-        X_new, d_new, nrm_new = evaluate(T_new)
-        e_new = excursion(d_new)
-        if e_new < e - tol_mm:
-            T, X, d, nrm, e = T_new, X_new, d_new, nrm_new, e_new
-            if interior and sol.x[-1] >= e_new - tol_mm:
-                break  # the linear model's optimum, and exact here: done
-            if not interior:
-                radius *= 2.0  # the region held the step back: let it grow again
-        else:
-            # The linearisation missed points that rose above the model's bound: take them
-            # into the next program, and look closer.
-            rose = idx_all[np.abs(d_new[idx_all] - centre) > sol.x[-1] + tol_mm]
-            forced = np.unique(np.concatenate([forced, rose]))
-            radius *= 0.25
-            if radius < tol_mm:
-                break
-    return MinimaxResult(T, e / half, start / half, it, lps)
-
-
-def _apply_update(T: np.ndarray, p: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """x' = c + R(w)(x - c) + t applied after the pose T (3D 4x4 or 2D 3x3)."""
-    if T.shape[0] == 4:
-        from .geometry import make_transform, rotation_from_rotvec
-
-        R = rotation_from_rotvec(p[None, :3])[0]
-        U = make_transform(R, c - R @ c + p[3:])
-        return U @ T
-    th = p[0]
-    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
-    U = np.eye(3)
-    U[:2, :2] = R
-    U[:2, 2] = c - R @ c + p[1:]
-    return U @ T
 
 
 # ---------------------------------------------------------------------------- sampling margin
@@ -373,7 +253,7 @@ def uncertainty_poses(X: np.ndarray, normals: np.ndarray, residual_rms: float, T
     if n <= dof or not np.isfinite(residual_rms) or not cond.length or not cond.centre:
         return []
     c = np.asarray(cond.centre, float)
-    J = _jacobian(X, normals, c)
+    J = pose_jacobian(X, normals, c)
     J[:, :nrot] /= cond.length  # the twists' units (rotation x length, mm)
     A = J.T @ J
     free = [np.asarray(w.twist, float) for w in cond.weak if w.sigma_mm is None and w.twist]
@@ -525,7 +405,7 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         whose deviation changes (its pointwise verdict, or by INVARIANT_FRACTION of the zone)
         carried past the nominal's border. The verdict is checked at every step.
     verdict_of(d') : the pointwise verdict (the decision rule) of (n,) deviations d'; "REJECT"
-        as soon as one point is out, whatever the others (both rules of engine.inspection).
+        as soon as one point is out, whatever the others (both rules of engine.verdict).
     margin : (n,) guarded-rule margins (None: the simple rule): their limits count as limits.
     alternatives : other plausible poses (the runner-up), each judged as a whole.
     points : (n, 3) or (n, 2) the measured points at pose T (nominal frame, mm). With more

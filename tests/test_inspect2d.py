@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from engine.contour import ContourIndex, deviations_2d, points_on
-from engine.inspection import ACCEPT, REJECT, Tolerance, inspect_2d
+from engine.inspection import Tolerance, inspect_2d
 from engine.io.templates import read_airfoil_template, read_dxf_template
 from engine.registration2d import _pose, apply2, register_2d
+from engine.verdict import ACCEPT, REJECT
 from qa_app.cli import main
 from surfaces import random_rotation
 from test_contour import slotted_plate
@@ -28,7 +29,7 @@ def test_pose_from_any_angle_and_offset(seed):
     meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-800, 800, 2)), q)
     r = register_2d(ContourIndex(t), meas)
     assert r.converged and not r.symmetric
-    assert np.max(np.linalg.norm(apply2(r.T, meas) - q, axis=1)) < 0.003
+    assert np.max(np.linalg.norm(apply2(r.T_template_measured, meas) - q, axis=1)) < 0.003
 
 
 def test_points_along_part_of_the_contour():
@@ -39,7 +40,7 @@ def test_points_along_part_of_the_contour():
     q = points_on(t, 150, rng, w) + rng.normal(0, 0.002, (150, 2))
     meas = apply2(_pose(2.0, [300.0, -40.0]), q)
     r = register_2d(ContourIndex(t), meas)
-    assert np.max(np.linalg.norm(apply2(r.T, meas) - q, axis=1)) < 0.005
+    assert np.max(np.linalg.norm(apply2(r.T_template_measured, meas) - q, axis=1)) < 0.005
 
 
 def test_symmetric_gear_any_equivalent_pose_is_right():
@@ -50,7 +51,7 @@ def test_symmetric_gear_any_equivalent_pose_is_right():
     meas = apply2(_pose(1.234, [55.0, -20.0]), q)
     r = register_2d(idx, meas)
     assert r.converged and r.symmetric
-    d = deviations_2d(idx, apply2(r.T, meas)).signed
+    d = deviations_2d(idx, apply2(r.T_template_measured, meas)).signed
     assert np.max(np.abs(d)) < 1e-6
 
 
@@ -331,3 +332,33 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_left_out(seed,
                            np.ones(len(q), bool))
     assert float(np.sum(d ** 2)) <= best * 1.0002
     assert res.verdict == drawn.verdict
+
+
+def test_the_pipeline_changes_no_dict_of_a_result_after_inspect_2d_built_it(monkeypatch):
+    """A result is frozen once built: the pipeline passes the template file's facts (units,
+    flattened curves) into inspect_2d instead of writing them into the finished result's
+    ``extra``; the facts still reach the result."""
+    import copy
+
+    import engine.pipeline as pipeline
+    from engine.settings import InspectionSettings
+
+    built = []
+
+    def spy(*args, **kwargs):
+        result = inspect_2d(*args, **kwargs)
+        built.append((result, copy.deepcopy(result.extra), dict(result.timings_s)))
+        return result
+
+    monkeypatch.setattr(pipeline, "inspect_2d", spy)
+    sample = os.path.join(os.path.dirname(__file__), "..", "samples", "fuselage_frame")
+    run = pipeline.run_files(os.path.join(sample, "template.dxf"),
+                             os.path.join(sample, "measured.csv"),
+                             InspectionSettings(tol_lower=-0.2, tol_upper=0.2))
+    (result, extra, timings), = built
+    assert result.extra == extra and result.timings_s == timings
+    facts = run.result.extra["template"]
+    assert facts["units"] == run.template.units and facts["unitless"] == run.template.unitless
+    assert facts["flattened_curves"] == run.template.flattened
+    assert facts["ignored_entities"] == run.template.ignored
+    assert facts["primitives"] == run.template.template.n_primitives

@@ -5,9 +5,10 @@ import pytest
 
 from engine.errors import SettingsError
 from engine.geometry import apply_transform, make_transform
-from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT, Statistics, Tolerance, inspect, judge
+from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.registration import RegistrationSettings, register
+from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, judge
 from surfaces import height, height_grid, height_normal, point_set, random_rotation
 
 

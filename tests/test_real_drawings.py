@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from engine.contour import ContourIndex, deviations_2d, points_on
-from engine.inspection import ACCEPT, Tolerance, inspect_2d
+from engine.inspection import Tolerance, inspect_2d
 from engine.registration2d import _pose, apply2
 from engine.io.templates import read_dxf_template
+from engine.verdict import ACCEPT
 
 DATA = os.path.join(os.path.dirname(__file__), "data", "dxf")
 DRAWINGS = ["leica_disto_s910.dxf", "forms.dxf", "sample_jamesbremner.dxf", "polylines_site.dxf",

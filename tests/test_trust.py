@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
+from engine.fits import minimax_pose
 from engine.geometry import apply_transform, make_transform
-from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT, Tolerance, inspect, judge
+from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
-from engine.trust import conditioning, minimax_pose
+from engine.trust import conditioning
+from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT, judge
 from surfaces import (half_turn_symmetric_part, height, height_grid, height_normal, point_set,
                       random_rotation)
 
@@ -365,7 +367,7 @@ def test_minimax_in_2d_and_on_partial_coverage(fairing):
 def test_sampling_margin_on_an_anisotropically_sampled_cylinder(hc, hz):
     """Curvature 1/R around, 0 along the axis: the margin is (spacing around)^2 / (8 R),
     whichever way the sampling is coarse."""
-    from engine.inspection import _margins_3d
+    from engine.verdict import margins_3d
 
     r, length = 40.0, 200.0
     nu, nv = int(2 * np.pi * r / hc), int(length / hz) + 1
@@ -378,7 +380,7 @@ def test_sampling_margin_on_an_anisotropically_sampled_cylinder(hc, hz):
     t, z = rng.uniform(0, 2 * np.pi, 200), rng.uniform(-50, 50, 200)
     feet = np.column_stack([r * np.cos(t), r * np.sin(t), z])
     around = 2 * np.pi * r / nu
-    ratio = _margins_3d(nominal, feet) / (around ** 2 / (8 * r))
+    ratio = margins_3d(nominal, feet) / (around ** 2 / (8 * r))
     assert np.all((0.9 < ratio) & (ratio < 1.1))
 
 
@@ -640,7 +642,7 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     point that the motion displaces by at least its distance to a limit is evaluated, so the
     verdict is seen to depend on the pose; truth: all points evaluated at that pose."""
     from engine.deviation import point_to_surface
-    from engine.inspection import pointwise_verdict
+    from engine.verdict import pointwise_verdict
     from engine.trust import SENSITIVITY_POINTS, pose_sensitivity
 
     nominal = _d_shaft()
