@@ -25,8 +25,6 @@ from .registration import RegistrationResult, RegistrationSettings, register
 from .tolerance import Tolerance
 from .verdict import (DECISION_RULES, MIN_NEAR_FRACTION, RESOLUTION_OF_ZONE, Statistics, ambiguity,
                       judge, margins_3d, plausible_runner_up, pointwise_verdict)
-# The verdict words, re-exported while reports.certificate still imports them from here.
-from .verdict import ACCEPT, INCONCLUSIVE, REJECT  # noqa: F401
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D

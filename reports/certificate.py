@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from engine.errors import QAError, SettingsError
-from engine.inspection import ACCEPT, INCONCLUSIVE, REJECT
+from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pipeline import Run
 
 from . import figures
@@ -148,7 +148,7 @@ def _verdict_stability(res) -> str:
 def check_trustworthy(run: Run) -> None:
     """A certificate may say ACCEPTED only from a converged registration whose pose the
     judge trusted; anything else here is a bug upstream, and no certificate is made."""
-    from engine.inspection import MIN_NEAR_FRACTION
+    from engine.verdict import MIN_NEAR_FRACTION
 
     res = run.result
     reg = res.registration
