@@ -280,16 +280,17 @@ def _cmd_keygen(args) -> int:
 def _cmd_verify(args) -> int:
     import json
 
+    from engine.io.points import read_bytes
     from reports.certificate import same_person
     from reports.messages import VERDICT_WORD
-    from reports.signing import read_input, read_trust_roots, verify_pdf
+    from reports.signing import read_trust_roots, verify_pdf
 
     _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
                                "--nominal": args.nominal, "--measured": args.measured})
     if (args.nominal is None) != (args.measured is None):
         raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
     roots = [c for path in args.trust for c in read_trust_roots(path)]
-    v = verify_pdf(read_input(args.certificate), roots)
+    v = verify_pdf(read_bytes(args.certificate), roots)
     problems = list(v.problems)
     doc = None
     if v.valid:

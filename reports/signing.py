@@ -22,6 +22,7 @@ import os
 from dataclasses import dataclass, field
 
 from engine.errors import InputError, QAError
+from engine.io.points import read_bytes
 
 from .outputs import Output, write_all
 
@@ -165,7 +166,7 @@ def load_identity(path: str, passphrase: bytes | None) -> Identity:
     from cryptography.hazmat.primitives.serialization import Encoding, pkcs12
     from cryptography.x509.oid import NameOID
 
-    data = read_input(path)
+    data = read_bytes(path)
     try:
         key, cert, others = pkcs12.load_key_and_certificates(data, passphrase)
     except ValueError as e:
@@ -289,7 +290,7 @@ def read_trust_roots(path: str) -> list:
     """Certificates (PEM, one or more, or DER) to trust; InputError if there are none."""
     from asn1crypto import pem, x509
 
-    data = read_input(path)
+    data = read_bytes(path)
     try:
         if pem.detect(data):
             certs = [x509.Certificate.load(der) for kind, _, der in pem.unarmor(data, True)
@@ -302,21 +303,6 @@ def read_trust_roots(path: str) -> list:
     if not certs:
         raise InputError("holds no CERTIFICATE block", path)
     return certs
-
-
-def read_input(path: str) -> bytes:
-    """A file's bytes; InputError (not a bare OSError) when it cannot be read."""
-    from engine.errors import InputNotFoundError
-
-    try:
-        with open(path, "rb") as f:
-            return f.read()
-    except FileNotFoundError:
-        raise InputNotFoundError("no such file", path) from None
-    except IsADirectoryError:
-        raise InputError("is a folder, not a file", path) from None
-    except OSError as e:
-        raise InputError(f"cannot be read ({e.strerror})", path) from e
 
 
 def verify_pdf(pdf: bytes, trust_roots: list) -> Verification:

@@ -46,8 +46,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from engine.errors import InputError, InputNotFoundError
-from .points import PointSet, check_coordinate_range, finish_point_set, split_lines, text_lines
+from engine.errors import InputError
+from .points import (PointSet, check_coordinate_range, finish_point_set, read_bytes, split_lines,
+                     text_lines)
 
 
 @dataclass(frozen=True)
@@ -63,16 +64,6 @@ class MeshData:
     points: np.ndarray
     polygons: np.ndarray | None = None
     normals: np.ndarray | None = None
-
-
-def _read_bytes(path: str) -> bytes:
-    try:
-        with open(path, "rb") as f:
-            return f.read()
-    except FileNotFoundError:
-        raise InputNotFoundError("no such file", path) from None
-    except OSError as e:
-        raise InputError(f"cannot be read ({e.strerror})", path) from e
 
 
 def _cells(faces, n_vertices: int, path: str, where) -> np.ndarray:
@@ -191,7 +182,7 @@ def _ply_header(text: str, path: str) -> tuple[str, list[_Element]]:
 
 def read_ply(path: str) -> MeshData:
     """A PLY file's vertices, faces and vertex normals (see the module docstring)."""
-    raw = _read_bytes(path)
+    raw = read_bytes(path)
     if not raw.startswith(b"ply"):
         raise InputError("not a PLY file (it does not start with 'ply')", path, 1)
     m = re.search(rb"(?m)^end_header[ \t]*(\r\n|\n|\r|\Z)", raw[:1 << 20])
@@ -479,7 +470,7 @@ def _binary_lists(raw: bytes, off: int, order: str, el: _Element, path):
 def read_obj(path: str) -> MeshData:
     """An OBJ file's vertices and faces (and ``vn`` normals for a point cloud with one per
     vertex)."""
-    lines = text_lines(_read_bytes(path), path, "text OBJ file")
+    lines = text_lines(read_bytes(path), path, "text OBJ file")
     v_rows, v_lines, vn_rows = [], [], []
     f_rows, f_lines, f_before = [], [], []
     for i, s in enumerate(lines):
@@ -598,7 +589,7 @@ _FACET_WORDS = {0: "facet", 1: "normal", 5: "outer", 6: "loop", 7: "vertex", 11:
 
 def read_stl(path: str) -> MeshData:
     """An STL file's triangles, bit-identical corners merged into shared vertices."""
-    raw = _read_bytes(path)
+    raw = read_bytes(path)
     declared = int.from_bytes(raw[80:84], "little") if len(raw) >= 84 else None
     binary_fits = declared is not None and len(raw) == 84 + 50 * declared
     head = raw[:1024]
@@ -950,8 +941,7 @@ def _vtk_arrays(path: str, suffix: str) -> dict:
     import pyvista as pv
 
     if suffix == ".vtk":
-        with open(path, "rb") as f:
-            check_legacy_ascii_vtk(f.read(), path)
+        check_legacy_ascii_vtk(read_bytes(path), path)
     window = _vtk_log()
     reader = _vtk_reader(suffix)
     reader.SetFileName(path)

@@ -342,6 +342,20 @@ def _lines(raw: bytes, encoding: str, block: int = 1 << 22) -> list[str]:
     return lines
 
 
+def read_bytes(path: str) -> bytes:
+    """A file's bytes; InputNotFoundError / InputError naming the file (never a bare OSError)
+    when it cannot be read. Every reader of the product reads its input through this."""
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except FileNotFoundError:
+        raise InputNotFoundError("no such file", path) from None
+    except IsADirectoryError:
+        raise InputError("is a folder, not a file", path) from None
+    except OSError as e:
+        raise InputError(f"cannot be read ({e.strerror})", path) from e
+
+
 def text_lines(raw: bytes, path: str, what: str = "text point file") -> list[str]:
     """The lines of a text file's bytes: UTF-8 (BOM or not); UTF-16 with a BOM, or without one
     when every other byte is zero; else cp1252 (Windows exports; latin-1 would read byte 0x85 as
@@ -371,12 +385,7 @@ def text_lines(raw: bytes, path: str, what: str = "text point file") -> list[str
 
 
 def _read_text(path: str) -> PointSet:
-    try:
-        with open(path, "rb") as f:
-            raw = f.read()
-    except OSError as e:
-        raise InputNotFoundError(f"cannot be read ({e.strerror})", path) from e
-    lines = text_lines(raw, path)
+    lines = text_lines(read_bytes(path), path)
     layout = _detect_layout(path, lines)
     start = (layout.header_line + 1) if layout.header_line is not None else 0
     _refuse_late_directives(path, lines, start)

@@ -31,7 +31,7 @@ import numpy as np
 from engine.contour import Template2D, arc, build_template, segment
 from engine.errors import InputError, InputNotFoundError
 from . import formats
-from .points import COORD_LIMIT_MM, UNIT_SCALE_TO_MM, text_lines
+from .points import COORD_LIMIT_MM, UNIT_SCALE_TO_MM, read_bytes, text_lines
 
 FLATTEN_MM = 1e-4
 GEOMETRY = {"LINE", "ARC", "CIRCLE", "LWPOLYLINE", "POLYLINE", "SPLINE", "ELLIPSE"}
@@ -381,11 +381,7 @@ def read_airfoil_template(path: str | os.PathLike, chord_mm: float) -> TemplateF
     if chord_mm > COORD_LIMIT_MM:
         raise InputError(f"--scale (chord length) {chord_mm:g} mm is beyond 1e9 mm", path)
     pts = []
-    try:
-        with open(path, "rb") as f:
-            lines = text_lines(f.read(), path, "text ordinate file")
-    except OSError as e:
-        raise InputError(f"cannot be read ({e.strerror})", path) from e
+    lines = text_lines(read_bytes(path), path, "text ordinate file")
     for ln, raw in enumerate(lines[1:], start=2):
         s = raw.strip()
         if not s or s.startswith("#"):
