@@ -8,8 +8,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -264,57 +262,3 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
             row.append(f"{margin[i]:.6f}")
         w.writerow(row)
     return buf.getvalue()
-
-
-def write_atomic(path: str | os.PathLike, data: str | bytes, private: bool = False) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename, so a
-    failure never leaves a half-written file under the final name. ``private``: readable by
-    the owner only (a signing identity). An OSError names ``path``, not the temporary file."""
-    path = os.fspath(path)
-    try:
-        _write_atomic(path, data, private)
-    except OSError as e:
-        raise OSError(e.errno, e.strerror, path) from e
-
-
-def _write_atomic(path: str, data: str | bytes, private: bool) -> None:
-    if not path or os.path.isdir(path):
-        raise IsADirectoryError(21, "is a folder or no file name", path)
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
-    try:
-        f = os.fdopen(fd, "wb")
-    except BaseException:
-        os.close(fd)
-        os.unlink(tmp)
-        raise
-    try:
-        with f:
-            # mkstemp makes 0600; an ordinary output gets the usual permissions.
-            os.fchmod(f.fileno(), 0o600 if private else 0o666 & ~_umask())
-            f.write(data.encode("utf-8") if isinstance(data, str) else data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
-def _umask() -> int:
-    """The process's umask, read without changing it where the system says it (Linux):
-    setting and restoring it is not safe while other threads create files."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
