@@ -104,14 +104,23 @@ class GrossRule:
                 "is judged like every other point")
 
 
+def robust_centre_sigma(d: np.ndarray) -> tuple[float, float]:
+    """(median, 1.4826 x median absolute deviation) of deviations ``d`` (n,), mm: the centre
+    and the robust standard deviation that the gross rule and the coarse fits' cut share
+    (0, 0 for no deviations)."""
+    d = np.asarray(d, float)
+    if not d.size:
+        return 0.0, 0.0
+    centre = float(np.median(d))
+    return centre, float(1.4826 * np.median(np.abs(d - centre)))
+
+
 def gross_rule(d: np.ndarray, zone_width: float | None, floor: float) -> GrossRule:
     """The rule's threshold for signed deviations ``d`` (n,), mm.
 
     zone_width : the tolerance zone's width, mm (None when the zone is not known); floor : the
     smallest threshold, mm."""
-    d = np.asarray(d, float)
-    centre = float(np.median(d)) if d.size else 0.0
-    sigma = float(1.4826 * np.median(np.abs(d - centre))) if d.size else 0.0
+    centre, sigma = robust_centre_sigma(d)
     threshold = max(ROBUST_SIGMAS * sigma, floor)
     if zone_width is not None:
         threshold = max(threshold, GROSS_ZONES * float(zone_width))

@@ -49,7 +49,7 @@ from .geometry import (
 )
 from .nominal import Nominal
 from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
-                       gross_rule)
+                       gross_rule, robust_centre_sigma)
 from .progress import report
 
 _SEED = 7
@@ -808,6 +808,5 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
 def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
     """Outlier cut for deviations d (mm): |median| + ``sigmas`` x 1.4826 x median absolute
     deviation, never below ``floor``. Shared by the 3D and 2D fits."""
-    med = np.median(d)
-    sigma = 1.4826 * np.median(np.abs(d - med))
+    med, sigma = robust_centre_sigma(d)
     return float(max(abs(med) + sigmas * sigma, floor))
