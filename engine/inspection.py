@@ -303,41 +303,20 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     def deviations_at(Tc, idx):
         return deviations_2d(index, apply2(Tc, q2[idx])).signed
 
-    T2 = reg.T_template_measured
+    T2 = reg.T_nominal_measured
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     j = _judge_pose(reg, T2, apply2(T2, q2), reg.deviations,
                     _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
                     tolerance, fit, decision_rule, extra)
     t1 = j.fitted_at
-    registered, dev, reg3 = _lifted(reg, j.T, F, j.deviations, measured)
+    reg3 = reg.lifted(F, j.T, j.deviations)
+    T = reg3.T_nominal_measured
+    registered = measured @ T[:3, :3].T + T[:3, 3]
     extra["template"]["symmetric"] = reg.symmetric
     extra["template"].update(template_facts or {})
     t2 = time.perf_counter()
     timings = {"register": t1 - t0, "deviation": t2 - t1 - j.sensitivity_s,
                "pose_sensitivity": j.sensitivity_s}
     return InspectionResult(tolerance=tolerance, registration=reg3, registered=registered,
-                            deviations=dev, normals_source="contour", timings_s=timings,
+                            deviations=reg3.deviations, normals_source="contour", timings_s=timings,
                             extra=extra, **j.verdict_fields)
-
-
-def _lifted(reg, T2: np.ndarray, F: np.ndarray, dev2, measured: np.ndarray):
-    """The 2D fit in 3D: (registered (n, 3), Deviations, RegistrationResult) of the measured
-    points (n, 3) under the full 4x4 ``T_nominal_measured`` = the in-plane pose T2 (3x3) after
-    the plane frame F (4x4), with the 2D deviations ``dev2`` there (no normal component in z)."""
-    E = np.eye(4)
-    E[:2, :2] = T2[:2, :2]
-    E[:2, 3] = T2[:2, 2]
-    T = E @ F
-    registered = measured @ T[:3, :3].T + T[:3, 3]
-    zeros = np.zeros(dev2.signed.size)
-    dev = Deviations(dev2.signed, np.column_stack([dev2.foot, zeros]),
-                     np.column_stack([dev2.normal, zeros]), zeros.astype(bool))
-    reg3 = RegistrationResult(
-        T_nominal_measured=T, converged=reg.converged, iterations=reg.iterations, rms=reg.rms,
-        n_inliers=reg.n_inliers, inlier=reg.inlier, outlier_cut=reg.outlier_cut,
-        score=reg.score, hypotheses=reg.hypotheses, runner_up_score=reg.runner_up_score,
-        runner_up_T=None, deviations=dev, deviation_s=0.0, near_fraction=reg.near_fraction,
-        near_distance=reg.near_distance, message=reg.message, gross_rule=reg.gross_rule,
-        rms_definition="RMS of signed point-to-contour deviations over the points the final fit "
-                       "used: every point but the gross outliers (mm)")
-    return registered, dev, reg3

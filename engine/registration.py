@@ -34,11 +34,12 @@ from __future__ import annotations
 
 import time
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .contour import Deviations2D
 from .deviation import Deviations, point_to_surface
 from .geometry import (
     make_transform,
@@ -108,21 +109,34 @@ class RegistrationSettings:
     iteration over all points continues."""
 
 
+SURFACE_RMS = ("RMS of signed point-to-surface deviations over the points used by the final fit: "
+               "all but those excluded from the alignment as gross outliers (mm)")
+CONTOUR_RMS = ("RMS of signed point-to-contour deviations over the points the final fit used: "
+               "every point but the gross outliers (mm)")
+
+
 @dataclass(frozen=True)
 class RegistrationResult:
-    """Outcome of :func:`register`.
+    """Outcome of :func:`register` (3D) and of :func:`engine.registration2d.register_2d` (2D): one
+    type for both, so the verdict, the trust statements and the outputs read either alike.
 
-    T_nominal_measured : (4, 4) maps measured coordinates into the nominal frame.
-    rms : root mean square of the signed point-to-surface deviations over the ``n_inliers``
-        points the final fit used (every point but the gross outliers), mm.
+    T_nominal_measured : homogeneous transform mapping measured coordinates into the nominal
+        frame: (4, 4) in 3D; in 2D (3, 3), from the measured points' plane coordinates (x, y as
+        given, or in their fitted plane's frame) into the template's (``inspect_2d`` lifts it to
+        (4, 4) with :meth:`lifted`).
+    rms : root mean square of the signed deviations over the ``n_inliers`` points the final fit
+        used (every point but the gross outliers), mm; ``rms_definition`` says it in words.
     inlier : (n,) bool, the points the final least-squares fit used: False only on the gross
         outliers of ``gross_rule``, which are excluded from the alignment (and judged).
     outlier_cut : the gross-outlier threshold (``gross_rule.threshold_mm``), mm.
     score : truncated RMS sqrt(mean(min(d^2, cut^2))) of the deviations, mm, over a seeded subset
         of at most 4,096 measured points (all of them when fewer), outliers included up to the
         cut; lower is better; the same measure on the same points scores the runner-up pose.
-    runner_up_score : score of the best pose distinct from the chosen one (None when the global
-        search ended with a single distinct pose).
+    runner_up_score, runner_up_T : score and pose of the best pose distinct from the chosen one
+        (None when the global search ended with a single distinct pose).
+    symmetric : the runner-up fits as well and maps the nominal onto itself, so that every
+        deviation is the same at both poses (tested for 2D templates; always False in 3D, where
+        weak and free directions are the concern of engine.trust).
     """
 
     T_nominal_measured: np.ndarray
@@ -136,21 +150,56 @@ class RegistrationResult:
     hypotheses: int
     runner_up_score: float | None
     runner_up_T: np.ndarray | None
-    deviations: Deviations
+    deviations: Deviations | Deviations2D
     """Signed deviations of every measured point at ``T_nominal_measured``."""
     deviation_s: float
     """Seconds the evaluation of ``deviations`` took (part of the registration's run time)."""
     near_fraction: float
-    """Fraction of all measured points within ``near_distance`` of the nominal surface."""
+    """Fraction of all measured points within ``near_distance`` of the nominal."""
     near_distance: float
-    """``near_fraction_of_size`` x the nominal's bounding-box diagonal, mm."""
-    message: str = ""
-    rms_definition: str = field(default="RMS of signed point-to-surface deviations over the "
-                                        "points used by the final fit: all but those excluded "
-                                        "from the alignment as gross outliers (mm)")
-    gross_rule: GrossRule | None = None
+    """A small fraction of the nominal's size, mm (``near_fraction_of_size`` x the bounding-box
+    diagonal in 3D, 1% of the template's extent in 2D)."""
+    gross_rule: GrossRule
     """The gross-outlier rule at the final pose (engine.outliers): which points were excluded
     from the alignment, and why."""
+    message: str = ""
+    rms_definition: str = SURFACE_RMS
+    symmetric: bool = False
+
+    @classmethod
+    def from_fit(cls, T_nominal_measured: np.ndarray, deviations, inlier: np.ndarray,
+                 rule: GrossRule, near_distance: float, **fields) -> "RegistrationResult":
+        """The result of a final fit at ``T_nominal_measured``: rms, inlier count, outlier cut
+        and near fraction follow from its deviations, inliers and gross rule; ``fields`` gives
+        the rest (converged, iterations, score, hypotheses, runner_up_score, runner_up_T, ...)."""
+        d_in = deviations.signed[inlier]
+        rms = float(np.sqrt(np.mean(d_in * d_in))) if inlier.any() else float("nan")
+        fields.setdefault("deviation_s", 0.0)
+        return cls(T_nominal_measured=T_nominal_measured, rms=rms, n_inliers=int(inlier.sum()),
+                   inlier=inlier, outlier_cut=rule.threshold_mm, deviations=deviations,
+                   near_fraction=float(np.mean(np.abs(deviations.signed) <= near_distance)),
+                   near_distance=near_distance, gross_rule=rule, **fields)
+
+    def lifted(self, F: np.ndarray, T2: np.ndarray, deviations: Deviations2D
+               ) -> "RegistrationResult":
+        """A 2D result in 3D: ``T_nominal_measured`` (4, 4) = the in-plane pose T2 (3, 3; the
+        registered pose or a refit of it) after the plane frame F (4, 4) that carried the
+        measured points into the template's plane; ``deviations`` (2D, at T2) gain a zero z
+        component; the runner-up pose is lifted alike."""
+        zeros = np.zeros(deviations.signed.size)
+        dev = Deviations(deviations.signed, np.column_stack([deviations.foot, zeros]),
+                         np.column_stack([deviations.normal, zeros]), zeros.astype(bool))
+        runner = None if self.runner_up_T is None else _in_plane(self.runner_up_T) @ F
+        return dataclasses.replace(self, T_nominal_measured=_in_plane(T2) @ F, deviations=dev,
+                                   runner_up_T=runner)
+
+
+def _in_plane(T2: np.ndarray) -> np.ndarray:
+    """The 2D homogeneous transform T2 (3, 3) as the 3D one (4, 4) that leaves z alone."""
+    E = np.eye(4)
+    E[:2, :2] = T2[:2, :2]
+    E[:2, 3] = T2[:2, 2]
+    return E
 
 
 def register(nominal: Nominal, measured: np.ndarray,
@@ -167,6 +216,19 @@ def register(nominal: Nominal, measured: np.ndarray,
     ratio = nominal.diagonal / max(extent, 1e-12)
     coarse = int(np.clip(settings.coarse_samples_per_area * ratio * ratio,
                          settings.coarse_size, 16 * settings.coarse_size))
+    T, sub, n_hyp = _global_search(nominal, measured, coarse, settings)
+    T, iters = _coarse_to_fine(nominal, measured, T, coarse, settings)
+    return _final_fit(nominal, measured, list(T), sub, settings, zone_width,
+                      hypotheses=n_hyp, iterations=iters)
+
+
+def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
+                   settings: RegistrationSettings):
+    """(T (k, 4, 4), sub, n_hypotheses): the best distinct poses of every hypothesis after ICP on
+    the nominal's ``coarse`` level, and the measured subset ``sub`` (indices) they were kept on.
+
+    Scores on a coarse sample cannot tell close fits apart (its chords are off by curvature x
+    spacing^2), so several distinct poses are carried to the finer levels, where they can."""
     lvl_idx, lvl_tree = nominal.level(coarse)
     lvl_pts = nominal.points[lvl_idx]
     lvl_nrm = nominal.normals(lvl_idx)
@@ -177,11 +239,8 @@ def register(nominal: Nominal, measured: np.ndarray,
     sub = _spread_subset(measured, settings.coarse_measured)
     T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings)
     n_hyp = T.shape[0]
-
-    # Global stage on the coarsest level: every hypothesis iterates, poses that arrive at the
-    # same place merge, and only the best distinct ones go on. Scores on a coarse sample cannot
-    # tell close fits apart (its chords are off by curvature x spacing^2), so several distinct
-    # poses are carried to the finer levels, where they can.
+    # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
+    # distinct ones go on.
     first = sub[_spread_subset(measured[sub], settings.coarse_measured // 2)]
     T, score, _ = _icp_batch(T, measured[first], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=3,
                              lam2=0.01, shape=lvl_shape,
@@ -190,9 +249,14 @@ def register(nominal: Nominal, measured: np.ndarray,
     T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=6,
                              lam2=0.01, shape=lvl_shape,
                              stage=(f"global search, best {T.shape[0]} poses", 0.25, 0.4))
-    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0])
+    return _best_distinct(T, score, measured[sub], settings.keep_per_level[0]), sub, n_hyp
 
-    # Coarse to fine: the nominal sample grows x4 per level, the measured subset with it.
+
+def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coarse: int,
+                    settings: RegistrationSettings):
+    """(T (k, 4, 4), iterations): the candidate poses refined level by level, the nominal
+    sample growing x4 per level from ``coarse`` and the measured subset with it; the count
+    includes the global stage's iterations."""
     size = coarse
     level = 0
     iters = 10
@@ -222,11 +286,15 @@ def register(nominal: Nominal, measured: np.ndarray,
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
         T = _best_distinct(T, score, measured[msub], keep)
-    refined = list(T)
+    return T, iters
 
-    # Score every refined candidate by its point-to-surface deviations (on a seeded subset of
-    # the measured points) under one common cut; the best gets the point-to-surface finish, the
-    # best distinct other one is the runner-up.
+
+def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.ndarray,
+               settings: RegistrationSettings, zone_width: float | None, hypotheses: int,
+               iterations: int) -> RegistrationResult:
+    """Score every refined candidate pose (4, 4) by its point-to-surface deviations (on a seeded
+    subset of the measured points) under one common cut; the best gets the point-to-surface
+    finish, the best distinct other one is the runner-up."""
     floor = settings.outlier_floor * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
     report("comparing the candidate poses", 0.8)
@@ -252,20 +320,14 @@ def register(nominal: Nominal, measured: np.ndarray,
     else:
         Tb, converged, it, inlier, rule, dev_b, dev_s, message = _point_to_surface_fit(
             nominal, measured, refined[best], settings, zone_width)
-    near_fraction = float(np.mean(np.abs(dev_b.signed) <= near))
-    score = _truncated_rms(dev_b.signed[ssub], cut0)
     runner = next((int(j) for j in order[1:]
                    if _is_distinct(refined[j], Tb, measured[sub], nominal.diagonal)), None)
-    d_in = dev_b.signed[inlier]
-    rms = float(np.sqrt(np.mean(d_in * d_in))) if inlier.any() else float("nan")
-    return RegistrationResult(
-        T_nominal_measured=Tb, converged=converged, iterations=iters + it, rms=rms,
-        n_inliers=int(inlier.sum()), inlier=inlier, outlier_cut=rule.threshold_mm, score=score,
-        hypotheses=n_hyp,
+    return RegistrationResult.from_fit(
+        Tb, dev_b, inlier, rule, near, converged=converged, iterations=iterations + it,
+        score=_truncated_rms(dev_b.signed[ssub], cut0), hypotheses=hypotheses,
         runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else refined[runner], deviations=dev_b,
-        deviation_s=dev_s, near_fraction=near_fraction, near_distance=near, message=message,
-        gross_rule=rule)
+        runner_up_T=None if runner is None else refined[runner], deviation_s=dev_s,
+        message=message)
 
 
 def _truncated_rms(d: np.ndarray, cut: float) -> float:

@@ -30,7 +30,7 @@ from .contour import ContourIndex, Deviations2D, deviations_2d
 from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
                        gross_rule)
 from .progress import report
-from .registration import min_norm_solve, robust_cut
+from .registration import CONTOUR_RMS, RegistrationResult, min_norm_solve, robust_cut
 
 _SEED = 11
 GROSS_FLOOR = 1e-4
@@ -43,42 +43,6 @@ STEP_TOL = 1e-10
 the coordinates' size (some 1e6 times the float resolution of the coordinates, 0.03 um at 3e5 mm)
 plus 1e-4 of the RMS of the deviations (a step that changes the sum of squares by at most 1e-8
 of itself)."""
-
-
-@dataclass(frozen=True)
-class Registration2D:
-    """Outcome of :func:`register_2d`.
-
-    T_template_measured : (3, 3) homogeneous 2D transform mapping the measured points' plane
-        coordinates (x, y as given, or in their fitted plane's frame) into the template frame.
-    rms : RMS of the signed deviations over the points of the final fit (mm).
-    inlier : (n,) bool, the points of the final least-squares fit: all but the gross outliers;
-        outlier_cut : the gross rule's threshold (mm); gross_rule : the rule as applied.
-    score : truncated RMS sqrt(mean(min(d^2, cut^2))) (mm) over a seeded subset of at most 4,096
-        points; runner_up_score the same for the best distinct other pose after a short fit
-        (None when there is none).
-    symmetric : the runner-up pose fits as well and maps the template onto itself.
-    """
-
-    T_template_measured: np.ndarray
-    converged: bool
-    iterations: int
-    rms: float
-    n_inliers: int
-    inlier: np.ndarray
-    outlier_cut: float
-    score: float
-    hypotheses: int
-    runner_up_score: float | None
-    symmetric: bool
-    deviations: Deviations2D
-    near_fraction: float
-    near_distance: float
-    message: str = ""
-    runner_up_T: np.ndarray | None = None
-    """The runner-up pose (3x3), after its short fit."""
-    gross_rule: GrossRule | None = None
-    """The gross-outlier rule at the final pose (threshold, zone, robust spread, floor)."""
 
 
 def rot2(theta) -> np.ndarray:
@@ -128,7 +92,7 @@ class _Samples:
 
 def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
                 max_anchors: int = 400, outlier_sigmas: float = 6.0,
-                max_iterations: int = 50, zone_width: float | None = None) -> Registration2D:
+                max_iterations: int = 50, zone_width: float | None = None) -> RegistrationResult:
     """Find the 2D pose of measured points (n, 2) on the template of ``index``.
 
     outlier_sigmas : the robust cut of the coarse stages; zone_width : the tolerance zone's
@@ -137,6 +101,60 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     S = _Samples(index)
     extent_t = float(np.linalg.norm(np.ptp(S.pts, axis=0)))
     extent_m = float(np.linalg.norm(np.ptp(p, axis=0)))
+    h = S.spacing
+    T, n_hyp = _candidates(index, S, p, n_angles, max_anchors, outlier_sigmas, extent_t, extent_m)
+    # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
+    # a subset of the points), the best of them to convergence; then the final least squares,
+    # on the subset first (cheap), then over every point.
+    near = 0.01 * extent_t
+    fsub = _spread(p, 4096)
+    # (A single clear candidate needs no short round.)
+    short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5 if len(T) > 1 else 0, h)
+             for Tc in T[:3]]
+    cut0 = min(f[4] for f in short)
+    scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
+    best = int(np.argmin(scores))
+    Tb, _, it, _, _, _ = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
+                                        max_iterations, h)
+    floor = GROSS_FLOOR * max(extent_t, 1e-12)
+    tol = STEP_TOL * max(extent_t, float(np.max(np.abs(index.tree.data))), 1.0)
+
+    def final(Tc, pts):
+        return _least_squares(index, pts, Tc, zone_width, floor, tol, max_iterations)
+
+    fit = final(Tb, p[fsub])
+    Tb, it = fit[0], it + fit[2]
+    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
+    runner = next((int(j) for j in np.argsort(scores, kind="stable") if j != best
+                   and _distinct(short[j][0], Tb, p[fsub], 0.01 * max(extent_m, 1e-12))), None)
+    symmetric = False
+    if runner is not None and scores[runner] <= 1.05 * score + 0.1 * h:
+        # Does the relative transform map the template onto itself?
+        rel = short[runner][0] @ np.linalg.inv(Tb)
+        symmetric = _maps_onto_itself(rel, S, h)
+        refit = _symmetric_pose(index, S, p[fsub], rel, Tb, outlier_sigmas, cut0, floor) \
+            if symmetric else None
+        if refit is not None:
+            fit = final(refit, p[fsub])
+            Tb, it = fit[0], it + fit[2]
+            score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
+    if fsub.size < p.shape[0]:
+        fit = final(Tb, p)
+        it += fit[2]
+    Tb, conv, _, inl, rule, dev = fit
+    message = "" if conv else (f"the point-to-contour fit did not settle within "
+                               f"{max_iterations} iterations")
+    return RegistrationResult.from_fit(
+        Tb, dev, inl, rule, near, converged=conv, iterations=5 + 6 + 8 + it, score=score,
+        hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
+        runner_up_T=None if runner is None else short[runner][0], message=message,
+        rms_definition=CONTOUR_RMS, symmetric=symmetric)
+
+
+def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int,
+                max_anchors: int, outlier_sigmas: float, extent_t: float, extent_m: float):
+    """(T (k, 3, 3), n_hypotheses): the candidate poses of the measured points p (n, 2) on the
+    template, best first, after the global search and ICP on the contour samples."""
     cm = p.mean(axis=0)
     sub = _spread(p, 48)
     hyps = []
@@ -156,7 +174,6 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
             hyps.append(_pose(th, S.pts[k] - rot2(th) @ p0))
     T = np.array(hyps)
     n_hyp = T.shape[0]
-    h = S.spacing
     Sc = S.coarse(1000)
     report(f"global search over {n_hyp} poses", 0.1)
     T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], Sc, iterations=5)
@@ -180,70 +197,22 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         T, xs = _short_fits(index, p[_spread(p, 256)], T_icp[order], outlier_sigmas, S.spacing,
                             floor0, 3)
         T = T[np.argsort(xs, kind="stable")]
-    # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
-    # a subset of the points), the best of them to convergence; then the final least squares,
-    # on the subset first (cheap), then over every point.
-    near = 0.01 * extent_t
-    fsub = _spread(p, 4096)
-    # (A single clear candidate needs no short round.)
-    short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5 if len(T) > 1 else 0, h)
-             for Tc in T[:3]]
-    cut0 = min(f[4] for f in short)
-    scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
-    best = int(np.argmin(scores))
-    Tb, _, it, _, _, _ = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
-                                        max_iterations, h)
-    floor = GROSS_FLOOR * max(extent_t, 1e-12)
-    tol = STEP_TOL * max(extent_t, float(np.max(np.abs(index.tree.data))), 1.0)
+    return T, n_hyp
 
-    def final(Tc, pts):
-        return _least_squares(index, pts, Tc, zone_width, floor, tol, max_iterations)
 
-    fit = final(Tb, p[fsub])
-    Tb, it = fit[0], it + fit[2]
-    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
-    runner = None
-    symmetric = False
-    for j in np.argsort(scores, kind="stable"):
-        if j == best:
-            continue
-        if _distinct(short[j][0], Tb, p[fsub], 0.01 * max(extent_m, 1e-12)):
-            runner = int(j)
-            break
-    if runner is not None and scores[runner] <= 1.05 * score + 0.1 * h:
-        # Does the relative transform map the template onto itself?
-        rel = short[runner][0] @ np.linalg.inv(Tb)
-        symmetric = _maps_onto_itself(rel, S, h)
-        if symmetric:
-            # A drawing is rarely exactly symmetric: of all the poses the symmetry gives (a
-            # gear's every tooth), the points may fit one better. Refit each briefly.
-            group = _symmetry_group(rel, S, h)
-            if group:
-                msub = fsub[_spread(p[fsub], 256)]
-                alt, alt_scores = _short_fits(index, p[msub], np.array([np.eye(3)] + group) @ Tb,
-                                              outlier_sigmas, cut0, floor, 3)
-                k = int(np.argmin(alt_scores))
-                if alt_scores[k] < 0.5 * alt_scores[0]:
-                    fit = final(alt[k], p[fsub])
-                    Tb, it = fit[0], it + fit[2]
-                    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
-    if fsub.size < p.shape[0]:
-        fit = final(Tb, p)
-        it += fit[2]
-    Tb, conv, _, inl, rule, dev = fit
-    cut = rule.threshold_mm
-    d_in = dev.signed[inl]
-    message = "" if conv else (f"the point-to-contour fit did not settle within "
-                               f"{max_iterations} iterations")
-    return Registration2D(
-        T_template_measured=Tb, converged=conv, iterations=5 + 6 + 8 + it,
-        rms=float(np.sqrt(np.mean(d_in ** 2))) if inl.any() else float("nan"),
-        n_inliers=int(inl.sum()), inlier=inl, outlier_cut=cut, score=score,
-        hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
-        symmetric=symmetric, deviations=dev,
-        near_fraction=float(np.mean(np.abs(dev.signed) <= near)), near_distance=near,
-        message=message, runner_up_T=None if runner is None else short[runner][0],
-        gross_rule=rule)
+def _symmetric_pose(index: ContourIndex, S: "_Samples", q: np.ndarray, rel: np.ndarray,
+                    Tb: np.ndarray, outlier_sigmas: float, cut: float, floor: float):
+    """A drawing is rarely exactly symmetric: of all the poses the symmetry ``rel`` (3, 3,
+    template frame) gives from ``Tb`` (a gear's every tooth), the points q (m, 2) may fit one
+    better. Each is refitted briefly; the pose that halves the fitted one's score, or None."""
+    group = _symmetry_group(rel, S, S.spacing)
+    if not group:
+        return None
+    msub = _spread(q, 256)
+    alt, alt_scores = _short_fits(index, q[msub], np.array([np.eye(3)] + group) @ Tb,
+                                  outlier_sigmas, cut, floor, 3)
+    k = int(np.argmin(alt_scores))
+    return alt[k] if alt_scores[k] < 0.5 * alt_scores[0] else None
 
 
 def _maps_onto_itself(U: np.ndarray, S: _Samples, h: float) -> bool:

@@ -87,7 +87,7 @@ def plausible_runner_up(reg) -> bool:
     """A distinct runner-up pose scoring within AMBIGUITY_SCORE_RATIO of the chosen one, and no
     symmetry of a 2D template (which leaves every deviation as it is)."""
     return (reg.runner_up_T is not None and reg.runner_up_score is not None
-            and not getattr(reg, "symmetric", False)
+            and not reg.symmetric
             and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score)
 
 

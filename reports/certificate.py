@@ -123,11 +123,7 @@ def certificate_number(run: Run, issued: dt.datetime) -> str:
 
 def _exclusion_rule(reg) -> str:
     """The gross-outlier rule as applied, in words (engine.outliers)."""
-    rule = getattr(reg, "gross_rule", None)
-    if rule is None:
-        return (f"Points farther than {reg.outlier_cut:.4g} mm from the surface are excluded "
-                "from the alignment as gross outliers and judged like every other point")
-    text = rule.describe()
+    text = reg.gross_rule.describe()
     return text[:1].upper() + text[1:]
 
 

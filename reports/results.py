@@ -177,16 +177,15 @@ RULE_DEFINITIONS = {
 
 def _gross_outliers(reg, dev: np.ndarray) -> dict:
     """The points excluded from the alignment, and the rule that excluded them."""
-    rule = getattr(reg, "gross_rule", None)
+    rule = reg.gross_rule
     excluded = np.flatnonzero(~np.asarray(reg.inlier, bool))
     return {
-        "rule": None if rule is None else rule.describe(),
-        "threshold_mm": _num(reg.outlier_cut if rule is None else rule.threshold_mm),
-        "centre_mm": None if rule is None else _num(rule.centre_mm),
-        "zone_width_mm": None if rule is None or rule.zone_width_mm is None
-        else _num(rule.zone_width_mm),
-        "robust_sigma_mm": None if rule is None else _num(rule.robust_sigma_mm),
-        "floor_mm": None if rule is None else _num(rule.floor_mm),
+        "rule": rule.describe(),
+        "threshold_mm": _num(rule.threshold_mm),
+        "centre_mm": _num(rule.centre_mm),
+        "zone_width_mm": None if rule.zone_width_mm is None else _num(rule.zone_width_mm),
+        "robust_sigma_mm": _num(rule.robust_sigma_mm),
+        "floor_mm": _num(rule.floor_mm),
         "n_excluded": int(excluded.size),
         "excluded": [{"index": int(i), "deviation": _num(float(dev[i]))}
                      for i in excluded[:GROSS_LISTED]],

@@ -29,7 +29,7 @@ def test_pose_from_any_angle_and_offset(seed):
     meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-800, 800, 2)), q)
     r = register_2d(ContourIndex(t), meas)
     assert r.converged and not r.symmetric
-    assert np.max(np.linalg.norm(apply2(r.T_template_measured, meas) - q, axis=1)) < 0.003
+    assert np.max(np.linalg.norm(apply2(r.T_nominal_measured, meas) - q, axis=1)) < 0.003
 
 
 def test_points_along_part_of_the_contour():
@@ -40,7 +40,7 @@ def test_points_along_part_of_the_contour():
     q = points_on(t, 150, rng, w) + rng.normal(0, 0.002, (150, 2))
     meas = apply2(_pose(2.0, [300.0, -40.0]), q)
     r = register_2d(ContourIndex(t), meas)
-    assert np.max(np.linalg.norm(apply2(r.T_template_measured, meas) - q, axis=1)) < 0.005
+    assert np.max(np.linalg.norm(apply2(r.T_nominal_measured, meas) - q, axis=1)) < 0.005
 
 
 def test_symmetric_gear_any_equivalent_pose_is_right():
@@ -51,8 +51,30 @@ def test_symmetric_gear_any_equivalent_pose_is_right():
     meas = apply2(_pose(1.234, [55.0, -20.0]), q)
     r = register_2d(idx, meas)
     assert r.converged and r.symmetric
-    d = deviations_2d(idx, apply2(r.T_template_measured, meas)).signed
+    d = deviations_2d(idx, apply2(r.T_nominal_measured, meas)).signed
     assert np.max(np.abs(d)) < 1e-6
+
+
+def test_symmetric_gear_measured_in_3d_one_registration_result():
+    """The 2D fit lifted into 3D is the same result type as a 3D registration, whole: the
+    chosen and the runner-up pose are both 4x4 in the nominal frame, and a gear's runner-up (a
+    symmetry) puts the measured points onto the drawing as well as the chosen pose does."""
+    rng = np.random.default_rng(16)
+    g = read_dxf_template(f"{DATA}/gear_z20.dxf", units="mm").template
+    q = points_on(g, 400, rng, (g.contour == 0).astype(float))
+    R = random_rotation(rng)
+    meas = np.column_stack([q, np.zeros(len(q))]) @ R.T + rng.uniform(-300, 300, 3)
+    res = inspect_2d(g, meas, 3, Tolerance.symmetric(0.05))
+    reg = res.registration
+    assert type(reg) is type(register_2d(ContourIndex(g), q[:50]))
+    assert reg.symmetric and res.extra["template"]["symmetric"]
+    idx = ContourIndex(g)
+    for T in (reg.T_nominal_measured, reg.runner_up_T):
+        assert T.shape == (4, 4)
+        X = meas @ T[:3, :3].T + T[:3, 3]
+        assert np.max(np.abs(X[:, 2])) < 1e-6
+        # The runner-up is the short fit's pose: within a few microns, not to 1e-6.
+        assert np.max(np.abs(deviations_2d(idx, X[:, :2]).signed)) < 0.005
 
 
 def test_planar_template_measured_in_3d_either_face_up():
