@@ -1,0 +1,134 @@
+"""An inspection plan: what a drawing asks of the part, as data (read by engine.io.plan).
+
+Without a plan the product answers one question: after a best fit over all points, is every point
+within the zone? A plan states, like the drawing's feature control frames:
+
+* regions: named sets of nominal points (a box in nominal coordinates, a glob on the nominal's
+  point labels, or a mesh group / DXF layer), optionally with the measured points' labels;
+* datums: features fitted to a region's measured points (plane, cylinder, sphere in 3D; line,
+  circle in 2D), tangent (outside the material, ASME Y14.5 / ISO 5459 default) or least squares;
+* the alignment: how the part is placed before it is judged: a best fit (today's behaviour), a
+  datum reference frame (primary, secondary, tertiary; the freedom they leave best-fitted on named
+  regions), or reference point system (RPS) points;
+* characteristics: profile (relative to datums, or form only), flatness, position and size, each
+  with its zone.
+
+Units mm; coordinates in the nominal frame. Every object here is frozen.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+FEATURES_3D = ("plane", "cylinder", "sphere")
+FEATURES_2D = ("line", "circle")
+DATUM_FITS = ("tangent", "lsq")
+ALIGNMENTS = ("best-fit", "datums", "rps")
+CHARACTERISTICS = ("profile", "flatness", "position", "size")
+CONSTRAINED_DOFS = {"plane": 3, "cylinder": 4, "sphere": 3, "line": 2, "circle": 2}
+"""Degrees of freedom a datum feature can constrain on its own (a plane: the translation along
+its normal and the two tilts; a cylinder: its axis' direction and position; a sphere: its
+centre; in 2D a line: its direction and offset; a circle: its centre)."""
+MIN_POINTS = {"plane": 3, "cylinder": 5, "sphere": 4, "line": 2, "circle": 3}
+"""Fewest measured points that determine the feature (fewer: the characteristics that need it
+are INCONCLUSIVE, never guessed)."""
+
+
+@dataclass(frozen=True)
+class Part:
+    """What the certificate names: part number, name, drawing revision (each may be empty)."""
+
+    number: str = ""
+    name: str = ""
+    revision: str = ""
+
+
+@dataclass(frozen=True)
+class Region:
+    """A named set of nominal points, by exactly one selector.
+
+    box : ((3,), (3,)) lower and upper corners of an axis-aligned box, nominal frame, mm;
+    labels : fnmatch glob on the nominal point file's label column;
+    group : a mesh group (OBJ g/o), DXF layer, or STEP face (later);
+    measured_labels : fnmatch glob: measured points with these labels belong here (else a
+        measured point belongs to the region of its nearest nominal point).
+    """
+
+    name: str
+    box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    labels: str | None = None
+    group: str | None = None
+    measured_labels: str | None = None
+
+
+@dataclass(frozen=True)
+class Datum:
+    label: str
+    region: str
+    feature: str
+    """plane | cylinder | sphere (3D); line | circle (2D)."""
+    fit: str = "tangent"
+    """tangent: outside the material, minimising the largest gap; lsq: least squares."""
+
+
+@dataclass(frozen=True)
+class RpsPoint:
+    """A reference point: the measured point labelled ``label`` is moved onto ``nominal`` along
+    the locked axes of the nominal frame ("x", "y", "z")."""
+
+    label: str
+    nominal: tuple[float, float, float]
+    lock: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Alignment:
+    method: str = "best-fit"
+    reference: tuple[str, ...] = ()
+    """Datum labels, primary first."""
+    best_fit_regions: tuple[str, ...] = ()
+    """Regions whose points best-fit the degrees of freedom the datums leave free."""
+
+
+@dataclass(frozen=True)
+class Characteristic:
+    """One requirement of the drawing.
+
+    id : the balloon number. type : profile | flatness | position | size.
+    lower, upper : the zone, mm. Profile: limits of the signed deviation (zone = 0.1 is
+        -0.05 .. +0.05). Flatness and position: 0 .. zone (position: a diameter). Size: limits
+        of the fitted diameter about ``nominal``.
+    datums : datum labels the characteristic is relative to, primary first; empty: form only
+        (a profile then refits its region with ``fit``).
+    """
+
+    id: str
+    type: str
+    region: str
+    lower: float
+    upper: float
+    datums: tuple[str, ...] = ()
+    fit: str = "lsq"
+    nominal: float | None = None
+
+    @property
+    def width(self) -> float:
+        return self.upper - self.lower
+
+
+@dataclass(frozen=True)
+class Plan:
+    path: str
+    sha256: str
+    part: Part
+    regions: tuple[Region, ...]
+    datums: tuple[Datum, ...]
+    alignment: Alignment
+    characteristics: tuple[Characteristic, ...]
+    rps: tuple[RpsPoint, ...] = ()
+
+    def region(self, name: str) -> Region:
+        return next(r for r in self.regions if r.name == name)
+
+    def datum(self, label: str) -> Datum:
+        return next(d for d in self.datums if d.label == label)
