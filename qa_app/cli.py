@@ -55,6 +55,15 @@ def build_parser() -> argparse.ArgumentParser:
                 "against a nominal, from any pose (soft registration).")
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    _add_inspect(sub)
+    _add_keygen(sub)
+    _add_verify(sub)
+    return p
+
+
+def _add_inspect(sub: argparse._SubParsersAction) -> None:
+    """``qa-inspect inspect NOMINAL MEASURED``: the inputs, the tolerance zone (mm), the
+    template options, the fit and decision rule, the JSON and CSV outputs, and the certificate."""
     i = sub.add_parser("inspect", help="register measured points to a nominal and judge them",
                        description="Register MEASURED to NOMINAL from any pose, measure every "
                        "point's signed deviation (positive = excess material, mm) and judge it "
@@ -87,6 +96,12 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")
+    _add_certificate_options(i)
+
+
+def _add_certificate_options(i: argparse.ArgumentParser) -> None:
+    """The ``certificate`` group of ``inspect``: the PDF, its signing identity and the fields
+    printed on it."""
     c = i.add_argument_group("certificate")
     c.add_argument("--report", metavar="FILE.pdf",
                    help="write the inspection certificate (PDF; an UNSIGNED DRAFT without "
@@ -106,6 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
                        ("notes", "free text printed on the certificate")):
         c.add_argument(f"--{name}", metavar="TEXT", help=text)
 
+
+def _add_keygen(sub: argparse._SubParsersAction) -> None:
+    """``qa-inspect keygen``: a demonstration CA and inspector identity."""
     k = sub.add_parser("keygen", help="make a DEMONSTRATION CA and inspector signing identity",
                        description="Write DIR/ca.pem (the trust anchor to give verifiers) and "
                        "DIR/inspector.p12 (the inspector's key and certificate, passphrase-"
@@ -118,6 +136,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="read the passphrase from environment variable VAR (default: ask "
                         "twice without echo)")
 
+
+def _add_verify(sub: argparse._SubParsersAction) -> None:
+    """``qa-inspect verify CERTIFICATE.pdf``: the certificate, the trusted CAs and the files to
+    re-run it on."""
     v = sub.add_parser("verify", help="verify a signed certificate",
                        description="Exit 0 only if every signature is intact, the signer "
                        "chains to a trusted CA and nothing was changed after signing (and, "
@@ -129,7 +151,6 @@ def build_parser() -> argparse.ArgumentParser:
                         "trusted")
     v.add_argument("--nominal", metavar="FILE", help="the nominal file, to check and re-run")
     v.add_argument("--measured", metavar="FILE", help="the measured file, to check and re-run")
-    return p
 
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]

@@ -497,6 +497,30 @@ class ToleranceForm(QWidget):
         self.session = session
         self.presets = presets
         self._loading = self._pushing = False
+        self._make_fields()
+        save = self._make_buttons()
+        self._lay_out(save)
+        for w in (self.sym, self.asym):
+            w.toggled.connect(self._mode)
+        self.preset.activated.connect(self._apply_preset)
+        for combo in (self.fit, self.rule, self.preset):
+            # Long item texts must not set the panel's minimum width.
+            combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
+            combo.setMinimumContentsLength(12)
+        self._mode()
+        session.settings_changed.connect(self.load)
+        self.load()
+        for spin in (self.tol, self.lower, self.upper, self.chord):
+            spin.valueChanged.connect(self.push)
+        self.sym.toggled.connect(self.push)
+        for combo in (self.fit, self.rule):
+            combo.currentIndexChanged.connect(self.push)
+        # The airfoil chord applies to .dat nominals only (see settings_fields).
+        session.inputs_changed.connect(self.push)
+
+    def _make_fields(self) -> None:
+        """The settings controls: the zone (symmetric ±T, or lower and upper limits, mm), the
+        fit, the decision rule and the airfoil chord (mm; 0 shows as "airfoil .dat only")."""
         self.sym = QRadioButton("Symmetric ±")
         self.asym = QRadioButton("Asymmetric")
         self.sym.setChecked(True)
@@ -519,6 +543,10 @@ class ToleranceForm(QWidget):
         self.chord.setSuffix(" mm")
         self.chord.setSpecialValueText("(airfoil .dat only)")
         self.chord.setToolTip("Chord length of an airfoil ordinate template (.dat)")
+
+    def _make_buttons(self) -> QPushButton:
+        """The preset chooser, the Inspect and Cancel buttons, and the "Save preset…" button,
+        which is returned for the layout."""
         self.preset = QComboBox()
         self.preset.setToolTip("Per-part tolerance presets")
         self._fill_presets()
@@ -530,6 +558,11 @@ class ToleranceForm(QWidget):
         self.cancel_button = QPushButton("Cancel")
         self.inspect_button.clicked.connect(self.inspect_clicked)
         self.cancel_button.clicked.connect(self.cancel_clicked)
+        return save
+
+    def _lay_out(self, save: QPushButton) -> None:
+        """The form (zone, limits, preset, fit, decision rule, chord: one a row) above the
+        Inspect and Cancel buttons."""
         form = QFormLayout()
         row = QHBoxLayout()
         row.addWidget(self.sym)
@@ -552,23 +585,6 @@ class ToleranceForm(QWidget):
         lay = QVBoxLayout(self)
         lay.addLayout(form)
         lay.addLayout(buttons)
-        for w in (self.sym, self.asym):
-            w.toggled.connect(self._mode)
-        self.preset.activated.connect(self._apply_preset)
-        for combo in (self.fit, self.rule, self.preset):
-            # Long item texts must not set the panel's minimum width.
-            combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
-            combo.setMinimumContentsLength(12)
-        self._mode()
-        session.settings_changed.connect(self.load)
-        self.load()
-        for spin in (self.tol, self.lower, self.upper, self.chord):
-            spin.valueChanged.connect(self.push)
-        self.sym.toggled.connect(self.push)
-        for combo in (self.fit, self.rule):
-            combo.currentIndexChanged.connect(self.push)
-        # The airfoil chord applies to .dat nominals only (see settings_fields).
-        session.inputs_changed.connect(self.push)
 
     @staticmethod
     def _spin(value, minimum):

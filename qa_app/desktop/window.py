@@ -92,7 +92,31 @@ class MainWindow(QMainWindow):
         self.tolerance.cancel_clicked.connect(self.controller.cancel)
         self.tolerance.preset_saved.connect(self._save_presets)
 
-        # files panel
+        left = self._steps_panel()
+        right = self._views_panel()
+        main = QSplitter(Qt.Horizontal)
+        main.addWidget(left)
+        main.addWidget(right)
+        main.setStretchFactor(1, 1)
+        central = QWidget()
+        cl = QVBoxLayout(central)
+        cl.addWidget(self.message_bar)
+        cl.addWidget(self.banner)
+        cl.addWidget(main, 1)
+        self.setCentralWidget(central)
+        self._make_actions()
+        self.statusBar()
+
+        self._subscribe(s)
+        self._inputs()
+        self._step(s.step)
+        self._fit_to_screen()
+        self.warm_up = None if synchronous else self.controller.warm_up()
+
+    # ------------------------------------------------------------------ layout
+    def _files_box(self) -> QGroupBox:
+        """Step 1: the buttons that open the nominal and the measured points, each beside the
+        name of the file open (its full path in the tooltip)."""
         self.nominal_label = QLabel("—")
         self.measured_label = QLabel("—")
         for lab in (self.nominal_label, self.measured_label):
@@ -105,6 +129,11 @@ class MainWindow(QMainWindow):
         ff = QFormLayout(files)
         ff.addRow(open_nom, self.nominal_label)
         ff.addRow(open_mea, self.measured_label)
+        return files
+
+    def _tolerance_box(self) -> QGroupBox:
+        """Step 2: the tolerance form with Inspect / Cancel, and below it the run's progress
+        (shown while it runs) and its stage."""
         tol_box = QGroupBox("2  Tolerance and inspection")
         QVBoxLayout(tol_box).addWidget(self.tolerance)
         self.progress_bar = QProgressBar()
@@ -114,8 +143,12 @@ class MainWindow(QMainWindow):
         tl = tol_box.layout()
         tl.addWidget(self.progress_bar)
         tl.addWidget(self.stage_label)
-        legend_box = QGroupBox("Colour scale")
-        QVBoxLayout(legend_box).addWidget(self.legend)
+        return tol_box
+
+    def _steps_panel(self) -> QWidget:
+        """The left panel: steps 1 and 2 in a vertical scroll area, step 3 (Export) below it."""
+        files = self._files_box()
+        tol_box = self._tolerance_box()
         self.export_button = QPushButton("3  Export certificate…")
         self.export_button.setObjectName("exportButton")
         self.export_button.clicked.connect(self.export_certificate)
@@ -138,7 +171,11 @@ class MainWindow(QMainWindow):
         left.setMaximumWidth(440)
         # Wide enough for the steps and a scroll bar, so that nothing is cut off sideways.
         left.setMinimumWidth(max(360, steps.minimumSizeHint().width() + 30))
+        return left
 
+    def _views_panel(self) -> QSplitter:
+        """The right panel: the 3D and 2D views with the colour scale beside them, above the
+        point table and the histogram."""
         self.views = QTabWidget()
         self.views.addTab(self.viewport, "3D view")
         self.views.addTab(self.contour, "2D contour")
@@ -148,6 +185,8 @@ class MainWindow(QMainWindow):
         right = QSplitter(Qt.Vertical)
         # The colour scale beside the colours it explains (and not below the steps, where a
         # short screen would scroll it away).
+        legend_box = QGroupBox("Colour scale")
+        QVBoxLayout(legend_box).addWidget(self.legend)
         legend_box.setMaximumWidth(240)
         shown = QWidget()
         hl = QHBoxLayout(shown)
@@ -157,28 +196,17 @@ class MainWindow(QMainWindow):
         right.addWidget(shown)
         right.addWidget(self.bottom)
         right.setSizes([560, 260])
-        main = QSplitter(Qt.Horizontal)
-        main.addWidget(left)
-        main.addWidget(right)
-        main.setStretchFactor(1, 1)
-        central = QWidget()
-        cl = QVBoxLayout(central)
-        cl.addWidget(self.message_bar)
-        cl.addWidget(self.banner)
-        cl.addWidget(main, 1)
-        self.setCentralWidget(central)
-        self._make_actions()
-        self.statusBar()
+        return right
 
+    def _subscribe(self, s: Session) -> None:
+        """The window's reactions to the session: file names, enabled actions, progress, the
+        view that shows a new result, and every message in the status bar. Connected once the
+        widgets have subscribed, so that they update first."""
         s.inputs_changed.connect(self._inputs)
         s.step_changed.connect(self._step)
         s.progress.connect(self._progress)
         s.result_changed.connect(self._result)
         s.message.connect(lambda level, text: self.statusBar().showMessage(text, 8000))
-        self._inputs()
-        self._step(s.step)
-        self._fit_to_screen()
-        self.warm_up = None if synchronous else self.controller.warm_up()
 
     # ------------------------------------------------------------------ actions
     def _make_actions(self) -> None:
