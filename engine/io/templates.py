@@ -332,23 +332,12 @@ def _reverse(p: dict) -> dict:
     return q
 
 
-def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
-    """Join primitives whose ends lie within ``tol`` into contours (primitives in order, closed).
-
-    Full circles are contours on their own. Where more than two ends meet, chains stop there.
-    """
+def _end_nodes(prims: list[dict], tol: float) -> np.ndarray:
+    """(2 n,) int: the node of each primitive end, start of primitive k at 2 k, its end at
+    2 k + 1. Ends within ``tol`` (mm) of each other share a node, numbered by its lowest end."""
     from scipy.spatial import cKDTree
 
-    contours: list[tuple[list[dict], bool]] = []
-    rest = []
-    for p in prims:
-        if p["kind"] == 1 and abs(abs(p["sweep"]) - 2 * math.pi) < 1e-12:
-            contours.append(([p], True))
-        else:
-            rest.append(p)
-    if not rest:
-        return contours
-    ends = np.array([q for p in rest for q in (p["start"], p["end"])])
+    ends = np.array([q for p in prims for q in (p["start"], p["end"])])
     # Ends within tol become one node (connected components of the "close" relation).
     pairs = cKDTree(ends).query_pairs(tol, output_type="ndarray")
     parent = np.arange(len(ends))
@@ -363,7 +352,24 @@ def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
         ri, rj = find(i), find(j)
         if ri != rj:
             parent[max(ri, rj)] = min(ri, rj)
-    node = np.array([find(i) for i in range(len(ends))])
+    return np.array([find(i) for i in range(len(ends))])
+
+
+def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
+    """Join primitives whose ends lie within ``tol`` into contours (primitives in order, closed).
+
+    Full circles are contours on their own. Where more than two ends meet, chains stop there.
+    """
+    contours: list[tuple[list[dict], bool]] = []
+    rest = []
+    for p in prims:
+        if p["kind"] == 1 and abs(abs(p["sweep"]) - 2 * math.pi) < 1e-12:
+            contours.append(([p], True))
+        else:
+            rest.append(p)
+    if not rest:
+        return contours
+    node = _end_nodes(rest, tol)
     incident = defaultdict(list)  # node -> [(primitive, which end: 0 start / 1 end)]
     for k in range(len(rest)):
         incident[node[2 * k]].append((k, 0))
