@@ -698,76 +698,103 @@ def check_legacy_ascii_vtk(raw: bytes, path: str) -> None:
     n = len(tok)
     i = 0
     m = None  # the tuple count of the current POINT_DATA / CELL_DATA section
-
-    def take(count: int, what: str) -> None:
-        nonlocal i
-        if i + count > n:
-            raise InputError(f"truncated: {what} declares {count} values, the file holds "
-                             f"{n - i}", path)
-        i += count
-        if i < n and tok[i][0] in "0123456789+-.":
-            raise InputError(f"inconsistent: {what} declares {count} values, more follow", path)
-
     try:
         while i < n:
             k = tok[i].upper()
-            if k == "DATASET":
-                i += 2
-            elif k == "POINTS":
-                cnt = int(tok[i + 1])
-                i += 3
-                take(3 * cnt, f"POINTS {cnt}")
-            elif k in ("DIMENSIONS", "ORIGIN", "SPACING", "ASPECT_RATIO"):
-                i += 4
-            elif k in _LEGACY_CELLS:
-                cnt, size = int(tok[i + 1]), int(tok[i + 2])
-                i += 3
-                if i < n and tok[i].upper() == "OFFSETS":
-                    i += 2
-                    take(cnt, f"{k} {cnt} (offsets)")
-                    if i >= n or tok[i].upper() != "CONNECTIVITY":
-                        raise InputError(f"damaged: {k} has offsets but no connectivity", path)
-                    i += 2
-                take(size, f"{k} {cnt} {size}")
-            elif k == "CELL_TYPES":
-                cnt = int(tok[i + 1])
-                i += 2
-                take(cnt, f"CELL_TYPES {cnt}")
-            elif k in ("POINT_DATA", "CELL_DATA"):
+            nxt = _skip_legacy_dataset_section(tok, i, k, path)
+            if nxt is None and k in ("POINT_DATA", "CELL_DATA"):
                 m = int(tok[i + 1])
-                i += 2
-            elif m is None:
-                return
-            elif k == "SCALARS":
-                i += 3
-                ncomp = 1
-                if i < n and tok[i].isdigit():
-                    ncomp = int(tok[i])
-                    i += 1
-                if i < n and tok[i].upper() == "LOOKUP_TABLE":
-                    i += 2
-                take(m * ncomp, f"SCALARS {tok[i - 1]}")
-            elif k in ("VECTORS", "NORMALS"):
-                i += 3
-                take(3 * m, k)
-            elif k == "TEXTURE_COORDINATES":
-                dim = int(tok[i + 2])
-                i += 4
-                take(m * dim, k)
-            elif k in ("TENSORS", "TENSORS6"):
-                i += 3
-                take((9 if k == "TENSORS" else 6) * m, k)
-            elif k == "FIELD":
-                narr = int(tok[i + 2])
-                i += 3
-                for _ in range(narr):
-                    ncomp, ntup = int(tok[i + 1]), int(tok[i + 2])
-                    i += 4
-                    take(ncomp * ntup, f"FIELD array {tok[i - 4]}")
-            else:
+                nxt = i + 2
+            elif nxt is None and m is not None:
+                nxt = _skip_legacy_attribute_section(tok, i, k, m, path)
+            if nxt is None:
                 return  # a section this check does not know: VTK reads as before
+            i = nxt
     except (IndexError, ValueError):
         raise InputError("truncated or damaged legacy VTK header line", path) from None
+
+
+def _take_legacy_values(tok: list[str], i: int, count: int, what: str, path: str) -> int:
+    """The index in ``tok`` (the file's whitespace-separated tokens after its third line) past
+    the ``count`` values of a section that start at ``tok[i]``; a section cut short, or followed
+    by more numbers than it declares, is refused."""
+    n = len(tok)
+    if i + count > n:
+        raise InputError(f"truncated: {what} declares {count} values, the file holds "
+                         f"{n - i}", path)
+    i += count
+    if i < n and tok[i][0] in "0123456789+-.":
+        raise InputError(f"inconsistent: {what} declares {count} values, more follow", path)
+    return i
+
+
+def _skip_legacy_dataset_section(tok: list[str], i: int, k: str, path: str) -> int | None:
+    """The index in ``tok`` past the geometry or topology section whose keyword ``k`` stands at
+    ``tok[i]`` (``DATASET``, ``POINTS``, cells, ``CELL_TYPES``, structured-grid extents), its
+    value count checked; None when ``k`` names no such section."""
+    n = len(tok)
+    if k == "DATASET":
+        i += 2
+    elif k == "POINTS":
+        cnt = int(tok[i + 1])
+        i += 3
+        i = _take_legacy_values(tok, i, 3 * cnt, f"POINTS {cnt}", path)
+    elif k in ("DIMENSIONS", "ORIGIN", "SPACING", "ASPECT_RATIO"):
+        i += 4
+    elif k in _LEGACY_CELLS:
+        cnt, size = int(tok[i + 1]), int(tok[i + 2])
+        i += 3
+        if i < n and tok[i].upper() == "OFFSETS":
+            i += 2
+            i = _take_legacy_values(tok, i, cnt, f"{k} {cnt} (offsets)", path)
+            if i >= n or tok[i].upper() != "CONNECTIVITY":
+                raise InputError(f"damaged: {k} has offsets but no connectivity", path)
+            i += 2
+        i = _take_legacy_values(tok, i, size, f"{k} {cnt} {size}", path)
+    elif k == "CELL_TYPES":
+        cnt = int(tok[i + 1])
+        i += 2
+        i = _take_legacy_values(tok, i, cnt, f"CELL_TYPES {cnt}", path)
+    else:
+        return None
+    return i
+
+
+def _skip_legacy_attribute_section(tok: list[str], i: int, k: str, m: int,
+                                   path: str) -> int | None:
+    """The index in ``tok`` past the data attribute whose keyword ``k`` stands at ``tok[i]``
+    (``SCALARS``, ``VECTORS``, ``FIELD``, …) in a POINT_DATA / CELL_DATA section of ``m``
+    tuples, its value count checked; None when ``k`` names no such attribute."""
+    n = len(tok)
+    if k == "SCALARS":
+        i += 3
+        ncomp = 1
+        if i < n and tok[i].isdigit():
+            ncomp = int(tok[i])
+            i += 1
+        if i < n and tok[i].upper() == "LOOKUP_TABLE":
+            i += 2
+        i = _take_legacy_values(tok, i, m * ncomp, f"SCALARS {tok[i - 1]}", path)
+    elif k in ("VECTORS", "NORMALS"):
+        i += 3
+        i = _take_legacy_values(tok, i, 3 * m, k, path)
+    elif k == "TEXTURE_COORDINATES":
+        dim = int(tok[i + 2])
+        i += 4
+        i = _take_legacy_values(tok, i, m * dim, k, path)
+    elif k in ("TENSORS", "TENSORS6"):
+        i += 3
+        i = _take_legacy_values(tok, i, (9 if k == "TENSORS" else 6) * m, k, path)
+    elif k == "FIELD":
+        narr = int(tok[i + 2])
+        i += 3
+        for _ in range(narr):
+            ncomp, ntup = int(tok[i + 1]), int(tok[i + 2])
+            i += 4
+            i = _take_legacy_values(tok, i, ncomp * ntup, f"FIELD array {tok[i - 4]}", path)
+    else:
+        return None
+    return i
 
 
 def _check_vertices(pts: np.ndarray, path: str) -> None:

@@ -195,17 +195,11 @@ def _directive(s: str, path: str, idx: int, found: dict) -> None:
 
 
 def _detect_layout(path: str, lines: list[str]) -> _Layout:
+    """The layout of a text point file (``lines`` without their line ends): delimiter, decimal
+    comma, the label, x y [z] and i j k columns (0-based), the header row, and the grid and
+    units declared by ``#`` comments before the first data row."""
     found: dict = {}
-    first = None
-    for idx, raw in enumerate(lines):
-        s = raw.strip()
-        if not s:
-            continue
-        if s.startswith("#"):
-            _directive(s, path, idx, found)
-            continue
-        first = idx
-        break
+    first = _directives_up_to_row(path, lines, 0, found)
     if first is None:
         raise InputError("the file holds no points", path)
     s = lines[first].strip()
@@ -222,61 +216,86 @@ def _detect_layout(path: str, lines: list[str]) -> _Layout:
         re.fullmatch(r"[-+]?\d+,\d+(?:[eE][-+]?\d+)?", t) for t in tokens)
 
     header_line = None
-    label_col = None
-    coord_cols: list[int]
-    normal_cols: list[int] | None = None
+    n_cols = len(tokens)
     numeric = [_is_number(t, decimal_comma) for t in tokens]
     # A header row has no number in it except possibly none at all: names only.
     if not any(numeric[1:]) and len(tokens) >= 2:
         header_line = first
-        names = [t.strip().strip('"').strip("'").lower() for t in tokens]
-        slots: dict[int, int] = {}
-        for col, name in enumerate(names):
-            key = name.split("[")[0].split("(")[0].strip()
-            if key in _AXIS_NAMES and _AXIS_NAMES[key] not in slots:
-                slots[_AXIS_NAMES[key]] = col
-            elif key in _LABEL_NAMES and label_col is None:
-                label_col = col
-        if 0 not in slots or 1 not in slots:
-            raise InputError(f"header row {tokens!r} names no x and y columns", path, first + 1)
-        coord_cols = [slots[0], slots[1]] + ([slots[2]] if 2 in slots else [])
-        if all(a in slots for a in (3, 4, 5)):
-            normal_cols = [slots[3], slots[4], slots[5]]
-        if label_col is None and 0 not in slots.values() and len(names) > 0:
-            label_col = 0 if names[0] not in _AXIS_NAMES else None
-        n_cols = len(tokens)
-        # find first data line to confirm column count
+        label_col, coord_cols, normal_cols = _named_columns(path, tokens, first)
     else:
-        n_cols = len(tokens)
         label_col = None
         if not numeric[0]:
             label_col = 0
         elif n_cols in (4, 7) and _looks_like_integer_labels(lines, first, delimiter, decimal_comma):
             label_col = 0
-        data_count = n_cols - (1 if label_col is not None else 0)
-        off = 1 if label_col is not None else 0
-        if data_count == 2:
-            coord_cols = [off, off + 1]
-        elif data_count == 3:
-            coord_cols = [off, off + 1, off + 2]
-        elif data_count == 6:
-            coord_cols = [off, off + 1, off + 2]
-            normal_cols = [off + 3, off + 4, off + 5]
-        else:
-            raise InputError(
-                f"{n_cols} columns without a header row: expected x y, x y z or x y z i j k, "
-                "optionally after a label column (add a header such as 'id,x,y,z' to say which "
-                "column is which)", path, first + 1)
+        coord_cols, normal_cols = _counted_columns(path, n_cols, label_col, first)
     if header_line is not None:
         # Comments between the header row and the first data row still describe the whole file.
-        for idx in range(header_line + 1, len(lines)):
-            s = lines[idx].strip()
-            if s and not s.startswith("#"):
-                break
-            if s:
-                _directive(s, path, idx, found)
+        _directives_up_to_row(path, lines, header_line + 1, found)
     return _Layout(delimiter, decimal_comma, label_col, coord_cols, normal_cols, n_cols,
                    header_line, found.get("grid"), found.get("units", 1.0))
+
+
+def _directives_up_to_row(path: str, lines: list[str], start: int, found: dict) -> int | None:
+    """Apply the ``# grid:`` / ``# units:`` comments from line ``start`` (0-based) on to
+    ``found``, up to the first row that is neither blank nor a comment: its 0-based index, or
+    None when there is none."""
+    for idx in range(start, len(lines)):
+        s = lines[idx].strip()
+        if not s:
+            continue
+        if not s.startswith("#"):
+            return idx
+        _directive(s, path, idx, found)
+    return None
+
+
+def _named_columns(path: str, tokens: list[str],
+                   line: int) -> tuple[int | None, list[int], list[int] | None]:
+    """(label column or None, x y [z] columns, i j k columns or None), all 0-based, as named by
+    the header row ``tokens`` (0-based ``line``); a header naming no x and y column is refused.
+    Without a label name, a first column that is no axis is taken as the label."""
+    label_col = None
+    normal_cols = None
+    names = [t.strip().strip('"').strip("'").lower() for t in tokens]
+    slots: dict[int, int] = {}
+    for col, name in enumerate(names):
+        key = name.split("[")[0].split("(")[0].strip()
+        if key in _AXIS_NAMES and _AXIS_NAMES[key] not in slots:
+            slots[_AXIS_NAMES[key]] = col
+        elif key in _LABEL_NAMES and label_col is None:
+            label_col = col
+    if 0 not in slots or 1 not in slots:
+        raise InputError(f"header row {tokens!r} names no x and y columns", path, line + 1)
+    coord_cols = [slots[0], slots[1]] + ([slots[2]] if 2 in slots else [])
+    if all(a in slots for a in (3, 4, 5)):
+        normal_cols = [slots[3], slots[4], slots[5]]
+    if label_col is None and 0 not in slots.values() and len(names) > 0:
+        label_col = 0 if names[0] not in _AXIS_NAMES else None
+    return label_col, coord_cols, normal_cols
+
+
+def _counted_columns(path: str, n_cols: int, label_col: int | None,
+                     line: int) -> tuple[list[int], list[int] | None]:
+    """(x y [z] columns, i j k columns or None), all 0-based, of a file without a header row,
+    told by its ``n_cols`` columns after the label column (if any): 2 or 3 coordinates, or 3
+    and a normal. Any other count is refused at the first data row (0-based ``line``)."""
+    normal_cols = None
+    data_count = n_cols - (1 if label_col is not None else 0)
+    off = 1 if label_col is not None else 0
+    if data_count == 2:
+        coord_cols = [off, off + 1]
+    elif data_count == 3:
+        coord_cols = [off, off + 1, off + 2]
+    elif data_count == 6:
+        coord_cols = [off, off + 1, off + 2]
+        normal_cols = [off + 3, off + 4, off + 5]
+    else:
+        raise InputError(
+            f"{n_cols} columns without a header row: expected x y, x y z or x y z i j k, "
+            "optionally after a label column (add a header such as 'id,x,y,z' to say which "
+            "column is which)", path, line + 1)
+    return coord_cols, normal_cols
 
 
 def _refuse_late_directives(path: str, lines: list[str], start: int) -> None:

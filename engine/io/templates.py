@@ -76,13 +76,33 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
     units : override the drawing's $INSUNITS (``mm``, ``cm``, ``m``, ``in``), for files whose
         header is wrong (exporters often write metres for millimetre drawings).
     """
-    import ezdxf
-    from ezdxf import recover
-    from ezdxf.disassemble import recursive_decompose
-
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputNotFoundError("no such file", path)
+    doc, recovered = _open_dxf(path)
+    scale, unit_name, unitless = _drawing_units(doc, units, path)
+    wanted = _wanted_layers(doc, layers, path)
+    prims, ignored, flattened = _drawing_primitives(doc, wanted, scale, path)
+    if not prims:
+        degenerate = sum(n for k, n in ignored.items() if k.endswith("(zero length)"))
+        raise InputError("the drawing holds no contour geometry (lines, arcs, circles, "
+                         "polylines, splines or ellipses)" + ("" if wanted is None else
+                                                              " on the selected layers")
+                         + (f"; {degenerate} entities of zero length were ignored"
+                            if degenerate else ""), path)
+    extent = _extent(prims)
+    tol = chain_tol if chain_tol is not None else max(1e-6 * extent, 1e-9)
+    contours = chain(prims, tol)
+    return TemplateFile(path, build_template(contours), unit_name, unitless, dict(ignored),
+                       flattened, recovered)
+
+
+def _open_dxf(path: str):
+    """The ezdxf document of the file at ``path``, and True when it had to be read in recover
+    mode (a damaged structure that recover mode mends without errors)."""
+    import ezdxf
+    from ezdxf import recover
+
     recovered = False
     try:
         doc = ezdxf.readfile(path)
@@ -97,6 +117,14 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
             raise InputError("damaged DXF: " + "; ".join(str(err.message)
                                                          for err in auditor.errors[:3]), path)
         recovered = True
+    return doc, recovered
+
+
+def _drawing_units(doc, units: str | None, path: str) -> tuple[float, str, bool]:
+    """(scale, unit name, unitless): the factor from drawing units to mm, from ``units`` when
+    given, else from $INSUNITS (unset: taken as mm, and ``unitless`` is True)."""
+    import ezdxf
+
     code = int(doc.header.get("$INSUNITS", 0) or 0)
     unitless = code == 0 and units is None
     if units is not None:
@@ -110,7 +138,12 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
         except (KeyError, ValueError, ZeroDivisionError, TypeError):
             raise InputError(f"$INSUNITS {code} is not a length unit", path) from None
         unit_name = "unitless (taken as mm)" if unitless else ezdxf.units.unit_name(code)
+    return scale, unit_name, unitless
 
+
+def _wanted_layers(doc, layers: list[str] | None, path: str) -> set[str] | None:
+    """The lower-cased names of the layers to take (None: every layer); a name the drawing does
+    not have is refused, listing the layers it has."""
     wanted = None if layers is None else {name.lower() for name in layers}
     if wanted is not None:
         known = {layer.dxf.name.lower() for layer in doc.layers}
@@ -118,6 +151,16 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
         if missing:
             raise InputError(f"no layer named {', '.join(missing)} (layers: "
                              f"{', '.join(sorted(known))})", path)
+    return wanted
+
+
+def _drawing_primitives(doc, wanted: set[str] | None, scale: float,
+                        path: str) -> tuple[list[dict], Counter, int]:
+    """The primitives (mm, WCS XY) of the model space's geometry on the ``wanted`` layers
+    (INSERTed blocks expanded), the count of ignored entities by type, and the number of
+    entities flattened."""
+    from ezdxf.disassemble import recursive_decompose
+
     prims: list[dict] = []
     ignored: Counter = Counter()
     flattened = 0
@@ -144,18 +187,7 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
             continue
         prims.extend(got)
         flattened += flat
-    if not prims:
-        degenerate = sum(n for k, n in ignored.items() if k.endswith("(zero length)"))
-        raise InputError("the drawing holds no contour geometry (lines, arcs, circles, "
-                         "polylines, splines or ellipses)" + ("" if wanted is None else
-                                                              " on the selected layers")
-                         + (f"; {degenerate} entities of zero length were ignored"
-                            if degenerate else ""), path)
-    extent = _extent(prims)
-    tol = chain_tol if chain_tol is not None else max(1e-6 * extent, 1e-9)
-    contours = chain(prims, tol)
-    return TemplateFile(path, build_template(contours), unit_name, unitless, dict(ignored),
-                       flattened, recovered)
+    return prims, ignored, flattened
 
 
 def _entity_values(e) -> list[float]:
@@ -300,23 +332,12 @@ def _reverse(p: dict) -> dict:
     return q
 
 
-def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
-    """Join primitives whose ends lie within ``tol`` into contours (primitives in order, closed).
-
-    Full circles are contours on their own. Where more than two ends meet, chains stop there.
-    """
+def _end_nodes(prims: list[dict], tol: float) -> np.ndarray:
+    """(2 n,) int: the node of each primitive end, start of primitive k at 2 k, its end at
+    2 k + 1. Ends within ``tol`` (mm) of each other share a node, numbered by its lowest end."""
     from scipy.spatial import cKDTree
 
-    contours: list[tuple[list[dict], bool]] = []
-    rest = []
-    for p in prims:
-        if p["kind"] == 1 and abs(abs(p["sweep"]) - 2 * math.pi) < 1e-12:
-            contours.append(([p], True))
-        else:
-            rest.append(p)
-    if not rest:
-        return contours
-    ends = np.array([q for p in rest for q in (p["start"], p["end"])])
+    ends = np.array([q for p in prims for q in (p["start"], p["end"])])
     # Ends within tol become one node (connected components of the "close" relation).
     pairs = cKDTree(ends).query_pairs(tol, output_type="ndarray")
     parent = np.arange(len(ends))
@@ -331,7 +352,24 @@ def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
         ri, rj = find(i), find(j)
         if ri != rj:
             parent[max(ri, rj)] = min(ri, rj)
-    node = np.array([find(i) for i in range(len(ends))])
+    return np.array([find(i) for i in range(len(ends))])
+
+
+def chain(prims: list[dict], tol: float) -> list[tuple[list[dict], bool]]:
+    """Join primitives whose ends lie within ``tol`` into contours (primitives in order, closed).
+
+    Full circles are contours on their own. Where more than two ends meet, chains stop there.
+    """
+    contours: list[tuple[list[dict], bool]] = []
+    rest = []
+    for p in prims:
+        if p["kind"] == 1 and abs(abs(p["sweep"]) - 2 * math.pi) < 1e-12:
+            contours.append(([p], True))
+        else:
+            rest.append(p)
+    if not rest:
+        return contours
+    node = _end_nodes(rest, tol)
     incident = defaultdict(list)  # node -> [(primitive, which end: 0 start / 1 end)]
     for k in range(len(rest)):
         incident[node[2 * k]].append((k, 0))
