@@ -1,0 +1,315 @@
+"""Datum reference frames: place the part as the drawing's datums say, from the soft registration.
+
+The soft registration finds the part anywhere on the bed; a plan's alignment then decides how the
+part is judged. Datum features take the pose's degrees of freedom in order of precedence
+(ASME Y14.5 / ISO 5459): the primary datum takes what its feature can constrain (a plane: the
+translation along its normal and its two tilts), the secondary takes what it can of what is left
+(a plane at right angles: one rotation and one translation), the tertiary the rest; what the
+datums leave free is best-fitted on named regions, or stays where the registration put it.
+
+The pose is found as one lexicographic fit. Each datum fits its measured points to the nominal
+surface of its region by moving the *part* within the directions the higher datums left free,
+and only along the directions its own feature can constrain there (the leading singular
+directions of its linearised deviations, at most ``CONSTRAINED_DOFS[feature]`` of them); those
+directions are then fixed for the datums below it. Fits:
+
+* ``tangent`` (the default of both standards): the datum simulator lies outside the material and
+  touches the feature's high points. For a plane or line: no point beyond the nominal surface,
+  the largest gap the smallest (a linear program). For a size feature (cylinder, sphere,
+  circle) the simulator's size floats too: the largest inscribed hole / smallest circumscribed
+  shaft (a linear program with a uniform offset of the surface).
+* ``lsq``: least squares of the deviations (with the uniform offset for a size feature, so that a
+  hole of another diameter is centred, not pulled).
+
+Both are solved as sequences of linearised problems on the exact deviations, like the
+registration. Shapes: points and normals (n, 3) in 3D (6 degrees of freedom), (n, 2) in a 2D
+template's plane (3 degrees of freedom); poses 4x4 / 3x3 homogeneous, ``T_nominal_measured``;
+units mm.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fits import _apply_update, pose_jacobian
+from .plan import CONSTRAINED_DOFS, MIN_POINTS
+
+SIZE_FEATURES = ("cylinder", "sphere", "circle")
+RANK_TOLERANCE = 1e-6
+"""A direction counts as constrained by a datum when its singular value exceeds this fraction
+of the datum's largest one (directions a feature cannot sense have exactly zero)."""
+STEP_TOLERANCE = 1e-9
+"""The fit has settled when no point moves by more than this fraction of the points' extent."""
+MAX_STEPS = 30
+
+
+@dataclass(frozen=True)
+class DatumFit:
+    """How one datum feature took its degrees of freedom.
+
+    label, feature, fit : as in the plan. n_points : measured points of its region.
+    constrained : how many degrees of freedom it took (0: none were left, or too few points).
+    offset : the simulator's uniform offset from the nominal surface, mm (size features: the
+        fitted size's departure along the outward normal; else 0).
+    gap : the largest distance of a point from the simulator at the end, mm (tangent fits: the
+        largest gap; least squares: the largest |residual|).
+    """
+
+    label: str
+    feature: str
+    fit: str
+    n_points: int
+    constrained: int
+    offset: float
+    gap: float
+
+
+@dataclass(frozen=True)
+class FreeDirection:
+    """A degree of freedom no datum took, in the nominal frame: a translation ``along`` a unit
+    vector, or a rotation about the axis through ``through`` along the unit vector ``along``."""
+
+    type: str
+    along: tuple[float, ...]
+    through: tuple[float, ...] | None = None
+
+    def describe(self) -> str:
+        v = ", ".join(f"{a:+.3f}" for a in self.along)
+        if self.type == "translation":
+            return f"translation along ({v})"
+        p = ", ".join(f"{a:.2f}" for a in self.through)
+        return f"rotation about ({v}) through ({p})"
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """The part placed by its datums: ``T_nominal_measured`` and what it rests on.
+
+    datums : one DatumFit per datum, primary first. free : the degrees of freedom no datum took.
+    best_fitted : whether the free ones were best-fitted on regions' points (else they stay at
+    the starting pose). complete : every datum had the points its feature needs (otherwise the
+    pose rests on fewer datums than asked, and characteristics relative to them cannot be
+    trusted). message : why not, in words.
+    """
+
+    T_nominal_measured: np.ndarray
+    datums: tuple[DatumFit, ...]
+    free: tuple[FreeDirection, ...]
+    best_fitted: bool
+    complete: bool
+    message: str = ""
+
+
+Evaluate = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+"""evaluate(T, idx) -> (X, d, normals): measured points ``idx`` at pose T in the nominal frame,
+their signed deviations (mm, + outward) and the nominal's outward normals at their closest
+points, exactly."""
+
+
+def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centre: np.ndarray,
+          length: float, best_fit: np.ndarray | None = None) -> Alignment:
+    """Place the part by ``datums`` (engine.plan.Datum, primary first) from the pose T0.
+
+    members[k] : indices of the measured points of datum k's region. centre (3,) or (2,), length
+    (mm): the centre rotations are taken about and the lever that scales them (the measured
+    points' centroid and RMS radius at T0: rotations and translations then weigh alike).
+    best_fit : indices of the points that best-fit the freedom the datums leave (None: it stays
+    at T0).
+    """
+    dof = 6 if T0.shape[0] == 4 else 3
+    nrot = 3 if dof == 6 else 1
+    free = np.eye(dof)
+    T = np.array(T0, float)
+    fits = []
+    complete, message = True, ""
+    for datum, idx in zip(datums, members):
+        idx = np.asarray(idx, dtype=np.int64)
+        if idx.size < MIN_POINTS[datum.feature]:
+            complete = False
+            message = (f"datum {datum.label} has {idx.size} measured points; its "
+                       f"{datum.feature} needs at least {MIN_POINTS[datum.feature]}")
+            fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
+                                 0.0, float("nan")))
+            continue
+        T, taken, offset, gap = _fit_datum(evaluate, T, datum, idx, free, centre, length, nrot)
+        fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
+                             taken.shape[1], offset, gap))
+        free = _complement(free, taken)
+    fitted = False
+    if best_fit is not None and len(best_fit) and free.shape[1]:
+        T = _least_squares(evaluate, T, np.asarray(best_fit, dtype=np.int64), free, centre,
+                           length, nrot, size=False)[0]
+        fitted = True
+    return Alignment(T, tuple(fits), _describe_free(free, centre, length, nrot), fitted,
+                     complete, message)
+
+
+def _fit_datum(evaluate: Evaluate, T, datum, idx, free, centre, length, nrot):
+    """(T, taken (dof, r), offset, gap): datum's fit within the free directions (dof, f)."""
+    X, d, n = evaluate(T, idx)
+    J = _jacobian(X, n, centre, length, nrot)
+    A = J @ free
+    if A.shape[1] == 0:
+        return T, np.zeros((free.shape[0], 0)), 0.0, float(np.max(np.abs(d)))
+    _, s, Vt = np.linalg.svd(A, full_matrices=False)
+    cap = min(CONSTRAINED_DOFS[datum.feature], s.size)
+    r = int(np.sum(s[:cap] > RANK_TOLERANCE * max(s[0], 1e-300)))
+    taken = free @ Vt[:r].T
+    size = datum.feature in SIZE_FEATURES
+    if datum.fit == "lsq":
+        T, offset, gap = _least_squares(evaluate, T, idx, taken, centre, length, nrot, size)
+    else:
+        T, offset, gap = _tangent(evaluate, T, idx, taken, centre, length, nrot, size)
+    return T, taken, offset, gap
+
+
+def _jacobian(X, normals, centre, length, nrot):
+    J = pose_jacobian(X, normals, centre)
+    J[:, :nrot] /= length
+    return J
+
+
+def _step(T, B, eta, centre, length, nrot):
+    p = B @ eta
+    p[:nrot] /= length
+    return _apply_update(T, p, centre), float(np.max(np.abs(B @ eta))) if eta.size else 0.0
+
+
+def _least_squares(evaluate, T, idx, B, centre, length, nrot, size):
+    """Gauss-Newton on sum (d + J B eta - offset)^2 over the directions B (dof, r); the uniform
+    ``offset`` is a variable of size features only. (T, offset, largest |residual|)."""
+    offset = 0.0
+    for _ in range(MAX_STEPS):
+        X, d, n = evaluate(T, idx)
+        A = _jacobian(X, n, centre, length, nrot) @ B
+        if size:
+            A = np.column_stack([A, -np.ones(d.size)])
+        sol = np.linalg.lstsq(A, -d, rcond=None)[0]
+        eta = sol[:B.shape[1]]
+        offset = float(sol[-1]) if size else 0.0
+        T, moved = _step(T, B, eta, centre, length, nrot)
+        if moved <= STEP_TOLERANCE * length:
+            break
+    X, d, n = evaluate(T, idx)
+    if size:
+        offset = float(np.mean(d))
+    return T, offset, float(np.max(np.abs(d - offset)))
+
+
+def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
+    """Sequential linear programs for the tangent simulator within directions B (dof, r).
+
+    Plane / line: minimise the largest gap g subject to no point beyond the nominal surface
+    (d' <= 0) and none farther inside than g. Size feature: the simulator is the nominal surface
+    offset by s along the outward normal; minimise s subject to d' <= s (no material beyond the
+    simulator: the largest inscribed hole, the smallest circumscribed shaft). Where several
+    simulators reach that optimum (a plane rocking on a high spot), the one with the smallest
+    sum of gaps is taken, so that the datum does not depend on the solver's path or on the
+    part's pose. (T, offset s, largest gap g)."""
+    from scipy.optimize import linprog
+
+    r = B.shape[1]
+    radius = length
+    settle = STEP_TOLERANCE * length
+    for _ in range(MAX_STEPS):
+        X, d, n = evaluate(T, idx)
+        A = _jacobian(X, n, centre, length, nrot) @ B
+        m = d.size
+        # In units of the largest deviation, so that the solver's feasibility tolerance (1e-7)
+        # is relative to the deviations, however small they have become.
+        unit = max(float(np.max(np.abs(d))), settle)
+        ds = d / unit
+        # Variables [eta (r), s, g]; d + A eta - s <= 0 and s - d - A eta - g <= 0.
+        ones = np.ones((m, 1))
+        A_ub = np.block([[A, -ones, np.zeros((m, 1))], [-A, ones, -ones]])
+        b_ub = np.concatenate([-ds, ds])
+        primary = np.zeros(r + 2)
+        primary[r if size else r + 1] = 1.0
+        bounds = [(-radius / unit, radius / unit)] * r + \
+            [(None, None) if size else (0.0, 0.0), (0.0, None)]
+        sol = linprog(primary, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+        if sol.status != 0:
+            break
+        # Among the optima: the smallest sum of gaps sum(s - d - A eta).
+        gaps = np.concatenate([-A.sum(axis=0), [m, 0.0]])
+        tie = linprog(gaps, A_ub=np.vstack([A_ub, primary]),
+                      b_ub=np.append(b_ub, sol.fun + 1e-9), bounds=bounds, method="highs")
+        x = (tie.x if tie.status == 0 else sol.x) * unit
+        T, moved = _step(T, B, x[:r], centre, length, nrot)
+        if moved <= settle:
+            break
+        radius = max(4.0 * moved, 1e-3 * length)
+    X, d, n = evaluate(T, idx)
+    s = float(np.max(d)) if size else 0.0
+    return T, s, float(s - np.min(d)) if size else float(np.max(d) - np.min(d))
+
+
+def _complement(free: np.ndarray, taken: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (dof, f - r) of the part of span(free) orthogonal to span(taken)."""
+    if taken.shape[1] == 0:
+        return free
+    if taken.shape[1] >= free.shape[1]:
+        return np.zeros((free.shape[0], 0))
+    coords = free.T @ taken  # taken in the free basis (f, r)
+    u, _, _ = np.linalg.svd(coords, full_matrices=True)
+    return free @ u[:, taken.shape[1]:]
+
+
+def _describe_free(free: np.ndarray, centre: np.ndarray, length: float, nrot: int):
+    """The free directions (dof, f) as translations and rotations in the nominal frame.
+
+    A rotation-bearing direction (w, t) (w scaled by 1/length as in the fit) moves x by
+    w x (x - c) + t: a rotation about the axis along w through c + w x t / |w|^2 (its pitch
+    part along w is left out)."""
+    out = []
+    # Rotations first: the combination without translation parts comes out as its own vector.
+    for v in free.T:
+        w, t = v[:nrot] / length, v[nrot:]
+        if np.linalg.norm(w) * length < 1e-9 * max(np.linalg.norm(v), 1e-300):
+            u = t / np.linalg.norm(t)
+            out.append(FreeDirection("translation", tuple(float(a) for a in u)))
+        elif nrot == 3:
+            p = centre + np.cross(w, t) / float(w @ w)
+            out.append(FreeDirection("rotation", tuple(float(a) for a in w / np.linalg.norm(w)),
+                                     tuple(float(a) for a in p)))
+        else:
+            # 2D: a rotation about the normal of the plane through c + (-t_y, t_x) / w.
+            p = centre + np.array([-t[1], t[0]]) / float(w[0])
+            out.append(FreeDirection("rotation", (0.0, 0.0, 1.0), tuple(float(a) for a in p)))
+    return tuple(out)
+
+
+def align_rps(evaluate: Evaluate, T0: np.ndarray, indices: np.ndarray, targets: np.ndarray,
+              axes: np.ndarray, centre: np.ndarray, length: float,
+              best_fit: np.ndarray | None = None) -> Alignment:
+    """Place the part by a reference point system from the pose T0.
+
+    Row k locks the measured point ``indices[k]`` onto ``targets[k]`` (nominal frame, mm) along
+    the unit axis ``axes[k]`` (the usual 3-2-1 RPS: six rows; more are fitted in least
+    squares). The freedom the rows leave is best-fitted on ``best_fit`` as in :func:`align`."""
+    dof = 6 if T0.shape[0] == 4 else 3
+    nrot = 3 if dof == 6 else 1
+    indices = np.asarray(indices, dtype=np.int64)
+
+    def locks(T, rows):
+        X = evaluate(T, indices[rows])[0]
+        return X, np.einsum("ij,ij->i", axes[rows], X - targets[rows]), axes[rows]
+
+    rows = np.arange(indices.size)
+    X, _, n = locks(T0, rows)
+    _, s, Vt = np.linalg.svd(_jacobian(X, n, centre, length, nrot), full_matrices=False)
+    r = int(np.sum(s > RANK_TOLERANCE * max(s[0], 1e-300)))
+    taken = Vt[:r].T
+    T, _, gap = _least_squares(locks, np.array(T0, float), rows, taken, centre, length, nrot,
+                               size=False)
+    free = _complement(np.eye(dof), taken)
+    fitted = False
+    if best_fit is not None and len(best_fit) and free.shape[1]:
+        T = _least_squares(evaluate, T, np.asarray(best_fit, dtype=np.int64), free, centre,
+                           length, nrot, size=False)[0]
+        fitted = True
+    fit = DatumFit("RPS", "points", "lsq", int(indices.size), r, 0.0, gap)
+    return Alignment(T, (fit,), _describe_free(free, centre, length, nrot), fitted, True)

@@ -1,0 +1,229 @@
+"""Datum reference frames (engine.datums) against analytic geometry: a block with plane faces and
+a hole, measured exactly, misplaced by a known rigid motion."""
+
+import numpy as np
+import pytest
+
+from engine.datums import align, align_rps
+from engine.geometry import make_transform, rotation_from_rotvec
+from engine.plan import Datum
+
+# A block [0, 100] x [0, 60] x [0, 20] with a vertical hole of radius 4 at (64, 30).
+# Outward normals: bottom -z, back -x, side -y, top +z; the hole's wall points at its axis.
+PLANES = {"A": ((0.0, 0.0, -1.0), 0.0), "B": ((-1.0, 0.0, 0.0), 0.0),
+          "C": ((0.0, -1.0, 0.0), 0.0), "top": ((0.0, 0.0, 1.0), 20.0)}
+HOLE_XY, HOLE_R = np.array([64.0, 30.0]), 4.0
+
+
+def face_points(face, k, rng):
+    u, v = rng.uniform(0, 1, k), rng.uniform(0, 1, k)
+    if face == "A":
+        return np.column_stack([5 + 90 * u, 5 + 50 * v, np.zeros(k)])
+    if face == "B":
+        return np.column_stack([np.zeros(k), 5 + 50 * u, 2 + 16 * v])
+    if face == "C":
+        return np.column_stack([5 + 90 * u, np.zeros(k), 2 + 16 * v])
+    if face == "top":
+        return np.column_stack([5 + 40 * u, 5 + 50 * v, np.full(k, 20.0)])
+    a = 2 * np.pi * u
+    return np.column_stack([HOLE_XY[0] + HOLE_R * np.cos(a), HOLE_XY[1] + HOLE_R * np.sin(a),
+                            2 + 16 * v])
+
+
+class Block:
+    """Measured points with a known face each; ``evaluate`` is the exact signed distance to
+    that face's nominal surface (+ outward: excess material)."""
+
+    def __init__(self, counts, rng, misplace, excess=None, hole_shift=(0.0, 0.0), hole_dr=0.0):
+        self.face = np.concatenate([[f] * k for f, k in counts.items()])
+        P = np.vstack([face_points(f, k, rng) for f, k in counts.items()])
+        for f, (n, _) in PLANES.items():
+            if excess and f in excess:
+                P[self.face == f] += np.outer(excess[f], n) if np.ndim(excess[f]) else \
+                    excess[f] * np.asarray(n)
+        hole = self.face == "hole"
+        # The actual hole: radius HOLE_R + hole_dr about HOLE_XY + hole_shift.
+        rel = P[hole, :2] - HOLE_XY
+        P[hole, :2] = HOLE_XY + np.asarray(hole_shift) + rel / HOLE_R * (HOLE_R + hole_dr)
+        self.true_points = P
+        self.misplace = misplace
+        self.M = P @ misplace[:3, :3].T + misplace[:3, 3]
+
+    def evaluate(self, T, idx):
+        X = self.M[idx] @ T[:3, :3].T + T[:3, 3]
+        d = np.empty(len(idx))
+        n = np.empty((len(idx), 3))
+        for k, f in enumerate(self.face[idx]):
+            if f == "hole":
+                r = X[k, :2] - HOLE_XY
+                rho = np.linalg.norm(r)
+                n[k] = [-r[0] / rho, -r[1] / rho, 0.0]
+                d[k] = HOLE_R - rho
+            else:
+                nn, off = PLANES[f]
+                n[k] = nn
+                d[k] = X[k] @ np.asarray(nn) - (off if f == "top" else 0.0)
+        return X, d, n
+
+    def members(self, *faces):
+        return [np.flatnonzero(self.face == f) for f in faces]
+
+    def frame(self):
+        c = self.M.mean(axis=0)
+        return c, float(np.sqrt(np.mean(np.sum((self.M - c) ** 2, axis=1))))
+
+
+def misplacement(rng, angle=0.02, shift=0.5):
+    R = rotation_from_rotvec(rng.uniform(-angle, angle, (1, 3)))[0]
+    return make_transform(R, rng.uniform(-shift, shift, 3))
+
+
+def planes(fit="tangent"):
+    return [Datum(x, x, "plane", fit) for x in "ABC"]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_three_planes_fix_every_degree_of_freedom(seed):
+    rng = np.random.default_rng(seed)
+    b = Block({"A": 40, "B": 30, "C": 20, "top": 30}, rng, misplacement(rng),
+              excess={"top": 0.05})
+    c, length = b.frame()
+    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length)
+    assert [d.constrained for d in al.datums] == [3, 2, 1]
+    assert al.free == () and al.complete
+    # The misplacement undone exactly; the top face's planted excess measured exactly.
+    assert np.max(np.abs(al.T_nominal_measured @ b.misplace - np.eye(4))) < 1e-9
+    d = b.evaluate(al.T_nominal_measured, np.arange(len(b.face)))[1]
+    assert np.max(np.abs(d[b.face == "top"] - 0.05)) < 1e-9
+
+
+def _plane_fits(x, y, z):
+    """Independent truth for a bottom face (material above it): the plane z = a x + b y + c by
+    least squares, and the tangent one (below every point, the largest gap the smallest, then
+    the smallest sum of gaps) as linear programs in the plane's own parameters."""
+    from scipy.optimize import linprog
+
+    G = np.column_stack([x, y, np.ones_like(x)])
+    lsq = np.linalg.lstsq(G, z, rcond=None)[0]
+    # Variables (a, b, c, g): G p <= z; z - G p <= g.
+    A_ub = np.block([[G, np.zeros((x.size, 1))], [-G, -np.ones((x.size, 1))]])
+    b_ub = np.concatenate([z, -z])
+    free = [(None, None)] * 3 + [(0, None)]
+    g = linprog([0, 0, 0, 1], A_ub=A_ub, b_ub=b_ub, bounds=free, method="highs")
+    tangent = linprog(np.append(-G.sum(axis=0), 0.0), A_ub=np.vstack([A_ub, [0, 0, 0, 1]]),
+                      b_ub=np.append(b_ub, g.fun + 1e-12), bounds=free, method="highs").x[:3]
+    return lsq, tangent, g.fun
+
+
+def _above(plane, P):
+    """Distance of points P above the plane z = a x + b y + c, along its unit normal."""
+    a, b, c = plane
+    return (P[:, 2] - a * P[:, 0] - b * P[:, 1] - c) / np.sqrt(1 + a * a + b * b)
+
+
+@pytest.mark.parametrize("seed", [4, 5])
+def test_tangent_and_least_squares_datum_on_a_face_with_a_bump(seed):
+    """Datum A carries a bump of h = 0.03 mm excess near one end on 4 of its 60 points: the
+    part rests on it as on a surface plate (tangent) or on the mean plane (least squares); the
+    top face (20 mm above A, no excess) then reads its distance from that plane minus 20,
+    checked against the planes fitted independently in their own parameters."""
+    rng = np.random.default_rng(seed)
+    h = 0.03
+    b = Block({"A": 60, "B": 30, "C": 20, "top": 30}, rng, misplacement(rng))
+    A = b.face == "A"
+    near = np.argsort(b.true_points[A, 0])[:4]  # the four points nearest x = 0
+    bump = np.zeros(60)
+    bump[near] = h
+    b = Block({"A": 60, "B": 30, "C": 20, "top": 30}, np.random.default_rng(seed),
+              b.misplace, excess={"A": bump})
+    P = b.true_points
+    lsq, tangent, gap = _plane_fits(P[A, 0], P[A, 1], P[A, 2])
+    assert gap == pytest.approx(h, rel=1e-6)  # the bump is the largest gap either way
+    c, length = b.frame()
+    top = b.face == "top"
+    for fit, plane in (("tangent", tangent), ("lsq", lsq)):
+        al = align(b.evaluate, np.eye(4), planes(fit), b.members("A", "B", "C"), c, length)
+        d = b.evaluate(al.T_nominal_measured, np.arange(len(b.face)))[1]
+        assert np.max(np.abs(d[top] - (_above(plane, P[top]) - 20.0))) < 1e-8, fit
+    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length)
+    dA = b.evaluate(al.T_nominal_measured, np.flatnonzero(A))[1]
+    assert dA.max() == pytest.approx(0.0, abs=1e-9) and al.datums[0].gap == pytest.approx(h)
+
+
+def test_a_tilted_tangent_plane_minimises_the_largest_gap():
+    """Datum A's points lie on a plane tilted by a slope s along x: the tangent simulator takes
+    the tilt (the gap becomes zero), where a fixed-orientation plane would leave 90 s."""
+    rng = np.random.default_rng(5)
+    b = Block({"A": 50, "B": 20, "C": 20}, rng, np.eye(4))
+    slope = 2e-4
+    A = b.face == "A"
+    b.M[A, 2] -= slope * (b.M[A, 0] - 50.0)
+    c, length = b.frame()
+    al = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length)
+    assert al.datums[0].gap < 1e-9
+    R = al.T_nominal_measured[:3, :3]
+    assert np.degrees(np.arccos(min(1.0, R[2, 2]))) == pytest.approx(np.degrees(slope),
+                                                                      rel=1e-6)
+
+
+def test_hole_as_datum_centres_the_largest_inscribed_cylinder():
+    """A hole 0.02 mm larger in radius, its axis 0.03 mm off, is the primary datum after A:
+    the inscribed cylinder's axis lands on the nominal's, its offset is -0.02 mm (the
+    simulator is larger than the nominal by the radius difference)."""
+    rng = np.random.default_rng(6)
+    b = Block({"A": 40, "hole": 40, "C": 20}, rng, misplacement(rng, 0.01, 0.2),
+              hole_shift=(0.03, -0.01), hole_dr=0.02)
+    c, length = b.frame()
+    ds = [Datum("A", "A", "plane"), Datum("H", "hole", "cylinder")]
+    for fit in ("tangent", "lsq"):
+        ds = [Datum("A", "A", "plane", fit), Datum("H", "hole", "cylinder", fit)]
+        al = align(b.evaluate, np.eye(4), ds, b.members("A", "hole"), c, length)
+        assert [d.constrained for d in al.datums] == [3, 2]
+        assert al.datums[1].offset == pytest.approx(-0.02, abs=1e-9), fit
+        # The actual hole's axis maps onto the nominal axis.
+        X = b.evaluate(al.T_nominal_measured, b.members("hole")[0])[0]
+        rho = np.linalg.norm(X[:, :2] - HOLE_XY, axis=1)
+        assert np.max(np.abs(rho - (HOLE_R + 0.02))) < 1e-9, fit
+        # Left free: the rotation about the hole's axis.
+        assert len(al.free) == 1 and al.free[0].type == "rotation"
+        assert np.allclose(np.abs(al.free[0].along), [0, 0, 1], atol=1e-9)
+        assert np.allclose(al.free[0].through[:2], HOLE_XY, atol=1e-6)  # now on the nominal axis
+
+
+def test_free_directions_are_named_and_best_fitted_on_request():
+    rng = np.random.default_rng(7)
+    b = Block({"A": 40, "B": 30, "C": 20}, rng, misplacement(rng))
+    c, length = b.frame()
+    only_a = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length)
+    kinds = sorted(f.type for f in only_a.free)
+    assert kinds == ["rotation", "translation", "translation"] and not only_a.best_fitted
+    for f in only_a.free:
+        if f.type == "translation":
+            assert abs(f.along[2]) < 1e-9  # in the plane of A
+        else:
+            assert np.allclose(np.abs(f.along), [0, 0, 1], atol=1e-9)
+    # Best-fitting the freedom A leaves on B and C's points finishes the job.
+    fitted = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length,
+                   best_fit=np.concatenate(b.members("B", "C")))
+    assert fitted.best_fitted
+    assert np.max(np.abs(fitted.T_nominal_measured @ b.misplace - np.eye(4))) < 1e-9
+
+
+def test_a_datum_without_enough_points_makes_the_alignment_incomplete():
+    rng = np.random.default_rng(8)
+    b = Block({"A": 40, "B": 2, "C": 20}, rng, misplacement(rng))
+    c, length = b.frame()
+    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length)
+    assert not al.complete and "datum B has 2 measured points" in al.message
+
+
+def test_rps_locks_six_labelled_points_onto_their_nominal_positions():
+    rng = np.random.default_rng(9)
+    b = Block({"A": 10, "B": 10, "C": 10}, rng, misplacement(rng))
+    c, length = b.frame()
+    # 3-2-1: three points of A locked in z, two of B in x, one of C in y.
+    idx = np.array([0, 1, 2, 10, 11, 20])
+    axes = np.eye(3)[[2, 2, 2, 0, 0, 1]]
+    al = align_rps(b.evaluate, np.eye(4), idx, b.true_points[idx], axes, c, length)
+    assert al.free == () and al.datums[0].constrained == 6
+    assert np.max(np.abs(al.T_nominal_measured @ b.misplace - np.eye(4))) < 1e-9
