@@ -132,25 +132,34 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
                                   else float(sig), tuple(float(a) for a in v)))
     sigma = None
     if not weak and n > dof and np.isfinite(residual_rms) and lam[0] > 0:
-        # Pose covariance s^2 (J^T J)^-1; a point moves by G dp, with G its own Jacobian of
-        # position (not of distance) with respect to the pose.
-        cov = residual_rms ** 2 * np.linalg.inv(A * n)
-        r = X - c
-        m = X.shape[0]
-        if dim == 3:
-            G = np.zeros((m, 3, 6))
-            # A rotation w moves r by w x r = (eps_ijk r_k) w_j.
-            G[:, :, :3] = np.einsum("ijk,nk->nij", _LEVI, r) / length
-            G[:, :, 3:] = np.eye(3)
-        else:
-            G = np.zeros((m, 2, 3))
-            G[:, 0, 0] = -r[:, 1] / length
-            G[:, 1, 0] = r[:, 0] / length
-            G[:, :, 1:] = np.eye(2)
-        var = np.einsum("nij,jk,nik->n", G, cov, G)
-        sigma = float(np.sqrt(var.max()))
+        sigma = _pose_sigma(X, c, length, A, n, residual_rms)
     return Conditioning(tuple(float(s) for s in strengths), tuple(weak), length, sigma,
                         tuple(float(a) for a in c))
+
+
+def _pose_sigma(X: np.ndarray, c: np.ndarray, length: float, A: np.ndarray, n: int,
+                residual_rms: float) -> float:
+    """The largest 1-sigma displacement (mm) at any of the points ``X`` ((m, 3) or (m, 2),
+    nominal frame) that the residuals (rms, mm, of all ``n`` fitted points) imply for the pose:
+    ``A`` the normal matrix per point (rotations scaled by ``length`` about the centroid ``c``,
+    as in :func:`conditioning`), invertible."""
+    # Pose covariance s^2 (J^T J)^-1; a point moves by G dp, with G its own Jacobian of
+    # position (not of distance) with respect to the pose.
+    cov = residual_rms ** 2 * np.linalg.inv(A * n)
+    r = X - c
+    m = X.shape[0]
+    if X.shape[1] == 3:
+        G = np.zeros((m, 3, 6))
+        # A rotation w moves r by w x r = (eps_ijk r_k) w_j.
+        G[:, :, :3] = np.einsum("ijk,nk->nij", _LEVI, r) / length
+        G[:, :, 3:] = np.eye(3)
+    else:
+        G = np.zeros((m, 2, 3))
+        G[:, 0, 0] = -r[:, 1] / length
+        G[:, 1, 0] = r[:, 0] / length
+        G[:, :, 1:] = np.eye(2)
+    var = np.einsum("nij,jk,nik->n", G, cov, G)
+    return float(np.sqrt(var.max()))
 
 
 _LEVI = np.zeros((3, 3, 3))
