@@ -693,49 +693,58 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
                                f"; the pose is ambiguous: at that pose the verdict would be "
                                f"{changed[0]}, so it depends on which pose is right"))
             continue
-        reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
-        lo = max((-a for a, o in zip(p.amplitudes, ok) if o and a < 0), default=0.0)
-        hi = max((a for a, o in zip(p.amplitudes, ok) if o and a > 0), default=0.0)
-        scale, unit = (1.0, " mm") if p.kind == "translation" else \
-            (np.degrees(1.0 / (sens.length_mm or 1.0)), "°")
-        how = f"±{reach * scale:.3g}{unit}"
-        stop = ", where the points stop fitting"
-        ends = p.ends or (False, False)
-        if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" and ends[0] == ends[1]:
-            span = "to " + how + (stop if ends[0] else "")
-        else:
-            span = (f"from −{lo * scale:.3g}{unit}{stop + ',' if ends[0] else ''} to "
-                    f"+{hi * scale:.3g}{unit}{stop if ends[1] else ''}")
-        if p.kind == "translation":
-            what, along = f"position along {_vec(p.axis)}", "along"
-            every = "position"
-        else:
-            what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
-            along, every = "about", "orientation"
-        if p.free:
-            fixed = f"{what} is not determined by the measured points"
-        elif p.sigma_mm is not None and reach < 0.999 * PROBE_SIGMAS[-1] * p.sigma_mm:
-            # 3 sigma beyond the free reach: probed as far as a free direction.
-            fixed = f"{what} is hardly determined (3σ beyond {how}, the reach probed)"
-        else:
-            fixed = f"{what} is determined only to {how} (3σ)"
-        if changed:
-            out.append(f"the measured points do not constrain the pose: {fixed}; moving the part "
-                       f"{along} it (probed {span}) changes deviations by up to "
-                       f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
-        elif p.free and p.invariant:
-            out.append(f"{fixed}; the deviations do not change {along} it (probed {span}): "
-                       f"the verdict is about form and holds for every such {every}")
-        elif p.free:
-            out.append(f"{fixed}; moving the part {along} it (probed {span}) changes "
-                       f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
-                       f"same at every {every} probed")
-        else:
-            out.append(f"{fixed}; moving the part over that range changes no deviation by "
-                       f"more than {p.max_change_mm:.4g} mm and the verdict holds over it")
+        out.append(_direction_statement(p, changed, ok, sens.length_mm))
     if out:
         where = "inside" if sens.min_limit_margin_mm >= 0 else "outside"
         out.append(f"the point nearest a tolerance limit lies {abs(sens.min_limit_margin_mm):.4g}"
                    f" mm {where} it; the poses the measurement allows change deviations by up "
                    f"to {sens.max_change_mm:.4g} mm")
     return tuple(out)
+
+
+def _direction_statement(p: PoseProbe, changed: list[str], ok: tuple[bool, ...],
+                         length_mm: float) -> str:
+    """The sentence for a weak or free direction's probe ``p``: how far the pose along it is
+    fixed, how far it was probed, and what that does to the deviations and the verdict.
+    changed : the verdicts at its plausible poses (``ok``, per amplitude) that differ from the
+    chosen pose's; length_mm : PoseSensitivity.length_mm (the rotations' scale)."""
+    reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
+    lo = max((-a for a, o in zip(p.amplitudes, ok) if o and a < 0), default=0.0)
+    hi = max((a for a, o in zip(p.amplitudes, ok) if o and a > 0), default=0.0)
+    scale, unit = (1.0, " mm") if p.kind == "translation" else \
+        (np.degrees(1.0 / (length_mm or 1.0)), "°")
+    how = f"±{reach * scale:.3g}{unit}"
+    stop = ", where the points stop fitting"
+    ends = p.ends or (False, False)
+    if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" and ends[0] == ends[1]:
+        span = "to " + how + (stop if ends[0] else "")
+    else:
+        span = (f"from −{lo * scale:.3g}{unit}{stop + ',' if ends[0] else ''} to "
+                f"+{hi * scale:.3g}{unit}{stop if ends[1] else ''}")
+    if p.kind == "translation":
+        what, along = f"position along {_vec(p.axis)}", "along"
+        every = "position"
+    else:
+        what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
+        along, every = "about", "orientation"
+    if p.free:
+        fixed = f"{what} is not determined by the measured points"
+    elif p.sigma_mm is not None and reach < 0.999 * PROBE_SIGMAS[-1] * p.sigma_mm:
+        # 3 sigma beyond the free reach: probed as far as a free direction.
+        fixed = f"{what} is hardly determined (3σ beyond {how}, the reach probed)"
+    else:
+        fixed = f"{what} is determined only to {how} (3σ)"
+    if changed:
+        return (f"the measured points do not constrain the pose: {fixed}; moving the part "
+                f"{along} it (probed {span}) changes deviations by up to "
+                f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
+    elif p.free and p.invariant:
+        return (f"{fixed}; the deviations do not change {along} it (probed {span}): "
+                f"the verdict is about form and holds for every such {every}")
+    elif p.free:
+        return (f"{fixed}; moving the part {along} it (probed {span}) changes "
+                f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
+                f"same at every {every} probed")
+    else:
+        return (f"{fixed}; moving the part over that range changes no deviation by "
+                f"more than {p.max_change_mm:.4g} mm and the verdict holds over it")
