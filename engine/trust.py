@@ -456,8 +456,10 @@ class _PoseJudge:
 
     d : (n,) deviations (mm) at the chosen pose ``T``; base : their pointwise verdict.
     cuts : the four (n,) values where a point's pointwise verdict changes (the limits, each
-        -+ the guarded rule's margin; margin None: 0).
-    idx : (k,) indices of the subset; seen : (n,) bool, the points evaluated at some pose.
+        -+ the guarded rule's margin; margin None: 0); dist : (n,) each point's distance to
+        its nearest cut at T (mm); width : the zone width (mm).
+    idx : (k,) indices of the subset (full: all n); seen : (n,) bool, the points evaluated at
+        some pose.
     fit_rms : the subset's deviation RMS (mm) above which the points no longer fit
         (PLAUSIBLE_RMS_RATIO, INVARIANT_FRACTION).
     points : (n, 3) or (n, 2) measured points at pose T (nominal frame, mm), or None.
