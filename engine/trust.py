@@ -132,25 +132,34 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
                                   else float(sig), tuple(float(a) for a in v)))
     sigma = None
     if not weak and n > dof and np.isfinite(residual_rms) and lam[0] > 0:
-        # Pose covariance s^2 (J^T J)^-1; a point moves by G dp, with G its own Jacobian of
-        # position (not of distance) with respect to the pose.
-        cov = residual_rms ** 2 * np.linalg.inv(A * n)
-        r = X - c
-        m = X.shape[0]
-        if dim == 3:
-            G = np.zeros((m, 3, 6))
-            # A rotation w moves r by w x r = (eps_ijk r_k) w_j.
-            G[:, :, :3] = np.einsum("ijk,nk->nij", _LEVI, r) / length
-            G[:, :, 3:] = np.eye(3)
-        else:
-            G = np.zeros((m, 2, 3))
-            G[:, 0, 0] = -r[:, 1] / length
-            G[:, 1, 0] = r[:, 0] / length
-            G[:, :, 1:] = np.eye(2)
-        var = np.einsum("nij,jk,nik->n", G, cov, G)
-        sigma = float(np.sqrt(var.max()))
+        sigma = _pose_sigma(X, c, length, A, n, residual_rms)
     return Conditioning(tuple(float(s) for s in strengths), tuple(weak), length, sigma,
                         tuple(float(a) for a in c))
+
+
+def _pose_sigma(X: np.ndarray, c: np.ndarray, length: float, A: np.ndarray, n: int,
+                residual_rms: float) -> float:
+    """The largest 1-sigma displacement (mm) at any of the points ``X`` ((m, 3) or (m, 2),
+    nominal frame) that the residuals (rms, mm, of all ``n`` fitted points) imply for the pose:
+    ``A`` the normal matrix per point (rotations scaled by ``length`` about the centroid ``c``,
+    as in :func:`conditioning`), invertible."""
+    # Pose covariance s^2 (J^T J)^-1; a point moves by G dp, with G its own Jacobian of
+    # position (not of distance) with respect to the pose.
+    cov = residual_rms ** 2 * np.linalg.inv(A * n)
+    r = X - c
+    m = X.shape[0]
+    if X.shape[1] == 3:
+        G = np.zeros((m, 3, 6))
+        # A rotation w moves r by w x r = (eps_ijk r_k) w_j.
+        G[:, :, :3] = np.einsum("ijk,nk->nij", _LEVI, r) / length
+        G[:, :, 3:] = np.eye(3)
+    else:
+        G = np.zeros((m, 2, 3))
+        G[:, 0, 0] = -r[:, 1] / length
+        G[:, 1, 0] = r[:, 0] / length
+        G[:, :, 1:] = np.eye(2)
+    var = np.einsum("nij,jk,nik->n", G, cov, G)
+    return float(np.sqrt(var.max()))
 
 
 _LEVI = np.zeros((3, 3, 3))
@@ -421,15 +430,6 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
     """
     d = np.asarray(d, float)
     n = d.size
-    width = upper - lower
-    m = np.zeros(n) if margin is None else np.asarray(margin, float)
-    cuts = (lower - m, lower + m, upper - m, upper + m)
-
-    def to_limit(dd, sel=slice(None)):
-        """Distance of each point to the nearest value where its pointwise verdict changes."""
-        return np.min(np.abs(np.stack([dd - c[sel] for c in cuts])), axis=0)
-
-    dist = to_limit(d)
     signed = np.minimum(d - lower, upper - d)
     closest = float(signed[np.argmin(np.abs(signed))]) if n else 0.0
     worst = float(signed.min()) if n else 0.0
@@ -437,138 +437,214 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
     weak = [w for w in cond.weak if w.twist]
     if not (weak or len(alternatives) or len(region)) or n == 0:
         return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
-    if n <= max_points:
-        idx = np.arange(n)
-    else:
-        idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
-    seen = np.zeros(n, bool)
-    seen[idx] = True
-    rms0 = float(np.sqrt(np.mean(d[idx] ** 2)))
-    fits = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * width
-    T = np.asarray(T, float)
-    T_inv = np.linalg.inv(T)
-    X = None if points is None else np.asarray(points, float)
+    judge = _PoseJudge(deviations_at, verdict_of, beyond_at, T, d, base, lower, upper, margin,
+                       points, max_points)
+    probes = [_direction_probe(judge, w, cond) for w in weak]
+    probes += [_runner_up_probe(judge, Ta) for Ta in alternatives]
+    if len(region):
+        probes.append(_uncertainty_probe(judge, region))
+    stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
+    return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
+                           closest, worst, int(judge.seen.sum()), cond.length)
 
-    def category(dd, sel):
+
+class _PoseJudge:
+    """The pointwise verdict of all n measured points at a probed pose, for
+    :func:`pose_sensitivity`: a seeded subset (at most ``max_points``, all when fewer) is
+    evaluated at every pose, and on request every other point the motion could carry across
+    a cut, so that the verdict is that of every point.
+
+    d : (n,) deviations (mm) at the chosen pose ``T``; base : their pointwise verdict.
+    cuts : the four (n,) values where a point's pointwise verdict changes (the limits, each
+        -+ the guarded rule's margin; margin None: 0); dist : (n,) each point's distance to
+        its nearest cut at T (mm); width : the zone width (mm).
+    idx : (k,) indices of the subset (full: all n); seen : (n,) bool, the points evaluated at
+        some pose.
+    fit_rms : the subset's deviation RMS (mm) above which the points no longer fit
+        (PLAUSIBLE_RMS_RATIO, INVARIANT_FRACTION).
+    points : (n, 3) or (n, 2) measured points at pose T (nominal frame, mm), or None.
+    """
+
+    def __init__(self, deviations_at: Callable, verdict_of: Callable[[np.ndarray], str],
+                 beyond_at: Callable | None, T: np.ndarray, d: np.ndarray, base: str,
+                 lower: float, upper: float, margin: np.ndarray | None,
+                 points: np.ndarray | None, max_points: int):
+        n = d.size
+        self.deviations_at, self.verdict_of, self.beyond_at = deviations_at, verdict_of, beyond_at
+        self.d, self.base = d, base
+        self.width = upper - lower
+        m = np.zeros(n) if margin is None else np.asarray(margin, float)
+        self.cuts = (lower - m, lower + m, upper - m, upper + m)
+        self.dist = self.to_limit(d)
+        if n <= max_points:
+            self.idx = np.arange(n)
+        else:
+            self.idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
+        self.seen = np.zeros(n, bool)
+        self.seen[self.idx] = True
+        rms0 = float(np.sqrt(np.mean(d[self.idx] ** 2)))
+        self.fit_rms = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * self.width
+        self.T = np.asarray(T, float)
+        self.T_inv = np.linalg.inv(self.T)
+        self.points = None if points is None else np.asarray(points, float)
+        self.cat0 = self.category(d)
+        self.full = self.idx.size == n
+
+    def to_limit(self, dd, sel=slice(None)):
+        """Distance of each point to the nearest value where its pointwise verdict changes."""
+        return np.min(np.abs(np.stack([dd - c[sel] for c in self.cuts])), axis=0)
+
+    def category(self, dd):
         """Which side of each cut a deviation lies: its pointwise verdict's case."""
-        return sum((dd > c[sel]).astype(np.int8) for c in cuts)
+        return sum((dd > c).astype(np.int8) for c in self.cuts)
 
-    cat0 = category(d, slice(None))
-
-    def subset_at(P):
-        dI = np.asarray(deviations_at(P, idx), float)
+    def subset_at(self, P):
+        """(the subset's deviations at pose P, their RMS)."""
+        dI = np.asarray(self.deviations_at(P, self.idx), float)
         return dI, float(np.sqrt(np.mean(dI ** 2)))
 
-    full = idx.size == n
+    def with_subset(self, dI):
+        """(n,) deviations: the subset's ``dI``, the chosen pose's for every other point."""
+        dd = self.d.copy()
+        dd[self.idx] = dI
+        return dd
 
-    def judge_at(P, dI, every=True):
+    def judge_at(self, P, dI, every=True):
         """(verdict, largest |change|, a point whose deviation changes there lies past the
         nominal's border) at pose P: the subset's deviations dI, then (``every``) exactly every
         other point the motion displaces by at least its distance to a cut, so the verdict is
         that of every point."""
-        dd = d.copy()
-        dd[idx] = dI
-        v = verdict_of(dd)
-        if every and not full and not (v == "REJECT" and base != "REJECT"):
+        d, X, n = self.d, self.points, self.d.size
+        dd = self.with_subset(dI)
+        v = self.verdict_of(dd)
+        if every and not self.full and not (v == "REJECT" and self.base != "REJECT"):
             # (One point out makes a REJECT whatever the others do.)
             if X is None:
                 rest = np.ones(n, bool)
             else:
-                G = P @ T_inv  # the motion, nominal frame
+                G = P @ self.T_inv  # the motion, nominal frame
                 k = X.shape[1]
-                rest = np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1) >= dist
-            rest[idx] = False
+                rest = np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1) >= self.dist
+            rest[self.idx] = False
             rest = np.flatnonzero(rest)
             if rest.size:
-                dd[rest] = deviations_at(P, rest)
-                seen[rest] = True
-                v = verdict_of(dd)
+                dd[rest] = self.deviations_at(P, rest)
+                self.seen[rest] = True
+                v = self.verdict_of(dd)
         # Points whose deviation moved at all (a point past the border measures to its edge).
-        changed = np.flatnonzero((category(dd, slice(None)) != cat0)
-                                 | (np.abs(dd - d) > INVARIANT_FRACTION * width))
+        changed = np.flatnonzero((self.category(dd) != self.cat0)
+                                 | (np.abs(dd - d) > INVARIANT_FRACTION * self.width))
         left = False
-        if beyond_at is not None and changed.size:
-            left = bool(np.any(np.asarray(beyond_at(P, changed), bool)
-                               & ~np.asarray(beyond_at(T, changed), bool)))
+        if self.beyond_at is not None and changed.size:
+            left = bool(np.any(np.asarray(self.beyond_at(P, changed), bool)
+                               & ~np.asarray(self.beyond_at(self.T, changed), bool)))
         return v, float(np.abs(dd - d).max()), left
 
+    def judge_every(self, P):
+        """:meth:`judge_at` pose P on every point."""
+        return self.judge_at(P, self.subset_at(P)[0], True)
+
+
+def _moved(T: np.ndarray, w: WeakDirection, amplitude: float,
+           cond: Conditioning) -> np.ndarray:
+    """Pose ``T`` moved by ``amplitude`` (mm at the RMS radius) along ``w``'s twist, in the
+    nominal frame: 4x4, or 3x3 in 2D."""
+    return _twist_matrix(w.twist, amplitude, cond.centre, cond.length) @ T
+
+
+def _direction_probe(judge: _PoseJudge, w: WeakDirection, cond: Conditioning) -> PoseProbe:
+    """The part moved along the weak or free direction ``w``: probed at +-PROBE_SIGMAS x its
+    sigma, or scanned both ways when it is free (:func:`_scan_free`)."""
+    width = judge.width
     reach = FREE_REACH * cond.length
-    probes = []
-    for w in weak:
-        through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
-            else None
+    through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
+        else None
+    ends = []
+    if w.sigma_mm is not None:  # weak: the uncertainty region, every pose in it counts
+        rec = []  # (amplitude, verdict, plausible, largest change, every point)
+        for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
+                         for s in (-1, 1)}):
+            v, ch, _ = judge.judge_every(_moved(judge.T, w, a, cond))
+            rec.append([a, v, True, ch, True])
+    else:
+        rec, ends = _scan_free(judge, w, cond, reach)
+    rec.sort(key=lambda t: t[0])
+    mx = max((c for _, _, o, c, _ in rec if o), default=0.0)
+    return PoseProbe(w.type, w.axis, w.sigma_mm is None, tuple(r[0] for r in rec),
+                     mx, tuple(r[1] for r in rec), mx <= INVARIANT_FRACTION * width,
+                     tuple(r[2] for r in rec), through, w.sigma_mm, tuple(ends),
+                     tuple(r[4] for r in rec))
 
-        def pose(a):
-            return _twist_matrix(w.twist, a, cond.centre, cond.length) @ T
 
-        rec = []  # (amplitude, verdict, plausible, largest change)
-        ends = []
-        if w.sigma_mm is not None:  # weak: the uncertainty region, every pose in it counts
-            for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
-                             for s in (-1, 1)}):
-                P = pose(a)
-                v, ch, _ = judge_at(P, subset_at(P)[0], True)
-                rec.append([a, v, True, ch, True])
-        else:
-            h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx],
-                                                                              cond))
-            for sgn in (-1.0, 1.0):
-                a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
-                end, checked, last = False, False, None
-                for _ in range(FREE_MAX_STEPS):
-                    if bad - a <= h_min:
-                        end = True  # next to where the points stop fitting
-                        break
-                    a_new = min(a + h, reach, 0.5 * (a + bad))
-                    P = pose(sgn * a_new)
-                    dI, r = subset_at(P)
-                    every = full or (not checked and a_new >= FREE_EVERY_POINT * reach)
-                    v, ch, left = judge_at(P, dI, every) if r <= fits else (None, 0.0, True)
-                    if left:  # not a pose the part can be in
-                        sub = d.copy()
-                        sub[idx] = dI
-                        rec.append([sgn * a_new, verdict_of(sub), False, 0.0, False])
-                        bad = a_new
-                        continue
-                    checked |= every
-                    rec.append([sgn * a_new, v, True, ch, every])
-                    last = (len(rec) - 1, P, dI)
-                    rate = max(rate, float(np.abs(dI - prev).max()) / (a_new - a))
-                    prev, a = dI, a_new
-                    if v != base or a >= reach:
-                        break
-                    # The next step may not let the deviations, changing at twice the fastest
-                    # rate seen so far, carry the point nearest a limit to it; it grows at
-                    # most geometrically and is never below the resolution.
-                    near = float(to_limit(dI, idx).min())
-                    h_rate = near / (FREE_SAFETY * rate) if rate > 0 else np.inf
-                    h = max(h_min, min(h_rate, (FREE_GROWTH - 1.0) * a))
-                if last is not None and not rec[last[0]][4]:
-                    # The farthest pose reached this way, judged on every point too.
-                    v, ch, left = judge_at(last[1], last[2], True)
-                    rec[last[0]][1:] = [v, not left, ch, True]
-                ends.append(end)
-        rec.sort(key=lambda t: t[0])
-        mx = max((c for _, _, o, c, _ in rec if o), default=0.0)
-        probes.append(PoseProbe(w.type, w.axis, w.sigma_mm is None, tuple(r[0] for r in rec),
-                                mx, tuple(r[1] for r in rec), mx <= INVARIANT_FRACTION * width,
-                                tuple(r[2] for r in rec), through, w.sigma_mm, tuple(ends),
-                                tuple(r[4] for r in rec)))
-    for Ta in alternatives:
-        P = np.asarray(Ta, float)
-        v, ch, _ = judge_at(P, subset_at(P)[0], True)
-        probes.append(PoseProbe("runner-up", None, False, (), ch, (v,),
-                                ch <= INVARIANT_FRACTION * width, (True,), None, None, (),
-                                (True,)))
-    if len(region):
-        judged = [judge_at(P, subset_at(P)[0], True) for P in region]
-        ch = max(j[1] for j in judged)
-        probes.append(PoseProbe("uncertainty", None, False, (), ch, tuple(j[0] for j in judged),
-                                ch <= INVARIANT_FRACTION * width, (True,) * len(judged), None,
-                                None, (), (True,) * len(judged)))
-    stable = all(v == base for p in probes for v, o in zip(p.verdicts, p.plausible) if o)
-    return PoseSensitivity(tuple(probes), base, stable, max(p.max_change_mm for p in probes),
-                           closest, worst, int(seen.sum()), cond.length)
+def _scan_free(judge: _PoseJudge, w: WeakDirection, cond: Conditioning,
+               reach: float) -> tuple[list[list], list[bool]]:
+    """Scan the free direction ``w`` outward both ways from the chosen pose, up to ``reach``
+    (mm at the RMS radius), to where the points stop fitting, or to a changed verdict
+    (FREE_FIRST, FREE_GROWTH, FREE_SAFETY, FREE_RESOLUTION, FREE_MAX_STEPS).
+
+    Returns the poses tried, each [signed amplitude, verdict, plausible, largest change (mm),
+    judged on every point], and per side (negative, positive) whether the scan ended next to
+    where the points stop fitting."""
+    d, idx, X, width = judge.d, judge.idx, judge.points, judge.width
+    rec = []  # (amplitude, verdict, plausible, largest change, every point)
+    ends = []
+    h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx], cond))
+    for sgn in (-1.0, 1.0):
+        a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
+        end, checked, last = False, False, None
+        for _ in range(FREE_MAX_STEPS):
+            if bad - a <= h_min:
+                end = True  # next to where the points stop fitting
+                break
+            a_new = min(a + h, reach, 0.5 * (a + bad))
+            P = _moved(judge.T, w, sgn * a_new, cond)
+            dI, r = judge.subset_at(P)
+            every = judge.full or (not checked and a_new >= FREE_EVERY_POINT * reach)
+            v, ch, left = judge.judge_at(P, dI, every) if r <= judge.fit_rms \
+                else (None, 0.0, True)
+            if left:  # not a pose the part can be in
+                rec.append([sgn * a_new, judge.verdict_of(judge.with_subset(dI)), False, 0.0,
+                            False])
+                bad = a_new
+                continue
+            checked |= every
+            rec.append([sgn * a_new, v, True, ch, every])
+            last = (len(rec) - 1, P, dI)
+            rate = max(rate, float(np.abs(dI - prev).max()) / (a_new - a))
+            prev, a = dI, a_new
+            if v != judge.base or a >= reach:
+                break
+            # The next step may not let the deviations, changing at twice the fastest
+            # rate seen so far, carry the point nearest a limit to it; it grows at
+            # most geometrically and is never below the resolution.
+            near = float(judge.to_limit(dI, idx).min())
+            h_rate = near / (FREE_SAFETY * rate) if rate > 0 else np.inf
+            h = max(h_min, min(h_rate, (FREE_GROWTH - 1.0) * a))
+        if last is not None and not rec[last[0]][4]:
+            # The farthest pose reached this way, judged on every point too.
+            v, ch, left = judge.judge_at(last[1], last[2], True)
+            rec[last[0]][1:] = [v, not left, ch, True]
+        ends.append(end)
+    return rec, ends
+
+
+def _runner_up_probe(judge: _PoseJudge, Ta) -> PoseProbe:
+    """The part at the runner-up pose ``Ta`` (the same kind of transform as the chosen one),
+    judged on every point."""
+    P = np.asarray(Ta, float)
+    v, ch, _ = judge.judge_every(P)
+    return PoseProbe("runner-up", None, False, (), ch, (v,),
+                     ch <= INVARIANT_FRACTION * judge.width, (True,), None, None, (), (True,))
+
+
+def _uncertainty_probe(judge: _PoseJudge, region) -> PoseProbe:
+    """The part at each pose of ``region`` (:func:`uncertainty_poses`), judged on every point,
+    as one probe."""
+    judged = [judge.judge_every(P) for P in region]
+    ch = max(j[1] for j in judged)
+    return PoseProbe("uncertainty", None, False, (), ch, tuple(j[0] for j in judged),
+                     ch <= INVARIANT_FRACTION * judge.width, (True,) * len(judged), None,
+                     None, (), (True,) * len(judged))
 
 
 def _speed(twist, X: np.ndarray, cond: Conditioning) -> float:
@@ -619,49 +695,58 @@ def trust_statements(sens: PoseSensitivity | None, score: float | None = None,
                                f"; the pose is ambiguous: at that pose the verdict would be "
                                f"{changed[0]}, so it depends on which pose is right"))
             continue
-        reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
-        lo = max((-a for a, o in zip(p.amplitudes, ok) if o and a < 0), default=0.0)
-        hi = max((a for a, o in zip(p.amplitudes, ok) if o and a > 0), default=0.0)
-        scale, unit = (1.0, " mm") if p.kind == "translation" else \
-            (np.degrees(1.0 / (sens.length_mm or 1.0)), "°")
-        how = f"±{reach * scale:.3g}{unit}"
-        stop = ", where the points stop fitting"
-        ends = p.ends or (False, False)
-        if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" and ends[0] == ends[1]:
-            span = "to " + how + (stop if ends[0] else "")
-        else:
-            span = (f"from −{lo * scale:.3g}{unit}{stop + ',' if ends[0] else ''} to "
-                    f"+{hi * scale:.3g}{unit}{stop if ends[1] else ''}")
-        if p.kind == "translation":
-            what, along = f"position along {_vec(p.axis)}", "along"
-            every = "position"
-        else:
-            what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
-            along, every = "about", "orientation"
-        if p.free:
-            fixed = f"{what} is not determined by the measured points"
-        elif p.sigma_mm is not None and reach < 0.999 * PROBE_SIGMAS[-1] * p.sigma_mm:
-            # 3 sigma beyond the free reach: probed as far as a free direction.
-            fixed = f"{what} is hardly determined (3σ beyond {how}, the reach probed)"
-        else:
-            fixed = f"{what} is determined only to {how} (3σ)"
-        if changed:
-            out.append(f"the measured points do not constrain the pose: {fixed}; moving the part "
-                       f"{along} it (probed {span}) changes deviations by up to "
-                       f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
-        elif p.free and p.invariant:
-            out.append(f"{fixed}; the deviations do not change {along} it (probed {span}): "
-                       f"the verdict is about form and holds for every such {every}")
-        elif p.free:
-            out.append(f"{fixed}; moving the part {along} it (probed {span}) changes "
-                       f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
-                       f"same at every {every} probed")
-        else:
-            out.append(f"{fixed}; moving the part over that range changes no deviation by "
-                       f"more than {p.max_change_mm:.4g} mm and the verdict holds over it")
+        out.append(_direction_statement(p, changed, ok, sens.length_mm))
     if out:
         where = "inside" if sens.min_limit_margin_mm >= 0 else "outside"
         out.append(f"the point nearest a tolerance limit lies {abs(sens.min_limit_margin_mm):.4g}"
                    f" mm {where} it; the poses the measurement allows change deviations by up "
                    f"to {sens.max_change_mm:.4g} mm")
     return tuple(out)
+
+
+def _direction_statement(p: PoseProbe, changed: list[str], ok: tuple[bool, ...],
+                         length_mm: float) -> str:
+    """The sentence for a weak or free direction's probe ``p``: how far the pose along it is
+    fixed, how far it was probed, and what that does to the deviations and the verdict.
+    changed : the verdicts at its plausible poses (``ok``, per amplitude) that differ from the
+    chosen pose's; length_mm : PoseSensitivity.length_mm (the rotations' scale)."""
+    reach = max((abs(a) for a, o in zip(p.amplitudes, ok) if o), default=0.0)
+    lo = max((-a for a, o in zip(p.amplitudes, ok) if o and a < 0), default=0.0)
+    hi = max((a for a, o in zip(p.amplitudes, ok) if o and a > 0), default=0.0)
+    scale, unit = (1.0, " mm") if p.kind == "translation" else \
+        (np.degrees(1.0 / (length_mm or 1.0)), "°")
+    how = f"±{reach * scale:.3g}{unit}"
+    stop = ", where the points stop fitting"
+    ends = p.ends or (False, False)
+    if f"{lo * scale:.3g}" == f"{hi * scale:.3g}" and ends[0] == ends[1]:
+        span = "to " + how + (stop if ends[0] else "")
+    else:
+        span = (f"from −{lo * scale:.3g}{unit}{stop + ',' if ends[0] else ''} to "
+                f"+{hi * scale:.3g}{unit}{stop if ends[1] else ''}")
+    if p.kind == "translation":
+        what, along = f"position along {_vec(p.axis)}", "along"
+        every = "position"
+    else:
+        what = f"orientation about the axis {_vec(p.axis)} through {_vec(p.through)}"
+        along, every = "about", "orientation"
+    if p.free:
+        fixed = f"{what} is not determined by the measured points"
+    elif p.sigma_mm is not None and reach < 0.999 * PROBE_SIGMAS[-1] * p.sigma_mm:
+        # 3 sigma beyond the free reach: probed as far as a free direction.
+        fixed = f"{what} is hardly determined (3σ beyond {how}, the reach probed)"
+    else:
+        fixed = f"{what} is determined only to {how} (3σ)"
+    if changed:
+        return (f"the measured points do not constrain the pose: {fixed}; moving the part "
+                f"{along} it (probed {span}) changes deviations by up to "
+                f"{p.max_change_mm:.4g} mm and the verdict to {changed[0]}")
+    elif p.free and p.invariant:
+        return (f"{fixed}; the deviations do not change {along} it (probed {span}): "
+                f"the verdict is about form and holds for every such {every}")
+    elif p.free:
+        return (f"{fixed}; moving the part {along} it (probed {span}) changes "
+                f"deviations by up to {p.max_change_mm:.4g} mm, but the verdict is the "
+                f"same at every {every} probed")
+    else:
+        return (f"{fixed}; moving the part over that range changes no deviation by "
+                f"more than {p.max_change_mm:.4g} mm and the verdict holds over it")
