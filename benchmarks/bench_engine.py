@@ -38,7 +38,7 @@ def run_case(name: str) -> dict:
     from engine.geometry import apply_transform, make_transform
     from engine.inspection import Tolerance, inspect
     from engine.nominal import Nominal
-    from engine.io.points import PointSet
+    from engine.pointset import PointSet
     import samples.generate as gen
 
     grid, m, xr, yr, kind = CASES[name]

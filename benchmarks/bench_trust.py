@@ -24,7 +24,7 @@ sys.path.insert(0, ROOT)
 def cylinder(n_measured: int, seed: int = 4):
     from engine.geometry import apply_transform, make_transform
     from engine.nominal import Nominal
-    from engine.io.points import PointSet
+    from engine.pointset import PointSet
 
     a = np.linspace(0, 2 * np.pi, 720, endpoint=False)
     z = np.linspace(-100, 100, 200)

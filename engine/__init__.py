@@ -19,7 +19,7 @@ def warm_up() -> None:
 
     from . import pipeline  # noqa: F401  (run_files: the readers and the whole flow)
     from .inspection import inspect
-    from .io.points import PointSet
+    from .pointset import PointSet
     from .nominal import Nominal
     from .tolerance import Tolerance
 

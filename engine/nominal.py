@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 from scipy.spatial import cKDTree
 
 from .errors import InputError
-from .io.points import PointSet
+from .pointset import PointSet
 
 NORMAL_NEIGHBOURS = 12
 MAX_SUBDIVISION = 16  # a large triangle gets at most 16 x 16 / 2 interior sample points

@@ -18,7 +18,7 @@ import numpy as np
 from .errors import InputError, SettingsError
 from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
-from .io.points import PointSet
+from .pointset import PointSet
 from .nominal import Nominal
 from .progress import Callback, report, reporting
 from .settings import InspectionSettings

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from engine.io.points import PointSet
+from engine.pointset import PointSet
 
 
 def height(x, y):

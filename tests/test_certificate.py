@@ -892,20 +892,3 @@ def test_an_accept_the_result_does_not_support_is_never_certified(tmp_path, monk
     assert "refusing to certify ACCEPTED" in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
     assert os.listdir(tmp_path) == []
-
-
-def test_no_function_in_reports_is_a_book():
-    """Every function (method, nested function) of reports/ fits on a screen: at most 80
-    lines from its 'def' to its last line, docstring included. A long layout is split by
-    section (reports.certificate, reports.qif)."""
-    import ast
-    import pathlib
-
-    longest = []
-    for path in sorted(pathlib.Path(ROOT, "reports").rglob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                lines = node.end_lineno - node.lineno + 1
-                longest.append((lines, f"{path.name}:{node.lineno} {node.name}"))
-    assert len(longest) > 50  # the walk saw the package
-    assert [f for n, f in longest if n > 80] == [], sorted(longest)[-3:]

@@ -383,7 +383,7 @@ def test_swapped_files_say_so(files, tmp_path, capsys):
 def test_swap_hint_spares_dense_scans():
     """Only the files' make-up says 'swapped': a dense bare scan against a coarser nominal with
     normals, or two bare clouds, are not."""
-    from engine.io.points import PointSet
+    from engine.pointset import PointSet
     from engine.pipeline import swap_hint
 
     rng = np.random.default_rng(3)

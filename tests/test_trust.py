@@ -412,7 +412,7 @@ def test_a_weak_direction_counts_only_when_the_measurement_leaves_it_uncertain(f
     mm, above a quarter of a ±0.05 zone): unconstrained. A small patch of a gently curved panel
     is as weak by shape, but its points pin the pose to a few micrometres: constrained."""
     import samples.generate as gen
-    from engine.io.points import PointSet
+    from engine.pointset import PointSet
 
     rng = np.random.default_rng(77)
     nom = gen.bracket_points(200_000, rng)

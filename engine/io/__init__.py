@@ -23,10 +23,10 @@ import hashlib
 import os
 
 from engine.errors import InputError, InputNotFoundError
+from engine.pointset import PointSet
 
 from . import formats
 from .formats import ALL_SUFFIXES, is_template  # noqa: F401  (the package's front door)
-from .points import PointSet
 
 
 def load_point_set(path: str | os.PathLike) -> PointSet:

@@ -47,8 +47,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from engine.errors import InputError
-from .points import (PointSet, check_coordinate_range, finish_point_set, read_bytes, split_lines,
-                     text_lines)
+from engine.pointset import PointSet
+
+from .points import check_coordinate_range, finish_point_set, read_bytes, split_lines, text_lines
 
 
 @dataclass(frozen=True)

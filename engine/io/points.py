@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import InputError, InputNotFoundError
+from engine.pointset import PointSet
 
 from . import formats
 from .formats import TEXT_SUFFIXES
@@ -51,30 +52,6 @@ _AXIS_NAMES = {
     "x": 0, "y": 1, "z": 2,
     "i": 3, "j": 4, "k": 5, "nx": 3, "ny": 4, "nz": 5, "u": 3, "v": 4, "w": 5,
 }
-
-
-@dataclass(frozen=True)
-class PointSet:
-    """Points read from one file, in millimetres.
-
-    points : (n, 3) float64. 2D files get z = 0 and ``dim == 2``.
-    normals : (n, 3) float64 unit vectors (the file's I J K, or a mesh's vertex normals) or None.
-    labels : (n,) str array of point labels, or None.
-    grid_shape : (nu, nv) when the points form a u-v grid (u fastest), else None.
-    triangles : (m, 3) int64 vertex indices of a mesh's triangles, or None.
-    """
-
-    points: np.ndarray
-    normals: np.ndarray | None = None
-    labels: np.ndarray | None = None
-    grid_shape: tuple[int, int] | None = None
-    triangles: np.ndarray | None = None
-    dim: int = 3
-    path: str = "<array>"
-
-    @property
-    def n(self) -> int:
-        return int(self.points.shape[0])
 
 
 def read_points(path: str | os.PathLike) -> PointSet:

@@ -1,0 +1,32 @@
+"""The points an input file describes, as every reader returns them (engine.io) and the nominal
+and the pipeline take them: numbers only, no file in sight."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PointSet:
+    """Points read from one file, in millimetres.
+
+    points : (n, 3) float64. 2D files get z = 0 and ``dim == 2``.
+    normals : (n, 3) float64 unit vectors (the file's I J K, or a mesh's vertex normals) or None.
+    labels : (n,) str array of point labels, or None.
+    grid_shape : (nu, nv) when the points form a u-v grid (u fastest), else None.
+    triangles : (m, 3) int64 vertex indices of a mesh's triangles, or None.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray | None = None
+    labels: np.ndarray | None = None
+    grid_shape: tuple[int, int] | None = None
+    triangles: np.ndarray | None = None
+    dim: int = 3
+    path: str = "<array>"
+
+    @property
+    def n(self) -> int:
+        return int(self.points.shape[0])
