@@ -25,6 +25,12 @@ FEATURES_2D = ("line", "circle")
 DATUM_FITS = ("tangent", "lsq")
 ALIGNMENTS = ("best-fit", "datums", "rps")
 CHARACTERISTICS = ("profile", "flatness", "position", "size")
+PROFILE_FITS = ("lsq", "minimax")
+"""How a form-only profile refits its region: least squares, or minimax (the smallest zone)."""
+MAX_DATUMS = 3
+"""A datum reference frame has at most a primary, a secondary and a tertiary datum."""
+AXES = ("x", "y", "z")
+"""The nominal frame's axes an RPS point may lock, in this order."""
 CONSTRAINED_DOFS = {"plane": 3, "cylinder": 4, "sphere": 3, "line": 2, "circle": 2}
 """Degrees of freedom a datum feature can constrain on its own (a plane: the translation along
 its normal and the two tilts; a cylinder: its axis' direction and position; a sphere: its
@@ -79,6 +85,7 @@ class RpsPoint:
     label: str
     nominal: tuple[float, float, float]
     lock: tuple[str, ...]
+    """A non-empty subset of ``AXES``, in that order."""
 
 
 @dataclass(frozen=True)
@@ -87,7 +94,8 @@ class Alignment:
     reference: tuple[str, ...] = ()
     """Datum labels, primary first."""
     best_fit_regions: tuple[str, ...] = ()
-    """Regions whose points best-fit the degrees of freedom the datums leave free."""
+    """Regions whose points best-fit the degrees of freedom the datums leave free (method
+    "datums" only)."""
 
 
 @dataclass(frozen=True)
@@ -109,7 +117,9 @@ class Characteristic:
     upper: float
     datums: tuple[str, ...] = ()
     fit: str = "lsq"
+    """A form-only profile's refit (``PROFILE_FITS``); not used by the other types."""
     nominal: float | None = None
+    """Size only: the nominal diameter, mm (``lower`` and ``upper`` are offsets about it)."""
 
     @property
     def width(self) -> float:

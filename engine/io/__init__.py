@@ -3,8 +3,9 @@
 ``formats`` is the one table of file types; ``points`` reads text and ``.npy`` point files (and
 defines :class:`~engine.io.points.PointSet`); ``meshes`` reads PLY/OBJ/STL with numpy and VTK's
 formats through VTK; ``templates`` reads 2D contour templates (DXF drawings with ezdxf, airfoil
-ordinates). Only this package may import pyvista/VTK or ezdxf (an import-linter contract checks
-it), and only lazily, inside the readers that need them.
+ordinates); ``plan`` reads inspection plans (TOML) into :class:`engine.plan.Plan`. Only this
+package may import pyvista/VTK or ezdxf (an import-linter contract checks it), and only lazily,
+inside the readers that need them.
 
 * ``.ply`` (ASCII or binary; scanner PLYs with extra elements such as ``range_grid`` are fine),
   ``.stl``, ``.obj``: points, and triangles when the file has faces (polygons are triangulated);

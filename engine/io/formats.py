@@ -3,7 +3,7 @@
 Every reader, the check of the options against the nominal, the pipeline and both front ends ask
 this table. A new file format is a row here and its reader in ``engine.io`` (dispatched in
 :func:`engine.io.load_point_set`, or in :func:`engine.io.templates.read_template` for a 2D
-template), plus one test.
+template, or :func:`engine.io.plan.read_plan` for an inspection plan), plus one test.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ DXF = "DXF template"
 """2D contour templates drawn in DXF (``engine.io.templates``)."""
 AIRFOIL = "airfoil template"
 """2D airfoil ordinate templates, Selig order (``engine.io.templates``)."""
+PLAN = "inspection plan"
+"""Inspection plans in TOML: regions, datums, alignment, characteristics (``engine.io.plan``)."""
 
 KIND = {
     ".csv": POINT_TEXT, ".txt": POINT_TEXT, ".xyz": POINT_TEXT, ".asc": POINT_TEXT,
@@ -33,6 +35,7 @@ KIND = {
     ".vts": GRID,
     ".dxf": DXF,
     ".dat": AIRFOIL,
+    ".toml": PLAN,
 }
 """Suffix (lower case, with its dot) -> kind of file."""
 
@@ -51,6 +54,7 @@ TEXT_SUFFIXES = suffixes(POINT_TEXT)
 MESH_SUFFIXES = suffixes(MESH, VTK, GRID)
 ALL_SUFFIXES = suffixes(*POINT_SET_KINDS)
 TEMPLATE_SUFFIXES = suffixes(*TEMPLATE_KINDS)
+PLAN_SUFFIXES = suffixes(PLAN)
 MEASURED_SUFFIXES = suffixes(POINT_TEXT, NPY) + (".ply",)
 """What CMMs and scanners write: the desktop app's filter for measured files (any point set is
 accepted)."""
