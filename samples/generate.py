@@ -1,16 +1,25 @@
 """Generate the bundled samples and their ground truth (deterministic: fixed seeds).
 
-    python samples/generate.py            # rewrites samples/belly_fairing and samples/seat_bracket
+    python samples/generate.py   # rewrites the three samples below (PYTHONHASHSEED=0: the
+                                 # DXF's CLASSES section also comes out byte for byte)
 
 belly_fairing/  a 500 x 250 mm doubly curved form tool like the paper's section 5.2:
     nominal.csv   60,000-point u-v grid (300 x 200, u fastest) with I J K normals
     measured.csv  1,100 CMM points (label, x, y, z) in an arbitrary pose on the machine bed, with
                   probing noise and a local dent
     truth.json    the pose, the planted deviation of every point, the expected verdict
-seat_bracket/   an L-shaped seat bracket with two freeform faces (A: flange top, B: web face):
-    nominal.xyz   200,000 points over the whole part with outward I J K normals
-    measured.csv  100 points on faces A and B only (a small part of the nominal), arbitrary pose
-    truth.json    as above
+seat_bracket/   an L-shaped seat bracket with two freeform faces (A: flange top, B: web face),
+                plane bottom (z = 0), back (x = 0) and ends (y = 0, 60), and a vertical through
+                hole of diameter 8 in the flange at (x, y) = (64, 30):
+    nominal.xyz   200,000 points over the whole part, hole wall included, with outward I J K
+                  normals (on the hole's wall: towards its axis)
+    measured.csv  164 points in an arbitrary pose: faces A (P001-P050) and B (P051-P100) with a
+                  uniform +0.012 mm excess, the end face y = 60 (P101-P120, datum C) likewise,
+                  the bottom (P121-P136, datum A) and the back (P137-P148, datum B) machined
+                  true, the hole at z = 2.5 and 6 (P149-P164), its axis 0.025 mm off and its
+                  diameter 8.010
+    truth.json    as above, and the datum faces' labels and the hole as made (position 0.05,
+                  size 8.010)
 fuselage_frame/ a fuselage frame contour template like the paper's section 5.1:
     template.dxf  a 30-degree frame segment between radii 1000 and 1100 mm: bulged polyline arcs,
                   straight ends, a spline joggle at one end, two lightening holes (circles)
@@ -111,6 +120,11 @@ def make_fairing(out: str) -> dict:
 
 # ----------------------------------------------------------------------------- seat bracket
 W = 60.0  # width along y
+HOLE_CENTRE = (64.0, 30.0)  # (x, y) mm of the flange's vertical through hole (axis along z)
+HOLE_D = 8.0  # its nominal diameter, mm
+# The hole as made: axis displaced by this (x, y) vector (mm) from nominal, and its diameter.
+HOLE_OFFSET = (0.020, -0.015)
+HOLE_D_ACTUAL = 8.010
 
 
 def face_a_height(x, y):
@@ -139,7 +153,16 @@ def face_b_normal(y, z):
 
 
 def bracket_points(n_total: int, rng) -> np.ndarray:
-    """(n, 6) points with outward normals spread over the bracket's faces by area."""
+    """(n_total, 6) points with outward normals spread over the bracket's faces by area, the
+    flange's through hole included (its wall's normals point to the hole's axis: the material is
+    outside).
+
+    The faces of the bracket without its hole are drawn from ``rng`` as they were before the hole
+    was added (same counts, same calls), so that what a caller draws from ``rng`` afterwards stays
+    the same. The hole's wall, at the same density, and the uniform thinning back to ``n_total``
+    (which also takes out the points the hole removed from the bottom and the flange top) come
+    from a stream jumped off ``rng``'s state; ``rng`` itself is not advanced by them.
+    """
     faces = []
 
     def add(area, sampler):
@@ -157,7 +180,14 @@ def bracket_points(n_total: int, rng) -> np.ndarray:
     areas = np.array([a for a, _ in faces])
     counts = np.floor(n_total * areas / areas.sum()).astype(int)
     counts[0] += n_total - counts.sum()
-    return np.vstack([s(k) for (_, s), k in zip(faces, counts)])
+    solid = np.vstack([s(k) for (_, s), k in zip(faces, counts)])
+
+    extra = np.random.Generator(rng.bit_generator.jumped())
+    wall = _hole_wall(extra, int(round(n_total * _hole_wall_area() / areas.sum())))
+    pts = np.vstack([solid[~_in_hole(solid[:, 0], solid[:, 1])], wall])
+    assert len(pts) >= n_total  # the wall (~280 mm^2) outweighs the two discs (~100 mm^2)
+    drop = extra.choice(len(pts), len(pts) - n_total, replace=False)
+    return np.delete(pts, drop, axis=0)
 
 
 def _face_a(rng, k):
@@ -193,6 +223,117 @@ def _end(rng, k, y0, normal):
     return np.column_stack([xz[:, 0], np.full(k, y0), xz[:, 1], n])
 
 
+def _in_hole(x, y):
+    """True where (x, y) (mm, nominal frame) lies inside the through hole's circle."""
+    return (x - HOLE_CENTRE[0]) ** 2 + (y - HOLE_CENTRE[1]) ** 2 < (HOLE_D / 2) ** 2
+
+
+def _hole_top(theta):
+    """z (mm) where the hole's wall meets the flange top, at angle theta (rad) about the axis."""
+    r = HOLE_D / 2
+    return face_a_height(HOLE_CENTRE[0] + r * np.cos(theta), HOLE_CENTRE[1] + r * np.sin(theta))
+
+
+def _hole_wall_area():
+    """Area (mm^2) of the hole's wall, z = 0 up to the flange top: r times the integral of the
+    wall's height over the angle."""
+    theta = np.linspace(0.0, 2 * np.pi, 3600, endpoint=False)
+    return HOLE_D / 2 * 2 * np.pi * float(np.mean(_hole_top(theta)))
+
+
+def _hole_wall(rng, k):
+    """(k, 6) points uniform on the hole's wall, by rejection on the unrolled wall; normals point
+    to the axis (out of the material)."""
+    r = HOLE_D / 2
+    top = float(_hole_top(np.linspace(0.0, 2 * np.pi, 3600, endpoint=False)).max()) + 0.01
+    out = []
+    while sum(len(o) for o in out) < k:
+        theta = rng.uniform(0.0, 2 * np.pi, 2 * k)
+        z = rng.uniform(0.0, top, 2 * k)
+        keep = z <= _hole_top(theta)
+        out.append(np.column_stack([theta[keep], z[keep]]))
+    theta, z = np.vstack(out)[:k].T
+    u = np.column_stack([np.cos(theta), np.sin(theta), np.zeros(k)])
+    return np.column_stack([HOLE_CENTRE[0] + r * u[:, 0], HOLE_CENTRE[1] + r * u[:, 1], z, -u])
+
+
+def _datum_and_hole_points(rng):
+    """The inspector's points for datums A (the bottom, z = 0) and B (the back, x = 0) and for
+    the flange's hole, in the nominal frame: (on (n, 3) on the nominal surface, normals (n, 3)
+    outward, planted (n,) mm along them), n = 16 + 12 + 16.
+
+    The datum faces are machined true (1.5 um of noise). The hole as made (HOLE_OFFSET,
+    HOLE_D_ACTUAL) is probed at 8 points around at z = 2.5 and 8 at z = 6.0 (the flange top is
+    above 10.8 mm all round the hole); each point lies on the nominal wall's normal, where that
+    line meets the actual wall, plus 1 um of noise.
+    """
+    # Datum A: a jittered 4 x 4 pattern, 5 mm or more inside the edges and clear of the hole.
+    gx, gy = np.meshgrid(np.linspace(12, 108, 4), np.linspace(10, 50, 4))
+    xa = gx.ravel() + rng.uniform(-5, 5, 16)
+    ya = gy.ravel() + rng.uniform(-4, 4, 16)
+    assert np.min(np.hypot(xa - HOLE_CENTRE[0], ya - HOLE_CENTRE[1])) > HOLE_D / 2 + 3
+    # Datum B: 3 across by 4 up the back.
+    gy, gz = np.meshgrid(np.linspace(12, 48, 3), np.linspace(12, 78, 4))
+    yb = gy.ravel() + rng.uniform(-4, 4, 12)
+    zb = gz.ravel() + rng.uniform(-4, 4, 12)
+    planted_datums = rng.normal(0.0, 0.0015, 28)
+    # The hole: two rings of 8, the upper ring turned half a step.
+    k = np.arange(16)
+    theta = 2 * np.pi * (k % 8 + 0.5 * (k // 8) + rng.uniform(-0.2, 0.2, 16)) / 8
+    u = np.column_stack([np.cos(theta), np.sin(theta)])
+    r = HOLE_D / 2
+    # Distance rho from the nominal axis, along u, to the actual wall: |e + rho u| = R with e the
+    # nominal centre seen from the actual one.
+    e = -np.asarray(HOLE_OFFSET)
+    ue = u @ e
+    rho = -ue + np.sqrt(ue**2 - e @ e + (HOLE_D_ACTUAL / 2) ** 2)
+    planted_hole = -(rho - r) + rng.normal(0.0, 0.001, 16)
+    on = np.vstack([np.column_stack([xa, ya, np.zeros(16)]),
+                    np.column_stack([np.zeros(12), yb, zb]),
+                    np.column_stack([HOLE_CENTRE[0] + r * u[:, 0], HOLE_CENTRE[1] + r * u[:, 1],
+                                     np.repeat([2.5, 6.0], 8)])])
+    nrm = np.vstack([np.tile([0.0, 0.0, -1.0], (16, 1)), np.tile([-1.0, 0.0, 0.0], (12, 1)),
+                     np.column_stack([-u, np.zeros(16)])])
+    return on, nrm, np.concatenate([planted_datums, planted_hole])
+
+
+def _bracket_truth(labels, planted, T_measured_nominal) -> dict:
+    """truth.json of the bracket: pose, planted deviations, the datum faces' labels, the hole."""
+    offset = np.array([*HOLE_OFFSET, 0.0])
+    return {
+        "description": "seat bracket with a through hole in its flange: 200,000 nominal points, "
+                       "164 CMM points on faces A and B, the end face y = 60, the bottom, the "
+                       "back and the hole",
+        "T_nominal_measured": np.linalg.inv(T_measured_nominal).tolist(),
+        "planted_deviation_mm": [round(float(d), 6) for d in planted],
+        "defect": "uniform +0.012 mm excess with noise sigma 0.004 mm on faces A, B and the end "
+                  "face; bottom and back machined true (noise sigma 0.0015 mm); the hole's axis "
+                  "displaced by (+0.020, -0.015) mm and its diameter 8.010 mm (noise sigma "
+                  "0.001 mm)",
+        "datum_faces": {
+            "A": {"face": "bottom", "plane": "z = 0", "outward_normal": [0.0, 0.0, -1.0],
+                  "labels": labels[120:136]},
+            "B": {"face": "back", "plane": "x = 0", "outward_normal": [-1.0, 0.0, 0.0],
+                  "labels": labels[136:148]},
+            "C": {"face": "end", "plane": f"y = {W:g}", "outward_normal": [0.0, 1.0, 0.0],
+                  "labels": labels[100:120]},
+        },
+        "hole": {
+            "labels": labels[148:164],
+            "nominal_centre_mm": [*HOLE_CENTRE, 0.0],
+            "axis": [0.0, 0.0, 1.0],
+            "depth": "through the flange: z = 0 up to face A (10.8 to 11.2 mm around the hole)",
+            "nominal_diameter_mm": HOLE_D,
+            "actual_centre_offset_mm": offset.tolist(),
+            "actual_diameter_mm": HOLE_D_ACTUAL,
+            "position_value_mm": round(2 * float(np.linalg.norm(offset)), 6),
+            "size_value_mm": HOLE_D_ACTUAL,
+        },
+        "tolerance_mm": 0.05,
+        "expected_verdict": "ACCEPT",
+    }
+
+
 def make_bracket(out: str) -> dict:
     rng = np.random.default_rng(77)
     nominal = bracket_points(200_000, rng)
@@ -216,23 +357,22 @@ def make_bracket(out: str) -> dict:
     on = np.vstack([on, np.column_stack([xe, np.full(20, W), ze])])
     nrm = np.vstack([nrm, np.tile([0.0, 1.0, 0.0], (20, 1))])
     planted = np.concatenate([planted, 0.012 + rng.normal(0.0, 0.004, 20)])
+    # Drawn after the points above, so that those stay as they were before the datums and the
+    # hole were added.
+    on_dh, nrm_dh, planted_dh = _datum_and_hole_points(rng)
+    on, nrm = np.vstack([on, on_dh]), np.vstack([nrm, nrm_dh])
+    planted = np.concatenate([planted, planted_dh])
     pts = on + planted[:, None] * nrm
     R = rotation([-0.5, 0.2, 1.0], 73.0)
     t = np.array([402.0, 618.5, -55.25])
     measured = pts @ R.T + t
+    labels = [f"P{i + 1:03d}" for i in range(len(measured))]
     _write_cmm(os.path.join(out, "measured.csv"),
-               "CMM points on faces A (P001-P050), B (P051-P100) and the end face (P101-P120), "
-               "machine coordinates",
-               [f"P{i + 1:03d}" for i in range(len(measured))], measured)
-    truth = {
-        "description": "seat bracket: 200,000 nominal points, 120 CMM points on faces A and B "
-                       "and the end face",
-        "T_nominal_measured": np.linalg.inv(pose(R, t)).tolist(),
-        "planted_deviation_mm": [round(float(d), 6) for d in planted],
-        "defect": "uniform +0.012 mm excess with noise sigma 0.004 mm",
-        "tolerance_mm": 0.05,
-        "expected_verdict": "ACCEPT",
-    }
+               "CMM points on faces A (P001-P050), B (P051-P100), the end face y = 60 (P101-P120, "
+               "datum C), the bottom (P121-P136, datum A), the back (P137-P148, datum B) and the "
+               "hole (P149-P156 at z 2.5, P157-P164 at z 6), machine coordinates",
+               labels, measured)
+    truth = _bracket_truth(labels, planted, pose(R, t))
     _write_json(os.path.join(out, "truth.json"), truth)
     _write_session(out, "nominal.xyz", "measured.csv", 0.05)
     return truth
