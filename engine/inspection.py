@@ -28,6 +28,7 @@ from .verdict import (DECISION_RULES, MIN_NEAR_FRACTION, RESOLUTION_OF_ZONE, Sta
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
+    from .characteristics import PlanResult
     from .trust import Conditioning, PoseSensitivity
 
 
@@ -72,6 +73,9 @@ class InspectionResult:
     trust_statements: tuple[str, ...] = ()
     """What the measurement does not fix and what that does to the verdict, in plain words
     (engine.trust.trust_statements), for the certificate."""
+    plan: "PlanResult | None" = None
+    """The inspection plan's outcome (engine.characteristics), when one was given: then
+    ``verdict`` and ``reasons`` are the plan's."""
 
     @property
     def outlier(self) -> np.ndarray:

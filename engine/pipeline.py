@@ -179,6 +179,15 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
         nominal = Nominal.from_point_set(nominal_ps)
     inputs = [nominal_record,
               InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
+    plan = None
+    if settings.plan is not None:
+        from .io.plan import read_plan
+
+        plan = read_plan(settings.plan)
+        if tpl is not None:
+            raise SettingsError("inspection plans apply to 3D nominals for now; a 2D template "
+                                "is judged by its zone (--tol)")
+        inputs.append(InputRecord("plan", settings.plan, plan.sha256, None))
     t1 = time.perf_counter()
     if tpl is not None:
         result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol,
@@ -189,6 +198,12 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     else:
         result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
                          decision_rule=settings.decision_rule)
+        if plan is not None:
+            from .characteristics import inspect_plan
+
+            report("judging the plan's characteristics", 0.99)
+            result = inspect_plan(result, plan, nominal, nominal_ps.labels, measured_ps.points,
+                                  measured_ps.labels, settings.zone_in_verdict)
     if result.verdict != ACCEPT:
         hint = (not_planar_hint(result, measured_ps, nominal_path) if tpl is not None
                 else swap_hint(nominal_ps, measured_ps))

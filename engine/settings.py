@@ -29,6 +29,12 @@ class InspectionSettings:
     """"lsq" (least squares) or "minimax" (smallest largest excursion from the zone's centre)."""
     decision_rule: str = "simple"
     """"simple" or "guarded" (limits guarded by each point's nominal-sampling margin)."""
+    plan: str | None = None
+    """An inspection plan (TOML, engine.io.plan): datums, alignment, characteristics."""
+    zone_in_verdict: bool = True
+    """Whether the zone [tol_lower, tol_upper] over all points is part of the verdict. Without
+    a plan it is the verdict; with one it is one more profile characteristic when the user gave
+    it (--tol), and only the zone of the per-point statistics when the plan chose it."""
 
     @property
     def tolerance(self) -> Tolerance:
@@ -45,4 +51,5 @@ class InspectionSettings:
         return cls(float(d["tol_lower"]), float(d["tol_upper"]),
                    None if layers is None else tuple(str(x) for x in layers),
                    d.get("units"), None if d.get("scale") is None else float(d["scale"]),
-                   d.get("fit", "lsq"), d.get("decision_rule", "simple"))
+                   d.get("fit", "lsq"), d.get("decision_rule", "simple"), d.get("plan"),
+                   bool(d.get("zone_in_verdict", True)))

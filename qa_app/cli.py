@@ -80,6 +80,10 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
                    help="lower limit of an asymmetric zone, mm (e.g. -0.1)")
     i.add_argument("--tol-upper", type=_finite_float, metavar="U",
                    help="upper limit of an asymmetric zone, mm (e.g. 0.3)")
+    i.add_argument("--plan", metavar="PLAN.toml",
+                   help="inspection plan: regions, datums, alignment and characteristics "
+                        "(profile, flatness, position, size); with it --tol is optional and "
+                        "adds a profile over all points")
     i.add_argument("--layer", action="append", metavar="NAME",
                    help="DXF template: take this layer (repeatable; default: every layer)")
     i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
@@ -218,8 +222,10 @@ def _tolerance(args):
             return Tolerance(args.tol_lower, args.tol_upper)
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
+    if args.plan is not None:
+        return None  # the plan's characteristics are the requirement
     raise UsageError("qa-inspect inspect: a tolerance is required (--tol T, or --tol-lower L "
-                     "--tol-upper U)")
+                     "--tol-upper U, or an inspection plan --plan PLAN.toml)")
 
 
 def _guarded(command, args) -> int:
@@ -251,7 +257,7 @@ def _cmd_inspect(args) -> int:
 
     _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
                                 "--report": args.report, "--csv": args.csv, "--json": args.json,
-                                "--sign": args.sign})
+                                "--sign": args.sign, "--plan": args.plan})
     tol = _tolerance(args)  # usage errors first, before any process is started
     if args.sign and not args.report:
         raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
@@ -265,7 +271,7 @@ def _cmd_inspect(args) -> int:
         check_outputs({"--report": args.report, "--csv": None if args.csv == "-" else args.csv,
                        "--json": None if args.json == "-" else args.json},
                       {"NOMINAL": args.nominal, "MEASURED": args.measured,
-                       "--sign identity": args.sign})
+                       "--sign identity": args.sign, "--plan": args.plan})
     except OutputConflictError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
     renderer = None
@@ -420,9 +426,16 @@ def _run_inspect(args, tol, renderer) -> int:
             raise UsageError(f"qa-inspect inspect: {e}") from e
     elif args.sign_pass_env:
         raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
+    zone_in_verdict = tol is not None
+    if tol is None:  # a plan alone: its zone for the per-point statistics
+        from engine.characteristics import statistics_zone
+        from engine.io.plan import read_plan
+
+        tol = statistics_zone(read_plan(args.plan))
     settings = InspectionSettings(tol.lower, tol.upper,
                                   None if args.layer is None else tuple(args.layer), args.units,
-                                  args.scale, args.fit, args.decision_rule)
+                                  args.scale, args.fit, args.decision_rule, args.plan,
+                                  zone_in_verdict)
     try:
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:
@@ -480,6 +493,28 @@ def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
     return value.encode("utf-8")
 
 
+def _plan_summary(plan) -> list[str]:
+    """The plan's alignment and one line per characteristic: id, type, region, datums, value
+    against its zone, verdict."""
+    from reports.messages import limits_text
+
+    lines = []
+    al = plan.alignment
+    if al is not None:
+        fits = ", ".join(f"{d.label} {d.feature} ({d.fit}, {d.n_points} points)"
+                         for d in al.datums)
+        free = "; ".join(f.describe() for f in al.free) or "none"
+        lines.append(f"  alignment: {plan.method} on {fits}; free: {free}"
+                     + (" (best-fitted)" if al.best_fitted and al.free else ""))
+    for r in plan.characteristics:
+        c = r.characteristic
+        ref = f" |{'|'.join(c.datums)}" if c.datums else ""
+        value = "—" if r.value is None else f"{r.value:.4f} mm"
+        lines.append(f"  [{c.id}] {c.type} {c.region}{ref}: {value}, {limits_text(c)}, "
+                     f"{r.indices.size} points: {r.verdict}")
+    return lines
+
+
 def _summary(result, written) -> str:
     st = result.statistics
     reg = result.registration
@@ -488,7 +523,10 @@ def _summary(result, written) -> str:
         f"{result.verdict}: {'; '.join(result.reasons)}",
         f"  deviations {st.min:+.4f} … {st.max:+.4f} mm, max |d| {st.max_abs:.4f} mm, "
         f"rms {st.rms:.4f} mm; zone {tol.lower:+.4f} … {tol.upper:+.4f} mm; "
-        f"{st.n_out} of {st.count} out of tolerance",
+        f"{st.n_out} of {st.count} out of tolerance"
+        + ("" if result.plan is None or result.plan.zone_in_verdict else
+           " (the zone of the plan's widest profile, for these statistics only: the verdict "
+           "is the characteristics')"),
         f"  registration: {'converged' if reg.converged else 'NOT converged'} after "
         f"{reg.iterations} iterations, rms {reg.rms:.4f} mm over {reg.n_inliers} fitted points, "
         f"{reg.hypotheses} pose hypotheses",
@@ -502,6 +540,8 @@ def _summary(result, written) -> str:
                      f"{tpl['primitives']} primitives, units {tpl['units']}"
                      + ("; symmetric: equivalent poses give the same deviations"
                         if tpl["symmetric"] else ""))
+    if result.plan is not None:
+        lines += _plan_summary(result.plan)
     flat = result.extra.get("flatness")
     if flat:
         lines.append(f"  measured plane: flatness {flat['peak_to_valley']:.4f} mm peak to "

@@ -24,3 +24,18 @@ def user_message(e: BaseException) -> str:
         return f"cannot write {e.filename or 'output'}: {e.strerror}"
     return (f"internal error ({type(e).__name__}: {e}); no result was written. Please report "
             "this with the input files.")
+
+
+SYMBOL = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀"}
+"""The characteristic's symbol on a drawing (ASME Y14.5 / ISO 1101)."""
+
+
+def limits_text(c) -> str:
+    """A plan characteristic's requirement as a drawing states it: 'zone 0.0200 mm' for a
+    profile (centred: else its limits), flatness or position; '⌀8.0000 -0.0500/+0.0500 mm' for
+    a size."""
+    if c.type == "size":
+        return f"⌀{c.nominal:.4f} {c.lower:+.4f}/{c.upper:+.4f} mm"
+    if c.type == "profile" and abs(c.lower + c.upper) > 1e-12:
+        return f"zone {c.width:.4f} mm ({c.lower:+.4f} … {c.upper:+.4f})"
+    return f"zone {c.width:.4f} mm"

@@ -111,7 +111,63 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},
         **_json_safe(result.extra),
         "pose_sensitivity": pose_sensitivity_json(result),
+        **({} if result.plan is None else plan_json(result.plan, inputs)),
     }
+
+
+def plan_json(planned, inputs: list[InputRecord]) -> dict:
+    """The plan's part of the results: ``plan`` (the file), ``alignment`` and
+    ``characteristics`` (each with its value in the drawing's convention and its verdict)."""
+    rec = next((r for r in inputs if r.role == "plan"), None)
+    al = planned.alignment
+    alignment = {"method": planned.method,
+                 "T_nominal_measured": [[float(v) for v in row]
+                                        for row in planned.T_nominal_measured]}
+    if al is not None:
+        alignment.update({
+            "reference": [d.label for d in al.datums],
+            "datums": [{"label": d.label, "feature": d.feature, "fit": d.fit,
+                        "n_points": d.n_points, "constrained_dofs": d.constrained,
+                        "form_error": _num(d.gap), "size_offset_mm": _num(d.offset)}
+                       for d in al.datums],
+            "free_dofs": [f.describe() for f in al.free],
+            "free_dofs_best_fitted": bool(al.best_fitted),
+            "complete": bool(al.complete), "message": al.message,
+            "form_error_definition": "tangent datum: the largest gap between the datum's points "
+                                     "and its simulator; least squares: the largest |residual| "
+                                     "(mm)"})
+    return {
+        "plan": None if rec is None else {"path": rec.path, "sha256": rec.sha256},
+        "alignment": alignment,
+        "region_distance_mm": _num(planned.region_distance),
+        "tolerance_in_verdict": bool(planned.zone_in_verdict),
+        "tolerance_definition": "with a plan, 'deviations', 'tolerance' and the per-point CSV "
+                                "are at the plan's alignment; the tolerance is a characteristic "
+                                "over all points ('tol') when given, else only the zone of the "
+                                "per-point statistics (the plan's widest profile zone)",
+        "characteristics": [_characteristic_json(r) for r in planned.characteristics],
+        "characteristic_value_definition": (
+            "profile: twice the largest |deviation - zone centre| over the region's points "
+            "(the width of the smallest zone, centred like the tolerance zone, holding every "
+            "point); flatness: the minimum-zone width; position: the diameter of the smallest "
+            "cylinder (circle) about the true position holding the fitted axis (centre); size: "
+            "the least-squares diameter (mm)"),
+    }
+
+
+def _characteristic_json(r) -> dict:
+    c = r.characteristic
+    out = {"id": c.id, "type": c.type, "region": c.region, "datums": list(c.datums),
+           "zone": _num(c.width), "lower": _num(c.lower), "upper": _num(c.upper),
+           "value": None if r.value is None else _num(r.value),
+           "n_points": int(r.indices.size), "verdict": r.verdict, "reason": r.reason,
+           "worst": [int(i) for i in r.worst]}
+    if c.type == "size":
+        out["nominal"] = _num(c.nominal)
+    if c.type == "profile" and not c.datums:
+        out["fit"] = c.fit
+    out.update(_json_safe({k: v for k, v in r.facts.items() if k != "T_nominal_measured"}))
+    return out
 
 
 def pose_sensitivity_json(result: InspectionResult) -> dict | None:
@@ -221,6 +277,8 @@ def _json_safe(obj):
     """Kind-specific facts (numpy scalars included) as plain JSON types."""
     if isinstance(obj, dict):
         return {str(k): _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, np.ndarray):
+        return _json_safe(obj.tolist())
     if isinstance(obj, (list, tuple)):
         return [_json_safe(v) for v in obj]
     if isinstance(obj, (np.bool_, bool)):
@@ -243,11 +301,14 @@ def result_json(doc: dict) -> str:
 def points_csv(result: InspectionResult, measured: np.ndarray,
                labels: np.ndarray | None) -> str:
     """One row per measured point in input order (columns: CSV_COLUMNS, plus ``margin`` with the
-    guarded decision rule)."""
+    guarded decision rule, and ``region`` with an inspection plan: the point's regions joined by
+    '+'; the coordinates and deviation are then at the plan's alignment)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     margin = result.margin
-    w.writerow(CSV_COLUMNS + (() if margin is None else ("margin",)))
+    regions = None if result.plan is None else result.plan.regions
+    w.writerow(CSV_COLUMNS + (() if margin is None else ("margin",))
+               + (() if regions is None else ("region",)))
     reg = result.registered
     d = result.deviations.signed
     inside = result.in_tolerance
@@ -259,5 +320,7 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
                "true" if excluded[i] else "false"]
         if margin is not None:
             row.append(f"{margin[i]:.6f}")
+        if regions is not None:
+            row.append(regions[i])
         w.writerow(row)
     return buf.getvalue()

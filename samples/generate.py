@@ -13,13 +13,16 @@ seat_bracket/   an L-shaped seat bracket with two freeform faces (A: flange top,
                 hole of diameter 8 in the flange at (x, y) = (64, 30):
     nominal.xyz   200,000 points over the whole part, hole wall included, with outward I J K
                   normals (on the hole's wall: towards its axis)
-    measured.csv  164 points in an arbitrary pose: faces A (P001-P050) and B (P051-P100) with a
-                  uniform +0.012 mm excess, the end face y = 60 (P101-P120, datum C) likewise,
-                  the bottom (P121-P136, datum A) and the back (P137-P148, datum B) machined
-                  true, the hole at z = 2.5 and 6 (P149-P164), its axis 0.025 mm off and its
-                  diameter 8.010
+    measured.csv  176 points in an arbitrary pose: faces A (P001-P050) and B (P051-P100) with a
+                  uniform +0.012 mm excess, the end face y = 60 (P101-P120) likewise, the
+                  bottom (P121-P136, datum A), the back (P137-P148, datum B) and the end face
+                  y = 0 (P165-P176, datum C) machined true, the hole at z = 2.5 and 6
+                  (P149-P164), its axis 0.025 mm off and its diameter 8.010
     truth.json    as above, and the datum faces' labels and the hole as made (position 0.05,
                   size 8.010)
+    plan.toml     the drawing's inspection plan: datums A|B|C, the skin's profile relative to
+                  them (REJECT: the +0.012 mm excess in a 0.02 zone) and as form only (ACCEPT),
+                  the flatness of A, the hole's position and size
 fuselage_frame/ a fuselage frame contour template like the paper's section 5.1:
     template.dxf  a 30-degree frame segment between radii 1000 and 1100 mm: bulged polyline arcs,
                   straight ends, a spline joggle at one end, two lightening holes (circles)
@@ -302,12 +305,13 @@ def _bracket_truth(labels, planted, T_measured_nominal) -> dict:
     offset = np.array([*HOLE_OFFSET, 0.0])
     return {
         "description": "seat bracket with a through hole in its flange: 200,000 nominal points, "
-                       "164 CMM points on faces A and B, the end face y = 60, the bottom, the "
-                       "back and the hole",
+                       "176 CMM points on faces A and B, the end faces, the bottom, the back "
+                       "and the hole",
         "T_nominal_measured": np.linalg.inv(T_measured_nominal).tolist(),
         "planted_deviation_mm": [round(float(d), 6) for d in planted],
         "defect": "uniform +0.012 mm excess with noise sigma 0.004 mm on faces A, B and the end "
-                  "face; bottom and back machined true (noise sigma 0.0015 mm); the hole's axis "
+                  "face y = 60; bottom, back and end face y = 0 machined true (noise sigma "
+                  "0.0015 mm); the hole's axis "
                   "displaced by (+0.020, -0.015) mm and its diameter 8.010 mm (noise sigma "
                   "0.001 mm)",
         "datum_faces": {
@@ -315,8 +319,8 @@ def _bracket_truth(labels, planted, T_measured_nominal) -> dict:
                   "labels": labels[120:136]},
             "B": {"face": "back", "plane": "x = 0", "outward_normal": [-1.0, 0.0, 0.0],
                   "labels": labels[136:148]},
-            "C": {"face": "end", "plane": f"y = {W:g}", "outward_normal": [0.0, 1.0, 0.0],
-                  "labels": labels[100:120]},
+            "C": {"face": "end", "plane": "y = 0", "outward_normal": [0.0, -1.0, 0.0],
+                  "labels": labels[164:176]},
         },
         "hole": {
             "labels": labels[148:164],
@@ -362,15 +366,23 @@ def make_bracket(out: str) -> dict:
     on_dh, nrm_dh, planted_dh = _datum_and_hole_points(rng)
     on, nrm = np.vstack([on, on_dh]), np.vstack([nrm, nrm_dh])
     planted = np.concatenate([planted, planted_dh])
+    # Datum C: the other end face, y = 0, machined true: 6 points on the flange's leg of its L
+    # and 6 on the web's, away from the edges (drawn last, so all the above stay as they were).
+    xc = np.concatenate([rng.uniform(25, 105, 6), rng.uniform(2.5, 6.0, 6)])
+    zc = np.concatenate([rng.uniform(2.5, 6.0, 6), rng.uniform(25, 80, 6)])
+    on = np.vstack([on, np.column_stack([xc, np.zeros(12), zc])])
+    nrm = np.vstack([nrm, np.tile([0.0, -1.0, 0.0], (12, 1))])
+    planted = np.concatenate([planted, rng.normal(0.0, 0.0015, 12)])
     pts = on + planted[:, None] * nrm
     R = rotation([-0.5, 0.2, 1.0], 73.0)
     t = np.array([402.0, 618.5, -55.25])
     measured = pts @ R.T + t
     labels = [f"P{i + 1:03d}" for i in range(len(measured))]
     _write_cmm(os.path.join(out, "measured.csv"),
-               "CMM points on faces A (P001-P050), B (P051-P100), the end face y = 60 (P101-P120, "
-               "datum C), the bottom (P121-P136, datum A), the back (P137-P148, datum B) and the "
-               "hole (P149-P156 at z 2.5, P157-P164 at z 6), machine coordinates",
+               "CMM points on faces A (P001-P050), B (P051-P100), the end face y = 60 "
+               "(P101-P120), the bottom (P121-P136, datum A), the back (P137-P148, datum B), the "
+               "hole (P149-P156 at z 2.5, P157-P164 at z 6) and the end face y = 0 (P165-P176, "
+               "datum C), machine coordinates",
                labels, measured)
     truth = _bracket_truth(labels, planted, pose(R, t))
     _write_json(os.path.join(out, "truth.json"), truth)

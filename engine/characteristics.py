@@ -1,0 +1,382 @@
+"""The characteristics of an inspection plan, judged at the poses their datums give.
+
+After the soft registration (any pose, all points) every characteristic is evaluated as a
+drawing means it:
+
+* profile relative to datums: the part placed by those datums (engine.datums; freedom they leave
+  best-fitted on the characteristic's own region), the deviations of the region's points;
+* profile, form only (no datums): the region's points refitted alone (``lsq``: least squares;
+  ``minimax``: the smallest largest excursion from the zone's centre);
+* flatness: the minimum zone of the region's measured points (engine.features);
+* position: the hole's least-squares axis (3D cylinder) or centre (2D circle) at the pose its
+  datums give, against the nominal's (fitted to the region's nominal points); the freedom the
+  datums leave stays at the plan's alignment;
+* size: the least-squares diameter of the hole (pose-independent).
+
+Each reports a ``value`` in the drawing's convention (profile: twice the largest |d - zone
+centre|, the width of the smallest zone centred like the tolerance zone that holds every point;
+flatness: the minimum zone's width; position: the diameter of the smallest cylinder / circle
+about the true position holding the axis or centre; size: the diameter) and passes when the
+value lies within its zone. Profiles follow the decision rule point by point (guarded: each
+point's nominal-sampling margin); a characteristic whose points or datums are missing is
+INCONCLUSIVE, never guessed. The part: REJECT if any characteristic is out, else INCONCLUSIVE if
+any cannot be trusted, else ACCEPT.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .datums import Alignment, align, align_rps
+from .errors import InputError
+from .fits import minimax_pose
+from .plan import MIN_POINTS, Characteristic, Plan
+from .tolerance import Tolerance
+from .verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, pointwise_verdict
+
+WORST = 10
+
+
+@dataclass(frozen=True)
+class CharacteristicResult:
+    """One characteristic judged.
+
+    value : in the drawing's convention (module docstring), mm; None when it could not be
+    measured. indices : the measured points it used; deviations : their signed deviations at
+    the characteristic's pose (profiles), mm. worst : up to 10 of ``indices`` farthest outside
+    (or nearest to leaving) the zone, worst first. facts : what else the outputs show (fitted
+    diameter, axis, the datums' fits, the freedom left).
+    """
+
+    characteristic: Characteristic
+    value: float | None
+    verdict: str
+    reason: str
+    indices: np.ndarray
+    deviations: np.ndarray | None = None
+    worst: tuple[int, ...] = ()
+    facts: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """A plan's outcome: the part's alignment, its deviations there, and every characteristic.
+
+    alignment : the plan's ``[alignment]`` (None for best-fit: the registration's pose stands).
+    T_nominal_measured : the pose of the per-point outputs; deviations : (n,) signed deviations
+    there, mm; regions : (n,) each point's regions ('a+b', '' for none).
+    """
+
+    verdict: str
+    reasons: tuple[str, ...]
+    method: str
+    alignment: Alignment | None
+    T_nominal_measured: np.ndarray
+    deviations: np.ndarray
+    regions: np.ndarray
+    members: dict
+    region_distance: float
+    characteristics: tuple[CharacteristicResult, ...]
+    zone_in_verdict: bool = False
+    """Whether the inspection's zone over all points is one of the characteristics (``tol``);
+    else it is only the zone of the per-point statistics."""
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """What the plan's evaluation needs of the part, whatever its kind (3D or a 2D template).
+
+    evaluate(T, idx) -> (X, d, normals): measured points ``idx`` at pose T (nominal frame),
+    signed deviations (mm) and the nominal's outward normals there. T0 : the registration's
+    pose. margin(idx, T) -> per-point nominal-sampling margins (mm) or None (simple rule).
+    nominal_points : (N, dim); nominal_normals(idx) -> their outward normals; nominal_masks : {region: (N,) bool}; centre,
+    length: the measured points' centroid and RMS radius at T0 (rotations are scaled by it);
+    labels : (n,) the measured points' labels, or None.
+    """
+
+    evaluate: object
+    T0: np.ndarray
+    margin: object
+    nominal_points: np.ndarray
+    nominal_normals: object
+    nominal_masks: dict
+    centre: np.ndarray
+    length: float
+    labels: np.ndarray | None = None
+
+
+def statistics_zone(plan: Plan) -> Tolerance:
+    """The zone of the per-point statistics when the plan alone states the requirement: the
+    widest profile zone of its characteristics (else +-half the widest zone of any); it is not
+    part of the verdict."""
+    profiles = [c for c in plan.characteristics if c.type == "profile"]
+    if profiles:
+        c = max(profiles, key=lambda c: c.width)
+        return Tolerance(c.lower, c.upper)
+    return Tolerance.symmetric(0.5 * max(c.width for c in plan.characteristics))
+
+
+def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,
+               region_distance: float, regions: np.ndarray) -> PlanResult:
+    """Evaluate ``plan`` on the registered part (module docstring)."""
+    datums = {d.label: d for d in plan.datums}
+    cache: dict = {}
+
+    def placed(labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
+        key = (labels, best_fit, id(T_start))
+        if key not in cache:
+            ds = [datums[x] for x in labels]
+            fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
+                if best_fit else None
+            cache[key] = align(geo.evaluate, T_start, ds, [members[d.region] for d in ds],
+                               geo.centre, geo.length, fit_idx)
+        return cache[key]
+
+    a = plan.alignment
+    alignment = None
+    T_part = geo.T0
+    if a.method == "datums":
+        alignment = placed(tuple(a.reference), tuple(a.best_fit_regions), geo.T0)
+        T_part = alignment.T_nominal_measured
+    elif a.method == "rps":
+        fit_idx = np.unique(np.concatenate([members[r] for r in a.best_fit_regions])) \
+            if a.best_fit_regions else None
+        alignment = _rps(plan, geo, fit_idx)
+        T_part = alignment.T_nominal_measured
+    results = []
+    for c in plan.characteristics:
+        idx = members[c.region]
+        results.append(_judge(c, idx, geo, placed, T_part))
+    everything = np.arange(n)
+    d_part = geo.evaluate(T_part, everything)[1]
+    verdict, reasons = _verdict(results, alignment)
+    return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
+                      region_distance, tuple(results))
+
+
+def _verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:
+    verdict, reasons = part_verdict(results)
+    if alignment is not None and not alignment.complete:
+        reasons = (f"the part's alignment is incomplete: {alignment.message}", *reasons)
+    return verdict, reasons
+
+
+def part_verdict(results) -> tuple[str, tuple[str, ...]]:
+    """REJECT if any characteristic is out, else INCONCLUSIVE if any cannot be trusted, else
+    ACCEPT; the reasons name them."""
+    out = [r for r in results if r.verdict == REJECT]
+    unsure = [r for r in results if r.verdict == INCONCLUSIVE]
+    if out:
+        return REJECT, tuple(f"characteristic {r.characteristic.id} ({r.characteristic.type}) "
+                             f"is out of tolerance: {r.reason}" for r in out)
+    if unsure:
+        return INCONCLUSIVE, tuple(f"characteristic {r.characteristic.id} "
+                                   f"({r.characteristic.type}) cannot be decided: {r.reason}"
+                                   for r in unsure)
+    return ACCEPT, (f"all {len(results)} characteristics are within tolerance",)
+
+
+def _judge(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
+    planar = geo.nominal_points.shape[1] == 2
+    need = {"profile": 1, "flatness": MIN_POINTS["line" if planar else "plane"]}.get(
+        c.type, MIN_POINTS["circle" if planar else "cylinder"])
+    if idx.size < need:
+        return CharacteristicResult(c, None, INCONCLUSIVE,
+                                    f"region '{c.region}' has {idx.size} measured points; "
+                                    f"{c.type} needs at least {need}", idx)
+    from .features import FeatureError
+
+    try:
+        if c.type == "profile":
+            return _profile(c, idx, geo, placed)
+        if c.type == "flatness":
+            return _flatness(c, idx, geo)
+        return _hole(c, idx, geo, placed, T_part)
+    except FeatureError as e:
+        # The region's points do not determine its feature (all on a line, ...): say so.
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"region '{c.region}': {e.message}",
+                                    idx)
+
+
+def _untrusted(c, idx, al: Alignment):
+    return CharacteristicResult(c, None, INCONCLUSIVE,
+                                f"its datums cannot place the part: {al.message}", idx,
+                                facts={"datums": [f.label for f in al.datums]})
+
+
+def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, placed):
+    tol = Tolerance(c.lower, c.upper)
+    facts: dict = {}
+    if c.datums:
+        al = placed(tuple(c.datums), (c.region,), geo.T0)
+        if not al.complete:
+            return _untrusted(c, idx, al)
+        T = al.T_nominal_measured
+        facts["free"] = [f.describe() for f in al.free]
+    elif c.fit == "minimax":
+        def evaluate(Tc):
+            return geo.evaluate(Tc, idx)
+
+        T = minimax_pose(evaluate, geo.T0, c.lower, c.upper).T
+    else:
+        T = align(geo.evaluate, geo.T0, [], [], geo.centre, geo.length, idx).T_nominal_measured
+    d = geo.evaluate(T, idx)[1]
+    margin = geo.margin(idx, T)
+    verdict, reason = pointwise_verdict(d, tol, margin)
+    centre = 0.5 * (c.lower + c.upper)
+    value = float(2.0 * np.max(np.abs(d - centre)))
+    ex = tol.excess(d)
+    worst = tuple(int(idx[i]) for i in np.argsort(-ex, kind="stable")[:WORST])
+    facts["T_nominal_measured"] = T
+    return CharacteristicResult(c, value, verdict, reason, idx, d, worst, facts)
+
+
+def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry):
+    from .features import flatness
+
+    X, _, n = geo.evaluate(geo.T0, idx)
+    hint = n.mean(axis=0)
+    f = flatness(X, hint / np.linalg.norm(hint))
+    return _by_value(c, idx, f.width, {"normal": f.normal}, "minimum-zone width")
+
+
+def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str):
+    lo, hi = (c.nominal or 0.0) + c.lower, (c.nominal or 0.0) + c.upper
+    inside = lo <= value <= hi
+    reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
+              f"[{lo:.4f}, {hi:.4f}] mm")
+    return CharacteristicResult(c, float(value), ACCEPT if inside else REJECT, reason, idx,
+                                facts=facts)
+
+
+def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
+    from .features import fit_circle_lsq, fit_cylinder_lsq, position_value
+
+    planar = geo.nominal_points.shape[1] == 2
+    mask = geo.nominal_masks[c.region]
+    nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
+    if c.type == "size":
+        X = geo.evaluate(geo.T0, idx)[0]
+        fit = fit_circle_lsq(X) if planar else _cylinder(fit_cylinder_lsq, X, normals)
+        return _by_value(c, idx, 2.0 * fit.radius, {"fit": "least squares",
+                                                    "form_error": fit.form_error},
+                         "least-squares diameter")
+    al = placed(tuple(c.datums), (), T_part)
+    if not al.complete:
+        return _untrusted(c, idx, al)
+    X = geo.evaluate(al.T_nominal_measured, idx)[0]
+    if planar:
+        nom, got = fit_circle_lsq(nominal), fit_circle_lsq(X)
+        value = position_value(got.centre, nom.centre).value
+        facts = {"centre": got.centre, "nominal_centre": nom.centre}
+    else:
+        nom = _cylinder(fit_cylinder_lsq, nominal, normals)
+        got = _cylinder(fit_cylinder_lsq, X, normals)
+        value = position_value(got.ends, nom.point, nom.direction).value
+        facts = {"axis_ends": got.ends, "nominal_point": nom.point,
+                 "nominal_direction": nom.direction}
+    facts["free"] = [f.describe() for f in al.free]
+    return _by_value(c, idx, value, facts, "position (diameter)")
+
+
+def _cylinder(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
+    """The least-squares cylinder of X, started from the nominal region's axis direction: the
+    one its surface normals are all perpendicular to (the smallest eigenvector of sum n n^T)."""
+    _, vecs = np.linalg.eigh(normals.T @ normals)
+    return fit_cylinder_lsq(X, vecs[:, 0])
+
+
+def _rps(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:
+    """The RPS alignment: each [[rps]] point's measured point (by its label) locked onto its
+    nominal position along its locked axes."""
+    if geo.labels is None:
+        raise InputError("[alignment] method 'rps' finds its points by their labels, and the "
+                         "measured file has none", plan.path)
+    where: dict = {}
+    for i, s in enumerate(geo.labels):
+        where.setdefault(str(s), []).append(i)
+    dim = geo.nominal_points.shape[1]
+    idx, targets, axes = [], [], []
+    for p in plan.rps:
+        found = where.get(p.label, [])
+        if len(found) != 1:
+            raise InputError(f"[[rps]] '{p.label}': {len(found)} measured points carry this "
+                             "label; it must name exactly one", plan.path)
+        for a in p.lock:
+            e = np.zeros(dim)
+            e["xyz".index(a)] = 1.0
+            idx.append(found[0])
+            targets.append(np.asarray(p.nominal, float)[:dim])
+            axes.append(e)
+    return align_rps(geo.evaluate, geo.T0, np.array(idx), np.array(targets), np.array(axes),
+                     geo.centre, geo.length, best_fit)
+
+
+def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
+                 measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool):
+    """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
+    reasons become the plan's (with the zone of ``result`` as one more profile characteristic
+    over all points when ``zone_in_verdict``), and ``plan`` holds the PlanResult."""
+    from dataclasses import replace
+
+    from .deviation import point_to_surface
+    from .geometry import apply_transform
+    from .regions import measured_members, nominal_members, region_column
+    from .verdict import MIN_NEAR_FRACTION, margins_3d
+
+    reg = result.registration
+    masks = nominal_members(plan, nominal.points, nominal_labels)
+    # A point belongs where it lies: within the near distance of the surface (its deviation,
+    # not the distance to the nearest sample, which grows with the sampling), in the region of
+    # the sample nearest its closest point on the surface.
+    nearest = nominal.tree.query(result.deviations.foot)[1]
+    members = measured_members(plan, masks, nearest, np.abs(result.deviations.signed),
+                               reg.near_distance, labels)
+
+    def evaluate(T, idx):
+        X = apply_transform(T, measured[idx])
+        dv = point_to_surface(nominal, X)
+        return X, dv.signed, dv.normal
+
+    def margin(idx, T):
+        if result.decision_rule != "guarded":
+            return None
+        return margins_3d(nominal, point_to_surface(nominal, apply_transform(T, measured[idx])).foot)
+
+    T0 = reg.T_nominal_measured
+    X0 = result.registered
+    centre = X0.mean(axis=0)
+    length = float(np.sqrt(np.mean(np.sum((X0 - centre) ** 2, axis=1)))) or 1.0
+    geo = Geometry(evaluate, T0, margin, nominal.points, nominal.normals, masks, centre, length,
+                   labels)
+    planned = check_plan(plan, geo, members, X0.shape[0], reg.near_distance,
+                         region_column(plan, members, X0.shape[0]))
+    results = list(planned.characteristics)
+    if zone_in_verdict:
+        tol = result.tolerance
+        d = result.deviations.signed
+        whole = Characteristic("tol", "profile", "(all points)", tol.lower, tol.upper)
+        results.insert(0, CharacteristicResult(
+            whole, float(2.0 * np.max(np.abs(d - 0.5 * (tol.lower + tol.upper)))),
+            result.verdict, result.reasons[0], np.arange(d.size), d, result.statistics.worst))
+    verdict, reasons = _verdict(results, planned.alignment)
+    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
+        # The regions themselves rest on the registration: nothing in the plan can be judged.
+        results = [replace(r, verdict=INCONCLUSIVE, reason=f"the registration cannot be "
+                           f"trusted: {result.reasons[0]}") for r in results]
+        verdict, reasons = INCONCLUSIVE, result.reasons
+    planned = replace(planned, verdict=verdict, reasons=reasons, characteristics=tuple(results),
+                      zone_in_verdict=zone_in_verdict)
+    result = replace(result, verdict=verdict, reasons=reasons, plan=planned)
+    if planned.alignment is None:
+        return result
+    # The per-point outputs at the plan's alignment: where the drawing places the part.
+    X = apply_transform(planned.T_nominal_measured, measured)
+    dv = point_to_surface(nominal, X)
+    tol = result.tolerance
+    return replace(result, registered=X, deviations=dv,
+                   in_tolerance=(dv.signed >= tol.lower) & (dv.signed <= tol.upper),
+                   statistics=Statistics.of(dv.signed, tol),
+                   margin=None if result.margin is None else margins_3d(nominal, dv.foot))

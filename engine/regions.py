@@ -1,0 +1,80 @@
+"""Which nominal and measured points belong to each region of an inspection plan.
+
+A region selects nominal points (a box in nominal coordinates, or a glob on the nominal point
+file's labels). A measured point belongs to the regions of the nominal sample nearest its
+closest point on the surface when it lies within ``max_distance`` of the surface at the
+registered pose, or, where the region gives ``measured_labels``, to the region its label
+matches. Regions may overlap (a datum face inside
+a profile's region). Units mm, nominal frame.
+"""
+
+from __future__ import annotations
+
+from fnmatch import fnmatchcase
+
+import numpy as np
+
+from .errors import InputError
+from .plan import Plan, Region
+
+
+def nominal_members(plan: Plan, points: np.ndarray, labels: np.ndarray | None
+                    ) -> dict[str, np.ndarray]:
+    """{region name: (N,) bool over the nominal points (N, dim)}; a region that selects no
+    nominal point, or a selector the nominal cannot answer, is an InputError naming the plan."""
+    out = {}
+    for r in plan.regions:
+        out[r.name] = _select(plan, r, points, labels)
+        if not out[r.name].any():
+            raise InputError(f"[[region]] '{r.name}': selects no point of the nominal "
+                             f"({_selector(r)})", plan.path)
+    return out
+
+
+def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None) -> np.ndarray:
+    if r.box is not None:
+        lo = np.asarray(r.box[0], float)[:points.shape[1]]
+        hi = np.asarray(r.box[1], float)[:points.shape[1]]
+        return np.all((points >= lo) & (points <= hi), axis=1)
+    if r.labels is not None:
+        if labels is None:
+            raise InputError(f"[[region]] '{r.name}': 'labels' selects by the nominal's point "
+                             "labels, and this nominal has none", plan.path)
+        return np.array([fnmatchcase(str(s), r.labels) for s in labels], dtype=bool)
+    raise InputError(f"[[region]] '{r.name}': 'group' selects a mesh group, DXF layer or STEP "
+                     "face, and this nominal has no groups", plan.path)
+
+
+def _selector(r: Region) -> str:
+    if r.box is not None:
+        return f"box {[list(c) for c in r.box]}"
+    return f"labels '{r.labels}'" if r.labels is not None else f"group '{r.group}'"
+
+
+def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: np.ndarray,
+                     distance: np.ndarray, max_distance: float,
+                     labels: np.ndarray | None) -> dict[str, np.ndarray]:
+    """{region name: indices of its measured points (ascending)}.
+
+    nearest, distance : (n,) index of the nominal sample nearest each registered measured
+    point's closest point on the surface, and its distance from the surface (mm); labels : the
+    measured points' labels, or None."""
+    near = distance <= max_distance
+    out = {}
+    for r in plan.regions:
+        if r.measured_labels is not None and labels is not None:
+            mask = np.array([fnmatchcase(str(s), r.measured_labels) for s in labels], bool)
+        else:
+            mask = near & nominal_masks[r.name][nearest]
+        out[r.name] = np.flatnonzero(mask)
+    return out
+
+
+def region_column(plan: Plan, members: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """(n,) str: each measured point's regions joined by '+', in the plan's order ('' for
+    none), for the per-point outputs."""
+    names = [[] for _ in range(n)]
+    for r in plan.regions:
+        for i in members[r.name]:
+            names[i].append(r.name)
+    return np.array(["+".join(x) for x in names], dtype=object)
