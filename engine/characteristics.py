@@ -32,7 +32,7 @@ import numpy as np
 from .datums import Alignment, align, align_rps
 from .errors import InputError
 from .fits import minimax_pose
-from .plan import MIN_POINTS, Characteristic, Plan
+from .plan import FEATURES_2D, FEATURES_3D, MIN_POINTS, Characteristic, Plan
 from .tolerance import Tolerance
 from .verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, pointwise_verdict
 
@@ -318,22 +318,16 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                  measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool):
     """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
     reasons become the plan's (with the zone of ``result`` as one more profile characteristic
-    over all points when ``zone_in_verdict``), and ``plan`` holds the PlanResult."""
+    over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
+    outputs are at the plan's alignment."""
     from dataclasses import replace
 
     from .deviation import point_to_surface
     from .geometry import apply_transform
-    from .regions import measured_members, nominal_members, region_column
-    from .verdict import MIN_NEAR_FRACTION, margins_3d
+    from .regions import nominal_members
+    from .verdict import margins_3d
 
-    reg = result.registration
     masks = nominal_members(plan, nominal.points, nominal_labels)
-    # A point belongs where it lies: within the near distance of the surface (its deviation,
-    # not the distance to the nearest sample, which grows with the sampling), in the region of
-    # the sample nearest its closest point on the surface.
-    nearest = nominal.tree.query(result.deviations.foot)[1]
-    members = measured_members(plan, masks, nearest, np.abs(result.deviations.signed),
-                               reg.near_distance, labels)
 
     def evaluate(T, idx):
         X = apply_transform(T, measured[idx])
@@ -343,16 +337,96 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     def margin(idx, T):
         if result.decision_rule != "guarded":
             return None
-        return margins_3d(nominal, point_to_surface(nominal, apply_transform(T, measured[idx])).foot)
+        X = apply_transform(T, measured[idx])
+        return margins_3d(nominal, point_to_surface(nominal, X).foot)
 
-    T0 = reg.T_nominal_measured
-    X0 = result.registered
-    centre = X0.mean(axis=0)
-    length = float(np.sqrt(np.mean(np.sum((X0 - centre) ** 2, axis=1)))) or 1.0
-    geo = Geometry(evaluate, T0, margin, nominal.points, nominal.normals, masks, centre, length,
-                   labels)
-    planned = check_plan(plan, geo, members, X0.shape[0], reg.near_distance,
-                         region_column(plan, members, X0.shape[0]))
+    geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
+                   nominal.normals, masks, *_centre_and_length(result.registered), labels)
+    planned = _judged(result, plan, geo, nominal.tree, zone_in_verdict)
+    result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
+    if planned.alignment is None:
+        return result
+    # The per-point outputs at the plan's alignment: where the drawing places the part.
+    X = apply_transform(planned.T_nominal_measured, measured)
+    dv = point_to_surface(nominal, X)
+    return _at_plan_pose(result, X, dv,
+                         None if result.margin is None else margins_3d(nominal, dv.foot))
+
+
+def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
+                    zone_in_verdict: bool):
+    """:func:`inspect_plan` for a 2D template (``index``: its engine.contour.ContourIndex):
+    the plan works in the template's plane on the registered points' x, y (poses 3x3 there,
+    starting from the identity); the part's pose and per-point outputs are lifted back into
+    3D. Template lines and arcs are exact: no sampling margin."""
+    from dataclasses import replace
+
+    from .contour import deviations_2d
+    from .deviation import Deviations
+    from .registration import in_plane
+    from .registration2d import apply2
+    from .regions import nominal_members
+
+    P2 = result.registered[:, :2]
+    samples = index.tree.data
+    masks = nominal_members(plan, samples, None)
+
+    def evaluate(T, idx):
+        X = apply2(T, P2[idx])
+        dv = deviations_2d(index, X)
+        return X, dv.signed, dv.normal
+
+    def normals(idx):
+        return deviations_2d(index, samples[idx]).normal
+
+    geo = Geometry(evaluate, np.eye(3), lambda idx, T: None, samples, normals, masks,
+                   *_centre_and_length(P2), labels)
+    planned = _judged(result, plan, geo, index.tree, zone_in_verdict)
+    T2 = planned.T_nominal_measured
+    planned = replace(planned, T_nominal_measured=in_plane(T2)
+                      @ result.registration.T_nominal_measured)
+    result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
+    if planned.alignment is None:
+        return result
+    X2 = apply2(T2, P2)
+    d2 = deviations_2d(index, X2)
+    zeros = np.zeros(X2.shape[0])
+    dv = Deviations(d2.signed, np.column_stack([d2.foot, zeros]),
+                    np.column_stack([d2.normal, zeros]), zeros.astype(bool))
+    return _at_plan_pose(result, np.column_stack([X2, result.registered[:, 2]]), dv, None)
+
+
+def _centre_and_length(X: np.ndarray) -> tuple[np.ndarray, float]:
+    """The points' centroid and RMS radius (mm): the centre and lever of the plan's poses."""
+    centre = X.mean(axis=0)
+    return centre, float(np.sqrt(np.mean(np.sum((X - centre) ** 2, axis=1)))) or 1.0
+
+
+def _judged(result, plan: Plan, geo: Geometry, tree, zone_in_verdict: bool) -> PlanResult:
+    """The plan checked on ``geo``, with the inspection's own zone as a characteristic over all
+    points when ``zone_in_verdict``; everything INCONCLUSIVE when the registration, on which
+    the regions rest, cannot be trusted."""
+    from dataclasses import replace
+
+    from .regions import measured_members, region_column
+    from .verdict import MIN_NEAR_FRACTION
+
+    dim = geo.nominal_points.shape[1]
+    for d in plan.datums:
+        if d.feature not in (FEATURES_2D if dim == 2 else FEATURES_3D):
+            raise InputError(f"[[datum]] '{d.label}': a {d.feature} datum needs a "
+                             f"{'3D nominal' if dim == 2 else '2D template'}; this nominal is "
+                             f"{'a 2D template' if dim == 2 else '3D'}", plan.path)
+    reg = result.registration
+    n = result.registered.shape[0]
+    # A point belongs where it lies: within the near distance of the surface (its deviation,
+    # not the distance to the nearest sample, which grows with the sampling), in the region of
+    # the sample nearest its closest point on the surface.
+    foot = result.deviations.foot[:, :geo.nominal_points.shape[1]]
+    members = measured_members(plan, geo.nominal_masks, tree.query(foot)[1],
+                               np.abs(result.deviations.signed), reg.near_distance, geo.labels)
+    planned = check_plan(plan, geo, members, n, reg.near_distance,
+                         region_column(plan, members, n))
     results = list(planned.characteristics)
     if zone_in_verdict:
         tol = result.tolerance
@@ -363,20 +437,19 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
             result.verdict, result.reasons[0], np.arange(d.size), d, result.statistics.worst))
     verdict, reasons = _verdict(results, planned.alignment)
     if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
-        # The regions themselves rest on the registration: nothing in the plan can be judged.
         results = [replace(r, verdict=INCONCLUSIVE, reason=f"the registration cannot be "
                            f"trusted: {result.reasons[0]}") for r in results]
         verdict, reasons = INCONCLUSIVE, result.reasons
-    planned = replace(planned, verdict=verdict, reasons=reasons, characteristics=tuple(results),
-                      zone_in_verdict=zone_in_verdict)
-    result = replace(result, verdict=verdict, reasons=reasons, plan=planned)
-    if planned.alignment is None:
-        return result
-    # The per-point outputs at the plan's alignment: where the drawing places the part.
-    X = apply_transform(planned.T_nominal_measured, measured)
-    dv = point_to_surface(nominal, X)
+    return replace(planned, verdict=verdict, reasons=reasons, characteristics=tuple(results),
+                   zone_in_verdict=zone_in_verdict)
+
+
+def _at_plan_pose(result, X: np.ndarray, dv, margin):
+    """``result`` with its per-point outputs (points, deviations, in-tolerance, statistics,
+    margins) at the plan's alignment: where the drawing places the part."""
+    from dataclasses import replace
+
     tol = result.tolerance
     return replace(result, registered=X, deviations=dv,
                    in_tolerance=(dv.signed >= tol.lower) & (dv.signed <= tol.upper),
-                   statistics=Statistics.of(dv.signed, tol),
-                   margin=None if result.margin is None else margins_3d(nominal, dv.foot))
+                   statistics=Statistics.of(dv.signed, tol), margin=margin)

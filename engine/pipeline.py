@@ -184,17 +184,23 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
         from .io.plan import read_plan
 
         plan = read_plan(settings.plan)
-        if tpl is not None:
-            raise SettingsError("inspection plans apply to 3D nominals for now; a 2D template "
-                                "is judged by its zone (--tol)")
         inputs.append(InputRecord("plan", settings.plan, plan.sha256, None))
     t1 = time.perf_counter()
     if tpl is not None:
+        from .contour import ContourIndex
+
+        index = ContourIndex(tpl.template)
         result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol,
-                            fit=settings.fit, decision_rule=settings.decision_rule,
+                            index=index, fit=settings.fit, decision_rule=settings.decision_rule,
                             template_facts={"units": tpl.units, "unitless": tpl.unitless,
                                             "flattened_curves": tpl.flattened,
                                             "ignored_entities": tpl.ignored})
+        if plan is not None:
+            from .characteristics import inspect_plan_2d
+
+            report("judging the plan's characteristics", 0.99)
+            result = inspect_plan_2d(result, plan, index, measured_ps.labels,
+                                     settings.zone_in_verdict)
     else:
         result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
                          decision_rule=settings.decision_rule)

@@ -189,12 +189,12 @@ class RegistrationResult:
         zeros = np.zeros(deviations.signed.size)
         dev = Deviations(deviations.signed, np.column_stack([deviations.foot, zeros]),
                          np.column_stack([deviations.normal, zeros]), zeros.astype(bool))
-        runner = None if self.runner_up_T is None else _in_plane(self.runner_up_T) @ F
-        return dataclasses.replace(self, T_nominal_measured=_in_plane(T2) @ F, deviations=dev,
+        runner = None if self.runner_up_T is None else in_plane(self.runner_up_T) @ F
+        return dataclasses.replace(self, T_nominal_measured=in_plane(T2) @ F, deviations=dev,
                                    runner_up_T=runner)
 
 
-def _in_plane(T2: np.ndarray) -> np.ndarray:
+def in_plane(T2: np.ndarray) -> np.ndarray:
     """The 2D homogeneous transform T2 (3, 3) as the 3D one (4, 4) that leaves z alone."""
     E = np.eye(4)
     E[:2, :2] = T2[:2, :2]

@@ -29,6 +29,8 @@ fuselage_frame/ a fuselage frame contour template like the paper's section 5.1:
     measured.csv  500 CMM points (label, x, y, z) along the contours, the template lying tilted
                   on the bed (a planar template measured in 3D), noise and a local rise
     truth.json    the pose, the planted deviation of every point, the expected verdict
+    plan.toml     (written by hand, not generated) datums A (the straight end) and B (one hole),
+                  the other hole's position, both holes' size, the outer arc's profile
 """
 
 from __future__ import annotations

@@ -348,3 +348,119 @@ def test_the_seat_bracket_sample_plan(tmp_path):
     labels = {d: set(truth["datum_faces"][d]["labels"]) for d in "ABC"}
     assert [d["n_points"] for d in doc["alignment"]["datums"]] == [len(labels[d]) for d in "ABC"]
     assert doc["alignment"]["free_dofs"] == [] and c["4"]["n_points"] == 16
+
+
+def test_plan_on_a_2d_template_holes_relative_to_edge_datums(tmp_path):
+    """A 200 x 100 plate drawn in DXF with two holes of radius 10 (at different heights, so that
+    no symmetry of the outline maps the drawing onto itself); measured in 2D in a random pose
+    with the second hole moved by a known vector v and 0.01 mm larger in radius: datums A
+    (bottom edge, a line) and B (left edge) place it; position of hole 2 relative to A|B is
+    2|v|, its size 20.02, hole 1's position 0."""
+    import ezdxf
+
+    from engine.contour import ContourIndex, deviations_2d, points_on
+    from engine.io.templates import read_dxf_template
+    from engine.registration2d import _pose, apply2
+    from qa_app.cli import main
+
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_lwpolyline([(0, 0), (200, 0), (200, 100), (0, 100)], close=True)
+    for c in ((50, 50), (150, 35)):
+        msp.add_circle(c, 10)
+    doc.saveas(tmp_path / "plate.dxf")
+    t = read_dxf_template(str(tmp_path / "plate.dxf")).template
+    rng = np.random.default_rng(12)
+    q = points_on(t, 600, rng)
+    v = np.array([0.021, -0.013])
+    hole2 = np.linalg.norm(q - [150, 35], axis=1) < 11
+    q[hole2] = [150, 35] + v + (q[hole2] - [150, 35]) * 10.01 / 10
+    # Keep the edges' points clear of the corners.
+    corner = np.min(np.linalg.norm(q[:, None] - np.array(
+        [[0, 0], [200, 0], [200, 100], [0, 100]]), axis=2), axis=1) < 5
+    q = q[~corner]
+    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q)
+    np.savetxt(tmp_path / "m.csv", meas, delimiter=",", header="x,y", comments="", fmt="%.9f")
+    (tmp_path / "plan.toml").write_text("""
+[[region]]
+name = "bottom"
+box = [[5, -1, -1], [195, 1, 1]]
+[[region]]
+name = "left"
+box = [[-1, 5, -1], [1, 95, 1]]
+[[region]]
+name = "hole1"
+box = [[39, 39, -1], [61, 61, 1]]
+[[region]]
+name = "hole2"
+box = [[139, 24, -1], [161, 46, 1]]
+[[datum]]
+label = "A"
+region = "bottom"
+feature = "line"
+[[datum]]
+label = "B"
+region = "left"
+feature = "line"
+[alignment]
+method = "datums"
+reference = ["A", "B"]
+[[characteristic]]
+id = "1"
+type = "position"
+region = "hole2"
+zone = 0.1
+datums = ["A", "B"]
+[[characteristic]]
+id = "2"
+type = "size"
+region = "hole2"
+nominal = 20.0
+lower = -0.01
+upper = 0.01
+[[characteristic]]
+id = "3"
+type = "position"
+region = "hole1"
+zone = 0.01
+datums = ["A", "B"]
+""")
+    import json
+
+    code = main(["inspect", str(tmp_path / "plate.dxf"), str(tmp_path / "m.csv"), "--plan",
+                 str(tmp_path / "plan.toml"), "--json", str(tmp_path / "r.json")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    c = {x["id"]: x for x in doc["characteristics"]}
+    assert c["1"]["value"] == pytest.approx(2 * np.linalg.norm(v), abs=1e-6)
+    assert c["2"]["value"] == pytest.approx(20.02, abs=1e-6) and c["2"]["verdict"] == "REJECT"
+    assert c["3"]["value"] == pytest.approx(0.0, abs=1e-6) and c["3"]["verdict"] == "ACCEPT"
+    assert code == 1 and doc["alignment"]["free_dofs"] == []
+    assert np.asarray(doc["alignment"]["T_nominal_measured"]).shape == (4, 4)
+
+
+def test_the_fuselage_frame_sample_plan():
+    """samples/fuselage_frame/plan.toml: edge datum A (a line) and hole B (a circle) place the
+    2D template; both holes are drawn 50 mm and made so (noise 3 um), the other hole sits
+    within its zone, the outer arc's +0.03 mm rise lies within its profile zone."""
+    import json
+
+    from qa_app.cli import main
+
+    here = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
+                        "fuselage_frame")
+    import io
+    from contextlib import redirect_stdout
+
+    out = io.StringIO()
+    with redirect_stdout(out):
+        code = main(["inspect", os.path.join(here, "template.dxf"),
+                     os.path.join(here, "measured.csv"), "--plan",
+                     os.path.join(here, "plan.toml"), "--json", "-"])
+    doc = json.loads(out.getvalue())
+    c = {x["id"]: x for x in doc["characteristics"]}
+    assert code == 0 and doc["verdict"] == "ACCEPT"
+    assert c["2"]["value"] == pytest.approx(50.0, abs=0.003)
+    assert c["3"]["value"] == pytest.approx(50.0, abs=0.003)
+    assert c["1"]["value"] < 0.05
+    assert 2 * 0.02 < c["4"]["value"] < 0.1
