@@ -20,7 +20,7 @@ seat_bracket/   an L-shaped seat bracket with two freeform faces (A: flange top,
                   (P149-P164), its axis 0.025 mm off and its diameter 8.010
     truth.json    as above, and the datum faces' labels and the hole as made (position 0.05,
                   size 8.010)
-    plan.toml     the drawing's inspection plan: datums A|B|C, the skin's profile relative to
+    plan.toml     (written by hand) the drawing's inspection plan: datums A|B|C, the skin's profile relative to
                   them (REJECT: the +0.012 mm excess in a 0.02 zone) and as form only (ACCEPT),
                   the flatness of A, the hole's position and size
 fuselage_frame/ a fuselage frame contour template like the paper's section 5.1:

@@ -1,0 +1,124 @@
+"""What an inspection plan adds to an inspection; prints a table.
+
+    .venv/bin/python benchmarks/bench_plan.py
+
+Cases, each the median of 5 runs in one warm process (the compiled kernels loaded once before):
+* the belly fairing sample (60k nominal grid, 1,100 points) with 5 characteristics on regions of
+  its doubly curved surface: a tangent plane datum on one corner patch, the profile of a quarter
+  relative to it (its free directions best-fitted), two form profiles (least squares, minimax)
+  and a flatness;
+* the seat bracket sample with its own plan (samples/seat_bracket/plan.toml: datums A|B|C, two
+  profiles, a flatness, a hole's position and size).
+"inspect" is the registration and judging without a plan; "plan" is engine.characteristics
+.inspect_plan on its result (regions, alignments, characteristics, per-point outputs at the
+plan's pose).
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+FAIRING_PLAN = """
+[[region]]
+name = "corner"
+box = [[-250, -125, -100], [-150, -60, 100]]
+[[region]]
+name = "quarter"
+box = [[0, 0, -100], [250, 125, 100]]
+[[region]]
+name = "middle"
+box = [[-100, -50, -100], [100, 50, 100]]
+[[datum]]
+label = "A"
+region = "corner"
+feature = "plane"
+[alignment]
+method = "datums"
+reference = ["A"]
+best_fit_regions = ["quarter"]
+[[characteristic]]
+id = "1"
+type = "profile"
+region = "quarter"
+zone = 0.5
+datums = ["A"]
+[[characteristic]]
+id = "2"
+type = "profile"
+region = "quarter"
+zone = 0.5
+[[characteristic]]
+id = "3"
+type = "profile"
+region = "middle"
+zone = 0.5
+fit = "minimax"
+[[characteristic]]
+id = "4"
+type = "flatness"
+region = "corner"
+zone = 5.0
+[[characteristic]]
+id = "5"
+type = "profile"
+region = "middle"
+zone = 0.5
+"""
+
+
+def case(nominal_path: str, measured_path: str, plan_path: str, tol: float):
+    from engine.characteristics import inspect_plan
+    from engine.inspection import Tolerance, inspect
+    from engine.io import load_point_set
+    from engine.io.plan import read_plan
+    from engine.nominal import Nominal
+
+    nps, mps = load_point_set(nominal_path), load_point_set(measured_path)
+    plan = read_plan(plan_path)
+    t_inspect, t_plan = [], []
+    for _ in range(5):
+        nominal = Nominal.from_point_set(nps)
+        t0 = time.perf_counter()
+        res = inspect(nominal, mps.points, Tolerance.symmetric(tol))
+        t1 = time.perf_counter()
+        out = inspect_plan(res, plan, nominal, nps.labels, mps.points, mps.labels, False)
+        t2 = time.perf_counter()
+        t_inspect.append(t1 - t0)
+        t_plan.append(t2 - t1)
+    return statistics.median(t_inspect), statistics.median(t_plan), out
+
+
+def main() -> None:
+    import tempfile
+
+    from engine import warm_up
+
+    warm_up()
+    s = os.path.join(ROOT, "samples")
+    with tempfile.TemporaryDirectory() as d:
+        fairing_plan = os.path.join(d, "fairing.toml")
+        with open(fairing_plan, "w") as f:
+            f.write(FAIRING_PLAN)
+        rows = [("fairing 60k/1.1k, 5 characteristics",
+                 case(f"{s}/belly_fairing/nominal.csv", f"{s}/belly_fairing/measured.csv",
+                      fairing_plan, 0.25)),
+                ("seat bracket 200k/176, its plan (5)",
+                 case(f"{s}/seat_bracket/nominal.xyz", f"{s}/seat_bracket/measured.csv",
+                      f"{s}/seat_bracket/plan.toml", 0.05))]
+    print(f"{'case':40s} {'inspect s':>10s} {'plan s':>8s}  verdict / characteristics")
+    for name, (ti, tp, out) in rows:
+        chars = ", ".join(f"{r.characteristic.id} {r.verdict}" for r in out.plan.characteristics)
+        print(f"{name:40s} {ti:10.3f} {tp:8.3f}  {out.verdict} / {chars}")
+    print(f"numpy {np.__version__}, {os.cpu_count()} cores")
+
+
+if __name__ == "__main__":
+    main()
