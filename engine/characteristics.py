@@ -21,6 +21,11 @@ value lies within its zone. Profiles follow the decision rule point by point (gu
 point's nominal-sampling margin); a characteristic whose points or datums are missing is
 INCONCLUSIVE, never guessed. The part: REJECT if any characteristic is out, else INCONCLUSIVE if
 any cannot be trusted, else ACCEPT.
+
+Every region a datum or characteristic uses is also reported as the feature the drawing names
+(RegionFeature: a plane, cylinder or sphere with the least-squares fits of its nominal points and
+of its measured points at the plan's alignment, or a freeform surface): what exports such as
+QIF 3.0 write as datum features and toleranced features.
 """
 
 from __future__ import annotations
@@ -82,6 +87,31 @@ class PlanResult:
     zone_in_verdict: bool = False
     """Whether the inspection's zone over all points is one of the characteristics (``tol``);
     else it is only the zone of the per-point statistics."""
+    features: tuple = ()
+    """RegionFeature of every region a datum or characteristic uses, in the plan's order."""
+
+
+@dataclass(frozen=True)
+class RegionFeature:
+    """A region as the feature a drawing names (what exports such as QIF 3.0 write).
+
+    feature : plane | cylinder | sphere (a datum's feature; flatness: a plane; position and
+        size: a cylinder), or freeform (a profile's surface, or any region of a 2D template):
+        no geometry.
+    nominal : the least-squares feature of the region's nominal points, nominal frame, mm
+        (plane: point, normal (outward); cylinder: point, direction, diameter, internal (a
+        hole); sphere: centre, diameter, internal); None when they do not determine it.
+    measured : the same (without internal) fitted to the region's measured points at the
+        plan's alignment (the pose of the per-point outputs), with form_error (peak to valley
+        of the residuals, mm) and n_points; None when they do not determine it.
+    """
+
+    region: str
+    feature: str
+    nominal: dict | None = None
+    measured: dict | None = None
+    datums: tuple[tuple[str, str], ...] = ()
+    """(label, fit) of the plan's datums on this region."""
 
 
 @dataclass(frozen=True)
@@ -153,7 +183,8 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = _verdict(results, alignment)
     return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
-                      region_distance, tuple(results))
+                      region_distance, tuple(results),
+                      features=region_features(plan, geo, members, T_part))
 
 
 def _verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:
@@ -286,6 +317,84 @@ def _cylinder(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
     one its surface normals are all perpendicular to (the smallest eigenvector of sum n n^T)."""
     _, vecs = np.linalg.eigh(normals.T @ normals)
     return fit_cylinder_lsq(X, vecs[:, 0])
+
+
+_IMPLIED_FEATURE = {"flatness": "plane", "position": "cylinder", "size": "cylinder"}
+PLANE_FACING = np.radians(10.0)
+"""A nominal plane is fitted to its region's points whose outward normals lie within this angle
+of the region's mean outward normal."""
+
+
+def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
+                    T: np.ndarray) -> tuple[RegionFeature, ...]:
+    """Every region a datum or characteristic uses, in the plan's order, as its feature
+    (RegionFeature): the nominal fitted to the region's nominal points, the measured to its
+    measured points at pose ``T``."""
+    kinds: dict[str, str] = {}
+    datums: dict[str, list] = {}
+    for d in plan.datums:
+        kinds.setdefault(d.region, d.feature)
+        datums.setdefault(d.region, []).append((d.label, d.fit))
+    for c in plan.characteristics:
+        kinds.setdefault(c.region, _IMPLIED_FEATURE.get(c.type, "freeform"))
+    out = []
+    for r in plan.regions:
+        kind = kinds.get(r.name)
+        if kind is None:
+            continue
+        on = tuple(datums.get(r.name, ()))
+        if kind not in ("plane", "cylinder", "sphere") or geo.nominal_points.shape[1] != 3:
+            out.append(RegionFeature(r.name, "freeform", datums=on))
+            continue
+        mask = geo.nominal_masks[r.name]
+        normals = geo.nominal_normals(np.flatnonzero(mask))
+        idx = members[r.name]
+        measured = _fit_feature(kind, geo.evaluate(T, idx)[0], normals) if idx.size else None
+        out.append(RegionFeature(r.name, kind, _nominal_feature(kind, geo.nominal_points[mask],
+                                                                normals), measured, on))
+    return tuple(out)
+
+
+def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict | None:
+    """The least-squares ``kind`` of a region's nominal points (a plane: of those facing its
+    way, within ``PLANE_FACING`` of the mean outward normal, so that the strips of the
+    neighbouring faces a box takes in do not tilt or shift it); a cylinder or sphere says
+    whether it is a hole (internal: the outward normals point towards its axis / centre)."""
+    if kind == "plane":
+        mean = normals.sum(axis=0)
+        facing = normals @ (mean / (np.linalg.norm(mean) or 1.0)) >= np.cos(PLANE_FACING)
+        if facing.sum() >= 3:
+            points, normals = points[facing], normals[facing]
+    fit = _fit_feature(kind, points, normals)
+    if fit is None:
+        return None
+    out = {k: v for k, v in fit.items() if k not in ("form_error", "n_points")}
+    if kind != "plane":
+        radial = points - out.get("centre", out.get("point"))
+        if kind == "cylinder":
+            radial -= np.outer(radial @ out["direction"], out["direction"])
+        out["internal"] = bool(np.sum(radial * normals) < 0.0)
+    return out
+
+
+def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:
+    """The least-squares ``kind`` of the points X (the region's nominal outward ``normals``
+    orient a plane and start a cylinder's axis); None when X does not determine it."""
+    from .features import FeatureError, fit_cylinder_lsq, fit_plane_lsq, fit_sphere_lsq
+
+    try:
+        if kind == "plane":
+            f = fit_plane_lsq(X, normals.sum(axis=0))
+            out = {"point": f.centroid, "normal": f.normal}
+        elif kind == "cylinder":
+            f = _cylinder(fit_cylinder_lsq, X, normals)
+            out = {"point": f.point, "direction": f.direction, "diameter": 2.0 * f.radius}
+        else:
+            f = fit_sphere_lsq(X)
+            out = {"centre": f.centre, "diameter": 2.0 * f.radius}
+    except FeatureError:
+        return None
+    return {**out, "form_error": f.form_error, "n_points": f.n_points}
 
 
 def _rps(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:

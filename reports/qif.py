@@ -45,9 +45,44 @@ What carries what:
   ``InspectionStatus``: PASS / FAIL / UNKNOWN; ``ActualComponentIds`` and
   ``Results/ActualComponentSets``: the serial number, when given.
 
+With an inspection plan (the JSON's ``characteristics``, ``features`` and ``alignment``,
+:func:`reports.results.plan_json`) the plan's characteristics take the place of the profile over
+all points, as producers of CMM results write them (CheckMate, NIST's CTC models):
+
+- ``DatumDefinitions``: one per datum, ``DatumLabel`` (an xs:NMTOKEN: other characters become
+  '_', the label itself then in ``AttributeStr`` "qa-inspect:label") and ``FeatureNominalIds``:
+  its datum feature.
+- ``DatumReferenceFrames``: one per distinct datum sequence (the alignment's, each
+  characteristic's), ``SimpleDatum`` per datum in precedence (PRIMARY, SECONDARY, TERTIARY),
+  ``MaterialModifier`` NONE (no modifier on the drawing), ``ReferencedComponent`` ACTUAL (the
+  datums are established on the measured part), ``SubstituteFeatureAlgorithm`` = the datum
+  simulator: ONESIDED (a tangent plane), MAXINSCRIBED / MINCIRCUMSCRIBED (a tangent hole /
+  shaft), LEASTSQUARES.
+- ``Features``: besides the nominal's freeform feature, one per region a datum or characteristic
+  uses: ``PlaneFeature*`` (nominal ``Location``, ``Normal``), ``CylinderFeature*`` (definition
+  ``InternalExternal``, ``Diameter``; nominal ``Axis``), ``SphereFeature*`` (nominal
+  ``Location``), the least-squares fit of the region's nominal points; a profile's region, or
+  one whose nominal points do not determine its feature, is an ``OtherSurfaceFeature*``. The
+  feature measurement gives the least-squares fit of its measured points (``Location`` /
+  ``Normal``, ``Axis``, ``Diameter``, ``Form`` = peak to valley of the residuals) in the frame
+  of the point set.
+- ``Characteristics``: per plan characteristic, in the plan's order, its item's
+  ``CharacteristicDesignator/Designator`` = the plan's id (the balloon): profile:
+  ``SurfaceProfile*`` (zone as above, ``DatumReferenceFrameId`` when it has datums); flatness:
+  ``Flatness*`` (``ToleranceValue``); position: ``Position*`` (``ToleranceValue`` = the
+  diameter of the zone, ``DatumReferenceFrameId``, ``MaterialCondition`` NONE, ``ZoneShape``
+  ``DiametricalZone``); size: ``Diameter*`` (``TargetValue`` = the nominal diameter,
+  ``Tolerance`` ``MaxValue``/``MinValue`` = the limits about it). The zone over all points
+  (``tol``), when it is part of the verdict, is a profile on the nominal's feature.
+- ``MeasuredCharacteristics``: per characteristic ``Status`` (as above), ``Value`` = the JSON's
+  value in the drawing's convention (absent when it could not be measured) and its reason.
+- ``ActualTransforms/Transform``: the plan's alignment, the pose of the points.
+
 Ids are consecutive integers from 1 (``idMax`` on the root). The document is deterministic: no
-clock is read; ``QPId`` is a UUID 5 of the inputs' sha256s, the certificate number and the zone.
-Numbers are written with 6 decimals (1 nm), the transform exactly (shortest round-trip repr).
+clock is read; ``QPId`` is a UUID 5 of the inputs' sha256s, the certificate number and the zone
+(and the plan's sha256).
+Numbers are written with 6 decimals (1 nm), the transform and unit vectors exactly (shortest
+round-trip repr).
 """
 
 from __future__ import annotations
@@ -98,7 +133,8 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
     """
     q = _Qif.of(doc, *_checked_points(registered, deviations, in_tolerance, labels, outlier))
     o: list[str] = []
-    for section in (_header, _definitions, _product, _features, _characteristics, _results):
+    for section in (_header, _definitions, _datums, _resources, _product, _features,
+                    _characteristics, _results):
         section(o.append, q)
     return "".join(o).encode("utf-8")
 
@@ -128,8 +164,9 @@ def _checked_points(registered, deviations, in_tolerance, labels, outlier):
 
 @dataclass(frozen=True)
 class _Refs:
-    """The document's ids, consecutive from 1 in the order of the fields; None: the element is
-    left out (no device named, no finite transform, no serial number, no points)."""
+    """The document's fixed ids, consecutive from 1 in the order of the fields; None: the
+    element is left out (no device named, no finite transform, no serial number, no points;
+    with a plan, the profile over all points: the plan's characteristics take its place)."""
 
     standard: int
     device: int | None
@@ -139,33 +176,106 @@ class _Refs:
     feat_def: int
     feat_nom: int
     feat_item: int
-    char_def: int
-    char_nom: int
-    char_item: int
+    char_def: int | None
+    char_nom: int | None
+    char_item: int | None
     results: int
     feat_meas: int
     point_set: int | None
-    char_meas: int
+    char_meas: int | None
     transform: int | None
     component: int | None
-    last: int
-    """The largest id (``idMax``)."""
 
     @classmethod
-    def take(cls, device: bool, points: bool, transform: bool, component: bool) -> _Refs:
-        ids = _Ids()
+    def take(cls, ids: _Ids, device: bool, points: bool, transform: bool, component: bool,
+             profile: bool) -> _Refs:
         standard = ids.take()
         device_id = ids.take() if device else None
         part, definition, model = ids.take(), ids.take(), ids.take()
         feat_def, feat_nom, feat_item = ids.take(), ids.take(), ids.take()
-        char_def, char_nom, char_item = ids.take(), ids.take(), ids.take()
-        results, feat_meas, point_set, char_meas = ids.take(), ids.take(), ids.take(), ids.take()
+        char_def, char_nom, char_item = ((ids.take(), ids.take(), ids.take()) if profile
+                                         else (None, None, None))
+        results, feat_meas = ids.take(), ids.take()
+        # Without a plan the point set's id is taken even when there are no points: the ids
+        # of such a document stay those it always had.
+        point_set = ids.take() if points or profile else None
+        char_meas = ids.take() if profile else None
         transform_id = ids.take() if transform else None
         component_id = ids.take() if component else None
         return cls(standard, device_id, part, definition, model, feat_def, feat_nom, feat_item,
                    char_def, char_nom, char_item, results, feat_meas,
-                   point_set if points else None, char_meas, transform_id, component_id,
-                   ids.last)
+                   point_set if points else None, char_meas, transform_id, component_id)
+
+
+@dataclass(frozen=True)
+class _Feature:
+    """One feature (definition, nominal, item, measurement): the whole nominal (freeform; its
+    measurement carries the point set) or a plan's region."""
+
+    name: str
+    kind: str
+    """QIF's prefix: Plane, Cylinder, Sphere (with their geometry), OtherSurface or
+    OtherCurve (freeform)."""
+    definition: int
+    nominal_id: int
+    item: int
+    measurement: int
+    nominal: dict | None = None
+    """Plane: point, normal; Cylinder: point, direction, diameter, internal; Sphere: centre,
+    diameter, internal (the JSON's ``features``)."""
+    measured: dict | None = None
+    """The same least-squares geometry (no internal) with form_error, or None."""
+    whole: bool = False
+
+
+@dataclass(frozen=True)
+class _Char:
+    """One characteristic (definition, nominal, item, measurement)."""
+
+    kind: str
+    """QIF's prefix: SurfaceProfile, LineProfile, Flatness, Position, Diameter."""
+    definition: int
+    nominal_id: int
+    item: int
+    measurement: int
+    feature: _Feature
+    name: str
+    designator: str | None
+    """The drawing's balloon (the plan's id), or None."""
+    text: str
+    """The definition's Description."""
+    lower: float
+    """The zone, mm: profile: limits of the signed deviation; flatness and position: 0 ..
+    the zone; Diameter: limits about ``target``."""
+    upper: float
+    target: float | None
+    frame: int | None
+    """The DatumReferenceFrame's id, or None (form only)."""
+    verdict: str
+    value: float | None
+    description: str
+    """The measurement's Description: the verdict and its reasons."""
+    worst: tuple[float, float] | None = None
+    """Largest and smallest deviation (the profile over all points)."""
+
+
+@dataclass(frozen=True)
+class _Datum:
+    id: int
+    label: str
+    feature: _Feature | None
+    """The datum feature (its region's), or None when the document does not name it."""
+    algorithm: str | None
+    """The datum simulator (SubstituteFeatureAlgorithmEnum), or None when unknown."""
+
+
+@dataclass(frozen=True)
+class _Frame:
+    id: int
+    labels: tuple[str, ...]
+    """Datum labels, primary first."""
+    alignment: str | None
+    """How the plan's alignment stands when this frame places the part, else None."""
 
 
 @dataclass(frozen=True)
@@ -173,11 +283,9 @@ class _Qif:
     """What the sections of one QIF document share."""
 
     ids: _Refs
+    id_max: int
     verdict: str
     """ACCEPT, REJECT or INCONCLUSIVE."""
-    lower: float
-    """Tolerance zone, mm."""
-    upper: float
     cert: dict
     """The certificate's entries that are given (no None or empty value)."""
     is_2d: bool
@@ -188,9 +296,9 @@ class _Qif:
     """'qa-inspect <version>'."""
     issued: str | None
     """The certificate's issue time as an xs:dateTime, UTC."""
-    reasons: str
     T: np.ndarray
-    """T_nominal_measured, (4, 4)."""
+    """T_nominal_measured of the points, (4, 4): the registration, or the plan's alignment."""
+    T_name: str
     pts: np.ndarray
     """(n, 3) registered points, mm, nominal frame."""
     dev: np.ndarray
@@ -199,46 +307,54 @@ class _Qif:
     outlier: np.ndarray | None
     qpid: uuid.UUID
     results_qpid: uuid.UUID
+    features: tuple[_Feature, ...]
+    chars: tuple[_Char, ...]
+    datums: tuple[_Datum, ...] = ()
+    frames: tuple[_Frame, ...] = ()
 
     @classmethod
     def of(cls, doc: dict, pts, dev, inside, labels, outlier) -> _Qif:
         verdict = doc["verdict"]
         if verdict not in _CHAR_STATUS:
             raise QIFError(f"unknown verdict {verdict!r}")
-        lower = float(doc["tolerance"]["lower"])
-        upper = float(doc["tolerance"]["upper"])
         cert = {k: v for k, v in (doc.get("certificate") or {}).items() if v not in (None, "")}
         inputs = {r.get("role"): r for r in doc.get("inputs", [])}
-        nominal = inputs.get("nominal", {})
-        measured = inputs.get("measured", {})
+        nominal, measured = inputs.get("nominal", {}), inputs.get("measured", {})
         software = doc.get("software", {})
-        issued = _xs_datetime(cert["issued"]) if "issued" in cert else None
-        T = np.asarray(doc["transform"], dtype=float)
-        ids = _Refs.take(device="device" in cert, points=pts.shape[0] != 0,
-                         transform=T.shape == (4, 4) and bool(np.isfinite(T).all()),
-                         component="serial" in cert)
-        key = json.dumps({"nominal": nominal.get("sha256"), "measured": measured.get("sha256"),
-                          "certificate": cert.get("number"), "lower": lower, "upper": upper,
-                          "verdict": verdict}, sort_keys=True)
-        return cls(ids, verdict, lower, upper, cert, doc.get("template") is not None, nominal,
-                   measured,
-                   f"{software.get('name', 'qa-inspect')} {software.get('version', '')}".strip(),
-                   issued, "; ".join(str(r) for r in doc.get("reasons", [])), T, pts, dev,
-                   inside, labels, outlier, uuid.uuid5(_UUID_NAMESPACE, "document " + key),
-                   uuid.uuid5(_UUID_NAMESPACE, "results " + key))
+        app = f"{software.get('name', 'qa-inspect')} {software.get('version', '')}".strip()
+        planned = doc.get("characteristics") is not None
+        alignment = doc.get("alignment") or {}
+        T = np.asarray(alignment.get("T_nominal_measured", doc["transform"]) if planned
+                       else doc["transform"], dtype=float)
+        ids = _Ids()
+        refs = _Refs.take(ids, device="device" in cert, points=pts.shape[0] != 0,
+                          transform=T.shape == (4, 4) and bool(np.isfinite(T).all()),
+                          component="serial" in cert, profile=not planned)
+        is_2d = doc.get("template") is not None
+        path = str(nominal.get("path") or "nominal")
+        whole = _Feature(os.path.basename(path) or path, "OtherCurve" if is_2d else "OtherSurface", refs.feat_def,
+                         refs.feat_nom, refs.feat_item, refs.feat_meas, whole=True)
+        if planned:
+            parts = _plan(doc, ids, whole, app)
+        else:
+            parts = ((whole,), (_whole_profile(doc, refs, whole, dev, app),), (), ())
+        key = {"nominal": nominal.get("sha256"), "measured": measured.get("sha256"),
+               "certificate": cert.get("number"), "lower": float(doc["tolerance"]["lower"]),
+               "upper": float(doc["tolerance"]["upper"]), "verdict": verdict}
+        if planned:
+            key["plan"] = (doc.get("plan") or {}).get("sha256")
+        key = json.dumps(key, sort_keys=True)
+        T_name = ("registration T_nominal_measured" if not planned else
+                  f"plan alignment ({alignment.get('method', '?')}) T_nominal_measured")
+        return cls(refs, ids.last, verdict, cert, is_2d, nominal, measured, app,
+                   _xs_datetime(cert["issued"]) if "issued" in cert else None, T,
+                   f"{T_name}: measured (before) to nominal (after)", pts, dev, inside, labels,
+                   outlier, uuid.uuid5(_UUID_NAMESPACE, "document " + key),
+                   uuid.uuid5(_UUID_NAMESPACE, "results " + key), *parts)
 
     @property
     def n(self) -> int:
         return self.pts.shape[0]
-
-    @property
-    def kind(self) -> str:
-        """The feature kind: 'Curve' (2D template) or 'Surface'."""
-        return "Curve" if self.is_2d else "Surface"
-
-    @property
-    def profile(self) -> str:
-        return "LineProfile" if self.is_2d else "SurfaceProfile"
 
     @property
     def nominal_path(self) -> str:
@@ -249,11 +365,131 @@ class _Qif:
         return os.path.basename(self.nominal_path) or self.nominal_path
 
 
+def _whole_profile(doc: dict, refs: _Refs, whole: _Feature, dev: np.ndarray, app: str) -> _Char:
+    """The profile over all points (no plan): the zone, its zone-centred Value and the worst
+    deviations from the per-point arrays."""
+    lower, upper = float(doc["tolerance"]["lower"]), float(doc["tolerance"]["upper"])
+    is_2d = whole.kind == "OtherCurve"
+    finite = dev[np.isfinite(dev)]
+    value = worst = None
+    if finite.size:
+        # Zone-centred width: comparable with ToleranceValue for symmetric, unequal and offset
+        # zones alike (Value <= ToleranceValue iff every point is inside).
+        value = 2.0 * float(np.abs(finite - 0.5 * (lower + upper)).max())
+        worst = (float(finite.max()), float(finite.min()))
+    reasons = "; ".join(str(r) for r in doc.get("reasons", []))
+    return _Char("LineProfile" if is_2d else "SurfaceProfile", refs.char_def, refs.char_nom,
+                 refs.char_item, refs.char_meas, whole,
+                 f"{'Line' if is_2d else 'Surface'} profile", None, _profile_text(lower, upper),
+                 lower, upper, None, None, doc["verdict"], value,
+                 f"{app} verdict {doc['verdict']}: {reasons}", worst)
+
+
+def _profile_text(lower: float, upper: float) -> str:
+    return (f"tolerance zone {_f(lower)} .. {_f(upper)} mm of the signed deviation along the "
+            "nominal's outward normal (positive = excess material); every point must lie inside")
+
+
+_GEOMETRIC = {"plane": "Plane", "cylinder": "Cylinder", "sphere": "Sphere"}
+_PLAN_CHAR = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "Position",
+              "size": "Diameter"}
+_PRECEDENCE = ("PRIMARY", "SECONDARY", "TERTIARY", "QUATERNARY", "QUINARY", "SENARY")
+
+
+def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
+    """The features, characteristics, datums and datum reference frames of an inspection plan
+    (the JSON's ``features``, ``characteristics`` and ``alignment``)."""
+    freeform = whole.kind
+    features, regions, datum_features = [whole], {}, {}
+    for f in doc.get("features") or []:
+        kind = _GEOMETRIC.get(f.get("feature"), freeform) if f.get("nominal") else freeform
+        feat = _Feature(f["region"], kind, ids.take(), ids.take(), ids.take(), ids.take(),
+                        f.get("nominal") if kind != freeform else None,
+                        f.get("measured") if kind != freeform else None)
+        features.append(feat)
+        regions[feat.name] = feat
+        for d in f.get("datums") or []:
+            datum_features[d["label"]] = (feat, _datum_algorithm(f, d.get("fit")))
+    tol = doc.get("tolerance_in_verdict")
+    for c in doc["characteristics"]:
+        if c["region"] not in regions and not (tol and c["id"] == "tol"):
+            regions[c["region"]] = _Feature(c["region"], freeform, ids.take(), ids.take(),
+                                            ids.take(), ids.take())
+            features.append(regions[c["region"]])
+    alignment = doc.get("alignment") or {}
+    reference = tuple(alignment.get("reference") or ())
+    frame_labels = ([reference] if reference else []) + [
+        tuple(c["datums"]) for c in doc["characteristics"] if c.get("datums")]
+    labels = list(datum_features) + [x for t in frame_labels for x in t]
+    datums = {}
+    for label in labels:
+        if label not in datums:
+            feat, algorithm = datum_features.get(label, (None, None))
+            datums[label] = _Datum(ids.take(), label, feat, algorithm)
+    frames: dict[tuple, _Frame] = {}
+    for t in frame_labels:
+        if t not in frames:
+            frames[t] = _Frame(ids.take(), t, _alignment_state(alignment) if t == reference
+                               else None)
+    chars = tuple(_plan_char(c, ids, regions.get(c["region"], whole), frames, app, freeform)
+                  for c in doc["characteristics"])
+    return tuple(features), chars, tuple(datums.values()), tuple(frames.values())
+
+
+def _datum_algorithm(feature: dict, fit: str | None) -> str | None:
+    """The datum simulator as QIF names it: least squares; tangent: one-sided for a plane, the
+    largest inscribed hole / smallest circumscribed shaft for a size feature."""
+    if fit == "lsq":
+        return "LEASTSQUARES"
+    if fit != "tangent":
+        return None
+    if feature.get("feature") == "plane":
+        return "ONESIDED"
+    internal = (feature.get("nominal") or {}).get("internal")
+    return None if internal is None else "MAXINSCRIBED" if internal else "MINCIRCUMSCRIBED"
+
+
+def _alignment_state(alignment: dict) -> str:
+    if alignment.get("complete", True):
+        free = alignment.get("free_dofs") or []
+        return ("the plan's alignment" + (f"; free: {', '.join(free)}" if free else ""))
+    return f"the plan's alignment, incomplete: {alignment.get('message', '')}"
+
+
+def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
+               freeform: str) -> _Char:
+    """One characteristic of the plan (its JSON entry) on its region's feature."""
+    kind = _PLAN_CHAR.get(c["type"], "SurfaceProfile")
+    if kind == "SurfaceProfile" and freeform == "OtherCurve":
+        kind = "LineProfile"
+    datums = tuple(c.get("datums") or ())
+    frame = frames[datums].id if datums else None
+    lower, upper = float(c["lower"]), float(c["upper"])
+    target = None if c.get("nominal") is None else float(c["nominal"])
+    where = f"region '{c['region']}'" + (f" relative to {'|'.join(datums)}" if datums else "")
+    text = {
+        "Flatness": f"flatness of {where}: minimum-zone width at most {_f(upper - lower)} mm",
+        "Position": f"position of the axis of {where}: a cylindrical zone of diameter "
+                    f"{_f(upper - lower)} mm about the true position",
+        "Diameter": f"least-squares diameter of {where}: {_f(target or 0.0)} mm "
+                    f"{_signed(lower)} / {_signed(upper)} mm",
+    }.get(kind, "all points at the registration's best fit: " + _profile_text(lower, upper)
+          if feature.whole else
+          f"profile of {where}" + ("" if datums else f", form only ({c.get('fit', 'lsq')} "
+                                   "refit)") + ": " + _profile_text(lower, upper))
+    name = f"{c['type']} {c['region']}" + (" |" + "|".join(datums) if datums else "")
+    value = c.get("value")
+    return _Char(kind, ids.take(), ids.take(), ids.take(), ids.take(), feature, name,
+                 str(c["id"]), text, lower, upper, target, frame, c["verdict"],
+                 None if value is None else float(value),
+                 f"{app} verdict {c['verdict']}: {c.get('reason', '')}")
+
+
 def _header(w, q: _Qif) -> None:
     """The root element, QPId, creation time and Header (application, author)."""
     cert = q.cert
     w('<?xml version="1.0" encoding="UTF-8"?>\n')
-    w(f'<QIFDocument xmlns="{QIF_NAMESPACE}" versionQIF="{QIF_VERSION}" idMax="{q.ids.last}">\n')
+    w(f'<QIFDocument xmlns="{QIF_NAMESPACE}" versionQIF="{QIF_VERSION}" idMax="{q.id_max}">\n')
     w(f"  <QPId>{q.qpid}</QPId>\n")
     if q.issued:
         w(f"  <Version>\n    <TimeCreated>{q.issued}</TimeCreated>\n  </Version>\n")
@@ -274,8 +510,7 @@ def _header(w, q: _Qif) -> None:
 
 
 def _definitions(w, q: _Qif) -> None:
-    """StandardsDefinitions (ASME Y14.5), FileUnits (mm) and, when the certificate names a
-    device, MeasurementResources."""
+    """StandardsDefinitions (ASME Y14.5) and FileUnits (mm)."""
     # Characteristics must cite a formal standard; OuterDisposition is the ASME form of an
     # unequally disposed profile zone.
     w(f'  <StandardsDefinitions n="1">\n    <Standard id="{q.ids.standard}">\n'
@@ -286,6 +521,50 @@ def _definitions(w, q: _Qif) -> None:
       "        <SIUnitName>meter</SIUnitName>\n        <UnitName>mm</UnitName>\n"
       "        <UnitConversion>\n          <Factor>0.001</Factor>\n        </UnitConversion>\n"
       "      </LinearUnit>\n    </PrimaryUnits>\n  </FileUnits>\n")
+
+
+def _datums(w, q: _Qif) -> None:
+    """A plan's DatumDefinitions (label, datum feature) and DatumReferenceFrames (the datums
+    in precedence, each established on the actual part by its simulator)."""
+    if q.datums:
+        w(f'  <DatumDefinitions n="{len(q.datums)}">\n')
+        for d in q.datums:
+            w(f'    <DatumDefinition id="{d.id}">\n')
+            label = _nmtoken(d.label)
+            if label != d.label:
+                w('      <Attributes n="1">\n        <AttributeStr name="qa-inspect:label" '
+                  f'value="{_attr(d.label)}"/>\n      </Attributes>\n')
+            w(f"      <DatumLabel>{label}</DatumLabel>\n")
+            if d.feature is not None:
+                w(_id_list("FeatureNominalIds", [d.feature.nominal_id], 6))
+            w("    </DatumDefinition>\n")
+        w("  </DatumDefinitions>\n")
+    if q.frames:
+        datums = {d.label: d for d in q.datums}
+        w(f'  <DatumReferenceFrames n="{len(q.frames)}">\n')
+        for f in q.frames:
+            w(f'    <DatumReferenceFrame id="{f.id}">\n      <Datums n="{len(f.labels)}">\n')
+            for precedence, label in zip(_PRECEDENCE, f.labels):
+                d = datums[label]
+                w(f"        <Datum>\n          <SimpleDatum>\n"
+                  f"            <DatumDefinitionId>{d.id}</DatumDefinitionId>\n"
+                  "            <MaterialModifier>NONE</MaterialModifier>\n"
+                  "            <ReferencedComponent>ACTUAL</ReferencedComponent>\n")
+                if d.algorithm:
+                    w(_algorithm(d.algorithm, 12))
+                w("          </SimpleDatum>\n          <Precedence>\n"
+                  f"            <PrecedenceEnum>{precedence}</PrecedenceEnum>\n"
+                  "          </Precedence>\n        </Datum>\n")
+            name = "|".join(f.labels)
+            w(f"      </Datums>\n      <Name>{_text(name)}</Name>\n")
+            w(f"      <Description>{_text(f'datum reference frame {name}')}"
+              f"{'; ' + _text(f.alignment) if f.alignment else ''}</Description>\n")
+            w("    </DatumReferenceFrame>\n")
+        w("  </DatumReferenceFrames>\n")
+
+
+def _resources(w, q: _Qif) -> None:
+    """MeasurementResources, when the certificate names a device."""
     if q.ids.device:
         w('  <MeasurementResources>\n    <MeasurementDevices n="1">\n')
         w(f'      <MeasurementDevice id="{q.ids.device}">\n'
@@ -304,10 +583,8 @@ def _product(w, q: _Qif) -> None:
         w(f"        <ModelNumber>{_text(cert['part_number'])}</ModelNumber>\n")
     if "revision" in cert:
         w(f"        <Version>{_text(cert['revision'])}</Version>\n")
-    w(f'        <FeatureNominalIds n="1">\n          <Id>{ids.feat_nom}</Id>\n'
-      "        </FeatureNominalIds>\n")
-    w(f'        <CharacteristicNominalIds n="1">\n          <Id>{ids.char_nom}</Id>\n'
-      "        </CharacteristicNominalIds>\n")
+    w(_id_list("FeatureNominalIds", [f.nominal_id for f in q.features], 8))
+    w(_id_list("CharacteristicNominalIds", [c.nominal_id for c in q.chars], 8))
     w(f'        <DefinitionExternal id="{ids.definition}" n="1">\n'
       f'          <DigitalModel id="{ids.model}">\n'
       f"            <Name>{_text(q.nominal_name)}</Name>\n"
@@ -322,61 +599,114 @@ def _product(w, q: _Qif) -> None:
 
 
 def _features(w, q: _Qif) -> None:
-    """Features: the nominal as one freeform feature (definition, nominal, item)."""
-    ids, kind, name = q.ids, q.kind, _text(q.nominal_name)
-    w("  <Features>\n")
-    w(f'    <FeatureDefinitions n="1">\n'
-      f'      <Other{kind}FeatureDefinition id="{ids.feat_def}"/>\n'
-      "    </FeatureDefinitions>\n")
-    w(f'    <FeatureNominals n="1">\n      <Other{kind}FeatureNominal id="{ids.feat_nom}">\n'
-      f"        <Name>{name}</Name>\n"
-      f"        <FeatureDefinitionId>{ids.feat_def}</FeatureDefinitionId>\n"
-      f"      </Other{kind}FeatureNominal>\n    </FeatureNominals>\n")
-    w(f'    <FeatureItems n="1">\n      <Other{kind}FeatureItem id="{ids.feat_item}">\n'
-      f"        <FeatureNominalId>{ids.feat_nom}</FeatureNominalId>\n"
-      f"        <FeatureName>{name}</FeatureName>\n"
-      "        <DeterminationMode>\n          <Checked>\n            <CheckDetails>\n"
-      "              <Measured/>\n            </CheckDetails>\n          </Checked>\n"
-      "        </DeterminationMode>\n"
-      f"      </Other{kind}FeatureItem>\n    </FeatureItems>\n")
-    w("  </Features>\n")
+    """Features: each feature's definition, nominal (with its geometry) and item."""
+    n = len(q.features)
+    w(f'  <Features>\n    <FeatureDefinitions n="{n}">\n')
+    for f in q.features:
+        if f.kind in ("Cylinder", "Sphere"):
+            internal = "INTERNAL" if f.nominal.get("internal") else "EXTERNAL"
+            w(f'      <{f.kind}FeatureDefinition id="{f.definition}">\n'
+              f"        <InternalExternal>{internal}</InternalExternal>\n"
+              f"        <Diameter>{_f(f.nominal['diameter'])}</Diameter>\n"
+              f"      </{f.kind}FeatureDefinition>\n")
+        else:
+            w(f'      <{f.kind}FeatureDefinition id="{f.definition}"/>\n')
+    w(f'    </FeatureDefinitions>\n    <FeatureNominals n="{n}">\n')
+    for f in q.features:
+        w(f'      <{f.kind}FeatureNominal id="{f.nominal_id}">\n'
+          f"        <Name>{_text(f.name)}</Name>\n"
+          f"        <FeatureDefinitionId>{f.definition}</FeatureDefinitionId>\n")
+        if f.nominal:
+            w(_geometry(f.kind, f.nominal, False, 8))
+        w(f"      </{f.kind}FeatureNominal>\n")
+    w(f'    </FeatureNominals>\n    <FeatureItems n="{n}">\n')
+    for f in q.features:
+        w(f'      <{f.kind}FeatureItem id="{f.item}">\n'
+          f"        <FeatureNominalId>{f.nominal_id}</FeatureNominalId>\n"
+          f"        <FeatureName>{_text(f.name)}</FeatureName>\n"
+          "        <DeterminationMode>\n          <Checked>\n            <CheckDetails>\n"
+          "              <Measured/>\n            </CheckDetails>\n          </Checked>\n"
+          "        </DeterminationMode>\n"
+          f"      </{f.kind}FeatureItem>\n")
+    w("    </FeatureItems>\n  </Features>\n")
+
+
+def _geometry(kind: str, g: dict, measured: bool, indent: int) -> str:
+    """A plane's, cylinder's or sphere's elements (nominal; measured: with the diameter of a
+    cylinder or sphere and the form error)."""
+    s = " " * indent
+    if kind == "Plane":
+        out = (f"{s}<Location>{_point(g['point'])}</Location>\n"
+               f"{s}<Normal>{_g(g['normal'])}</Normal>\n")
+    elif kind == "Cylinder":
+        out = (f"{s}<Axis>\n{s}  <AxisPoint>{_point(g['point'])}</AxisPoint>\n"
+               f"{s}  <Direction>{_g(g['direction'])}</Direction>\n{s}</Axis>\n")
+    else:
+        out = f"{s}<Location>{_point(g['centre'])}</Location>\n"
+    if measured and kind != "Plane":
+        out += f"{s}<Diameter>{_f(g['diameter'])}</Diameter>\n"
+    if measured and g.get("form_error") is not None:
+        out += f"{s}<Form>{_f(g['form_error'])}</Form>\n"
+    return out
 
 
 def _characteristics(w, q: _Qif) -> None:
-    """Characteristics: the profile tolerance on the feature (definition with the zone,
-    nominal, item)."""
-    ids, profile, lower, upper = q.ids, q.profile, q.lower, q.upper
-    symmetric = math.isclose(lower, -upper, rel_tol=0.0, abs_tol=1e-12)
+    """Characteristics: each one's definition (the zone, its datum reference frame), nominal
+    (its feature) and item."""
+    n = len(q.chars)
     w("  <Characteristics>\n")
-    w(f"    <FormalStandardId>{ids.standard}</FormalStandardId>\n")
-    w(f'    <CharacteristicDefinitions n="1">\n'
-      f'      <{profile}CharacteristicDefinition id="{ids.char_def}">\n'
-      f"        <Description>tolerance zone {_f(lower)} .. {_f(upper)} mm of the signed "
-      "deviation along the nominal's outward normal (positive = excess material); "
-      "every point must lie inside</Description>\n"
-      f"        <ToleranceValue>{_f(upper - lower)}</ToleranceValue>\n")
-    if not symmetric:
-        w(f"        <OuterDisposition>{_f(upper)}</OuterDisposition>\n")
-    w(f"      </{profile}CharacteristicDefinition>\n    </CharacteristicDefinitions>\n")
-    w(f'    <CharacteristicNominals n="1">\n'
-      f'      <{profile}CharacteristicNominal id="{ids.char_nom}">\n'
-      f"        <CharacteristicDefinitionId>{ids.char_def}</CharacteristicDefinitionId>\n"
-      f'        <FeatureNominalIds n="1">\n          <Id>{ids.feat_nom}</Id>\n'
-      "        </FeatureNominalIds>\n")
-    if q.is_2d:
-        w("        <Vector>0 0 1</Vector>\n")
-    w(f"      </{profile}CharacteristicNominal>\n    </CharacteristicNominals>\n")
-    w(f'    <CharacteristicItems n="1">\n'
-      f'      <{profile}CharacteristicItem id="{ids.char_item}">\n'
-      f"        <Name>{'Line' if q.is_2d else 'Surface'} profile</Name>\n"
-      f'        <FeatureItemIds n="1">\n          <Id>{ids.feat_item}</Id>\n'
-      "        </FeatureItemIds>\n")
-    if ids.device:
-        w(f'        <MeasurementDeviceIds n="1">\n          <Id>{ids.device}</Id>\n'
-          "        </MeasurementDeviceIds>\n")
-    w(f"        <CharacteristicNominalId>{ids.char_nom}</CharacteristicNominalId>\n"
-      f"      </{profile}CharacteristicItem>\n    </CharacteristicItems>\n")
-    w("  </Characteristics>\n")
+    w(f"    <FormalStandardId>{q.ids.standard}</FormalStandardId>\n")
+    w(f'    <CharacteristicDefinitions n="{n}">\n')
+    for c in q.chars:
+        w(f'      <{c.kind}CharacteristicDefinition id="{c.definition}">\n'
+          f"        <Description>{_text(c.text)}</Description>\n")
+        w(_zone(c))
+        w(f"      </{c.kind}CharacteristicDefinition>\n")
+    w(f'    </CharacteristicDefinitions>\n    <CharacteristicNominals n="{n}">\n')
+    for c in q.chars:
+        w(f'      <{c.kind}CharacteristicNominal id="{c.nominal_id}">\n'
+          f"        <CharacteristicDefinitionId>{c.definition}</CharacteristicDefinitionId>\n")
+        w(_id_list("FeatureNominalIds", [c.feature.nominal_id], 8))
+        if c.kind == "LineProfile":
+            w("        <Vector>0 0 1</Vector>\n")
+        if c.target is not None:
+            w(f"        <TargetValue>{_f(c.target)}</TargetValue>\n")
+        w(f"      </{c.kind}CharacteristicNominal>\n")
+    w(f'    </CharacteristicNominals>\n    <CharacteristicItems n="{n}">\n')
+    for c in q.chars:
+        w(f'      <{c.kind}CharacteristicItem id="{c.item}">\n'
+          f"        <Name>{_text(c.name)}</Name>\n")
+        if c.designator is not None:
+            w("        <CharacteristicDesignator>\n"
+              f"          <Designator>{_text(c.designator)}</Designator>\n"
+              "        </CharacteristicDesignator>\n")
+        w(_id_list("FeatureItemIds", [c.feature.item], 8))
+        if q.ids.device:
+            w(_id_list("MeasurementDeviceIds", [q.ids.device], 8))
+        w(f"        <CharacteristicNominalId>{c.nominal_id}</CharacteristicNominalId>\n"
+          f"      </{c.kind}CharacteristicItem>\n")
+    w("    </CharacteristicItems>\n  </Characteristics>\n")
+
+
+def _zone(c: _Char) -> str:
+    """A characteristic definition's tolerance: a profile's width (and, unless symmetric,
+    OuterDisposition = upper), flatness, position (diametrical zone, no material modifier) or
+    a diameter's limits about its target; the datum reference frame where it has one."""
+    s = " " * 8
+    frame = f"{s}<DatumReferenceFrameId>{c.frame}</DatumReferenceFrameId>\n" if c.frame else ""
+    if c.kind == "Diameter":
+        return (f"{s}<Tolerance>\n{s}  <MaxValue>{_f(c.upper)}</MaxValue>\n"
+                f"{s}  <MinValue>{_f(c.lower)}</MinValue>\n"
+                f"{s}  <DefinedAsLimit>false</DefinedAsLimit>\n{s}</Tolerance>\n")
+    out = f"{s}<ToleranceValue>{_f(c.upper - c.lower)}</ToleranceValue>\n"
+    if c.kind.endswith("Profile"):
+        if not math.isclose(c.lower, -c.upper, rel_tol=0.0, abs_tol=1e-12):
+            out += f"{s}<OuterDisposition>{_f(c.upper)}</OuterDisposition>\n"
+        return out + frame
+    if c.kind == "Position":
+        return (out + frame + f"{s}<MaterialCondition>NONE</MaterialCondition>\n"
+                f"{s}<ZoneShape>\n{s}  <DiametricalZone/>\n{s}</ZoneShape>\n")
+    return out
 
 
 def _results(w, q: _Qif) -> None:
@@ -398,12 +728,12 @@ def _results(w, q: _Qif) -> None:
           f"            <Description>{_text(_file_description('measured', q.measured))}"
           "</Description>\n"
           "          </ExternalFileReference>\n        </ExternalFileReferences>\n")
-    _feature_measurement(w, q)
+    _feature_measurements(w, q)
     if ids.point_set:
         _point_set(w, ids.point_set, q.pts, q.dev, q.inside, q.labels, q.outlier, ids.device)
-    _characteristic_measurement(w, q)
+    _characteristic_measurements(w, q)
     if ids.transform:
-        _transform(w, ids.transform, q.T)
+        _transform(w, ids.transform, q.T, q.T_name)
     w("        <InspectionStatus>\n          <InspectionStatusEnum>"
       f"{_INSPECTION_STATUS[q.verdict]}</InspectionStatusEnum>\n        </InspectionStatus>\n")
     if ids.component:
@@ -420,57 +750,61 @@ def _results(w, q: _Qif) -> None:
     w("  </Results>\n</QIFDocument>\n")
 
 
-def _feature_measurement(w, q: _Qif) -> None:
-    """MeasuredFeatures: the feature measurement, pointing at the device, the registration
-    transform and the point set."""
-    ids, kind = q.ids, q.kind
-    w(f'        <MeasuredFeatures n="1">\n'
-      f'          <Other{kind}FeatureMeasurement id="{ids.feat_meas}">\n'
-      f"            <FeatureItemId>{ids.feat_item}</FeatureItemId>\n")
-    if ids.device:
-        w(f'            <MeasurementDeviceIds n="1">\n              <Id>{ids.device}</Id>\n'
-          "            </MeasurementDeviceIds>\n")
-    if ids.transform:
-        w(f"            <ActualTransformId>{ids.transform}</ActualTransformId>\n")
-    if ids.point_set:
-        w(f'            <PointList n="1">\n'
-          f"              <WholePointSetId>{ids.point_set}</WholePointSetId>\n"
-          "            </PointList>\n")
-    w(f"          </Other{kind}FeatureMeasurement>\n        </MeasuredFeatures>\n")
+def _feature_measurements(w, q: _Qif) -> None:
+    """MeasuredFeatures: each feature's measurement, pointing at the device and the transform
+    of the points; the whole nominal's at the point set, a region's with its least-squares
+    geometry."""
+    ids = q.ids
+    w(f'        <MeasuredFeatures n="{len(q.features)}">\n')
+    for f in q.features:
+        w(f'          <{f.kind}FeatureMeasurement id="{f.measurement}">\n'
+          f"            <FeatureItemId>{f.item}</FeatureItemId>\n")
+        if ids.device:
+            w(_id_list("MeasurementDeviceIds", [ids.device], 12))
+        if ids.transform:
+            w(f"            <ActualTransformId>{ids.transform}</ActualTransformId>\n")
+        if f.whole and ids.point_set:
+            w(f'            <PointList n="1">\n'
+              f"              <WholePointSetId>{ids.point_set}</WholePointSetId>\n"
+              "            </PointList>\n")
+        if f.measured:
+            w(_algorithm("LEASTSQUARES", 12))
+            w(_geometry(f.kind, f.measured, True, 12))
+        w(f"          </{f.kind}FeatureMeasurement>\n")
+    w("        </MeasuredFeatures>\n")
 
 
-def _characteristic_measurement(w, q: _Qif) -> None:
-    """MeasuredCharacteristics: the profile's status, reasons and zone-centred Value."""
-    ids, profile = q.ids, q.profile
-    w('        <MeasuredCharacteristics>\n          <CharacteristicMeasurements n="1">\n'
-      f'            <{profile}CharacteristicMeasurement id="{ids.char_meas}">\n')
-    w(f"              <Description>{_text(f'{q.app} verdict {q.verdict}: {q.reasons}')}"
-      "</Description>\n")
-    w("              <Status>\n                <CharacteristicStatusEnum>"
-      f"{_CHAR_STATUS[q.verdict]}</CharacteristicStatusEnum>\n              </Status>\n"
-      f"              <CharacteristicItemId>{ids.char_item}</CharacteristicItemId>\n"
-      f'              <FeatureMeasurementIds n="1">\n                <Id>{ids.feat_meas}</Id>\n'
-      "              </FeatureMeasurementIds>\n")
-    if ids.component:
-        w(f"              <ActualComponentId>{ids.component}</ActualComponentId>\n")
-    if ids.device:
-        w(f'              <MeasurementDeviceIds n="1">\n                <Id>{ids.device}</Id>\n'
-          "              </MeasurementDeviceIds>\n")
-    finite = q.dev[np.isfinite(q.dev)]
-    if finite.size:
-        # Zone-centred width: comparable with ToleranceValue for symmetric, unequal and offset
-        # zones alike (Value <= ToleranceValue iff every point is inside).
-        centre = 0.5 * (q.lower + q.upper)
-        w(f"              <Value>{_f(2.0 * float(np.abs(finite - centre).max()))}</Value>\n"
-          f"              <WorstPositiveDeviation>{_f(float(finite.max()))}"
-          "</WorstPositiveDeviation>\n"
-          f"              <WorstNegativeDeviation>{_f(float(finite.min()))}"
-          "</WorstNegativeDeviation>\n")
-    w(f"            </{profile}CharacteristicMeasurement>\n"
-      "          </CharacteristicMeasurements>\n        </MeasuredCharacteristics>\n")
+def _characteristic_measurements(w, q: _Qif) -> None:
+    """MeasuredCharacteristics: each characteristic's status, reasons and value (a profile
+    over all points also its worst deviations)."""
+    ids = q.ids
+    w('        <MeasuredCharacteristics>\n'
+      f'          <CharacteristicMeasurements n="{len(q.chars)}">\n')
+    for c in q.chars:
+        if c.verdict not in _CHAR_STATUS:
+            raise QIFError(f"characteristic {c.designator}: unknown verdict {c.verdict!r}")
+        w(f'            <{c.kind}CharacteristicMeasurement id="{c.measurement}">\n'
+          f"              <Description>{_text(c.description)}</Description>\n"
+          "              <Status>\n                <CharacteristicStatusEnum>"
+          f"{_CHAR_STATUS[c.verdict]}</CharacteristicStatusEnum>\n              </Status>\n"
+          f"              <CharacteristicItemId>{c.item}</CharacteristicItemId>\n")
+        w(_id_list("FeatureMeasurementIds", [c.feature.measurement], 14))
+        if ids.component:
+            w(f"              <ActualComponentId>{ids.component}</ActualComponentId>\n")
+        if ids.device:
+            w(_id_list("MeasurementDeviceIds", [ids.device], 14))
+        if c.value is not None:
+            w(f"              <Value>{_f(c.value)}</Value>\n")
+        if c.worst is not None:
+            w(f"              <WorstPositiveDeviation>{_f(c.worst[0])}"
+              "</WorstPositiveDeviation>\n"
+              f"              <WorstNegativeDeviation>{_f(c.worst[1])}"
+              "</WorstNegativeDeviation>\n")
+        w(f"            </{c.kind}CharacteristicMeasurement>\n")
+    w("          </CharacteristicMeasurements>\n        </MeasuredCharacteristics>\n")
 
 
-def _transform(w, tid: int, T: np.ndarray) -> None:
+def _transform(w, tid: int, T: np.ndarray, name: str) -> None:
     w(f'        <ActualTransforms n="1">\n          <Transform id="{tid}">\n'
       "            <Rotation>\n"
       f"              <XDirection>{_g(T[:3, 0])}</XDirection>\n"
@@ -478,8 +812,7 @@ def _transform(w, tid: int, T: np.ndarray) -> None:
       f"              <ZDirection>{_g(T[:3, 2])}</ZDirection>\n"
       "            </Rotation>\n"
       f"            <Origin>{_g(T[:3, 3])}</Origin>\n"
-      "            <Name>registration T_nominal_measured: measured (before) to nominal "
-      "(after)</Name>\n"
+      f"            <Name>{_text(name)}</Name>\n"
       "          </Transform>\n        </ActualTransforms>\n")
 
 
@@ -563,6 +896,34 @@ def _f(v: float) -> str:
 
 def _g(vec) -> str:
     return " ".join(repr(float(v)) for v in vec)
+
+
+def _id_list(tag: str, values, indent: int) -> str:
+    s = " " * indent
+    return (f'{s}<{tag} n="{len(values)}">\n' + "".join(f"{s}  <Id>{v}</Id>\n" for v in values)
+            + f"{s}</{tag}>\n")
+
+
+def _algorithm(name: str, indent: int) -> str:
+    s = " " * indent
+    return (f"{s}<SubstituteFeatureAlgorithm>\n"
+            f"{s}  <SubstituteFeatureAlgorithmEnum>{name}</SubstituteFeatureAlgorithmEnum>\n"
+            f"{s}</SubstituteFeatureAlgorithm>\n")
+
+
+def _signed(v: float) -> str:
+    s = _f(v)
+    return s if s.startswith("-") else "+" + s
+
+
+def _point(p) -> str:
+    return " ".join(_f(float(v)) for v in p)
+
+
+def _nmtoken(s: str) -> str:
+    """``s`` as an xs:NMTOKEN (a datum label): characters other than ASCII letters, digits and
+    . - _ : become '_'."""
+    return re.sub(r"[^A-Za-z0-9._:-]", "_", str(s)) or "_"
 
 
 def _text(s) -> str:

@@ -146,6 +146,17 @@ def plan_json(planned, inputs: list[InputRecord]) -> dict:
                                 "over all points ('tol') when given, else only the zone of the "
                                 "per-point statistics (the plan's widest profile zone)",
         "characteristics": [_characteristic_json(r) for r in planned.characteristics],
+        "features": [_json_safe({"region": f.region, "feature": f.feature,
+                                 "datums": [{"label": a, "fit": b} for a, b in f.datums],
+                                 "nominal": f.nominal, "measured": f.measured})
+                     for f in planned.features],
+        "feature_definition": (
+            "each region a datum or characteristic uses, as the feature the drawing names "
+            "(a datum's feature; flatness: plane; position, size: cylinder; else freeform, "
+            "without geometry) and the datums established on it; nominal: least squares of the region's nominal points, "
+            "measured: of its measured points at the plan's alignment, nominal frame (mm); "
+            "internal: a hole; form_error: peak to valley of the residuals; null: the points "
+            "do not determine the feature"),
         "characteristic_value_definition": (
             "profile: twice the largest |deviation - zone centre| over the region's points "
             "(the width of the smallest zone, centred like the tolerance zone, holding every "

@@ -48,6 +48,7 @@ class Inspection:
 
     def __init__(self, d, files, args):
         nominal, measured = (os.path.join(ROOT, f) for f in files)
+        self.csv = d / "r.csv"
         self.code = main(["inspect", nominal, measured, *args, "--json", str(d / "r.json"),
                           "--csv", str(d / "r.csv")])
         with open(d / "r.json") as f:
@@ -261,3 +262,235 @@ def test_arguments_that_do_not_fit_are_errors_of_the_product(runs):
         with pytest.raises(QAError, match=message) as caught:
             make()
         assert isinstance(caught.value, ValueError)
+
+
+# ---------------------------------------------------------------------------- inspection plans
+SEAT = ("samples/seat_bracket/nominal.xyz", "samples/seat_bracket/measured.csv")
+SEAT_PLAN = os.path.join(ROOT, "samples", "seat_bracket", "plan.toml")
+QIF_TYPE = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "Position",
+            "size": "Diameter"}
+
+
+@pytest.fixture(scope="module")
+def plan_run(tmp_path_factory):
+    """The seat bracket judged by its plan (REJECT: the skin's profile to A|B|C), with its
+    certificate (an unsigned draft) written the way a user writes it."""
+    d = tmp_path_factory.mktemp("plan")
+    run = Inspection(d, SEAT, ["--plan", SEAT_PLAN, "--report", str(d / "r.pdf")])
+    run.pdf = d / "r.pdf"
+    with open(os.path.join(ROOT, "samples", "seat_bracket", "truth.json")) as f:
+        run.truth = json.load(f)
+    return run
+
+
+def by_id(root, i):
+    return one(root, f"//*[@id='{i}']")
+
+
+def local(el) -> str:
+    return etree.QName(el).localname
+
+
+def characteristic(root, cid):
+    """(item, definition, nominal, measurement) of the characteristic whose balloon is cid."""
+    item = one(root, "//q:CharacteristicItems/*[q:CharacteristicDesignator/q:Designator="
+                     f"'{cid}']")
+    nominal = by_id(root, one(item, "q:CharacteristicNominalId").text)
+    definition = by_id(root, one(nominal, "q:CharacteristicDefinitionId").text)
+    measurement = one(root, "//q:CharacteristicMeasurements/*[q:CharacteristicItemId="
+                            f"'{item.get('id')}']")
+    return item, definition, nominal, measurement
+
+
+def value(el, path):
+    return float(one(el, path).text)
+
+
+def test_plan_characteristics_are_the_jsons(plan_run):
+    """One characteristic (definition, nominal, item, measurement) per plan characteristic, of
+    the QIF type its kind names, with the JSON's zone, value and verdict, on its region's
+    feature; the inspection's status is the plan's."""
+    run = plan_run
+    assert run.code == 1 and run.doc["verdict"] == "REJECT"
+    root = parse_valid(run.qif())
+    chars = run.doc["characteristics"]
+    assert [c["id"] for c in chars] == ["1", "2", "3", "4", "5"]
+    for tag in ("CharacteristicDefinitions", "CharacteristicNominals", "CharacteristicItems",
+                "CharacteristicMeasurements"):
+        assert len(one(root, f"//q:{tag}")) == len(chars), tag
+    for c in chars:
+        item, definition, nominal, meas = characteristic(root, c["id"])
+        kind = QIF_TYPE[c["type"]]
+        assert [local(e) for e in (definition, nominal, item, meas)] == [
+            f"{kind}Characteristic{s}" for s in ("Definition", "Nominal", "Item", "Measurement")]
+        assert one(meas, "q:Status/q:CharacteristicStatusEnum").text == STATUS[c["verdict"]][0]
+        assert value(meas, "q:Value") == pytest.approx(c["value"], abs=1e-6)
+        if c["type"] == "size":
+            assert value(nominal, "q:TargetValue") == pytest.approx(c["nominal"], abs=1e-9)
+            assert value(definition, "q:Tolerance/q:MaxValue") == pytest.approx(c["upper"])
+            assert value(definition, "q:Tolerance/q:MinValue") == pytest.approx(c["lower"])
+        else:
+            assert value(definition, "q:ToleranceValue") == pytest.approx(c["zone"], abs=1e-9)
+        # The chain resolves to the region's feature: item -> feature item (named after the
+        # region) <- feature measurement <- characteristic measurement.
+        feature_item = by_id(root, one(item, "q:FeatureItemIds/q:Id").text)
+        assert one(feature_item, "q:FeatureName").text == c["region"]
+        fm = by_id(root, one(meas, "q:FeatureMeasurementIds/q:Id").text)
+        assert one(fm, "q:FeatureItemId").text == feature_item.get("id")
+        assert one(nominal, "q:FeatureNominalIds/q:Id").text == \
+            one(feature_item, "q:FeatureNominalId").text
+    assert one(root, "//q:InspectionStatus/q:InspectionStatusEnum").text == "FAIL"
+    # The plan replaces the profile over all points: no other characteristic.
+    assert len(root.xpath("//q:CharacteristicItems/*", namespaces=NS)) == 5
+    ids = [int(v) for v in root.xpath("//@id")]
+    assert len(ids) == len(set(ids)) and int(root.get("idMax")) == max(ids)
+
+
+def test_plan_datum_reference_frame_and_datum_features(plan_run):
+    """Profile 1 and position 4 refer to one DatumReferenceFrame: datums A, B, C in this
+    precedence, each a tangent plane (ONESIDED) on its datum feature, whose nominal and
+    measured planes are the sample's faces (truth.json)."""
+    run, truth = plan_run, plan_run.truth
+    root = parse_valid(run.qif())
+    frames = {characteristic(root, cid)[1].xpath("string(q:DatumReferenceFrameId)",
+                                                 namespaces=NS) for cid in "12345"}
+    assert len(frames - {""}) == 1 and len(frames) == 2  # A|B|C, and form-only / size
+    for cid, framed in zip("12345", (True, False, False, True, False)):
+        assert bool(characteristic(root, cid)[1].xpath("q:DatumReferenceFrameId",
+                                                       namespaces=NS)) == framed, cid
+    drf = by_id(root, (frames - {""}).pop())
+    assert local(drf) == "DatumReferenceFrame"
+    datums = drf.xpath("q:Datums/q:Datum", namespaces=NS)
+    assert [one(d, "q:Precedence/q:PrecedenceEnum").text for d in datums] == [
+        "PRIMARY", "SECONDARY", "TERTIARY"]
+    definitions = [by_id(root, one(d, "q:SimpleDatum/q:DatumDefinitionId").text)
+                   for d in datums]
+    assert [one(d, "q:DatumLabel").text for d in definitions] == ["A", "B", "C"]
+    assert [one(d, "q:SimpleDatum//q:SubstituteFeatureAlgorithmEnum").text
+            for d in datums] == ["ONESIDED"] * 3
+    for label, definition in zip("ABC", definitions):
+        face = truth["datum_faces"][label]
+        n_true = np.array(face["outward_normal"])
+        nominal = by_id(root, one(definition, "q:FeatureNominalIds/q:Id").text)
+        assert local(nominal) == "PlaneFeatureNominal"
+        assert numbers(one(nominal, "q:Normal")) @ n_true == pytest.approx(1.0, abs=1e-6)
+        assert abs(numbers(one(nominal, "q:Location")) @ n_true) < 1e-3  # z, x, y = 0
+        item = one(root, f"//q:FeatureItems/*[q:FeatureNominalId='{nominal.get('id')}']")
+        meas = one(root, f"//q:MeasuredFeatures/*[q:FeatureItemId='{item.get('id')}']")
+        assert local(meas) == "PlaneFeatureMeasurement"
+        # Machined true (noise 1.5 um), placed by the tangent datums at their nominal planes.
+        assert numbers(one(meas, "q:Normal")) @ n_true == pytest.approx(1.0, abs=1e-6)
+        assert abs(numbers(one(meas, "q:Location")) @ n_true) < 0.005
+        assert value(meas, "q:Form") < 6 * 0.0015
+    # Flatness 3 is on datum A's feature.
+    flat_item = characteristic(root, "3")[0]
+    assert one(by_id(root, one(flat_item, "q:FeatureItemIds/q:Id").text),
+               "q:FeatureNominalId").text == one(definitions[0], "q:FeatureNominalIds/q:Id").text
+
+
+def test_plan_hole_is_a_cylinder_feature(plan_run):
+    """Position 4 and size 5 are on one internal cylinder: nominal axis and diameter as drawn,
+    measured as made (truth.json) and the measured diameter is the size's value."""
+    run, hole = plan_run, plan_run.truth["hole"]
+    root = parse_valid(run.qif())
+    items = {one(characteristic(root, cid)[0], "q:FeatureItemIds/q:Id").text for cid in "45"}
+    assert len(items) == 1
+    item = by_id(root, items.pop())
+    assert local(item) == "CylinderFeatureItem"
+    nominal = by_id(root, one(item, "q:FeatureNominalId").text)
+    definition = by_id(root, one(nominal, "q:FeatureDefinitionId").text)
+    assert one(definition, "q:InternalExternal").text == "INTERNAL"
+    assert value(definition, "q:Diameter") == pytest.approx(hole["nominal_diameter_mm"],
+                                                            abs=1e-3)
+    axis = np.array(hole["axis"])
+    assert abs(numbers(one(nominal, "q:Axis/q:Direction")) @ axis) == pytest.approx(1, abs=1e-6)
+    np.testing.assert_allclose(numbers(one(nominal, "q:Axis/q:AxisPoint"))[:2],
+                               hole["nominal_centre_mm"][:2], atol=1e-3)
+    meas = one(root, f"//q:MeasuredFeatures/*[q:FeatureItemId='{item.get('id')}']")
+    assert value(meas, "q:Diameter") == pytest.approx(hole["actual_diameter_mm"], abs=0.002)
+    size = next(c for c in run.doc["characteristics"] if c["id"] == "5")
+    assert value(meas, "q:Diameter") == pytest.approx(size["value"], abs=1e-6)
+    made = np.add(hole["nominal_centre_mm"], hole["actual_centre_offset_mm"])[:2]
+    np.testing.assert_allclose(numbers(one(meas, "q:Axis/q:AxisPoint"))[:2], made, atol=0.004)
+
+
+def test_plan_transform_is_the_pose_of_the_points(plan_run):
+    """The transform is the plan's alignment: it carries the measured file's points onto the
+    point set's (nominal frame), which the registration's pose does not."""
+    run = plan_run
+    root = parse_valid(run.qif())
+    t = one(root, "//q:ActualTransforms/q:Transform")
+    R = np.column_stack([numbers(one(t, f"q:Rotation/q:{a}Direction")) for a in "XYZ"])
+    with open(run.csv, newline="") as f:
+        measured = np.array([[float(r[k]) for k in "xyz"] for r in csv.DictReader(f)])
+    points = numbers(one(root, "//q:MeasuredPointSet/q:Points")).reshape(-1, 3)
+    np.testing.assert_allclose(measured @ R.T + numbers(one(t, "q:Origin")), points, atol=1e-5)
+    registration = np.asarray(run.doc["transform"])
+    assert np.abs(measured @ registration[:3, :3].T + registration[:3, 3] - points).max() > 1e-3
+
+
+def test_plan_certificate_attaches_the_plan_document(plan_run):
+    """The certificate of a plan run (--report) carries the same plan characteristics in its
+    results.qif as the document written from its JSON."""
+    from pyhanko.pdf_utils.reader import PdfFileReader
+
+    from reports.signing import embedded_files
+
+    with open(plan_run.pdf, "rb") as f:
+        attached = embedded_files(PdfFileReader(f))["results.qif"]
+    seen = []
+    for root in (parse_valid(attached), parse_valid(plan_run.qif())):
+        seen.append([(one(item, "q:CharacteristicDesignator/q:Designator").text, local(m),
+                      one(m, "q:Status/q:CharacteristicStatusEnum").text, m.findtext(
+                          "{%s}Value" % NS["q"]))
+                     for cid in "12345" for item, _, _, m in [characteristic(root, cid)]])
+        assert len(root.xpath("//q:DatumReferenceFrame", namespaces=NS)) == 1
+    assert seen[0] == seen[1]
+
+
+def test_plan_zone_over_all_points_is_a_characteristic_of_the_nominal(tmp_path):
+    """--tol with a plan: the zone over all points is one more characteristic ('tol'), a
+    profile on the nominal's feature, the one whose measurement carries the point set."""
+    run = Inspection(tmp_path, SEAT, ["--plan", SEAT_PLAN, "--tol", "0.05"])
+    root = parse_valid(run.qif())
+    tol = next(c for c in run.doc["characteristics"] if c["id"] == "tol")
+    item, definition, _, meas = characteristic(root, "tol")
+    assert local(meas) == "SurfaceProfileCharacteristicMeasurement"
+    assert value(meas, "q:Value") == pytest.approx(tol["value"], abs=1e-6)
+    assert value(definition, "q:ToleranceValue") == pytest.approx(0.1, abs=1e-9)
+    fm = by_id(root, one(meas, "q:FeatureMeasurementIds/q:Id").text)
+    assert one(fm, "q:PointList/q:WholePointSetId").text == \
+        one(root, "//q:MeasuredPointSet").get("id")
+    assert len(one(root, "//q:CharacteristicItems")) == len(run.doc["characteristics"]) == 6
+
+
+def test_plan_labels_and_unmeasured_characteristics(plan_run):
+    """A datum label that is no xs:NMTOKEN is written valid (its text kept in an attribute);
+    a characteristic that could not be measured has no Value and is INDETERMINATE."""
+    doc = copy.deepcopy(plan_run.doc)
+    text = json.dumps({k: doc[k] for k in ("features", "characteristics", "alignment")})
+    doc.update(json.loads(text.replace('"label": "A"', '"label": "A 1"')
+                          .replace('["A", "B", "C"]', '["A 1", "B", "C"]')))
+    c = doc["characteristics"][3]
+    c.update(value=None, verdict="INCONCLUSIVE", reason="its datums cannot place the part")
+    root = parse_valid(plan_run.qif(doc))
+    primary = one(root, "//q:DatumDefinition[q:DatumLabel='A_1']")
+    assert one(primary, "q:Attributes/q:AttributeStr[@name='qa-inspect:label']").get(
+        "value") == "A 1"
+    meas = characteristic(root, "4")[3]
+    assert one(meas, "q:Status/q:CharacteristicStatusEnum").text == "INDETERMINATE"
+    assert not meas.xpath("q:Value", namespaces=NS)
+
+
+def test_schema_checks_the_plan_parts(plan_run):
+    """The validation is worth something for the plan's parts too: a datum reference frame
+    naming no datum definition (key/keyref), and a position without its zone shape, fail."""
+    good = plan_run.qif()
+    root = etree.fromstring(good)
+    root.xpath("//q:DatumReferenceFrame//q:DatumDefinitionId", namespaces=NS)[2].text = "9999"
+    assert not SCHEMA.validate(etree.ElementTree(root))
+    root = etree.fromstring(good)
+    shape = one(root, "//q:PositionCharacteristicDefinition/q:ZoneShape")
+    shape.getparent().remove(shape)
+    assert not SCHEMA.validate(etree.ElementTree(root))
+    assert SCHEMA.validate(etree.ElementTree(etree.fromstring(good)))
