@@ -161,7 +161,8 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
                 if best_fit else None
             cache[key] = align(geo.evaluate, T_start, ds, [members[d.region] for d in ds],
-                               geo.centre, geo.length, fit_idx)
+                               geo.centre, geo.length, fit_idx,
+                               [_invariants(d, geo) for d in ds])
         return cache[key]
 
     a = plan.alignment
@@ -360,7 +361,7 @@ def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict
     way, within ``PLANE_FACING`` of the mean outward normal, so that the strips of the
     neighbouring faces a box takes in do not tilt or shift it); a cylinder or sphere says
     whether it is a hole (internal: the outward normals point towards its axis / centre)."""
-    if kind == "plane":
+    if kind in ("plane", "line"):
         mean = normals.sum(axis=0)
         facing = normals @ (mean / (np.linalg.norm(mean) or 1.0)) >= np.cos(PLANE_FACING)
         if facing.sum() >= 3:
@@ -369,7 +370,7 @@ def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict
     if fit is None:
         return None
     out = {k: v for k, v in fit.items() if k not in ("form_error", "n_points")}
-    if kind != "plane":
+    if kind not in ("plane", "line"):
         radial = points - out.get("centre", out.get("point"))
         if kind == "cylinder":
             radial -= np.outer(radial @ out["direction"], out["direction"])
@@ -377,15 +378,32 @@ def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict
     return out
 
 
+def _invariants(datum, geo: Geometry) -> np.ndarray | None:
+    """The motions that leave datum's ideal nominal feature in place (engine.datums), from the
+    least-squares feature of its region's nominal points; None when they do not form it."""
+    from .datums import invariant_motions
+
+    mask = geo.nominal_masks[datum.region]
+    nominal = _nominal_feature(datum.feature, geo.nominal_points[mask],
+                               geo.nominal_normals(np.flatnonzero(mask)))
+    if nominal is None:
+        return None
+    return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
+
+
 def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:
     """The least-squares ``kind`` of the points X (the region's nominal outward ``normals``
     orient a plane and start a cylinder's axis); None when X does not determine it."""
-    from .features import FeatureError, fit_cylinder_lsq, fit_plane_lsq, fit_sphere_lsq
+    from .features import (FeatureError, fit_circle_lsq, fit_cylinder_lsq, fit_plane_lsq,
+                           fit_sphere_lsq)
 
     try:
-        if kind == "plane":
+        if kind in ("plane", "line"):
             f = fit_plane_lsq(X, normals.sum(axis=0))
             out = {"point": f.centroid, "normal": f.normal}
+        elif kind == "circle":
+            f = fit_circle_lsq(X)
+            out = {"centre": f.centre, "diameter": 2.0 * f.radius}
         elif kind == "cylinder":
             f = _cylinder(fit_cylinder_lsq, X, normals)
             out = {"point": f.point, "direction": f.direction, "diameter": 2.0 * f.radius}

@@ -9,9 +9,14 @@ datums leave free is best-fitted on named regions, or stays where the registrati
 
 The pose is found as one lexicographic fit. Each datum fits its measured points to the nominal
 surface of its region by moving the *part* within the directions the higher datums left free,
-and only along the directions its own feature can constrain there (the leading singular
-directions of its linearised deviations, at most ``CONSTRAINED_DOFS[feature]`` of them); those
-directions are then fixed for the datums below it. Fits:
+and only along the directions its own feature can constrain there: those that do not leave the
+ideal nominal feature in place (a plane is left in place by the translations along it and the
+rotation about its normal, a cylinder by the slide along and the turn about its axis, a sphere
+by the turns about its centre; in 2D a line by the slide along it, a circle by the turn about
+its centre: :func:`invariant_motions`). Those directions are then fixed for the datums below
+it. (Judged from the ideal feature, not from the measured points' deviations, whose normals
+carry the sampling's noise: a hole below a plane takes two translations, never a spurious
+third direction from the turn about its own axis.) Fits:
 
 * ``tangent`` (the default of both standards): the datum simulator lies outside the material and
   touches the feature's high points. For a plane or line: no point beyond the nominal surface,
@@ -35,12 +40,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fits import _apply_update, pose_jacobian
-from .plan import CONSTRAINED_DOFS, MIN_POINTS
+from .plan import MIN_POINTS
 
 SIZE_FEATURES = ("cylinder", "sphere", "circle")
 RANK_TOLERANCE = 1e-6
-"""A direction counts as constrained by a datum when its singular value exceeds this fraction
-of the datum's largest one (directions a feature cannot sense have exactly zero)."""
+"""RPS: a direction counts as locked when its singular value exceeds this fraction of the
+largest one (exact lock axes give exact zeros)."""
+ALIGNED_TOLERANCE = 1e-4
+"""A datum's invariant motion counts as one of the free ones when it lies within this angle
+(rad; rotations weighed by the lever) of their span: nominally perpendicular or coaxial features
+of a CAD sample or mesh are so to 1e-9 .. 1e-5 (a hole's axis fitted to sampled wall points),
+and a datum must not take a direction from that noise."""
 STEP_TOLERANCE = 1e-9
 """The fit has settled when no point moves by more than this fraction of the points' extent."""
 MAX_STEPS = 30
@@ -110,14 +120,16 @@ points, exactly."""
 
 
 def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centre: np.ndarray,
-          length: float, best_fit: np.ndarray | None = None) -> Alignment:
+          length: float, best_fit: np.ndarray | None = None,
+          invariants: list | None = None) -> Alignment:
     """Place the part by ``datums`` (engine.plan.Datum, primary first) from the pose T0.
 
     members[k] : indices of the measured points of datum k's region. centre (3,) or (2,), length
     (mm): the centre rotations are taken about and the lever that scales them (the measured
     points' centroid and RMS radius at T0: rotations and translations then weigh alike).
     best_fit : indices of the points that best-fit the freedom the datums leave (None: it stays
-    at T0).
+    at T0). invariants[k] : (dof, k) the motions that leave datum k's ideal nominal feature in
+    place (:func:`invariant_motions`); None for a datum whose nominal is not its feature.
     """
     dof = 6 if T0.shape[0] == 4 else 3
     nrot = 3 if dof == 6 else 1
@@ -125,16 +137,23 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
     T = np.array(T0, float)
     fits = []
     complete, message = True, ""
-    for datum, idx in zip(datums, members):
+    invariants = invariants if invariants is not None else [None] * len(datums)
+    for datum, idx, inv in zip(datums, members, invariants):
         idx = np.asarray(idx, dtype=np.int64)
+        problem = None
         if idx.size < MIN_POINTS[datum.feature]:
-            complete = False
-            message = (f"datum {datum.label} has {idx.size} measured points; its "
+            problem = (f"datum {datum.label} has {idx.size} measured points; its "
                        f"{datum.feature} needs at least {MIN_POINTS[datum.feature]}")
+        elif inv is None:
+            problem = (f"datum {datum.label}: the nominal points of its region do not form a "
+                       f"{datum.feature}")
+        if problem:
+            complete, message = False, problem
             fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
                                  0.0, float("nan")))
             continue
-        T, taken, offset, gap = _fit_datum(evaluate, T, datum, idx, free, centre, length, nrot)
+        taken = _complement(free, _within(free, inv))
+        T, offset, gap = _fit_datum(evaluate, T, datum, idx, taken, centre, length, nrot)
         fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
                              taken.shape[1], offset, gap))
         free = _complement(free, taken)
@@ -147,23 +166,60 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
                      complete, message)
 
 
-def _fit_datum(evaluate: Evaluate, T, datum, idx, free, centre, length, nrot):
-    """(T, taken (dof, r), offset, gap): datum's fit within the free directions (dof, f)."""
-    X, d, n = evaluate(T, idx)
-    J = _jacobian(X, n, centre, length, nrot)
-    A = J @ free
-    if A.shape[1] == 0:
-        return T, np.zeros((free.shape[0], 0)), 0.0, float(np.max(np.abs(d)))
-    _, s, Vt = np.linalg.svd(A, full_matrices=False)
-    cap = min(CONSTRAINED_DOFS[datum.feature], s.size)
-    r = int(np.sum(s[:cap] > RANK_TOLERANCE * max(s[0], 1e-300)))
-    taken = free @ Vt[:r].T
+def _fit_datum(evaluate: Evaluate, T, datum, idx, taken, centre, length, nrot):
+    """(T, offset, gap): datum's fit along the directions it takes (dof, r)."""
+    if taken.shape[1] == 0:
+        d = evaluate(T, idx)[1]
+        return T, 0.0, float(np.max(d) - np.min(d))
     size = datum.feature in SIZE_FEATURES
     if datum.fit == "lsq":
-        T, offset, gap = _least_squares(evaluate, T, idx, taken, centre, length, nrot, size)
-    else:
-        T, offset, gap = _tangent(evaluate, T, idx, taken, centre, length, nrot, size)
-    return T, taken, offset, gap
+        return _least_squares(evaluate, T, idx, taken, centre, length, nrot, size)
+    return _tangent(evaluate, T, idx, taken, centre, length, nrot, size)
+
+
+def _within(free: np.ndarray, invariant: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (dof, k) of span(free) ∩ span(invariant): the free motions that leave
+    the datum's ideal feature in place."""
+    if free.shape[1] == 0 or invariant.shape[1] == 0:
+        return np.zeros((free.shape[0], 0))
+    q, _ = np.linalg.qr(invariant)
+    off = free - q @ (q.T @ free)  # each free direction's part outside span(invariant)
+    _, s, vt = np.linalg.svd(off, full_matrices=True)
+    s = np.concatenate([s, np.zeros(vt.shape[0] - s.size)])
+    return free @ vt[s < ALIGNED_TOLERANCE].T
+
+
+def invariant_motions(feature: str, nominal: dict, centre: np.ndarray,
+                      length: float) -> np.ndarray:
+    """(dof, k): the rigid motions, in the fits' coordinates (rotation x length, translation;
+    about ``centre``), that leave the ideal feature in place. ``nominal`` as
+    engine.characteristics fits it: a plane {point, normal}, a cylinder {point, direction}, a
+    sphere {centre}; in 2D a line {point, normal}, a circle {centre}."""
+    c = np.asarray(centre, float)
+
+    def turn(axis, through):
+        """The rotation about ``axis`` through ``through``: w = axis, t = axis x (c - through)."""
+        if c.size == 2:
+            r = c - through
+            return np.array([length, -r[1], r[0]])
+        return np.concatenate([axis * length, np.cross(axis, c - through)])
+
+    def slide(u):
+        return np.concatenate([np.zeros(3 if c.size == 3 else 1), u])
+
+    if feature == "plane":
+        n = nominal["normal"]
+        u, v = np.linalg.svd(n[None, :])[2][1:]
+        return np.column_stack([slide(u), slide(v), turn(n, nominal["point"])])
+    if feature == "cylinder":
+        a = nominal["direction"]
+        return np.column_stack([slide(a), turn(a, nominal["point"])])
+    if feature == "sphere":
+        return np.column_stack([turn(e, nominal["centre"]) for e in np.eye(3)])
+    if feature == "line":
+        n = nominal["normal"]
+        return slide(np.array([-n[1], n[0]]))[:, None]
+    return turn(None, nominal["centre"])[:, None]  # circle
 
 
 def _jacobian(X, normals, centre, length, nrot):

@@ -4,7 +4,7 @@ a hole, measured exactly, misplaced by a known rigid motion."""
 import numpy as np
 import pytest
 
-from engine.datums import align, align_rps
+from engine.datums import align, align_rps, invariant_motions
 from engine.geometry import make_transform, rotation_from_rotvec
 from engine.plan import Datum
 
@@ -68,6 +68,21 @@ class Block:
     def members(self, *faces):
         return [np.flatnonzero(self.face == f) for f in faces]
 
+    def invariants(self, *faces):
+        """The motions leaving each face's ideal nominal feature in place (engine.datums)."""
+        c, length = self.frame()
+        out = []
+        for f in faces:
+            if f == "hole":
+                out.append(invariant_motions("cylinder", {"point": np.array([*HOLE_XY, 0.0]),
+                                                          "direction": np.array([0, 0, 1.0])},
+                                             c, length))
+            else:
+                n, off = PLANES[f]
+                out.append(invariant_motions("plane", {"point": off * np.abs(n),
+                                                       "normal": np.array(n)}, c, length))
+        return out
+
     def frame(self):
         c = self.M.mean(axis=0)
         return c, float(np.sqrt(np.mean(np.sum((self.M - c) ** 2, axis=1))))
@@ -88,7 +103,8 @@ def test_three_planes_fix_every_degree_of_freedom(seed):
     b = Block({"A": 40, "B": 30, "C": 20, "top": 30}, rng, misplacement(rng),
               excess={"top": 0.05})
     c, length = b.frame()
-    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length)
+    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length,
+               invariants=b.invariants("A", "B", "C"))
     assert [d.constrained for d in al.datums] == [3, 2, 1]
     assert al.free == () and al.complete
     # The misplacement undone exactly; the top face's planted excess measured exactly.
@@ -142,10 +158,12 @@ def test_tangent_and_least_squares_datum_on_a_face_with_a_bump(seed):
     c, length = b.frame()
     top = b.face == "top"
     for fit, plane in (("tangent", tangent), ("lsq", lsq)):
-        al = align(b.evaluate, np.eye(4), planes(fit), b.members("A", "B", "C"), c, length)
+        al = align(b.evaluate, np.eye(4), planes(fit), b.members("A", "B", "C"), c, length,
+                   invariants=b.invariants("A", "B", "C"))
         d = b.evaluate(al.T_nominal_measured, np.arange(len(b.face)))[1]
         assert np.max(np.abs(d[top] - (_above(plane, P[top]) - 20.0))) < 1e-8, fit
-    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length)
+    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length,
+               invariants=b.invariants("A", "B", "C"))
     dA = b.evaluate(al.T_nominal_measured, np.flatnonzero(A))[1]
     assert dA.max() == pytest.approx(0.0, abs=1e-9) and al.datums[0].gap == pytest.approx(h)
 
@@ -159,7 +177,8 @@ def test_a_tilted_tangent_plane_minimises_the_largest_gap():
     A = b.face == "A"
     b.M[A, 2] -= slope * (b.M[A, 0] - 50.0)
     c, length = b.frame()
-    al = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length)
+    al = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length,
+               invariants=b.invariants("A"))
     assert al.datums[0].gap < 1e-9
     R = al.T_nominal_measured[:3, :3]
     assert np.degrees(np.arccos(min(1.0, R[2, 2]))) == pytest.approx(np.degrees(slope),
@@ -177,7 +196,8 @@ def test_hole_as_datum_centres_the_largest_inscribed_cylinder():
     ds = [Datum("A", "A", "plane"), Datum("H", "hole", "cylinder")]
     for fit in ("tangent", "lsq"):
         ds = [Datum("A", "A", "plane", fit), Datum("H", "hole", "cylinder", fit)]
-        al = align(b.evaluate, np.eye(4), ds, b.members("A", "hole"), c, length)
+        al = align(b.evaluate, np.eye(4), ds, b.members("A", "hole"), c, length,
+                   invariants=b.invariants("A", "hole"))
         assert [d.constrained for d in al.datums] == [3, 2]
         assert al.datums[1].offset == pytest.approx(-0.02, abs=1e-9), fit
         # The actual hole's axis maps onto the nominal axis.
@@ -194,7 +214,8 @@ def test_free_directions_are_named_and_best_fitted_on_request():
     rng = np.random.default_rng(7)
     b = Block({"A": 40, "B": 30, "C": 20}, rng, misplacement(rng))
     c, length = b.frame()
-    only_a = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length)
+    only_a = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length,
+                   invariants=b.invariants("A"))
     kinds = sorted(f.type for f in only_a.free)
     assert kinds == ["rotation", "translation", "translation"] and not only_a.best_fitted
     for f in only_a.free:
@@ -204,7 +225,7 @@ def test_free_directions_are_named_and_best_fitted_on_request():
             assert np.allclose(np.abs(f.along), [0, 0, 1], atol=1e-9)
     # Best-fitting the freedom A leaves on B and C's points finishes the job.
     fitted = align(b.evaluate, np.eye(4), planes()[:1], b.members("A"), c, length,
-                   best_fit=np.concatenate(b.members("B", "C")))
+                   best_fit=np.concatenate(b.members("B", "C")), invariants=b.invariants("A"))
     assert fitted.best_fitted
     assert np.max(np.abs(fitted.T_nominal_measured @ b.misplace - np.eye(4))) < 1e-9
 
@@ -213,7 +234,8 @@ def test_a_datum_without_enough_points_makes_the_alignment_incomplete():
     rng = np.random.default_rng(8)
     b = Block({"A": 40, "B": 2, "C": 20}, rng, misplacement(rng))
     c, length = b.frame()
-    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length)
+    al = align(b.evaluate, np.eye(4), planes(), b.members("A", "B", "C"), c, length,
+               invariants=b.invariants("A", "B", "C"))
     assert not al.complete and "datum B has 2 measured points" in al.message
 
 

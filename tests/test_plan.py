@@ -464,3 +464,48 @@ def test_the_fuselage_frame_sample_plan():
     assert c["3"]["value"] == pytest.approx(50.0, abs=0.003)
     assert c["1"]["value"] < 0.05
     assert 2 * 0.02 < c["4"]["value"] < 0.1
+
+
+def test_a_hole_below_a_plane_takes_two_translations_not_the_turn_about_its_axis(tmp_path):
+    """Seat bracket: datum A the bottom plane, datum H the flange's hole (a cylinder, its axis
+    along A's normal). H takes the two translations A leaves; the turn about its own axis it
+    cannot sense stays free (best-fitted on the skin). The hole's nominal axis, fitted to
+    sampled wall points, is parallel to A's normal only to ~1e-8: taking a direction from that
+    once put the part 1e17 mm away."""
+    import json
+
+    from qa_app.cli import main
+
+    here = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
+                        "seat_bracket")
+    with open(os.path.join(here, "plan.toml")) as f:
+        text = f.read()
+    head = text[:text.index("[[datum]]")]
+    (tmp_path / "plan.toml").write_text(head + """
+[[datum]]
+label = "A"
+region = "A"
+feature = "plane"
+[[datum]]
+label = "H"
+region = "hole1"
+feature = "cylinder"
+[alignment]
+method = "datums"
+reference = ["A", "H"]
+best_fit_regions = ["skin"]
+[[characteristic]]
+id = "1"
+type = "profile"
+region = "skin"
+zone = 0.1
+datums = ["A", "H"]
+""")
+    code = main(["inspect", os.path.join(here, "nominal.xyz"), os.path.join(here, "measured.csv"),
+                 "--plan", str(tmp_path / "plan.toml"), "--json", str(tmp_path / "r.json")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert [d["constrained_dofs"] for d in doc["alignment"]["datums"]] == [3, 2]
+    (free,) = doc["alignment"]["free_dofs"]
+    assert free.startswith("rotation about (+0.000, +0.000, ") and "through (64.00, 30.00" in free
+    # The skin: 0.012 + N(0, 0.004) proud; located by A, centred by the hole.
+    assert 2 * 0.012 < doc["characteristics"][0]["value"] < 0.1 and code == 0
