@@ -249,3 +249,44 @@ def test_rps_locks_six_labelled_points_onto_their_nominal_positions():
     al = align_rps(b.evaluate, np.eye(4), idx, b.true_points[idx], axes, c, length)
     assert al.free == () and al.datums[0].constrained == 6
     assert np.max(np.abs(al.T_nominal_measured @ b.misplace - np.eye(4))) < 1e-9
+
+
+@pytest.mark.parametrize("feature", ["plane", "cylinder", "sphere", "line", "circle"])
+def test_invariant_motions_leave_the_ideal_feature_in_place(feature):
+    """Each motion invariant_motions names moves points of the ideal feature along it (zero
+    normal velocity), and there are as many as the feature leaves free: the rigid degrees of
+    freedom less engine.plan.CONSTRAINED_DOFS."""
+    from engine.fits import pose_jacobian
+    from engine.plan import CONSTRAINED_DOFS
+
+    rng = np.random.default_rng(13)
+    dim = 2 if feature in ("line", "circle") else 3
+    q = rng.normal(0, 20, dim)
+    if feature in ("plane", "line"):
+        n = rng.normal(size=dim)
+        n /= np.linalg.norm(n)
+        along = np.linalg.svd(n[None, :])[2][1:]  # (dim - 1, dim): directions in the plane
+        P = q + rng.normal(0, 30, (50, dim - 1)) @ along
+        N = np.tile(n, (50, 1))
+        nominal = {"point": q, "normal": n}
+    elif feature == "cylinder":
+        a = rng.normal(size=3)
+        a /= np.linalg.norm(a)
+        u, v = np.linalg.svd(a[None, :])[2][1:]
+        th, h = rng.uniform(0, 2 * np.pi, 50), rng.uniform(-10, 10, 50)
+        N = np.outer(np.cos(th), u) + np.outer(np.sin(th), v)
+        P = q + 5 * N + np.outer(h, a)
+        nominal = {"point": q, "direction": a}
+    else:
+        N = rng.normal(size=(50, dim))
+        N /= np.linalg.norm(N, axis=1)[:, None]
+        P = q + 7 * N
+        nominal = {"centre": q}
+    c, length = rng.normal(0, 10, dim), 37.0
+    inv = invariant_motions(feature, nominal, c, length)
+    dof = 6 if dim == 3 else 3
+    assert inv.shape == (dof, dof - CONSTRAINED_DOFS[feature])
+    J = pose_jacobian(P, N, c)
+    J[:, :dof // 2 if dim == 3 else 1] /= length
+    assert np.max(np.abs(J @ inv)) < 1e-9
+    assert np.linalg.matrix_rank(inv) == inv.shape[1]
