@@ -401,8 +401,7 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
-    from engine.pipeline import run_files
-    from engine.settings import InspectionSettings
+    from engine.pipeline import inspection_settings, run_files
     from reports.outputs import Output, OutputConflictError, write_all
     from reports.results import points_csv, result_json, run_document
 
@@ -426,17 +425,12 @@ def _run_inspect(args, tol, renderer) -> int:
             raise UsageError(f"qa-inspect inspect: {e}") from e
     elif args.sign_pass_env:
         raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
-    zone_in_verdict = tol is not None
-    if tol is None:  # a plan alone: its zone for the per-point statistics
-        from engine.characteristics import statistics_zone
-        from engine.io.plan import read_plan
-
-        tol = statistics_zone(read_plan(args.plan))
-    settings = InspectionSettings(tol.lower, tol.upper,
-                                  None if args.layer is None else tuple(args.layer), args.units,
-                                  args.scale, args.fit, args.decision_rule, args.plan,
-                                  zone_in_verdict)
     try:
+        # A plan alone (no --tol): its zone for the per-point statistics, outside the verdict.
+        settings = inspection_settings(tol, args.plan, layers=None if args.layer is None
+                                       else tuple(args.layer), units=args.units,
+                                       scale=args.scale, fit=args.fit,
+                                       decision_rule=args.decision_rule)
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
