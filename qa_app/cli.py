@@ -490,16 +490,11 @@ def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
 def _plan_summary(plan) -> list[str]:
     """The plan's alignment and one line per characteristic: id, type, region, datums, value
     against its zone, verdict."""
-    from reports.messages import limits_text
+    from reports.messages import alignment_text, limits_text
 
     lines = []
-    al = plan.alignment
-    if al is not None:
-        fits = ", ".join(f"{d.label} {d.feature} ({d.fit}, {d.n_points} points)"
-                         for d in al.datums)
-        free = "; ".join(f.describe() for f in al.free) or "none"
-        lines.append(f"  alignment: {plan.method} on {fits}; free: {free}"
-                     + (" (best-fitted)" if al.best_fitted and al.free else ""))
+    if plan.alignment is not None:
+        lines.append(f"  alignment: {alignment_text(plan)}")
     for r in plan.characteristics:
         c = r.characteristic
         ref = f" |{'|'.join(c.datums)}" if c.datums else ""

@@ -514,8 +514,9 @@ def test_a_plan_run_gives_the_command_lines_characteristics_to_the_table(tmp_pat
         (ch["id"], ch["verdict"], ch["n_points"]) for ch in doc["characteristics"]]
     assert [r.verdict for r in rows] == ["REJECT", "ACCEPT", "ACCEPT", "ACCEPT", "ACCEPT"]
     assert [r.value for r in rows] == [f"{ch['value']:.4f} mm" for ch in doc["characteristics"]]
-    assert (rows[0].type, rows[0].datums, rows[0].region) == ("⌓ profile", "A|B|C", "skin")
-    assert (rows[1].datums, rows[4].type) == ("—", "⌀ size")
+    assert [(r.type, r.symbol) for r in rows] == [
+        ("profile", "⌓"), ("profile", "⌓"), ("flatness", "⏥"), ("position", "⌖"), ("size", "⌀")]
+    assert (rows[0].datums, rows[0].region, rows[1].datums) == ("A|B|C", "skin", "—")
     assert rows[4].requirement == "⌀8.0000 -0.0500/+0.0500 mm"
     truth = bracket_truth()
     labels = s.run.measured.labels

@@ -429,9 +429,7 @@ class Controller:
         s.set_run(None)  # another session is another job: nothing of the last one stays
         s.settings = replace(settings, plan=None)  # the plan is an input: plan_path
         s.settings_changed.emit()
-        s.set_nominal(inputs.get("nominal", {}).get("path"))
-        s.set_measured(inputs.get("measured", {}).get("path"))
-        s.set_plan(inputs.get("plan", {}).get("path"))
+        s.set_inputs(*(inputs.get(role, {}).get("path") for role in INPUTS))
         if changed:
             s.tell("warning", "Session reopened, but " + "; ".join(changed) +
                    ". Inspect again to get results for the files as they are now.")

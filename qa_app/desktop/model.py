@@ -169,6 +169,11 @@ class Session:
         self.plan_path = path
         self._inputs_changed()
 
+    def set_inputs(self, nominal: str | None, measured: str | None, plan: str | None) -> None:
+        """All three inputs at once (a session reopened): the views see them together."""
+        self.nominal_path, self.measured_path, self.plan_path = nominal, measured, plan
+        self._inputs_changed()
+
     def _inputs_changed(self) -> None:
         # The result stays on screen, marked stale when the files differ from its own.
         self.inputs_changed.emit()
@@ -236,7 +241,9 @@ class CharacteristicRow:
 
     id: str
     type: str
-    """The characteristic's symbol and name ("⌓ profile")."""
+    """profile, flatness, position or size."""
+    symbol: str
+    """The drawing's symbol (reports.messages.SYMBOL: "⌓" for a surface profile)."""
     region: str
     datums: str
     """"A|B|C", or "—" for form only."""
@@ -263,7 +270,7 @@ def characteristic_rows(run) -> list[CharacteristicRow]:
     for r in planned.characteristics:
         c = r.characteristic
         rows.append(CharacteristicRow(
-            c.id, f"{SYMBOL.get(c.type, '')} {c.type}".strip(), c.region,
+            c.id, c.type, SYMBOL.get(c.type, ""), c.region,
             "|".join(c.datums) if c.datums else "—", limits_text(c),
             "—" if r.value is None else f"{r.value:.4f} mm", int(r.indices.size), r.verdict,
             r.reason, r.indices))
