@@ -621,3 +621,30 @@ def test_the_legend_names_the_plans_regions(window):
     w.controller.clear_plan()
     w.act_inspect.trigger()
     assert not w.viewport.regions_box.isVisibleTo(w) and w.legend.regions is None
+
+
+def test_qa_app_command_with_a_plan_inspects_by_it(qtbot, monkeypatch, tmp_path):
+    """``qa-app NOMINAL MEASURED --plan PLAN.toml``: the plan's verdict, as ``qa-inspect``'s."""
+    import sys
+    import threading
+
+    from PySide6.QtWidgets import QApplication
+
+    from qa_app.desktop import app as qa_app_main
+
+    monkeypatch.setattr(QApplication, "exec", lambda self: 0)
+    monkeypatch.setattr(sys, "excepthook", sys.excepthook)
+    monkeypatch.setattr(threading, "excepthook", threading.excepthook)
+    monkeypatch.setattr("qa_app.desktop.window.QSettings", lambda *a: QSettings(
+        str(tmp_path / "s.ini"), QSettings.IniFormat))
+    assert qa_app_main.main([os.path.join(BRACKET, "nominal.xyz"),
+                             os.path.join(BRACKET, "measured.csv"),
+                             "--plan", os.path.join(BRACKET, "plan.toml")]) == 0
+    w = next(x for x in QApplication.topLevelWidgets() if isinstance(x, MainWindow)
+             and x.isVisible() and x.session.measured_path
+             and x.session.nominal_path.endswith("nominal.xyz"))
+    qtbot.addWidget(w)
+    qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=60_000)
+    assert w.banner.verdict == "REJECT" and w.session.run.settings.plan is not None
+    assert not w.session.run.settings.zone_in_verdict
+    assert w.characteristics.model_.rowCount() == 5

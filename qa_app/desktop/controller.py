@@ -79,11 +79,11 @@ class Controller:
         self.session.set_measured(os.path.abspath(path))
         self.session.tell("info", f"Measured points: {os.path.basename(path)}")
 
-    def open_plan(self, path: str) -> None:
+    def open_plan(self, path: str, on_done: Callable[[], None] | None = None) -> None:
         """Open an inspection plan (TOML): read and checked in the worker; once it is, the
         verdict is its characteristics' and the zone its own (statistics only), as on the
-        command line without ``--tol``. A plan that cannot be read is one error and changes
-        nothing."""
+        command line without ``--tol``, and ``on_done`` is called. A plan that cannot be read
+        is one error and changes nothing."""
         from engine.io.formats import PLAN_SUFFIXES
 
         if self._refuse_while_busy() or not self._check_file(path, PLAN_SUFFIXES):
@@ -103,6 +103,8 @@ class Controller:
             s.tell("info", f"Plan: {os.path.basename(path)}; the verdict is its "
                            f"characteristics' (zone {planned.tol_lower:+.4g} … "
                            f"{planned.tol_upper:+.4g} mm for the statistics only)")
+            if on_done:
+                on_done()
 
         self._start(job, done, lambda: None)
 
