@@ -168,8 +168,10 @@ def test_cancel_button_stops_a_running_inspection(qtbot, tmp_path):
     assert w.act_inspect.isEnabled() and not w.act_cancel.isEnabled()
 
 
-def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_path):
+def run_qa_app(qtbot, monkeypatch, tmp_path, argv):
+    """``qa-app ARGV`` without its event loop: the window it opened, once it has inspected."""
     import sys
+    import threading
 
     from PySide6.QtWidgets import QApplication
 
@@ -177,17 +179,21 @@ def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_pa
 
     monkeypatch.setattr(QApplication, "exec", lambda self: 0)
     monkeypatch.setattr(sys, "excepthook", sys.excepthook)
-    import threading
-
     monkeypatch.setattr(threading, "excepthook", threading.excepthook)
     monkeypatch.setattr("qa_app.desktop.window.QSettings", lambda *a: QSettings(
         str(tmp_path / "s.ini"), QSettings.IniFormat))
-    assert qa_app_main.main([os.path.join(BELLY, "nominal.csv"),
-                             os.path.join(BELLY, "measured.csv"), "--tol", "0.25"]) == 0
+    assert qa_app_main.main(argv) == 0
     w = next(x for x in QApplication.topLevelWidgets() if isinstance(x, MainWindow)
-             and x.isVisible() and x.session.measured_path)
+             and x.isVisible() and x.session.nominal_path == argv[0])
     qtbot.addWidget(w)
     qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=60_000)
+    return w
+
+
+def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_path):
+    w = run_qa_app(qtbot, monkeypatch, tmp_path, [os.path.join(BELLY, "nominal.csv"),
+                                                  os.path.join(BELLY, "measured.csv"),
+                                                  "--tol", "0.25"])
     assert w.banner.verdict == "ACCEPT"
     assert w.tolerance.zone() == (-0.25, 0.25)
 
@@ -625,26 +631,9 @@ def test_the_legend_names_the_plans_regions(window):
 
 def test_qa_app_command_with_a_plan_inspects_by_it(qtbot, monkeypatch, tmp_path):
     """``qa-app NOMINAL MEASURED --plan PLAN.toml``: the plan's verdict, as ``qa-inspect``'s."""
-    import sys
-    import threading
-
-    from PySide6.QtWidgets import QApplication
-
-    from qa_app.desktop import app as qa_app_main
-
-    monkeypatch.setattr(QApplication, "exec", lambda self: 0)
-    monkeypatch.setattr(sys, "excepthook", sys.excepthook)
-    monkeypatch.setattr(threading, "excepthook", threading.excepthook)
-    monkeypatch.setattr("qa_app.desktop.window.QSettings", lambda *a: QSettings(
-        str(tmp_path / "s.ini"), QSettings.IniFormat))
-    assert qa_app_main.main([os.path.join(BRACKET, "nominal.xyz"),
-                             os.path.join(BRACKET, "measured.csv"),
-                             "--plan", os.path.join(BRACKET, "plan.toml")]) == 0
-    w = next(x for x in QApplication.topLevelWidgets() if isinstance(x, MainWindow)
-             and x.isVisible() and x.session.measured_path
-             and x.session.nominal_path.endswith("nominal.xyz"))
-    qtbot.addWidget(w)
-    qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=60_000)
+    w = run_qa_app(qtbot, monkeypatch, tmp_path, [os.path.join(BRACKET, "nominal.xyz"),
+                                                  os.path.join(BRACKET, "measured.csv"),
+                                                  "--plan", os.path.join(BRACKET, "plan.toml")])
     assert w.banner.verdict == "REJECT" and w.session.run.settings.plan is not None
     assert not w.session.run.settings.zone_in_verdict
     assert w.characteristics.model_.rowCount() == 5
