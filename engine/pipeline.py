@@ -22,6 +22,7 @@ from .pointset import PointSet
 from .nominal import Nominal
 from .progress import Callback, report, reporting
 from .settings import InspectionSettings
+from .tolerance import Tolerance
 from .verdict import ACCEPT
 
 
@@ -60,6 +61,32 @@ class Run:
         """Point indices from farthest outside the zone to deepest inside (stable)."""
         r = self.result
         return np.argsort(-r.tolerance.excess(r.deviations.signed), kind="stable")
+
+
+def inspection_settings(tol: Tolerance | None, plan: str | None = None,
+                        **options) -> InspectionSettings:
+    """The settings of an inspection whose zone the user may leave to its plan (the command
+    line's ``--tol`` and ``--plan``, the desktop app's zone and plan).
+
+    tol : the zone the user gave (mm), or None. Given, it is part of the verdict: the verdict
+        without a plan, one more profile characteristic over all points with one. None with a
+        plan: the plan's characteristics are the requirement, and the zone of the per-point
+        statistics is the plan's (engine.characteristics.statistics_zone), outside the verdict.
+    plan : the inspection plan's path (TOML), or None; read here when it must give the zone.
+    options : the other InspectionSettings fields (layers, units, scale, fit, decision_rule).
+
+    Raises SettingsError without a zone or a plan, InputError for a plan that cannot be read.
+    """
+    if tol is None:
+        if plan is None:
+            raise SettingsError("a tolerance zone or an inspection plan is required")
+        from .characteristics import statistics_zone
+        from .io.plan import read_plan
+
+        tol = statistics_zone(read_plan(plan))
+        return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=False,
+                                  **options)
+    return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=True, **options)
 
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:

@@ -401,8 +401,7 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
 
 def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
-    from engine.pipeline import run_files
-    from engine.settings import InspectionSettings
+    from engine.pipeline import inspection_settings, run_files
     from reports.outputs import Output, OutputConflictError, write_all
     from reports.results import points_csv, result_json, run_document
 
@@ -426,17 +425,12 @@ def _run_inspect(args, tol, renderer) -> int:
             raise UsageError(f"qa-inspect inspect: {e}") from e
     elif args.sign_pass_env:
         raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
-    zone_in_verdict = tol is not None
-    if tol is None:  # a plan alone: its zone for the per-point statistics
-        from engine.characteristics import statistics_zone
-        from engine.io.plan import read_plan
-
-        tol = statistics_zone(read_plan(args.plan))
-    settings = InspectionSettings(tol.lower, tol.upper,
-                                  None if args.layer is None else tuple(args.layer), args.units,
-                                  args.scale, args.fit, args.decision_rule, args.plan,
-                                  zone_in_verdict)
     try:
+        # A plan alone (no --tol): its zone for the per-point statistics, outside the verdict.
+        settings = inspection_settings(tol, args.plan, layers=None if args.layer is None
+                                       else tuple(args.layer), units=args.units,
+                                       scale=args.scale, fit=args.fit,
+                                       decision_rule=args.decision_rule)
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
@@ -496,16 +490,11 @@ def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
 def _plan_summary(plan) -> list[str]:
     """The plan's alignment and one line per characteristic: id, type, region, datums, value
     against its zone, verdict."""
-    from reports.messages import limits_text
+    from reports.messages import alignment_text, limits_text
 
     lines = []
-    al = plan.alignment
-    if al is not None:
-        fits = ", ".join(f"{d.label} {d.feature} ({d.fit}, {d.n_points} points)"
-                         for d in al.datums)
-        free = "; ".join(f.describe() for f in al.free) or "none"
-        lines.append(f"  alignment: {plan.method} on {fits}; free: {free}"
-                     + (" (best-fitted)" if al.best_fitted and al.free else ""))
+    if plan.alignment is not None:
+        lines.append(f"  alignment: {alignment_text(plan)}")
     for r in plan.characteristics:
         c = r.characteristic
         ref = f" |{'|'.join(c.datums)}" if c.datums else ""

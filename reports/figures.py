@@ -74,6 +74,34 @@ def band_rgb(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
     return table[band_index(d, tol)]
 
 
+REGION_RGB = ((0.90, 0.62, 0.0), (0.34, 0.71, 0.91), (0.0, 0.62, 0.45), (0.80, 0.47, 0.65),
+              (0.0, 0.45, 0.70), (0.84, 0.37, 0.0), (0.94, 0.89, 0.26), (0.35, 0.35, 0.40))
+"""The regions' colours (Okabe and Ito's palette, told apart with colour-blindness), in the
+order of the regions' names; repeated beyond eight regions."""
+NO_REGION_RGB = (0.80, 0.80, 0.82)
+"""Points in no region."""
+
+
+def region_colours(regions: np.ndarray) -> tuple[list[tuple[str, tuple, int]], np.ndarray]:
+    """The colours of the points' plan regions.
+
+    regions : (n,) str, each point's regions ('a+b' for a point in two, '' for none:
+    engine.characteristics.PlanResult.regions). Returns the legend, [(name, rgb in 0..1,
+    number of points)] with the named regions in sorted order and "(no region)" last, and the
+    (n, 3) uint8 colour of each point.
+    """
+    regions = np.asarray(regions, dtype=str)
+    names, inverse, counts = np.unique(regions, return_inverse=True, return_counts=True)
+    colour = {n: REGION_RGB[k % len(REGION_RGB)] for k, n in enumerate(n for n in names if n)}
+    colour[""] = NO_REGION_RGB
+    rgb = [colour[n] for n in names]
+    table = (np.array(rgb, dtype=float).reshape(-1, 3) * 255).round().astype(np.uint8)
+    legend = [(str(n) or "(no region)", c, int(k)) for n, c, k in zip(names, rgb, counts)]
+    if names.size and names[0] == "":  # '' sorts first; listed last
+        legend = legend[1:] + legend[:1]
+    return legend, table[inverse.reshape(-1)]
+
+
 def fmt_mm(v: float, signed: bool = True) -> str:
     return f"{v:+.3f}" if signed else f"{v:.3f}"
 

@@ -39,3 +39,16 @@ def limits_text(c) -> str:
     if c.type == "profile" and abs(c.lower + c.upper) > 1e-12:
         return f"zone {c.width:.4f} mm ({c.lower:+.4f} … {c.upper:+.4f})"
     return f"zone {c.width:.4f} mm"
+
+
+def alignment_text(planned) -> str | None:
+    """A plan's alignment in one line ("datums on A plane (tangent, 16 points), ...; free:
+    none"), or None for a best fit (the registration's pose stands). planned :
+    engine.characteristics.PlanResult."""
+    al = planned.alignment
+    if al is None:
+        return None
+    fits = ", ".join(f"{d.label} {d.feature} ({d.fit}, {d.n_points} points)" for d in al.datums)
+    free = "; ".join(f.describe() for f in al.free) or "none"
+    return (f"{planned.method} on {fits}; free: {free}"
+            + (" (best-fitted)" if al.best_fitted and al.free else ""))

@@ -465,3 +465,162 @@ def test_an_export_never_replaces_an_input(tmp_path, monkeypatch, export, target
     assert level == "error" and f"is the {role} file: an output never replaces an input" in text
     assert {p: Path(p).read_bytes() for p in paths.values()} == before
     assert sorted(os.listdir(work)) == listing and s.step == Step.INSPECTED and not c.busy
+
+
+# ---------------------------------------------------------------- an inspection plan
+BRACKET = os.path.join(ROOT, "samples", "seat_bracket")
+
+
+def bracket_truth() -> dict:
+    with open(os.path.join(BRACKET, "truth.json")) as f:
+        return json.load(f)
+
+
+def plans_zone_of(plan_path) -> float:
+    """Half the widest profile zone of the plan, read here with tomllib (the zone of the per-point
+    statistics when the plan alone states the requirement)."""
+    import tomllib
+
+    with open(plan_path, "rb") as f:
+        doc = tomllib.load(f)
+    return max(c["zone"] for c in doc["characteristic"] if c["type"] == "profile") / 2
+
+
+def bracket_files(folder=BRACKET):
+    return [os.path.join(folder, n) for n in ("nominal.xyz", "measured.csv", "plan.toml")]
+
+
+def test_a_plan_run_gives_the_command_lines_characteristics_to_the_table(tmp_path):
+    """Nominal, measured points and plan opened together: the run is the command line's
+    ``inspect … --plan`` (same settings, same characteristics), and each characteristic's row
+    holds the measured points it judged: the hole's are the sample's hole points."""
+    from qa_app.desktop.model import characteristic_rows
+
+    nominal, measured, plan = bracket_files()
+    s, c, messages = make()
+    c.open_files([nominal, measured, plan])
+    assert s.plan_path == plan and s.plans_zone
+    half = plans_zone_of(plan)
+    assert (s.settings.tol_lower, s.settings.tol_upper) == (-half, half)
+    assert s.step == Step.READY
+    c.inspect()
+    assert s.step == Step.INSPECTED and s.run.result.verdict == "REJECT"
+    assert cli_main(["inspect", nominal, measured, "--plan", plan, "--json",
+                     str(tmp_path / "r.json")]) == 1
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert s.run.settings.to_json() == doc["settings"]
+    rows = characteristic_rows(s.run)
+    assert [(r.id, r.verdict, r.points) for r in rows] == [
+        (ch["id"], ch["verdict"], ch["n_points"]) for ch in doc["characteristics"]]
+    assert [r.verdict for r in rows] == ["REJECT", "ACCEPT", "ACCEPT", "ACCEPT", "ACCEPT"]
+    assert [r.value for r in rows] == [f"{ch['value']:.4f} mm" for ch in doc["characteristics"]]
+    assert [(r.type, r.symbol) for r in rows] == [
+        ("profile", "⌓"), ("profile", "⌓"), ("flatness", "⏥"), ("position", "⌖"), ("size", "⌀")]
+    assert (rows[0].datums, rows[0].region, rows[1].datums) == ("A|B|C", "skin", "—")
+    assert rows[4].requirement == "⌀8.0000 -0.0500/+0.0500 mm"
+    truth = bracket_truth()
+    labels = s.run.measured.labels
+    highlighted = []
+    s.characteristic_changed.connect(highlighted.append)
+    s.select_characteristic(3)  # position of the hole
+    assert highlighted == [3]
+    assert sorted(labels[s.highlighted]) == truth["hole"]["labels"]
+    s.select_characteristic(2)  # flatness of datum face A
+    assert sorted(labels[s.highlighted]) == truth["datum_faces"]["A"]["labels"]
+    s.select_characteristic(None)
+    assert s.highlighted is None
+    # A new run is another table: nothing stays selected.
+    s.select_characteristic(0)
+    c.inspect()
+    assert s.characteristic is None and s.highlighted is None
+
+
+def test_the_users_zone_joins_a_plans_verdict_and_clearing_the_plan_leaves_the_zone(tmp_path):
+    """As on the command line: with a zone of the user's the plan gains the characteristic
+    'tol' over all points; without a plan the zone alone is the verdict. Each change of the
+    plan or of whose zone it is makes the result out of date, and says why."""
+    from qa_app.desktop.model import characteristic_rows
+
+    nominal, measured, plan = bracket_files()
+    s, c, messages = make()
+    c.open_files([nominal, measured])
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT" and characteristic_rows(s.run) == []
+    c.open_plan(plan)
+    assert s.stale_reasons == ["another plan file is open", "zone changed from -0.05 … +0.05 "
+                               "mm to the plan's"]
+    c.inspect()
+    assert s.run.result.verdict == "REJECT" and not s.run.settings.zone_in_verdict
+    assert s.run.settings.plan == plan
+    s.set_settings(tol_lower=-0.05, tol_upper=0.05, zone_in_verdict=True)
+    assert s.stale_reasons == ["zone changed from the plan's to -0.05 … +0.05 mm"]
+    c.inspect()
+    rows = characteristic_rows(s.run)
+    assert [r.id for r in rows] == ["tol", "1", "2", "3", "4", "5"]
+    assert rows[0].points == s.run.measured.points.shape[0] and rows[0].verdict == "ACCEPT"
+    assert s.run.result.verdict == "REJECT"  # characteristic 1 is still out
+    c.clear_plan()
+    assert s.plan_path is None and s.stale_reasons == ["no plan file is open"]
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT" and s.run.settings.plan is None
+    assert characteristic_rows(s.run) == []
+    assert [rec.role for rec in s.run.inputs] == ["nominal", "measured"]
+
+
+def test_a_session_keeps_its_plan_beside_the_files(tmp_path):
+    """The plan is an input like the others: path, path relative to the session and SHA-256;
+    a session moved with its files finds the plan beside it and re-inspects to the same
+    characteristics; a plan edited since is a warning, and no result."""
+    import hashlib
+
+    from qa_app.desktop.model import characteristic_rows
+
+    job = tmp_path / "job"
+    job.mkdir()
+    for f in bracket_files():
+        shutil.copy(f, job)
+    s, c, messages = make()
+    c.open_files(bracket_files(str(job)))
+    c.inspect()
+    path = job / "bracket.qasession"
+    c.save_session(str(path))
+    saved = json.loads(path.read_text())
+    rec = next(i for i in saved["inputs"] if i["role"] == "plan")
+    assert rec["relative_path"] == "plan.toml" and rec["path"] == str(job / "plan.toml")
+    assert rec["sha256"] == hashlib.sha256((job / "plan.toml").read_bytes()).hexdigest()
+    assert saved["results"]["characteristics"][0]["verdict"] == "REJECT"
+
+    moved = tmp_path / "moved"
+    shutil.move(str(job), str(moved))
+    s2, c2, messages2 = make()
+    c2.open_session(str(moved / "bracket.qasession"))
+    assert s2.plan_path == str(moved / "plan.toml") and s2.plans_zone
+    assert s2.run is not None and s2.run.settings.plan == str(moved / "plan.toml")
+    assert [(r.id, r.value, r.verdict) for r in characteristic_rows(s2.run)] == [
+        (r.id, r.value, r.verdict) for r in characteristic_rows(s.run)]
+
+    with open(moved / "plan.toml", "a") as f:
+        f.write("\n# edited\n")
+    s3, c3, messages3 = make()
+    c3.open_session(str(moved / "bracket.qasession"))
+    level, text = messages3[-1]
+    assert level == "warning" and f"plan file {moved / 'plan.toml'} changed" in text
+    assert s3.run is None and s3.plan_path == str(moved / "plan.toml")
+
+
+def test_a_bad_plan_is_the_command_lines_error_and_changes_nothing(tmp_path, capsys):
+    nominal, measured, plan = bracket_files()
+    bad = tmp_path / "plan.toml"
+    bad.write_text(Path(plan).read_text().replace("zone = 0.01", "zone = -0.01"))
+    s, c, messages = make()
+    c.open_files([nominal, measured, plan])
+    c.open_plan(str(bad))
+    assert s.plan_path == plan and not c.busy
+    level, text = messages[-1]
+    assert cli_main(["inspect", nominal, measured, "--plan", str(bad)]) == 65
+    assert level == "error" and capsys.readouterr().err.strip() == f"qa-inspect: error: {text}"
+    assert "'zone' must be > 0" in text
+    c.open_plan(nominal)
+    assert messages[-1] == ("error", f"{nominal}: unsupported file type '.xyz'; supported: "
+                                     ".toml")

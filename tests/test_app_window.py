@@ -168,8 +168,10 @@ def test_cancel_button_stops_a_running_inspection(qtbot, tmp_path):
     assert w.act_inspect.isEnabled() and not w.act_cancel.isEnabled()
 
 
-def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_path):
+def run_qa_app(qtbot, monkeypatch, tmp_path, argv):
+    """``qa-app ARGV`` without its event loop: the window it opened, once it has inspected."""
     import sys
+    import threading
 
     from PySide6.QtWidgets import QApplication
 
@@ -177,17 +179,21 @@ def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_pa
 
     monkeypatch.setattr(QApplication, "exec", lambda self: 0)
     monkeypatch.setattr(sys, "excepthook", sys.excepthook)
-    import threading
-
     monkeypatch.setattr(threading, "excepthook", threading.excepthook)
     monkeypatch.setattr("qa_app.desktop.window.QSettings", lambda *a: QSettings(
         str(tmp_path / "s.ini"), QSettings.IniFormat))
-    assert qa_app_main.main([os.path.join(BELLY, "nominal.csv"),
-                             os.path.join(BELLY, "measured.csv"), "--tol", "0.25"]) == 0
+    assert qa_app_main.main(argv) == 0
     w = next(x for x in QApplication.topLevelWidgets() if isinstance(x, MainWindow)
-             and x.isVisible() and x.session.measured_path)
+             and x.isVisible() and x.session.nominal_path == argv[0])
     qtbot.addWidget(w)
     qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=60_000)
+    return w
+
+
+def test_qa_app_command_opens_both_files_and_inspects(qtbot, monkeypatch, tmp_path):
+    w = run_qa_app(qtbot, monkeypatch, tmp_path, [os.path.join(BELLY, "nominal.csv"),
+                                                  os.path.join(BELLY, "measured.csv"),
+                                                  "--tol", "0.25"])
     assert w.banner.verdict == "ACCEPT"
     assert w.tolerance.zone() == (-0.25, 0.25)
 
@@ -503,3 +509,131 @@ def test_a_cylinder_measured_all_round_holds_its_verdict_in_the_banner(qtbot):
     assert "pose not fully fixed — verdict holds, see details" in text
     said = banner.detail.toolTip().lower()
     assert "position along" in said and "orientation about the axis" in said
+
+
+# ---------------------------------------------------------------- an inspection plan
+BRACKET = os.path.join(ROOT, "samples", "seat_bracket")
+
+
+def open_bracket_with_plan(w):
+    """The seat bracket's files and its plan, through the window's Plan… button (the file dialog
+    answered with the plan)."""
+    w.controller.open_files([os.path.join(BRACKET, "nominal.xyz"),
+                             os.path.join(BRACKET, "measured.csv")])
+    w.open_plan(os.path.join(BRACKET, "plan.toml"))
+
+
+def test_the_plan_opens_beside_the_files_and_the_form_leaves_the_zone_to_it(window, qtbot):
+    from qa_app.desktop.window import PLAN_FILTER
+
+    w = window
+    assert "*.toml" in PLAN_FILTER.split(";;")[0]
+    assert not w.tolerance.by_plan.isVisible() and not w.clear_plan_button.isEnabled()
+    open_bracket_with_plan(w)
+    assert w.plan_label.text() == "plan.toml"
+    assert w.plan_label.toolTip() == os.path.join(BRACKET, "plan.toml")
+    assert w.clear_plan_button.isEnabled() and w.act_clear_plan.isEnabled()
+    # The plan's zone, as the command line without --tol: the spin boxes show it, greyed.
+    assert w.tolerance.by_plan.isVisible() and w.tolerance.by_plan.isChecked()
+    assert not w.tolerance.lower.isEnabled() and w.session.plans_zone
+    assert w.tolerance.zone() == (w.session.settings.tol_lower, w.session.settings.tol_upper)
+    w.act_inspect.trigger()
+    assert not w.session.run.settings.zone_in_verdict and w.banner.verdict == "REJECT"
+    # A zone of the user's joins the verdict as the characteristic 'tol' over all points.
+    w.tolerance.sym.setChecked(True)
+    w.tolerance.tol.setValue(0.05)
+    assert w.session.stale_reasons == ["zone changed from the plan's to -0.05 … +0.05 mm"]
+    w.act_inspect.trigger()
+    assert w.session.run.settings.zone_in_verdict
+    assert w.characteristics.model_.rows[0].id == "tol"
+    qtbot.mouseClick(w.clear_plan_button, Qt.LeftButton)
+    assert w.session.plan_path is None and w.plan_label.text() == "— (optional)"
+    assert not w.tolerance.by_plan.isVisible() and w.tolerance.sym.isChecked()
+    assert w.session.stale_reasons == ["no plan file is open"]
+
+
+def test_the_characteristics_table_and_a_rows_points(window, qtbot):
+    """After a plan's run: its characteristics as on a first-article report, the verdict
+    coloured, the banner stating the plan's verdict and why; selecting a characteristic
+    selects its points in the point table (the sample's hole points for the position), and
+    sorting the table keeps them selected."""
+    import json
+
+    from reports.messages import VERDICT_RGB
+
+    w = window
+    open_bracket_with_plan(w)
+    w.act_inspect.trigger()
+    assert w.bottom.currentWidget() is w.characteristics
+    m = w.characteristics.model_
+    assert m.rowCount() == 5
+    cells = [[m.data(m.index(r, c)) for c in range(m.columnCount())] for r in range(5)]
+    assert [row[0] for row in cells] == ["1", "2", "3", "4", "5"]
+    assert [row[7] for row in cells] == ["REJECTED"] + ["ACCEPTED"] * 4
+    assert cells[0][1:5] == ["profile", "skin", "A|B|C", "zone 0.0200 mm"]
+    from qa_app.desktop.widgets import qcolor
+
+    assert m.data(m.index(0, 7), Qt.BackgroundRole) == qcolor(VERDICT_RGB["REJECT"])
+    assert m.data(m.index(1, 7), Qt.BackgroundRole) == qcolor(VERDICT_RGB["ACCEPT"])
+    assert "84 of 100 points" in m.data(m.index(0, 0), Qt.ToolTipRole)
+    assert not m.data(m.index(3, 1), Qt.DecorationRole).isNull()  # ⌖, drawn
+    assert "A plane (tangent, 16 points)" in w.characteristics.alignment.text()
+    assert w.banner.verdict == "REJECT" and "REJECTED" in w.banner.word.text()
+    detail = w.banner.detail.text()
+    assert "characteristic 1 (profile) is out of tolerance" in detail
+    assert "plan plan.toml: 5 characteristics · 1 out of tolerance" in detail
+    assert "statistics only" in detail
+
+    with open(os.path.join(BRACKET, "truth.json")) as f:
+        truth = json.load(f)
+    labels = w.session.run.measured.labels
+    w.characteristics.view.selectRow(3)  # position of the hole
+    assert w.session.characteristic == 3
+    picked = w.table.selected_points()
+    assert sorted(labels[picked]) == truth["hole"]["labels"]
+    assert "[4] position of hole1 |A|B|C" in w.viewport.readout.text()
+    w.table.sortByColumn(1, Qt.DescendingOrder)
+    assert sorted(labels[w.table.selected_points()]) == truth["hole"]["labels"]
+    w.characteristics.view.selectRow(2)  # flatness of datum face A
+    assert sorted(labels[w.table.selected_points()]) == truth["datum_faces"]["A"]["labels"]
+    # A new run: no characteristic, no selection.
+    w.act_inspect.trigger()
+    assert w.session.characteristic is None and w.table.selected_points() == []
+
+
+def test_the_legend_names_the_plans_regions(window):
+    """The points coloured by region: the legend lists each region with its points (the sample's
+    datum faces and hole as its truth labels them)."""
+    import json
+
+    w = window
+    open_bracket_with_plan(w)
+    w.act_inspect.trigger()
+    assert w.viewport.regions_box.isVisibleTo(w) and w.legend.regions is None
+    w.viewport.regions_box.setChecked(True)
+    with open(os.path.join(BRACKET, "truth.json")) as f:
+        truth = json.load(f)
+    faces = truth["datum_faces"]
+    counts = {name: n for name, _, n in w.legend.regions}
+    assert counts["A"] == len(faces["A"]["labels"]) and counts["B"] == len(faces["B"]["labels"])
+    assert counts["C"] == len(faces["C"]["labels"])
+    assert counts["hole1"] == len(truth["hole"]["labels"])
+    assert sum(counts.values()) == w.session.run.measured.points.shape[0]
+    assert [name for name, _, _ in w.legend.regions][-1] == "(no region)"
+    w.viewport.regions_box.setChecked(False)
+    assert w.legend.regions is None
+    # A run without a plan has no regions to show.
+    w.viewport.regions_box.setChecked(True)
+    w.controller.clear_plan()
+    w.act_inspect.trigger()
+    assert not w.viewport.regions_box.isVisibleTo(w) and w.legend.regions is None
+
+
+def test_qa_app_command_with_a_plan_inspects_by_it(qtbot, monkeypatch, tmp_path):
+    """``qa-app NOMINAL MEASURED --plan PLAN.toml``: the plan's verdict, as ``qa-inspect``'s."""
+    w = run_qa_app(qtbot, monkeypatch, tmp_path, [os.path.join(BRACKET, "nominal.xyz"),
+                                                  os.path.join(BRACKET, "measured.csv"),
+                                                  "--plan", os.path.join(BRACKET, "plan.toml")])
+    assert w.banner.verdict == "REJECT" and w.session.run.settings.plan is not None
+    assert not w.session.run.settings.zone_in_verdict
+    assert w.characteristics.model_.rowCount() == 5

@@ -1,5 +1,6 @@
-"""``qa-app [NOMINAL [MEASURED]] [--tol T]``: open the main window; with both files given, load
-them and inspect at once."""
+"""``qa-app [NOMINAL [MEASURED]] [--tol T] [--plan PLAN.toml]``: open the main window; with both
+files given, load them (and the plan) and inspect at once. As with ``qa-inspect inspect``, a plan
+without ``--tol`` is the requirement alone; ``--tol`` with a plan adds its zone over all points."""
 
 from __future__ import annotations
 
@@ -29,6 +30,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("nominal", nargs="?", help="the nominal (points, mesh, grid or DXF template)")
     p.add_argument("measured", nargs="?", help="the measured points")
     p.add_argument("--tol", type=float, help="symmetric tolerance ±T mm to start with")
+    p.add_argument("--plan", metavar="PLAN.toml", help="inspection plan: regions, datums, "
+                   "alignment and characteristics (the verdict is theirs)")
     args = p.parse_args(argv)
 
     from PySide6.QtWidgets import QApplication
@@ -46,6 +49,15 @@ def main(argv: list[str] | None = None) -> int:
     if files:
         win.controller.open_files(files)
     win.show()
-    if win.session.can_inspect:
-        win.inspect()
+
+    def inspect():
+        if args.plan and args.tol is not None and args.tol > 0:
+            win.tolerance.set_zone(-args.tol, args.tol)  # the user's zone joins the plan's
+        if win.session.can_inspect:
+            win.inspect()
+
+    if args.plan:
+        win.controller.open_plan(args.plan, on_done=inspect)  # read in the worker
+    else:
+        inspect()
     return app.exec()

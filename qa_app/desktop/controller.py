@@ -14,6 +14,7 @@ import json
 import os
 import threading
 from collections.abc import Callable
+from dataclasses import replace
 
 from engine.errors import Cancelled, InputError, SettingsError
 from engine.settings import InspectionSettings
@@ -22,6 +23,10 @@ from .model import Session
 
 SESSION_FORMAT = "qa-inspect session"
 SESSION_SUFFIX = ".qasession"
+INPUTS = ("nominal", "measured", "plan")
+"""The input files of a session, by role (as the run's InputRecords name them)."""
+OPTIONS = ("layers", "units", "scale", "fit", "decision_rule")
+"""The settings besides the zone and the plan, passed on to the run as they are."""
 
 
 class Controller:
@@ -74,29 +79,72 @@ class Controller:
         self.session.set_measured(os.path.abspath(path))
         self.session.tell("info", f"Measured points: {os.path.basename(path)}")
 
+    def open_plan(self, path: str, on_done: Callable[[], None] | None = None) -> None:
+        """Open an inspection plan (TOML): read and checked in the worker; once it is, the
+        verdict is its characteristics' and the zone its own (statistics only), as on the
+        command line without ``--tol``, and ``on_done`` is called. A plan that cannot be read
+        is one error and changes nothing."""
+        from engine.io.formats import PLAN_SUFFIXES
+
+        if self._refuse_while_busy() or not self._check_file(path, PLAN_SUFFIXES):
+            return
+        path = os.path.abspath(path)
+        s = self.session
+
+        def job():
+            from engine.pipeline import inspection_settings
+
+            return inspection_settings(None, path)
+
+        def done(planned):
+            s.set_plan(path)
+            s.set_settings(tol_lower=planned.tol_lower, tol_upper=planned.tol_upper,
+                           zone_in_verdict=False)
+            s.tell("info", f"Plan: {os.path.basename(path)}; the verdict is its "
+                           f"characteristics' (zone {planned.tol_lower:+.4g} … "
+                           f"{planned.tol_upper:+.4g} mm for the statistics only)")
+            if on_done:
+                on_done()
+
+        self._start(job, done, lambda: None)
+
+    def clear_plan(self) -> None:
+        """Inspect without a plan again: the zone over all points is the verdict."""
+        if self._refuse_while_busy() or self.session.plan_path is None:
+            return
+        self.session.set_plan(None)
+        self.session.set_settings(zone_in_verdict=True)
+        self.session.tell("info", "No plan: the zone over all points is the verdict")
+
     def open_files(self, paths: list[str]) -> None:
         """Dropped or command-line files: a template or the first file is the nominal when none
-        is set yet, the next one the measured points; a session file opens the session."""
+        is set yet, the next one the measured points; a session file opens the session, a plan
+        (.toml) the plan."""
         from engine.io import is_template
+        from engine.io.formats import PLAN_SUFFIXES
 
         for p in paths:
             if p.endswith(SESSION_SUFFIX):
                 self.open_session(p)
+            elif os.path.splitext(p)[1].lower() in PLAN_SUFFIXES:
+                self.open_plan(p)
             elif self.session.nominal_path is None or is_template(p):
                 self.open_nominal(p)
             else:
                 self.open_measured(p)
 
-    def _check_file(self, path: str) -> bool:
+    def _check_file(self, path: str, suffixes: tuple[str, ...] | None = None) -> bool:
+        """suffixes : the file types accepted (default: nominals and measured points)."""
         from engine.io.formats import ALL_SUFFIXES, TEMPLATE_SUFFIXES
 
+        suffixes = suffixes or ALL_SUFFIXES + TEMPLATE_SUFFIXES
         if not os.path.isfile(path):
             self.session.tell("error", f"{path}: no such file")
             return False
         suffix = os.path.splitext(path)[1].lower()
-        if suffix not in ALL_SUFFIXES + TEMPLATE_SUFFIXES:
+        if suffix not in suffixes:
             self.session.tell("error", f"{path}: unsupported file type '{suffix or '(none)'}'; "
-                                       f"supported: {' '.join(ALL_SUFFIXES + TEMPLATE_SUFFIXES)}")
+                                       f"supported: {' '.join(suffixes)}")
             return False
         return True
 
@@ -113,20 +161,26 @@ class Controller:
 
     # ------------------------------------------------------------------ inspection
     def inspect(self) -> None:
-        """Run the inspection of the session's files with its settings (in the worker)."""
+        """Run the inspection of the session's files with its settings (in the worker). With a
+        plan, the run's settings are made as the command line makes them
+        (engine.pipeline.inspection_settings): the zone joins the verdict when it is the
+        user's, and is the plan's (statistics only) when it is left to the plan."""
         s = self.session
         if not s.can_inspect or self.busy:
             return
         st = s.settings
+        plans_zone, plan = s.plans_zone, s.plan_path
         nominal, measured = s.nominal_path, s.measured_path
         s.set_run(None)
         s.set_running(True)
 
         def job():
             # Imported here, in the worker: the engine's first import holds the interpreter.
-            from engine.pipeline import run_files
+            from engine.pipeline import inspection_settings, run_files
 
-            run = run_files(nominal, measured, st, progress=self._progress)
+            settings = inspection_settings(None if plans_zone else st.tolerance, plan,
+                                           **{k: getattr(st, k) for k in OPTIONS})
+            run = run_files(nominal, measured, settings, progress=self._progress)
             display = None
             if self._prepare is not None:
                 self._progress("preparing the views", 1.0)
@@ -265,7 +319,7 @@ class Controller:
         from reports.outputs import OutputConflictError, check_outputs
 
         s = self.session
-        inputs = {"nominal": s.nominal_path, "measured": s.measured_path,
+        inputs = {"nominal": s.nominal_path, "measured": s.measured_path, "plan": s.plan_path,
                   "signing identity": identity or self.signing_identity}
         for rec in (s.run.inputs if s.run is not None else ()):
             inputs.setdefault(f"inspected {rec.role}", rec.path)  # the run's, should they differ
@@ -326,8 +380,8 @@ class Controller:
                "inputs": [{"role": role, "path": p,
                            "relative_path": _relative(p, path) if p else None,
                            "sha256": sha256_of(p) if p else None}
-                          for role, p in (("nominal", s.nominal_path),
-                                          ("measured", s.measured_path))],
+                          for role, p in zip(INPUTS, (s.nominal_path, s.measured_path,
+                                                      s.plan_path))],
                "settings": s.settings.to_json(),
                "results": None if s.run is None or s.stale else run_document(s.run)}
 
@@ -360,7 +414,7 @@ class Controller:
                    f"{path}: not a readable session file ({type(e).__name__}: {e})")
             return
         changed = []
-        for role in ("nominal", "measured"):
+        for role in INPUTS:
             rec = inputs.get(role) or {}
             # A session moved together with its files (a sample, a copied job folder) finds
             # them beside it.
@@ -375,10 +429,9 @@ class Controller:
             elif p and sha256_of(p) != rec.get("sha256"):
                 changed.append(f"{role} file {p} changed since the session was saved")
         s.set_run(None)  # another session is another job: nothing of the last one stays
-        s.settings = settings
+        s.settings = replace(settings, plan=None)  # the plan is an input: plan_path
         s.settings_changed.emit()
-        s.set_nominal(inputs.get("nominal", {}).get("path"))
-        s.set_measured(inputs.get("measured", {}).get("path"))
+        s.set_inputs(*(inputs.get(role, {}).get("path") for role in INPUTS))
         if changed:
             s.tell("warning", "Session reopened, but " + "; ".join(changed) +
                    ". Inspect again to get results for the files as they are now.")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from engine.settings import InspectionSettings
 
@@ -45,7 +45,14 @@ class Session:
 
     Events (arguments): ``inputs_changed()``, ``settings_changed()``, ``step_changed(step)``,
     ``progress(stage, fraction)``, ``result_changed(run or None)``, ``message(level, text)``
-    with level "info", "warning" or "error", ``selection_changed(index or None)``.
+    with level "info", "warning" or "error", ``selection_changed(index or None)``,
+    ``characteristic_changed(row or None)`` (a row of :func:`characteristic_rows`; its points
+    are ``highlighted``).
+
+    The inputs are the nominal, the measured points and, optionally, an inspection plan
+    (``plan_path``). With a plan, ``settings.zone_in_verdict`` says whether the zone is the
+    user's (one more characteristic over all points) or the plan's (statistics only): the
+    controller makes the run's settings as the command line does (``--tol`` given or not).
 
     A result is kept when the files or settings change, but it is then *stale* (step
     ``Step.STALE``, ``stale_reasons`` says why): what an inspection would now see is not what it
@@ -57,6 +64,7 @@ class Session:
     def __init__(self):
         self.nominal_path: str | None = None
         self.measured_path: str | None = None
+        self.plan_path: str | None = None
         self.settings = InspectionSettings(-0.1, 0.1)
         self.run = None  # engine.pipeline.Run of the last inspection, or None
         self.display = None
@@ -64,6 +72,8 @@ class Session:
         ``prepare``), or None."""
         self.running = False
         self.selected: int | None = None
+        self.characteristic: int | None = None
+        """The row of :func:`characteristic_rows` selected, or None."""
         self.changed_inputs: tuple[str, ...] = ()
         """Why the run's input files differ from the files on disk now (the controller's SHA-256
         comparison); emptied with each new run."""
@@ -74,6 +84,7 @@ class Session:
         self.result_changed = Event()
         self.message = Event()
         self.selection_changed = Event()
+        self.characteristic_changed = Event()
 
     # ------------------------------------------------------------------ state
     @property
@@ -97,13 +108,12 @@ class Session:
             return []
         out = []
         ran = {rec.role: rec.path for rec in run.inputs}
-        for role, path in (("nominal", self.nominal_path), ("measured", self.measured_path)):
+        for role, path in (("nominal", self.nominal_path), ("measured", self.measured_path),
+                           ("plan", self.plan_path)):
             if path != ran.get(role):
                 out.append(f"another {role} file is open" if path else f"no {role} file is open")
         was, now = run.settings, self.settings
-        if (was.tol_lower, was.tol_upper) != (now.tol_lower, now.tol_upper):
-            out.append(f"zone changed from {was.tol_lower:+.4g} … {was.tol_upper:+.4g} mm to "
-                       f"{now.tol_lower:+.4g} … {now.tol_upper:+.4g} mm")
+        out += self._zone_changes(was, now)
         if was.fit != now.fit:
             out.append(f"fit changed from {was.fit} to {now.fit}")
         if was.decision_rule != now.decision_rule:
@@ -114,6 +124,25 @@ class Session:
         if (was.layers, was.units) != (now.layers, now.units):
             out.append("template layers or units changed")
         return out + list(self.changed_inputs)
+
+    def _zone_changes(self, was, now) -> list[str]:
+        """How the zone differs from the run's: the plan's zone (statistics only) is the plan's
+        to change, and changing it is changing the plan."""
+        plans_zone = self.plan_path is not None and not now.zone_in_verdict
+        if plans_zone != (not was.zone_in_verdict):
+            mine = f"{now.tol_lower:+.4g} … {now.tol_upper:+.4g} mm"
+            return [f"zone changed from the plan's to {mine}" if not plans_zone else
+                    f"zone changed from {was.tol_lower:+.4g} … {was.tol_upper:+.4g} mm to the "
+                    "plan's"]
+        if not plans_zone and (was.tol_lower, was.tol_upper) != (now.tol_lower, now.tol_upper):
+            return [f"zone changed from {was.tol_lower:+.4g} … {was.tol_upper:+.4g} mm to "
+                    f"{now.tol_lower:+.4g} … {now.tol_upper:+.4g} mm"]
+        return []
+
+    @property
+    def plans_zone(self) -> bool:
+        """True when a plan is open and the zone is left to it (no zone of the user's)."""
+        return self.plan_path is not None and not self.settings.zone_in_verdict
 
     @property
     def stale(self) -> bool:
@@ -134,6 +163,15 @@ class Session:
 
     def set_measured(self, path: str | None) -> None:
         self.measured_path = path
+        self._inputs_changed()
+
+    def set_plan(self, path: str | None) -> None:
+        self.plan_path = path
+        self._inputs_changed()
+
+    def set_inputs(self, nominal: str | None, measured: str | None, plan: str | None) -> None:
+        """All three inputs at once (a session reopened): the views see them together."""
+        self.nominal_path, self.measured_path, self.plan_path = nominal, measured, plan
         self._inputs_changed()
 
     def _inputs_changed(self) -> None:
@@ -166,6 +204,7 @@ class Session:
         self.run = run
         self.display = display
         self.selected = None
+        self.characteristic = None
         self.changed_inputs = ()
         self.result_changed.emit(run)
         self.step_changed.emit(self.step)
@@ -175,5 +214,64 @@ class Session:
             self.selected = index
             self.selection_changed.emit(index)
 
+    def select_characteristic(self, row: int | None) -> None:
+        """Select a row of the characteristics table; its points become ``highlighted``."""
+        if row != self.characteristic:
+            self.characteristic = row
+            self.characteristic_changed.emit(row)
+
+    @property
+    def highlighted(self):
+        """(k,) int: the measured points of the selected characteristic, or None."""
+        if self.characteristic is None or self.run is None:
+            return None
+        return self.run.result.plan.characteristics[self.characteristic].indices
+
     def tell(self, level: str, text: str) -> None:
         self.message.emit(level, text)
+
+
+@dataclass(frozen=True)
+class CharacteristicRow:
+    """One row of the characteristics table, as the inspector reads it on a first-article report.
+
+    indices : (k,) int, the measured points the characteristic used; verdict : ACCEPT, REJECT or
+    INCONCLUSIVE; reason : why, in words.
+    """
+
+    id: str
+    type: str
+    """profile, flatness, position or size."""
+    symbol: str
+    """The drawing's symbol (reports.messages.SYMBOL: "⌓" for a surface profile)."""
+    region: str
+    datums: str
+    """"A|B|C", or "—" for form only."""
+    requirement: str
+    """The zone as the drawing states it (reports.messages.limits_text)."""
+    value: str
+    """The measured value in the drawing's convention, mm, or "—" when it could not be
+    measured."""
+    points: int
+    verdict: str
+    reason: str
+    indices: object
+
+
+def characteristic_rows(run) -> list[CharacteristicRow]:
+    """The characteristics of ``run``'s plan, in the plan's order (the zone over all points first
+    when it is one of them); empty for a run without a plan."""
+    from reports.messages import SYMBOL, limits_text
+
+    planned = None if run is None else getattr(run.result, "plan", None)
+    if planned is None:
+        return []
+    rows = []
+    for r in planned.characteristics:
+        c = r.characteristic
+        rows.append(CharacteristicRow(
+            c.id, c.type, SYMBOL.get(c.type, ""), c.region,
+            "|".join(c.datums) if c.datums else "—", limits_text(c),
+            "—" if r.value is None else f"{r.value:.4f} mm", int(r.indices.size), r.verdict,
+            r.reason, r.indices))
+    return rows

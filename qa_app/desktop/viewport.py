@@ -1,17 +1,20 @@
 """The 3D viewport (pyvistaqt): the nominal surface with the registered points coloured by
-deviation on the tolerance-banded scale, standard views, point picking and the selected point's
-marker. Where OpenGL cannot show a window (Qt's offscreen platform), a notice takes its place and
-the rest of the window works on.
+deviation on the tolerance-banded scale (or, after a plan's run, by the plan region each point
+belongs to), standard views, point picking, the selected point's marker, and a characteristic's
+points shown in their colours with the others faded. Where OpenGL cannot show a window (Qt's
+offscreen platform), a notice takes its place and the rest of the window works on.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from reports import figures
+from reports.messages import VERDICT_WORD
 
-from .model import Session
+from .model import Session, characteristic_rows
 
 STANDARD_VIEWS = ("Face-on", "Iso", "Top", "Front", "Side")
 
@@ -24,12 +27,19 @@ def can_render_3d() -> bool:
 
 class Viewport3D(QWidget):
     READOUT_HINT = "Click a point to see its label and deviation"
+    FADED_RGB = (0.70, 0.71, 0.73)
+    """The points outside the selected characteristic."""
+
+    colouring_changed = Signal(object)
+    """The regions' legend (reports.figures.region_colours) when the points show their plan
+    regions, None when they show their deviations."""
 
     def __init__(self, session: Session, enable_3d: bool | None = None):
         super().__init__()
         self.session = session
         self.plotter = None
         self._shown = None  # (n, 3) displayed point positions
+        self._colours = None  # the prepared display: "rgb", "regions"
         self._home = None  # (view vector, view up) of the face-on view
         self._tree = None
         lay = QVBoxLayout(self)
@@ -42,6 +52,13 @@ class Viewport3D(QWidget):
             b.clicked.connect(lambda _=False, n=name: self.standard_view(n))
             bar.addWidget(b)
             self.view_buttons[name] = b
+        self.regions_box = QCheckBox("Regions")
+        self.regions_box.setToolTip("Colour the points by the plan region they belong to "
+                                    "(each measured point joins the region of the nominal "
+                                    "surface it lies on)")
+        self.regions_box.setVisible(False)
+        self.regions_box.toggled.connect(self._colouring)
+        bar.addWidget(self.regions_box)
         self.readout = QLabel(self.READOUT_HINT)
         # Wrapped, so that a long label does not set the window's minimum width.
         self.readout.setWordWrap(True)
@@ -65,6 +82,7 @@ class Viewport3D(QWidget):
             lay.addWidget(notice, 1)
         session.result_changed.connect(self.show_run)
         session.selection_changed.connect(self._selected)
+        session.characteristic_changed.connect(self._characteristic)
 
     def close_plotter(self) -> None:
         if self.plotter is not None:
@@ -80,7 +98,9 @@ class Viewport3D(QWidget):
 
         res = run.result
         d = res.deviations.signed
-        out = {"rgb": figures.band_rgb(d, res.tolerance), "surface": None, "contours": None}
+        planned = getattr(res, "plan", None)
+        out = {"rgb": figures.band_rgb(d, res.tolerance), "surface": None, "contours": None,
+               "regions": None if planned is None else figures.region_colours(planned.regions)}
         if run.template is not None:
             out["shown"] = res.registered.copy()
             out["contours"] = [np.column_stack([p, np.zeros(len(p))])
@@ -99,7 +119,7 @@ class Viewport3D(QWidget):
         return out
 
     def show_run(self, run) -> None:
-        self._shown = self._tree = None
+        self._shown = self._tree = self._colours = None
         self.readout.setText(self.READOUT_HINT)  # the picked point was the last run's
         if self.plotter is not None:
             # Remove our actors by name: Plotter.clear() would also remove the lights.
@@ -107,17 +127,21 @@ class Viewport3D(QWidget):
                 if name.startswith("qa-"):
                     self.plotter.remove_actor(name, render=False)
         if run is None:
+            self.regions_box.setVisible(False)
+            self.colouring_changed.emit(None)
             if self.plotter is not None:
                 self._redraw()
             return
         disp = self.session.display or self.prepare(run)
         self._shown, self._tree, self._home = disp["shown"], disp["tree"], disp["home"]
+        self._colours = disp
+        self.regions_box.setVisible(disp["regions"] is not None)
+        self.colouring_changed.emit(self.regions_legend())
         if self.plotter is None:
             return
         import pyvista as pv
 
         pl = self.plotter
-        res = run.result
         if disp["contours"] is not None:
             for k, pts in enumerate(disp["contours"]):
                 pl.add_mesh(pv.lines_from_points(pts), color=(0.25, 0.25, 0.28), line_width=2,
@@ -130,16 +154,64 @@ class Viewport3D(QWidget):
             step = max(1, run.nominal.points.shape[0] // 500_000)
             pl.add_points(run.nominal.points[::step], color=(0.72, 0.73, 0.75), point_size=2,
                           pickable=False, name="qa-nominal", render=False)
+        self._draw_points()
+        self.home_view()
+
+    def regions_legend(self):
+        """The regions' legend while the points show their regions, else None."""
+        regions = None if self._colours is None else self._colours["regions"]
+        return regions[0] if regions is not None and self.regions_box.isChecked() else None
+
+    def _colouring(self) -> None:
+        self.colouring_changed.emit(self.regions_legend())
+        if self._draw_points():
+            self._redraw()
+
+    def _draw_points(self) -> bool:
+        """(Re)draw the measured points: coloured by deviation or region; with a characteristic
+        selected, its points larger and the others faded. False when there is nothing to draw."""
+        run = self.session.run
+        if self.plotter is None or run is None or self._shown is None:
+            return False
+        pl = self.plotter
+        for name in ("qa-in", "qa-out", "qa-faded"):
+            pl.remove_actor(name, render=False)
+        res = run.result
         n = res.deviations.signed.size
-        rgb = disp["rgb"]
+        legend = self.regions_legend()
+        rgb = self._colours["rgb"] if legend is None else self._colours["regions"][1]
         out = ~res.in_tolerance
         size = float(np.clip(300.0 / np.sqrt(max(n, 1)), 3, 10))
-        for name, mask, px in (("qa-in", ~out, size), ("qa-out", out, 1.7 * size)):
+        faded = np.zeros(n, dtype=bool)
+        chosen = self.session.highlighted
+        if chosen is not None:
+            faded[:] = True
+            faded[chosen] = False
+            size *= 1.3
+        for name, mask, px in (("qa-in", ~out & ~faded, size), ("qa-out", out & ~faded,
+                                                                1.7 * size)):
             if mask.any():
                 pl.add_points(self._shown[mask], scalars=rgb[mask], rgb=True,
                               render_points_as_spheres=True, point_size=px, name=name,
                               render=False)
-        self.home_view()
+        if faded.any():
+            pl.add_points(self._shown[faded], color=self.FADED_RGB, point_size=0.5 * size,
+                          render_points_as_spheres=True, name="qa-faded", render=False)
+        return True
+
+    def _characteristic(self, row) -> None:
+        """A characteristic selected (row of model.characteristic_rows) or none: its points
+        stand out, and the readout says what it is."""
+        if row is None:
+            self.readout.setText(self.READOUT_HINT)
+        else:
+            r = characteristic_rows(self.session.run)[row]
+            ref = f" |{r.datums}" if r.datums != "—" else ""
+            self.readout.setText(f"<b>[{r.id}] {r.type} of {r.region}{ref}</b>: {r.value}, "
+                                 f"{r.requirement}, {r.points} points: "
+                                 f"<b>{VERDICT_WORD[r.verdict]}</b>")
+        if self._draw_points():
+            self._redraw()
 
     def home_view(self) -> None:
         if self.plotter is None or self._home is None:

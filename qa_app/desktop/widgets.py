@@ -1,15 +1,26 @@
 """The window's 2D widgets: message bar, verdict banner, colour legend, histogram, 2D contour view,
-point table, tolerance form. Each takes the session and subscribes to its events; colours and
-bands come from reports.figures, so the window and the certificate show the same scale.
+point table, characteristics table, tolerance form. Each takes the session and subscribes to its
+events; colours and bands come from reports.figures, so the window and the certificate show the
+same scale.
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
-from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPointF, QRectF, Qt, Signal
-from PySide6.QtGui import QColor, QPainter, QPainterPath, QPen
+from PySide6.QtCore import (
+    QAbstractTableModel,
+    QItemSelection,
+    QItemSelectionModel,
+    QModelIndex,
+    QPointF,
+    QRectF,
+    Qt,
+    Signal,
+)
+from PySide6.QtGui import QColor, QPainter, QPainterPath, QPen, QPixmap
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
@@ -30,9 +41,9 @@ from PySide6.QtWidgets import (
 
 from engine.io import formats
 from reports import figures
-from reports.messages import VERDICT_RGB, VERDICT_WORD
+from reports.messages import VERDICT_RGB, VERDICT_WORD, alignment_text
 
-from .model import Session
+from .model import Session, characteristic_rows
 
 
 def qcolor(rgb) -> QColor:
@@ -124,9 +135,14 @@ class VerdictBanner(QFrame):
         n_excluded = int(res.outlier.sum())
         excluded = (f" · {n_excluded} excluded from alignment (gross outlier"
                     f"{'s' if n_excluded > 1 else ''})" if n_excluded else "")
+        planned = getattr(res, "plan", None)
         facts = (
+            plan_line(planned, run) +
             f"{st.count} points · {st.n_out} out of tolerance · zone {tol.lower:+.3f} … "
-            f"{tol.upper:+.3f} mm{excluded}<br>min {st.min:+.4f} · "
+            f"{tol.upper:+.3f} mm"
+            + (" (the plan's widest profile: statistics only)" if planned is not None
+               and not planned.zone_in_verdict else "")
+            + f"{excluded}<br>min {st.min:+.4f} · "
             f"max {st.max:+.4f} · mean {st.mean:+.4f} · std {st.std:.4f} · rms {st.rms:.4f} · "
             f"max |d| {st.max_abs:.4f} mm<br>fit {res.fit} · decision rule {res.decision_rule} · "
             f"registration rms {res.registration.rms:.4f} mm"
@@ -164,6 +180,22 @@ class VerdictBanner(QFrame):
         self.detail.setText(f"{'; '.join(reasons_shown)}<br>{facts}")
 
 
+def plan_line(planned, run) -> str:
+    """The banner's line on ``run``'s plan (with its line break), or "" without a plan."""
+    if planned is None:
+        return ""
+    path = run.settings.plan
+    n = len(planned.characteristics)
+    counts = [sum(r.verdict == v for r in planned.characteristics)
+              for v in ("REJECT", "INCONCLUSIVE")]
+    return (f"plan {os.path.basename(path or '')}: {n} characteristic{'s' if n != 1 else ''}"
+            f" · {counts[0]} out of tolerance"
+            + (f" · {counts[1]} undecided" if counts[1] else "")
+            + f" · alignment {planned.method}"
+            + ("" if planned.alignment is None else
+               " " + "|".join(d.label for d in planned.alignment.datums)) + "<br>")
+
+
 def pose_trust(res) -> tuple[str, tuple[str, ...]]:
     """(note, statements): how far the verdict depends on the pose, compactly, for the banner,
     and engine.trust's plain-word statements behind it.
@@ -190,13 +222,35 @@ class Legend(QWidget):
     def __init__(self, session: Session):
         super().__init__()
         self.session = session
+        self.regions = None
+        """The regions' legend (reports.figures.region_colours) while the view shows regions,
+        else None: the deviation scale."""
         self.setMinimumWidth(170)
         self.setMinimumHeight(200)
         session.result_changed.connect(lambda run: self.update())
 
+    def show_regions(self, legend) -> None:
+        self.regions = legend
+        self.update()
+
+    def _paint_regions(self) -> None:
+        p = QPainter(self)
+        p.drawText(4, 14, "Plan region")
+        h = min(26.0, (self.height() - 26) / max(len(self.regions), 1))
+        for k, (name, rgb, count) in enumerate(self.regions):
+            y = 22 + k * h
+            p.fillRect(QRectF(4, y + 2, 18, h - 4), qcolor(rgb))
+            p.drawText(QRectF(28, y, self.width() - 80, h), Qt.AlignVCenter, name)
+            p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
+                       str(count))
+        p.end()
+
     def paintEvent(self, event):
         run = self.session.run
         if run is None:
+            return
+        if self.regions is not None:
+            self._paint_regions()
             return
         tol = run.result.tolerance
         table = figures.bands(tol)
@@ -468,6 +522,36 @@ class PointTable(QTableView):
         session.selection_changed.connect(self._select)
         session.result_changed.connect(lambda run: run is not None and self.sortByColumn(
             5, Qt.AscendingOrder))
+        session.characteristic_changed.connect(lambda row: self.select_points(
+            session.highlighted))
+        # Sorting moves the rows: the characteristic's points are selected again where they are.
+        self.model_.layoutChanged.connect(lambda *_: self.session.highlighted is not None
+                                          and self.select_points(self.session.highlighted))
+
+    def select_points(self, indices) -> None:
+        """Select the rows of the points ``indices`` ((k,) int; None: none), as contiguous
+        ranges (a characteristic over all points selects every row at once)."""
+        sm = self.selectionModel()
+        if indices is None or not len(indices):
+            sm.clearSelection()
+            return
+        order = self.model_.order
+        rows = np.empty_like(order)
+        rows[order] = np.arange(order.size)
+        rows = np.sort(rows[np.asarray(indices)])
+        breaks = np.flatnonzero(np.diff(rows) != 1)
+        starts = np.r_[rows[0], rows[breaks + 1]]
+        ends = np.r_[rows[breaks], rows[-1]]
+        last = self.model_.columnCount() - 1
+        selection = QItemSelection()
+        for a, b in zip(starts, ends):
+            selection.select(self.model_.index(int(a), 0), self.model_.index(int(b), last))
+        sm.select(selection, QItemSelectionModel.ClearAndSelect | QItemSelectionModel.Rows)
+        self.scrollTo(self.model_.index(int(rows[0]), 0))
+
+    def selected_points(self) -> list[int]:
+        """The points of the selected rows, in row order."""
+        return [self.model_.point(i.row()) for i in self.selectionModel().selectedRows()]
 
     def _row_changed(self, current, previous):
         if current.isValid():
@@ -482,8 +566,134 @@ class PointTable(QTableView):
         self.scrollTo(self.model_.index(row, 0))
 
 
+class CharacteristicTableModel(QAbstractTableModel):
+    """The plan's characteristics as a first-article report lists them (model.characteristic_rows),
+    the verdict coloured; a row's tooltip says why."""
+
+    COLUMNS = ("ID", "Type", "Region", "Datums", "Requirement", "Value", "Points", "Verdict")
+    FIELDS = ("id", "type", "region", "datums", "requirement", "value", "points", "verdict")
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.rows = []
+        session.result_changed.connect(self._reset)
+
+    def _reset(self, run) -> None:
+        self.beginResetModel()
+        self.rows = characteristic_rows(run)
+        self.endResetModel()
+
+    def rowCount(self, parent=QModelIndex()):
+        return 0 if parent.isValid() else len(self.rows)
+
+    def columnCount(self, parent=QModelIndex()):
+        return 0 if parent.isValid() else len(self.COLUMNS)
+
+    def headerData(self, section, orientation, role=Qt.DisplayRole):
+        if orientation == Qt.Horizontal and role == Qt.DisplayRole:
+            return self.COLUMNS[section]
+        return None
+
+    def data(self, index, role=Qt.DisplayRole):
+        if not index.isValid():
+            return None
+        r = self.rows[index.row()]
+        c = index.column()
+        if role == Qt.DisplayRole:
+            value = getattr(r, self.FIELDS[c])
+            return VERDICT_WORD[value] if c == 7 else str(value)
+        if role == Qt.ToolTipRole:
+            return f"{r.symbol} {r.type}: {r.verdict}: {r.reason}"
+        if role == Qt.DecorationRole and c == 1:
+            return symbol_icon(r.type)
+        if role == Qt.TextAlignmentRole and c in (5, 6):
+            return int(Qt.AlignRight | Qt.AlignVCenter)
+        if c == 7 and role == Qt.BackgroundRole:
+            return qcolor(VERDICT_RGB[r.verdict])
+        if c == 7 and role == Qt.ForegroundRole:
+            return QColor("white")
+        return None
+
+
+def symbol_icon(kind: str, size: int = 16) -> QPixmap:
+    """The drawing's symbol of a characteristic (ASME Y14.5 / ISO 1101), drawn: fonts lack some
+    of them (⌖). profile: a closed half circle; flatness: a parallelogram; position: a circle
+    with a cross; size: a circle with a slash (⌀)."""
+    pm = QPixmap(size, size)
+    pm.fill(Qt.transparent)
+    p = QPainter(pm)
+    p.setRenderHint(QPainter.Antialiasing)
+    p.setPen(QPen(QColor("#222"), 1.3))
+    m, w = 2.0, size - 4.0
+    if kind == "profile":
+        path = QPainterPath(QPointF(m, m + 0.75 * w))
+        path.arcTo(QRectF(m, m + 0.25 * w, w, w), 180, -180)
+        path.closeSubpath()
+        p.drawPath(path)
+    elif kind == "flatness":
+        p.drawPolygon([QPointF(m + 0.3 * w, m + 0.25 * w), QPointF(m + w, m + 0.25 * w),
+                       QPointF(m + 0.7 * w, m + 0.75 * w), QPointF(m, m + 0.75 * w)])
+    elif kind in ("position", "size"):
+        r = 0.3 * w if kind == "position" else 0.4 * w
+        c = QPointF(m + 0.5 * w, m + 0.5 * w)
+        p.drawEllipse(c, r, r)
+        if kind == "position":
+            p.drawLine(QPointF(m, c.y()), QPointF(m + w, c.y()))
+            p.drawLine(QPointF(c.x(), m), QPointF(c.x(), m + w))
+        else:
+            p.drawLine(QPointF(m + 0.15 * w, m + 0.85 * w), QPointF(m + 0.85 * w, m + 0.15 * w))
+    p.end()
+    return pm
+
+
+class CharacteristicTable(QWidget):
+    """The plan's alignment in words above its characteristics; selecting a characteristic
+    selects its points in the views (the session's ``highlighted``)."""
+
+    def __init__(self, session: Session):
+        super().__init__()
+        self.session = session
+        self.alignment = QLabel()
+        self.alignment.setWordWrap(True)
+        self.view = QTableView()
+        self.model_ = CharacteristicTableModel(session)
+        self.view.setModel(self.model_)
+        self.view.setSelectionBehavior(QAbstractItemView.SelectRows)
+        self.view.setSelectionMode(QAbstractItemView.SingleSelection)
+        self.view.verticalHeader().setVisible(False)
+        # Rows as tall as their text: a plan's five characteristics fit a 1366×768 screen.
+        self.view.verticalHeader().setSectionResizeMode(QHeaderView.ResizeToContents)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.alignment)
+        lay.addWidget(self.view, 1)
+        self.view.selectionModel().currentRowChanged.connect(
+            lambda current, previous: session.select_characteristic(
+                current.row() if current.isValid() else None))
+        session.characteristic_changed.connect(self._select)
+        session.result_changed.connect(self._result)
+        self._result(session.run)
+
+    def _result(self, run) -> None:
+        planned = None if run is None else getattr(run.result, "plan", None)
+        text = None if planned is None else alignment_text(planned)
+        self.alignment.setText(f"Alignment: {text}" if text else
+                               "Alignment: best fit (the registration's pose)" if planned
+                               else "Open an inspection plan (Plan…) to judge its "
+                                    "characteristics")
+        self.view.resizeColumnsToContents()
+
+    def _select(self, row) -> None:
+        if row is None:
+            self.view.selectionModel().clearCurrentIndex()
+            self.view.clearSelection()
+        elif self.view.currentIndex().row() != row:
+            self.view.selectRow(row)
+
+
 class ToleranceForm(QWidget):
-    """Symmetric or asymmetric zone, per-part presets, and the Inspect / Cancel buttons.
+    """Symmetric or asymmetric zone (or, with a plan, the plan's), per-part presets, and the
+    Inspect / Cancel buttons.
 
     Every edit goes to the session's settings at once, so a result computed with other settings
     is marked out of date the moment they change (not only when Inspect is pressed)."""
@@ -500,7 +710,7 @@ class ToleranceForm(QWidget):
         self._make_fields()
         save = self._make_buttons()
         self._lay_out(save)
-        for w in (self.sym, self.asym):
+        for w in (self.sym, self.asym, self.by_plan):
             w.toggled.connect(self._mode)
         self.preset.activated.connect(self._apply_preset)
         for combo in (self.fit, self.rule, self.preset):
@@ -512,17 +722,24 @@ class ToleranceForm(QWidget):
         self.load()
         for spin in (self.tol, self.lower, self.upper, self.chord):
             spin.valueChanged.connect(self.push)
-        self.sym.toggled.connect(self.push)
+        for w in (self.sym, self.by_plan):
+            w.toggled.connect(self.push)
         for combo in (self.fit, self.rule):
             combo.currentIndexChanged.connect(self.push)
-        # The airfoil chord applies to .dat nominals only (see settings_fields).
-        session.inputs_changed.connect(self.push)
+        # The plan's zone is a choice with a plan only; the airfoil chord applies to .dat
+        # nominals only (see settings_fields).
+        session.inputs_changed.connect(self._inputs)
 
     def _make_fields(self) -> None:
         """The settings controls: the zone (symmetric ±T, or lower and upper limits, mm), the
         fit, the decision rule and the airfoil chord (mm; 0 shows as "airfoil .dat only")."""
         self.sym = QRadioButton("Symmetric ±")
         self.asym = QRadioButton("Asymmetric")
+        self.by_plan = QRadioButton("The plan's (statistics only)")
+        self.by_plan.setToolTip("The plan's characteristics are the verdict; the zone of the "
+                                "per-point statistics is its widest profile zone. A zone of "
+                                "your own joins the verdict as a profile over all points.")
+        self.by_plan.setVisible(False)
         self.sym.setChecked(True)
         self.tol = self._spin(0.1, 0.0001)
         self.lower = self._spin(-0.1, -1e6)
@@ -572,6 +789,7 @@ class ToleranceForm(QWidget):
         # One limit a row: side by side they would set the panel's width.
         form.addRow("lower", self.lower)
         form.addRow("upper", self.upper)
+        form.addRow("", self.by_plan)
         row3 = QHBoxLayout()
         row3.addWidget(self.preset, 1)
         row3.addWidget(save)
@@ -601,7 +819,20 @@ class ToleranceForm(QWidget):
         self.lower.setEnabled(self.asym.isChecked())
         self.upper.setEnabled(self.asym.isChecked())
 
+    def _inputs(self) -> None:
+        """A plan opened or closed: the plan's zone is offered with a plan only; the form shows
+        the session's settings again, then sends the chord's applicability."""
+        self.by_plan.setVisible(self.session.plan_path is not None)
+        self.load()
+        self.push()
+
+    def plans_zone(self) -> bool:
+        return self.by_plan.isChecked() and self.session.plan_path is not None
+
     def zone(self) -> tuple[float, float]:
+        """The zone, mm: the user's, or with the plan's chosen the session's (the plan's)."""
+        if self.plans_zone():
+            return self.session.settings.tol_lower, self.session.settings.tol_upper
         if self.sym.isChecked():
             return -self.tol.value(), self.tol.value()
         return self.lower.value(), self.upper.value()
@@ -622,6 +853,8 @@ class ToleranceForm(QWidget):
         self._loading = True
         try:
             self.set_zone(st.tol_lower, st.tol_upper)
+            if self.session.plans_zone:
+                self.by_plan.setChecked(True)
             self.fit.setCurrentIndex(max(0, self.fit.findData(st.fit)))
             self.rule.setCurrentIndex(max(0, self.rule.findData(st.decision_rule)))
             self.chord.setValue(st.scale or 0.0)
@@ -640,7 +873,8 @@ class ToleranceForm(QWidget):
         options = self.options()
         if formats.kind_of(self.session.nominal_path or "") != formats.AIRFOIL:
             options["scale"] = None  # the chord applies to airfoil ordinates only
-        return {"tol_lower": float(lo), "tol_upper": float(hi), **options}
+        return {"tol_lower": float(lo), "tol_upper": float(hi),
+                "zone_in_verdict": not self.plans_zone(), **options}
 
     def push(self, *_) -> None:
         """Send the form's values to the session's settings."""

@@ -1,5 +1,5 @@
-"""The main window: files, tolerance, inspect, review, export — in that order, with each action
-enabled only when it makes sense."""
+"""The main window: files (and an inspection plan), tolerance, inspect, review, export — in that
+order, with each action enabled only when it makes sense."""
 
 from __future__ import annotations
 
@@ -21,17 +21,19 @@ from PySide6.QtWidgets import (
     QScrollArea,
     QSplitter,
     QTabWidget,
+    QToolButton,
     QVBoxLayout,
     QWidget,
 )
 
-from engine.io.formats import ALL_SUFFIXES, MEASURED_SUFFIXES, TEMPLATE_SUFFIXES
+from engine.io.formats import ALL_SUFFIXES, MEASURED_SUFFIXES, PLAN_SUFFIXES, TEMPLATE_SUFFIXES
 
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
 from .model import Session, Step
 from .viewport import Viewport3D
 from .widgets import (
+    CharacteristicTable,
     ContourView,
     Histogram,
     Legend,
@@ -45,6 +47,7 @@ NOMINAL_FILTER = (f"Nominals ({' '.join('*' + s for s in ALL_SUFFIXES + TEMPLATE
                   "All files (*)")
 MEASURED_FILTER = (f"Measured points ({' '.join('*' + s for s in MEASURED_SUFFIXES)});;"
                    "All files (*)")
+PLAN_FILTER = f"Inspection plans ({' '.join('*' + s for s in PLAN_SUFFIXES)});;All files (*)"
 MAX_RECENT = 8
 DEFAULT_SIZE = (1400, 900)
 """The window's size on a screen big enough; it never exceeds the screen's available area."""
@@ -87,6 +90,8 @@ class MainWindow(QMainWindow):
         self.legend = Legend(s)
         self.histogram = Histogram(s)
         self.table = PointTable(s)
+        self.characteristics = CharacteristicTable(s)
+        self.viewport.colouring_changed.connect(self.legend.show_regions)
         self.tolerance = ToleranceForm(s, self._load_presets())
         self.tolerance.inspect_clicked.connect(self.inspect)
         self.tolerance.cancel_clicked.connect(self.controller.cancel)
@@ -115,20 +120,34 @@ class MainWindow(QMainWindow):
 
     # ------------------------------------------------------------------ layout
     def _files_box(self) -> QGroupBox:
-        """Step 1: the buttons that open the nominal and the measured points, each beside the
-        name of the file open (its full path in the tooltip)."""
+        """Step 1: the buttons that open the nominal, the measured points and (optionally) an
+        inspection plan, each beside the name of the file open (its full path in the tooltip);
+        the plan's ✕ clears it."""
         self.nominal_label = QLabel("—")
         self.measured_label = QLabel("—")
-        for lab in (self.nominal_label, self.measured_label):
+        self.plan_label = QLabel("— (optional)")
+        for lab in (self.nominal_label, self.measured_label, self.plan_label):
             lab.setWordWrap(True)
         open_nom = QPushButton("Open nominal…")
         open_mea = QPushButton("Open measured…")
+        self.plan_button = QPushButton("Plan…")
+        self.plan_button.setToolTip("Open an inspection plan (TOML): regions, datums, alignment "
+                                    "and the drawing's characteristics")
+        self.clear_plan_button = QToolButton(text="✕")
+        self.clear_plan_button.setToolTip("Clear the plan: judge the zone over all points")
+        self.clear_plan_button.setAutoRaise(True)
         open_nom.clicked.connect(self.open_nominal)
         open_mea.clicked.connect(self.open_measured)
+        self.plan_button.clicked.connect(self.open_plan)
+        self.clear_plan_button.clicked.connect(self.controller.clear_plan)
+        plan_row = QHBoxLayout()
+        plan_row.addWidget(self.plan_label, 1)
+        plan_row.addWidget(self.clear_plan_button)
         files = QGroupBox("1  Files")
         ff = QFormLayout(files)
         ff.addRow(open_nom, self.nominal_label)
         ff.addRow(open_mea, self.measured_label)
+        ff.addRow(self.plan_button, plan_row)
         return files
 
     def _tolerance_box(self) -> QGroupBox:
@@ -181,6 +200,7 @@ class MainWindow(QMainWindow):
         self.views.addTab(self.contour, "2D contour")
         self.bottom = QTabWidget()
         self.bottom.addTab(self.table, "Points")
+        self.bottom.addTab(self.characteristics, "Characteristics")
         self.bottom.addTab(self.histogram, "Histogram")
         right = QSplitter(Qt.Vertical)
         # The colour scale beside the colours it explains (and not below the steps, where a
@@ -206,6 +226,7 @@ class MainWindow(QMainWindow):
         s.step_changed.connect(self._step)
         s.progress.connect(self._progress)
         s.result_changed.connect(self._result)
+        s.characteristic_changed.connect(self._characteristic)
         s.message.connect(lambda level, text: self.statusBar().showMessage(text, 8000))
 
     # ------------------------------------------------------------------ actions
@@ -222,6 +243,10 @@ class MainWindow(QMainWindow):
                                     "Open the nominal: CAD points, mesh, grid or DXF template")
         self.act_open_measured = act("Open &measured…", self.open_measured, "Ctrl+M",
                                      "Open the measured points")
+        self.act_open_plan = act("Open &plan…", self.open_plan, "Ctrl+P",
+                                 "Open an inspection plan: regions, datums, characteristics")
+        self.act_clear_plan = act("Clear plan", self.controller.clear_plan, None,
+                                  "Inspect without a plan: the zone over all points")
         self.act_open_session = act("Open session…", self.open_session, "Ctrl+O")
         self.act_save_session = act("Save session…", self.save_session, "Ctrl+S")
         self.act_inspect = act("&Inspect", self.inspect, "F5", "Register and judge")
@@ -231,7 +256,8 @@ class MainWindow(QMainWindow):
         self.act_qif = act("Export QIF…", self.export_qif)
         self.act_quit = act("Quit", self.close, "Ctrl+Q")
         file_menu = self.menuBar().addMenu("&File")
-        for a in (self.act_open_nominal, self.act_open_measured):
+        for a in (self.act_open_nominal, self.act_open_measured, self.act_open_plan,
+                  self.act_clear_plan):
             file_menu.addAction(a)
         self.recent_menu = file_menu.addMenu("Recent files")
         file_menu.addSeparator()
@@ -271,6 +297,10 @@ class MainWindow(QMainWindow):
         busy = step == Step.RUNNING
         self.act_open_nominal.setEnabled(not busy)
         self.act_open_measured.setEnabled(not busy and s.nominal_path is not None)
+        self.act_open_plan.setEnabled(not busy)
+        self.plan_button.setEnabled(not busy)
+        self.act_clear_plan.setEnabled(not busy and s.plan_path is not None)
+        self.clear_plan_button.setEnabled(not busy and s.plan_path is not None)
         self.act_open_session.setEnabled(not busy)
         self.act_save_session.setEnabled(not busy and s.nominal_path is not None)
         self.act_inspect.setEnabled(s.can_inspect)
@@ -297,7 +327,10 @@ class MainWindow(QMainWindow):
         self.measured_label.setText(os.path.basename(s.measured_path) if s.measured_path
                                     else "—")
         self.measured_label.setToolTip(s.measured_path or "")
-        for p in (s.nominal_path, s.measured_path):
+        self.plan_label.setText(os.path.basename(s.plan_path) if s.plan_path
+                                else "— (optional)")
+        self.plan_label.setToolTip(s.plan_path or "")
+        for p in (s.nominal_path, s.measured_path, s.plan_path):
             if p:
                 self._remember(p)
 
@@ -305,6 +338,16 @@ class MainWindow(QMainWindow):
         if run is not None:
             self.views.setCurrentWidget(self.contour if run.template is not None
                                         else self.viewport)
+            # A plan's verdict is its characteristics': they are shown first.
+            self.bottom.setCurrentWidget(self.characteristics
+                                         if getattr(run.result, "plan", None) is not None
+                                         else self.table)
+
+    def _characteristic(self, row) -> None:
+        """A characteristic chosen: its points are shown in the 3D view."""
+        run = self.session.run
+        if row is not None and run is not None and run.template is None:
+            self.views.setCurrentWidget(self.viewport)
 
     # ------------------------------------------------------------------ workflow
     def open_nominal(self, path: str | None = None) -> None:
@@ -318,6 +361,12 @@ class MainWindow(QMainWindow):
                                                    MEASURED_FILTER)[0]
         if path:
             self.controller.open_measured(path)
+
+    def open_plan(self, path: str | None = None) -> None:
+        path = path or QFileDialog.getOpenFileName(self, "Open inspection plan", self._folder(),
+                                                   PLAN_FILTER)[0]
+        if path:
+            self.controller.open_plan(path)
 
     def inspect(self) -> None:
         lo, hi = self.tolerance.zone()

@@ -170,3 +170,50 @@ def test_window_with_the_3d_view_fits_1366x768_and_a_new_run_clears_the_pick(win
     w.act_inspect.trigger()
     assert w.viewport.readout.text() == w.viewport.READOUT_HINT
     assert "qa-selection" not in w.viewport.plotter.renderer.actors
+
+
+def test_the_seat_bracket_with_its_plan(window, qtbot):
+    """The sample opened with its plan through the window, inspected in the worker: the
+    characteristics table with its five rows and REJECT; a characteristic's points shown in
+    the 3D view with the others faded; the points coloured by region instead of deviation."""
+    bracket = os.path.join(ROOT, "samples", "seat_bracket")
+    w = window(synchronous=False)
+    w.controller.open_files([os.path.join(bracket, n) for n in ("nominal.xyz", "measured.csv",
+                                                                 "plan.toml")])
+    qtbot.waitUntil(lambda: w.session.plan_path is not None and not w.controller.busy,
+                    timeout=60_000)
+    w.act_inspect.trigger()
+    qtbot.waitUntil(lambda: w.session.step == Step.INSPECTED, timeout=120_000)
+    assert w.banner.verdict == "REJECT" and "REJECTED" in w.banner.word.text()
+    m = w.characteristics.model_
+    assert m.rowCount() == 5 and w.bottom.currentWidget() is w.characteristics
+    assert [m.data(m.index(r, 7)) for r in range(5)] == ["REJECTED"] + ["ACCEPTED"] * 4
+    pl = w.viewport.plotter
+    n = w.session.run.measured.points.shape[0]
+
+    def shown(name):
+        actor = pl.renderer.actors.get(name)
+        return 0 if actor is None else actor.mapper.dataset.n_points
+
+    assert shown("qa-in") + shown("qa-out") == n and shown("qa-faded") == 0
+    w.characteristics.view.selectRow(3)  # the hole's position: its 16 points stand out
+    qtbot.wait(100)
+    assert shown("qa-in") + shown("qa-out") == 16 and shown("qa-faded") == n - 16
+    w.characteristics.view.selectionModel().clearCurrentIndex()
+    assert w.session.characteristic is None
+    qtbot.wait(100)
+    assert shown("qa-faded") == 0
+
+    def colours():
+        img = pl.screenshot(return_img=True).astype(int)
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        red = (r > g + 60) & (r > b + 60)  # the deviation scale's excess
+        skin = (abs(r - 0) < 30) & (abs(g - 115) < 30) & (abs(b - 178) < 30)  # the skin region
+        return int(red.sum()), int(skin.sum())
+
+    red, skin = colours()
+    assert red > 500 and skin < red / 10
+    w.viewport.regions_box.setChecked(True)
+    qtbot.wait(100)
+    red, skin = colours()
+    assert skin > 500 and red < skin / 10
