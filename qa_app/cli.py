@@ -443,10 +443,11 @@ def _run_inspect(args, tol, renderer) -> int:
     result = run.result
     outputs = []
     if args.report:
-        from reports.certificate import CertificationError, certified_info, make_certificate
+        from reports.certificate import (CertificationError, certified_info, make_certificate,
+                                         plan_info)
 
-        try:
-            info = certified_info(info, identity, result.verdict)
+        try:  # the plan's [part] stands where --part-number/--part-name/--revision do not
+            info = certified_info(plan_info(info, run), identity, result.verdict)
         except CertificationError as e:
             raise UsageError(f"qa-inspect inspect: {e}") from e
         outputs.append(Output(args.report, make_certificate(run, info, identity,
