@@ -1178,7 +1178,8 @@ def _statement_and_signatures(c: _Layout) -> list:
         P(_esc(statement), S["base"]), Spacer(1, 2 * mm),
         P(sig_text, S["small"]),
         P("Verify the signature and the evidence: <font name='Courier'>qa-inspect verify "
-          "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE]</font> or any "
+          "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE"
+          + ("" if c.plan is None else " --plan FILE") + "]</font> or any "
           "PAdES-capable reader with the issuing CA as trust anchor.", S["small"]),
         Spacer(1, 3 * mm),
         Table([[_Slot(INSPECTOR_FIELD, "Inspector signature", bw, 24 * mm, c.slots,

@@ -1014,10 +1014,72 @@ def test_a_plan_certificate_states_which_characteristic_does_not_conform(bracket
     assert ("does not conform to the inspection plan plan.toml: characteristic 1 (surface "
             "profile of region skin) lies outside its tolerance (section 2; 5 characteristics "
             "in all)") in bracket.text
+    assert "--measured FILE --plan FILE]" in bracket.text
     # The point list is no second list of characteristics: the zone it uses is the statistics'.
     assert "9 Measured points" in bracket.text and "Characteristic accountability" not in \
         bracket.text
     assert "That zone is not part of the verdict" in bracket.text
+
+
+def test_verify_reruns_a_plan_certificate_with_its_plan(bracket, signed, tmp_path, capsys):
+    """verify --plan: the plan's SHA-256 checked like the other files and the inspection re-run
+    with it (the path the certificate recorded is gone); another plan, or none, is refused."""
+    files = ["--nominal", BRACKET_NOMINAL, "--measured", BRACKET_MEASURED]
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, *files,
+                            "--plan", BRACKET_PLAN)
+    assert code == 0, out + err
+    assert any("plan file matches" in ln and ln.endswith(BRACKET_PLAN)
+               for ln in out.splitlines())
+    assert re.search(r"re-run: REJECT, max \|deviation\| \d+\.\d{6} mm, as certified", out)
+
+    changed = tmp_path / "plan.toml"
+    changed.write_text(read_text(BRACKET_PLAN).replace("zone = 0.02\n", "zone = 0.05\n", 1))
+    assert sha256_file(changed) != sha256_file(BRACKET_PLAN)
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, *files,
+                            "--plan", changed)
+    assert code == 1 and out.startswith("INVALID"), out + err
+    problem = [ln for ln in out.splitlines() if "problem:" in ln]
+    assert len(problem) == 1 and f"plan file {changed}" in problem[0]
+    assert sha256_file(changed)[:16] in problem[0] and "re-run" not in out
+
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, *files)
+    assert code == 64 and "Traceback" not in err
+    assert f"inspection plan plan.toml (SHA-256 {sha256_file(BRACKET_PLAN)[:16]}" in err
+    assert "--plan FILE" in err
+    code, out, err = verify(capsys, signed.pdf, "--trust", signed.ca, "--nominal",
+                            BELLY_NOMINAL, "--measured", BELLY_MEASURED, "--plan", BRACKET_PLAN)
+    assert code == 64 and "made without an inspection plan" in err
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, "--plan", BRACKET_PLAN)
+    assert code == 64 and "--plan re-runs the inspection with --nominal and --measured" in err
+
+
+def test_verify_compares_each_characteristic_of_the_re_run(signed, tmp_path, capsys):
+    """A certificate whose flatness value is not what the files and the plan give (made, signed,
+    by a doctored run: same verdict, same deviations) fails verify, naming the characteristic."""
+    from dataclasses import replace
+
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from reports.certificate import CertificateInfo, make_certificate
+    from reports.signing import load_identity
+
+    run = run_files(BRACKET_NOMINAL, BRACKET_MEASURED,
+                    InspectionSettings(-0.015, 0.015, plan=BRACKET_PLAN, zone_in_verdict=False))
+    plan = run.result.plan
+    flat = next(r for r in plan.characteristics if r.characteristic.type == "flatness")
+    assert flat.verdict == "ACCEPT" and flat.value < 0.009
+    doctored = tuple(replace(r, value=r.value + 0.001) if r is flat else r
+                     for r in plan.characteristics)
+    run = replace(run, result=replace(run.result, plan=replace(plan, characteristics=doctored)))
+    pdf = tmp_path / "c.pdf"
+    pdf.write_bytes(make_certificate(run, CertificateInfo(serial="SN-B9"),
+                                     load_identity(str(signed.p12), PASSPHRASE.encode())))
+    code, out, err = verify(capsys, pdf, "--trust", signed.ca, "--nominal", BRACKET_NOMINAL,
+                            "--measured", BRACKET_MEASURED, "--plan", BRACKET_PLAN)
+    assert code == 1 and out.startswith("INVALID"), out + err
+    problem = [ln for ln in out.splitlines() if "problem:" in ln]
+    assert problem == [f"  problem: re-run characteristic(s) {flat.characteristic.id} differ "
+                       "from the certified value or verdict"]
 
 
 def test_a_signed_accepted_plan_certificate_takes_its_part_number_from_the_plan(signed,
