@@ -623,7 +623,9 @@ def _plan_table(c: _Layout) -> list:
     notes = [f"Characteristic {r.characteristic.id}: {r.reason}."
              for r in c.plan.characteristics if r.verdict != ACCEPT and r.reason not in c.reasons]
     types = dict.fromkeys(r.characteristic.type for r in c.plan.characteristics)
-    notes.append("Measured value — " + "; ".join(_VALUE_WORDS[t] for t in types) + ". Datums: "
+    words = dict(_VALUE_WORDS, **({"position": _VALUE_WORDS["position"].replace(
+        "cylinder", "circle").replace("axis", "centre")} if c.is_2d else {}))
+    notes.append("Measured value — " + "; ".join(words[t] for t in types) + ". Datums: "
                  "the features the part is placed by (section 6); form: judged by shape alone.")
     return [P("Characteristics of the inspection plan", S["cellb"]), Spacer(1, 1 * mm),
             c.table(rows, [10 * mm, 8 * mm, 28 * mm, 46 * mm, 16 * mm, 27 * mm, 13 * mm,
