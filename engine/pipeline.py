@@ -18,6 +18,7 @@ import numpy as np
 from .errors import InputError, SettingsError
 from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
+from .plan import Plan
 from .pointset import PointSet
 from .nominal import Nominal
 from .progress import Callback, report, reporting
@@ -45,7 +46,8 @@ class Run:
 
     nominal : the 3D nominal (None for a 2D template); template : the 2D template file (None for
     a 3D nominal); measured : the measured point set as read; timings_s : seconds spent
-    ``load``-ing the files, in ``register`` and ``deviation``, and in ``total``.
+    ``load``-ing the files, in ``register`` and ``deviation``, and in ``total``; plan : the
+    inspection plan as read (None without one), whose ``part`` the certificate names.
     """
 
     settings: InspectionSettings
@@ -55,6 +57,7 @@ class Run:
     nominal: Nominal | None
     template: object | None
     timings_s: dict
+    plan: Plan | None = None
 
     @functools.cached_property
     def worst_order(self) -> np.ndarray:
@@ -246,5 +249,5 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
-    return Run(settings, result, inputs, measured_ps, nominal, tpl, timings)
+    return Run(settings, result, inputs, measured_ps, nominal, tpl, timings, plan)
 

@@ -147,21 +147,26 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
     v = sub.add_parser("verify", help="verify a signed certificate",
                        description="Exit 0 only if every signature is intact, the signer "
                        "chains to a trusted CA and nothing was changed after signing (and, "
-                       "with --nominal/--measured, the files match the certificate and the "
-                       "inspection re-run gives the same verdict); 1 otherwise.")
+                       "with --nominal/--measured (and --plan), the files match the "
+                       "certificate and the inspection re-run gives the same verdict); 1 "
+                       "otherwise.")
     v.add_argument("certificate", metavar="CERTIFICATE.pdf")
     v.add_argument("--trust", required=True, action="append", metavar="CA.pem",
                    help="trusted CA certificate(s), PEM or DER (repeatable); nothing else is "
                         "trusted")
     v.add_argument("--nominal", metavar="FILE", help="the nominal file, to check and re-run")
     v.add_argument("--measured", metavar="FILE", help="the measured file, to check and re-run")
+    v.add_argument("--plan", metavar="PLAN.toml",
+                   help="the inspection plan, to check and re-run (required with --nominal/"
+                        "--measured when the certificate was made with one)")
 
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
                   [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U] [--scale CHORD]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
-       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE]
+       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE
+                  [--plan FILE]]
        qa-inspect --version"""
 
 
@@ -313,9 +318,13 @@ def _cmd_verify(args) -> int:
     from reports.signing import read_trust_roots, verify_pdf
 
     _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
-                               "--nominal": args.nominal, "--measured": args.measured})
+                               "--nominal": args.nominal, "--measured": args.measured,
+                               "--plan": args.plan})
     if (args.nominal is None) != (args.measured is None):
         raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
+    if args.plan is not None and args.nominal is None:
+        raise UsageError("qa-inspect verify: --plan re-runs the inspection with "
+                         "--nominal and --measured; give them too")
     roots = [c for path in args.trust for c in read_trust_roots(path)]
     v = verify_pdf(read_bytes(args.certificate), roots)
     problems = list(v.problems)
@@ -344,7 +353,8 @@ def _cmd_verify(args) -> int:
                                 f"is by {v.signatures[0].signer}")
     notes = []
     if doc is not None and args.nominal:
-        problems += _recheck(doc, args.nominal, args.measured, notes)
+        problems += _recheck(doc, {"nominal": args.nominal, "measured": args.measured,
+                                   "plan": args.plan}, notes)
     ok = not problems
     print(f"{'VALID' if ok else 'INVALID'}: {args.certificate}")
     for s in v.signatures:
@@ -363,17 +373,31 @@ def _cmd_verify(args) -> int:
     return 0 if ok else 1
 
 
-def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[str]:
-    """Compare the files with the certificate's SHA-256s and re-run the inspection; return the
-    problems (and append what was confirmed to ``notes``)."""
+def _recheck(doc: dict, files: dict[str, str | None], notes: list[str]) -> list[str]:
+    """Compare the files (by role: nominal, measured, plan) with the certificate's SHA-256s and
+    re-run the inspection; return the problems (and append what was confirmed to ``notes``).
+    The plan is required when the certificate was made with one, and refused otherwise."""
+    import dataclasses
+
     from engine.errors import InputNotFoundError
     from engine.io import sha256_of
     from engine.pipeline import run_files
     from engine.settings import InspectionSettings
     from reports.results import run_document
 
+    planned = next((r for r in doc["inputs"] if r["role"] == "plan"), None)
+    if planned is not None and files["plan"] is None:
+        raise UsageError(f"qa-inspect verify: the certificate was made with the inspection plan "
+                         f"{os.path.basename(planned['path'])} (SHA-256 "
+                         f"{planned['sha256'][:16]}…): give it with --plan FILE to re-run the "
+                         "inspection")
+    if planned is None and files["plan"] is not None:
+        raise UsageError("qa-inspect verify: the certificate was made without an inspection "
+                         "plan; --plan does not apply")
     problems = []
-    for role, path in (("nominal", nominal), ("measured", measured)):
+    for role, path in files.items():
+        if path is None:
+            continue
         if not os.path.isfile(path):
             raise InputNotFoundError("no such file", path)
         want = next((r["sha256"] for r in doc["inputs"] if r["role"] == role), None)
@@ -385,18 +409,38 @@ def _recheck(doc: dict, nominal: str, measured: str, notes: list[str]) -> list[s
             notes.append(f"{role} file matches the certified SHA-256: {path}")
     if problems:
         return problems
-    run = run_files(nominal, measured, InspectionSettings.from_json(doc["settings"]))
-    got = run_document(run)["deviations"]["max_abs"]
+    # The settings name the plan's path at the time of the inspection; the re-run reads the
+    # plan given here, whose SHA-256 was just checked.
+    settings = dataclasses.replace(InspectionSettings.from_json(doc["settings"]),
+                                   plan=files["plan"])
+    run = run_files(files["nominal"], files["measured"], settings)
+    rerun = run_document(run)
+    got = rerun["deviations"]["max_abs"]
     want = doc["deviations"]["max_abs"]
+    changed = _changed_characteristics(doc.get("characteristics", []),
+                                       rerun.get("characteristics", []))
     if run.result.verdict != doc["verdict"]:
         problems.append(f"re-run verdict {run.result.verdict} differs from the certified "
                         f"{doc['verdict']}")
     elif want is None or abs(got - want) > 1e-6:
         problems.append(f"re-run max |deviation| {got:.6f} mm differs from the certified "
                         f"{want} mm")
+    elif changed:
+        problems.append(f"re-run characteristic(s) {', '.join(changed)} differ from the "
+                        "certified value or verdict")
     else:
         notes.append(f"re-run: {run.result.verdict}, max |deviation| {got:.6f} mm, as certified")
     return problems
+
+
+def _changed_characteristics(certified: list[dict], rerun: list[dict]) -> list[str]:
+    """The ids of the plan's characteristics whose re-run value (to 1e-6 mm) or verdict
+    differs from the certified one (each id once, the certified order)."""
+    again = {c["id"]: c for c in rerun}
+    changed = [c["id"] for c in certified if c["id"] not in again or again[c["id"]]["verdict"]
+               != c["verdict"] or (c["value"] is None) != (again[c["id"]]["value"] is None)
+               or (c["value"] is not None and abs(c["value"] - again[c["id"]]["value"]) > 1e-6)]
+    return changed + [i for i in again if i not in {c["id"] for c in certified}]
 
 
 def _run_inspect(args, tol, renderer) -> int:
@@ -437,10 +481,11 @@ def _run_inspect(args, tol, renderer) -> int:
     result = run.result
     outputs = []
     if args.report:
-        from reports.certificate import CertificationError, certified_info, make_certificate
+        from reports.certificate import (CertificationError, certified_info, make_certificate,
+                                         plan_info)
 
-        try:
-            info = certified_info(info, identity, result.verdict)
+        try:  # the plan's [part] stands where --part-number/--part-name/--revision do not
+            info = certified_info(plan_info(info, run), identity, result.verdict)
         except CertificationError as e:
             raise UsageError(f"qa-inspect inspect: {e}") from e
         outputs.append(Output(args.report, make_certificate(run, info, identity,

@@ -23,7 +23,7 @@ from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pipeline import Run
 
 from . import figures
-from .messages import VERDICT_RGB, VERDICT_WORD
+from .messages import VERDICT_RGB, VERDICT_WORD, limits_text
 from .qif import qif_results_document
 from .results import SOFTWARE_NAME, points_csv, result_json, run_document, software_version
 from .signing import (
@@ -111,6 +111,24 @@ def certified_info(info: CertificateInfo, identity: Identity | None,
     return replace(info, inspector=identity.common_name)
 
 
+def plan_info(info: CertificateInfo, run: Run) -> CertificateInfo:
+    """``info`` with the part number, name and revision of the run's inspection plan
+    (``[part]``) where the inspector gave none.
+
+    Given ones win: the inspector states which part is on the table (one plan may serve several
+    dash numbers, or a revision whose change does not touch the characteristics). An auditor
+    must still see a plan written for another part or revision, so section 1 prints the plan's
+    value beside any that differs, and results.json keeps it (``certificate.plan_part``).
+    """
+    if run.plan is None:
+        return info
+    part = run.plan.part
+    return replace(info, **{k: v for k, v in (("part_number", part.number),
+                                              ("part_name", part.name),
+                                              ("revision", part.revision))
+                            if v.strip() and not (getattr(info, k) or "").strip()})
+
+
 def certificate_number(run: Run, issued: dt.datetime) -> str:
     """QA-YYYYMMDD-XXXXXXXX: the date and a hash of the inputs, settings and issue time."""
     h = hashlib.sha256()
@@ -144,21 +162,39 @@ def _verdict_stability(res) -> str:
 def check_trustworthy(run: Run) -> None:
     """A certificate may say ACCEPTED only from a converged registration whose pose the
     judge trusted; anything else here is a bug upstream, and no certificate is made."""
-    from engine.verdict import MIN_NEAR_FRACTION
-
     res = run.result
     reg = res.registration
+    if res.plan is not None:
+        # A plan's verdict is its characteristics': each inside its limits, on a registration
+        # whose regions can be trusted (the per-point zone is only the statistics').
+        within = all(r.verdict == ACCEPT and _within(r) for r in res.plan.characteristics)
+        if res.verdict == ACCEPT and not (_registration_trusted(res) and within):
+            raise CertificateError("refusing to certify ACCEPTED: the registration is not "
+                                   "trustworthy or a characteristic is not within its limits")
+        return
     # Weak or free directions and a runner-up pose are facts; the verdict is trusted when it
     # is the same at every pose they allow (engine.trust.pose_sensitivity).
     sens = res.pose_sensitivity
-    trusted = (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
-               and res.conditioning is not None and sens is not None and sens.verdict_stable)
+    trusted = (_registration_trusted(res) and res.conditioning is not None and sens is not None
+               and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
     m = 0.0 if res.margin is None else res.margin
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):
         raise CertificateError("refusing to certify ACCEPTED: the registration is not "
                                "trustworthy or a point is not inside its zone")
+
+
+def _within(r) -> bool:
+    """Whether a characteristic's own numbers lie inside its limits: every deviation of a
+    profile, the value of the others (about the nominal of a size)."""
+    c = r.characteristic
+    if r.value is None:
+        return False
+    if c.type == "profile":
+        return r.deviations is not None and bool(np.all((r.deviations >= c.lower) &
+                                                        (r.deviations <= c.upper)))
+    return (c.nominal or 0.0) + c.lower <= r.value <= (c.nominal or 0.0) + c.upper
 
 
 def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
@@ -170,7 +206,7 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     """
     check_trustworthy(run)
     res = run.result
-    info = certified_info(info, identity, res.verdict)
+    info = certified_info(plan_info(info, run), identity, res.verdict)
     views = None
     if run.template is None:  # 3D: the renders run while the evidence files are written
         nom = run.nominal
@@ -182,6 +218,8 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     cert_doc = {k: v for k, v in asdict(info).items()}
     cert_doc.update(number=number, issued=issued.isoformat().replace("+00:00", "Z"),
                     signed_by=None if identity is None else identity.common_name)
+    if run.plan is not None:
+        cert_doc["plan_part"] = asdict(run.plan.part)
     doc = dict(run_document(run), certificate=cert_doc)
     attachments = [
         Attachment("points.csv", points_csv(res, run.measured.points,
@@ -382,6 +420,11 @@ class _Layout:
         return self.run.result
 
     @property
+    def plan(self):
+        """The inspection plan's outcome (engine.characteristics.PlanResult), or None."""
+        return self.run.result.plan
+
+    @property
     def is_2d(self) -> bool:
         return self.run.template is not None
 
@@ -468,8 +511,10 @@ def _identification(c: _Layout) -> list:
     from reportlab.platypus import Table
 
     info, identity, W = c.info, c.identity, c.width
-    left = c.kv([("Organisation", info.organisation), ("Part number", info.part_number),
-                 ("Part name", info.part_name), ("Revision", info.revision),
+    left = c.kv([("Organisation", info.organisation),
+                 ("Part number", _stated(c, info.part_number, "number")),
+                 ("Part name", _stated(c, info.part_name, "name")),
+                 ("Revision", _stated(c, info.revision, "revision")),
                  ("Serial number", info.serial), ("Order", info.order)], [28 * mm, 58 * mm])
     right = c.kv([("Inspector", identity.common_name if identity else info.inspector),
                   ("Device", info.device),
@@ -483,6 +528,15 @@ def _identification(c: _Layout) -> list:
                   style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
                          ("LEFTPADDING", (0, 0), (-1, -1), 0),
                          ("RIGHTPADDING", (0, 0), (-1, -1), 0)])]
+
+
+def _stated(c: _Layout, value: str | None, field: str) -> str | None:
+    """A part field as the inspector stated it, and the inspection plan's beside it when the
+    plan states another (:func:`plan_info`)."""
+    planned = "" if c.run.plan is None else getattr(c.run.plan.part, field).strip()
+    if planned and not same_person(value, planned):
+        return f"{value} (the inspection plan states {planned})"
+    return value
 
 
 def _result(c: _Layout) -> list:
@@ -509,12 +563,113 @@ def _result(c: _Layout) -> list:
                   [f"{st.count}", f"{st.n_out}", *(figures.fmt_mm(v) for v in
                                                    (st.min, st.max, st.mean)),
                    *(figures.fmt_mm(v, False) for v in (st.std, st.rms, st.max_abs))]]
-    return [P("2  Result", S["h"]), vb, Spacer(1, 3 * mm),
+    return [P("2  Result", S["h"]), vb, Spacer(1, 3 * mm), *_plan_table(c),
             c.table(stats_rows, [W / 8] * 8,
                     styles=[("ALIGN", (0, 0), (-1, -1), "CENTER"),
                             ("FONT", (0, 1), (-1, 1), "Vera-Bold", 8.5)]),
             P("Deviations in mm; statistics over every measured point, points excluded "
-              "from the alignment included.", S["small"])]
+              "from the alignment included" + ("." if c.plan is None else
+                                               f", at the plan's alignment, against the zone "
+                                               f"{c.zone} of the statistics (section 3)."),
+              S["small"])]
+
+
+_TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": "position",
+               "size": "size (diameter)"}
+
+
+def _type_word(c: _Layout, kind: str) -> str:
+    """A characteristic's type in words (a profile of a 2D contour is a line profile)."""
+    return "line profile" if kind == "profile" and c.is_2d else _TYPE_WORDS[kind]
+_VALUE_WORDS = {
+    "profile": "profile: the width of the smallest zone, centred like its tolerance zone, that "
+               "holds every point of its region (form: after the region is fitted alone, "
+               "whatever the datums)",
+    "flatness": "flatness: the distance between the two closest parallel planes that hold the "
+                "face's points",
+    "position": "position: the diameter of the smallest cylinder about the true position (from "
+                "the datums) that holds the hole's fitted axis",
+    "size": "size: the diameter of the least-squares fit to the hole's points"}
+
+
+def _plan_table(c: _Layout) -> list:
+    """The inspection plan's characteristics, as a first-article report lists them: balloon,
+    symbol, what, requirement, datums, measured value, points, result (none without a plan)."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Spacer
+
+    if c.plan is None:
+        return []
+    S, W = c.styles, c.width
+    rows = [["No.", "", "Characteristic", "Requirement", "Datums", "Measured (mm)", "Points",
+             "Result"]]
+    cmds = []
+    for k, r in enumerate(c.plan.characteristics, start=1):
+        ch = r.characteristic
+        where = "all points" if ch.region == "(all points)" else f"region {ch.region}"
+        rows.append([_balloon(ch.id), _symbol(ch.type),
+                     P(f"{_esc(_type_word(c, ch.type))}<br/><font size=6.5>{_esc(where)}</font>",
+                       S["cell"]),
+                     P(_esc(limits_text(ch).replace("⌀", "Ø")), S["cell"]),
+                     "|".join(ch.datums) or ("—" if ch.type == "size" else "form"),
+                     "—" if r.value is None else f"{r.value:.4f}", f"{r.indices.size}",
+                     VERDICT_WORD[r.verdict]])
+        cmds += [("BACKGROUND", (7, k), (7, k), colors.Color(*VERDICT_RGB[r.verdict])),
+                 ("TEXTCOLOR", (7, k), (7, k), colors.white),
+                 ("FONT", (7, k), (7, k), "Vera-Bold", 7.5)]
+    # Why each one is not accepted, unless the verdict's reasons above already say it.
+    notes = [f"Characteristic {r.characteristic.id}: {r.reason}."
+             for r in c.plan.characteristics if r.verdict != ACCEPT and r.reason not in c.reasons]
+    types = dict.fromkeys(r.characteristic.type for r in c.plan.characteristics)
+    words = dict(_VALUE_WORDS, **({"position": _VALUE_WORDS["position"].replace(
+        "cylinder", "circle").replace("axis", "centre")} if c.is_2d else {}))
+    notes.append("Measured value — " + "; ".join(words[t] for t in types) + ". Datums: "
+                 "the features the part is placed by (section 6); form: judged by shape alone.")
+    return [P("Characteristics of the inspection plan", S["cellb"]), Spacer(1, 1 * mm),
+            c.table(rows, [10 * mm, 8 * mm, 28 * mm, 46 * mm, 16 * mm, 27 * mm, 13 * mm,
+                           W - 148 * mm],
+                    styles=[("ALIGN", (0, 0), (1, -1), "CENTER"),
+                            ("ALIGN", (4, 0), (-1, -1), "CENTER"), *cmds]),
+            Spacer(1, 1 * mm), *(P(_esc(n), S["small"]) for n in notes), Spacer(1, 3 * mm)]
+
+
+def _balloon(text: str):
+    """A drawing's balloon: the characteristic's number in a circle (a stadium when long)."""
+    from reportlab.graphics.shapes import Circle, Drawing, Rect, String
+    from reportlab.pdfbase.pdfmetrics import stringWidth
+
+    tw = stringWidth(text, "Vera-Bold", 7)
+    w = max(12.0, tw + 6)
+    d = Drawing(w + 1, 13)
+    if w <= 12.0:
+        d.add(Circle(w / 2 + 0.5, 6.5, 6, fillColor=None, strokeWidth=0.7))
+    else:
+        d.add(Rect(0.5, 0.5, w, 12, rx=6, ry=6, fillColor=None, strokeWidth=0.7))
+    d.add(String(w / 2 + 0.5, 4, text, fontName="Vera-Bold", fontSize=7, textAnchor="middle"))
+    return d
+
+
+def _symbol(kind: str):
+    """The characteristic's symbol on a drawing (reports.messages.SYMBOL), drawn: the
+    certificate's font has no glyphs for them."""
+    from reportlab.graphics.shapes import Circle, Drawing, Line, Polygon, Wedge
+
+    d = Drawing(12, 12)
+    ink = {"fillColor": None, "strokeWidth": 0.8}
+    if kind == "profile":  # a half circle on its diameter
+        d.add(Wedge(6, 3, 5, 0, 180, **ink))
+    elif kind == "flatness":  # a parallelogram
+        d.add(Polygon([1, 3, 8, 3, 11, 9, 4, 9], **ink))
+    elif kind == "position":  # a circle and its cross
+        d.add(Circle(6, 6, 3.6, **ink))
+        d.add(Line(0.5, 6, 11.5, 6, strokeWidth=0.8))
+        d.add(Line(6, 0.5, 6, 11.5, strokeWidth=0.8))
+    else:  # size: the diameter sign
+        d.add(Circle(6, 6, 4, **ink))
+        d.add(Line(1.5, 1.5, 10.5, 10.5, strokeWidth=0.8))
+    return d
 
 
 def _requirement(c: _Layout) -> list:
@@ -524,6 +679,9 @@ def _requirement(c: _Layout) -> list:
 
     res, W, zone = c.res, c.width, c.zone
     tol = res.tolerance
+    if c.plan is not None:
+        return [P("3  Requirement", c.styles["h"]), c.kv(_plan_requirement(c),
+                                                          [28 * mm, W - 28 * mm])]
     return [P("3  Requirement", c.styles["h"]), c.kv([
         ("Tolerance zone", f"{'Line' if c.is_2d else 'Surface'} profile, deviation from the "
                            f"nominal {zone} (lower limit {tol.lower:+.3f}, upper limit "
@@ -551,6 +709,48 @@ def _requirement(c: _Layout) -> list:
     ], [28 * mm, W - 28 * mm])]
 
 
+def _plan_requirement(c: _Layout) -> list[tuple[str, str]]:
+    """Section 3 of a plan: its characteristics are the requirement; the zone of the per-point
+    statistics is stated apart, with whether it is one of them."""
+    res, zone, plan = c.res, c.zone, c.run.plan
+    rec = next(r for r in c.run.inputs if r.role == "plan")
+    guarded = res.decision_rule == "guarded"
+    margin = float(res.margin.max()) if res.margin is not None and res.margin.size else 0.0
+    return [
+        ("Requirement", f"The {len(plan.characteristics)} characteristics of the inspection "
+                        f"plan {os.path.basename(rec.path)} (SHA-256 {rec.sha256[:16]}…, "
+                        "section 5)" + (f", and the {_type_word(c, 'profile')} of every "
+                                        "measured point "
+                                        "(characteristic 'tol')" if c.plan.zone_in_verdict
+                                        else "") +
+                        ", listed in section 2 with their tolerances"),
+        # Lower case on purpose: the verdict words appear on a certificate only as its verdict.
+        ("Decision rule", "The part is accepted only if every characteristic lies within its "
+                          "tolerance, rejected if any lies outside, inconclusive if any cannot "
+                          "be decided (too few measured points on its region, or datums that "
+                          "cannot place the part) or when the registration cannot be trusted. "
+                          "A profile lies within its tolerance when every point of its region "
+                          "lies inside the zone" + (
+                              " shrunk by its nominal-sampling margin (largest "
+                              f"{margin:.4f} mm), outside when a point lies outside the zone "
+                              "grown by it (ISO 14253-1 style; inconclusive in between)"
+                              if guarded else "") +
+                          "; flatness, position and size when the measured value lies within "
+                          "their limits (limits are in tolerance). Measurement uncertainty is "
+                          "not deducted from the tolerances."),
+        ("Zone of the statistics",
+         f"{zone}: {_type_word(c, 'profile')} of every measured point, judged at the best fit "
+         "over all "
+         "points (characteristic 'tol' in section 2)" if c.plan.zone_in_verdict else
+         f"{zone}, the plan's widest profile zone: it colours the statistics, the deviation "
+         "map, the histogram and the point list (sections 2, 7 to 9) and is not itself part "
+         "of the verdict"),
+        ("Sign", "Positive along the nominal's outward normal (excess material), negative "
+                 "into the material (missing material)"),
+        ("Units", "millimetres"),
+    ]
+
+
 def _method(c: _Layout) -> list:
     """4  Method: registration, fit criterion, deviation method, normals; then the notes."""
     from reportlab.lib.units import mm
@@ -574,6 +774,9 @@ def _method(c: _Layout) -> list:
             f"{doc['minimax']['least_squares_excursion']:.3f} at the least-squares pose, "
             f"{doc['minimax']['excursion']:.3f} at this pose; ≤ 1 fits)")
             + ". " + _exclusion_rule(reg)),
+        *([] if c.plan is None else [(
+            "Alignment", "Then the part is placed as the inspection plan says (section 6), "
+                         "and each characteristic is evaluated there (section 3)")]),
         ("Deviation method", doc["deviations"]["method"]),
         ("Normals", {"file": "from the nominal file (I J K)", "mesh": "from the mesh faces",
                      "grid": "from the grid cells", "estimated": "estimated from the nominal "
@@ -598,7 +801,9 @@ def _inputs(c: _Layout) -> list:
     rows = [["Role", "File", "Size", "SHA-256"]]
     for r in c.run.inputs:
         size = (f"{r.n_points} points" if r.n_points is not None else
-                f"{r.n_primitives} primitives")
+                f"{r.n_primitives} primitives" if r.n_primitives is not None else
+                f"{len(c.run.plan.characteristics)} characteristics" if r.role == "plan" and
+                c.run.plan is not None else "—")
         rows.append([r.role, P(_esc(os.path.basename(r.path)), S["cell"]), size,
                      P(r.sha256, S["mono"])])
     return [CondPageBreak(45 * mm), P("5  Inputs", S["h"]),
@@ -614,13 +819,9 @@ def _registration(c: _Layout) -> list:
     from reportlab.platypus import Spacer, Table
 
     S, W, res = c.styles, c.width, c.res
-    T = res.registration.T_nominal_measured
-    mat = c.table([[f"{v:+.6f}" if j < 3 else f"{v:+.4f}" for j, v in enumerate(row)]
-                   for row in T], [20 * mm] * 4, header=False,
-                  styles=[("FONT", (0, 0), (-1, -1), "Courier", 7),
-                          ("ALIGN", (0, 0), (-1, -1), "RIGHT")])
+    mat = _matrix(c, res.registration.T_nominal_measured)
     out = [CondPageBreak(75 * mm),  # the heading stays with its table
-           P("6  Registration", S["h"]),
+           P("6  Registration" + ("" if c.plan is None else " and alignment"), S["h"]),
            Table([[[P("T_nominal_measured (maps measured coordinates into the nominal "
                       "frame, mm)", S["small"]), Spacer(1, 1 * mm), mat],
                    c.kv(_registration_rows(c), [26 * mm, W - 26 * mm - 86 * mm])]],
@@ -634,7 +835,126 @@ def _registration(c: _Layout) -> list:
         out.append(P("What the measurement does not fix", S["cellb"]))
         for sentence in res.trust_statements:
             out.append(P("• " + _esc(sentence[:1].upper() + sentence[1:]) + ".", S["small"]))
-    return out
+    return out + _plan_alignment(c)
+
+
+def _matrix(c: _Layout, T: np.ndarray):
+    """A 4x4 pose as a table of numbers (rotation 6 decimals, translation 4)."""
+    from reportlab.lib.units import mm
+
+    return c.table([[f"{v:+.6f}" if j < 3 else f"{v:+.4f}" for j, v in enumerate(row)]
+                    for row in T], [20 * mm] * 4, header=False,
+                   styles=[("FONT", (0, 0), (-1, -1), "Courier", 7),
+                           ("ALIGN", (0, 0), (-1, -1), "RIGHT")])
+
+
+_FIT_WORDS = {"tangent": "tangent", "lsq": "least squares"}
+
+
+def _plan_alignment(c: _Layout) -> list:
+    """The inspection plan's alignment: in words, what it rests on, and the pose the map and
+    the point list are at (none without a plan)."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether, Spacer, Table
+    from reportlab.platypus import Paragraph as P
+
+    if c.plan is None:
+        return []
+    S, W = c.styles, c.width
+    out = [Spacer(1, 2 * mm), P("Alignment by the inspection plan", S["cellb"]),
+           P(_esc(_alignment_words(c.plan, c.run.plan)) + ".", S["base"]), Spacer(1, 1 * mm)]
+    notes = [P("The deviation map, the histogram and the point list (sections 7 to 9) show "
+               "the part at this alignment; a characteristic relative to datums is evaluated at "
+               "the pose its own datums give.", S["small"])]
+    if c.plan.alignment is not None:
+        table, note = _alignment_table(c)
+        out.append(table)
+        notes[:0] = [P(_esc(note), S["small"]), Spacer(1, 1.5 * mm)]
+    pose = [P("T_nominal_measured at this alignment (maps measured coordinates into the "
+              "nominal frame, mm)", S["small"]), Spacer(1, 1 * mm),
+            _matrix(c, c.plan.T_nominal_measured)]
+    # The notes and the pose may go over to the next page (before the map), not the table.
+    return [KeepTogether(out),
+            Table([[notes, pose]], colWidths=[W - 84 * mm, 84 * mm],
+                  style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                         ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                         ("RIGHTPADDING", (0, 0), (0, -1), 4 * mm),
+                         ("RIGHTPADDING", (1, 0), (1, -1), 0),
+                         ("TOPPADDING", (0, 0), (-1, -1), 2 * mm)])]
+
+
+def _alignment_table(c: _Layout):
+    """(table, note): each datum's feature, fit, points, freedom taken and form error; or each
+    RPS point's locked axes and nominal position."""
+    from reportlab.lib.units import mm
+
+    W, al, plan = c.width, c.plan.alignment, c.run.plan
+    if c.plan.method == "rps":
+        rows = [["RPS point", "Locked along", "Nominal position (mm)"]]
+        rows += [[p.label, ", ".join(p.lock), _vec(p.nominal)] for p in plan.rps]
+        gap = al.datums[0].gap
+        return (c.table(rows, [30 * mm, 30 * mm, W - 60 * mm]),
+                "Each point is moved onto its nominal position along its locked axes (least "
+                f"squares when they ask more than {_freedoms(c)}); largest remaining distance "
+                f"along a locked axis {'—' if not math.isfinite(gap) else f'{gap:.4f}'} mm.")
+    rows = [["Datum", "Feature", "Fit", "Region", "Points", "Freedom taken", "Form error (mm)"]]
+    regions = {d.label: d.region for d in plan.datums}
+    for d in al.datums:
+        rows.append([d.label, d.feature, _FIT_WORDS[d.fit], regions.get(d.label, "—"),
+                     f"{d.n_points}", f"{d.constrained} of {3 if c.is_2d else 6}",
+                     "—" if not math.isfinite(d.gap) else f"{d.gap:.4f}"])
+    return (c.table(rows, [16 * mm, 20 * mm, 26 * mm, 26 * mm, 16 * mm, 30 * mm, W - 134 * mm],
+                    styles=[("ALIGN", (4, 0), (-1, -1), "CENTER")]),
+            "Tangent: the datum rests on the high points of its face, outside the material "
+            "(ASME Y14.5 / ISO 5459); least squares: the average through the points. Form "
+            "error: the largest gap between the face's points and its datum (least squares: the "
+            f"largest distance either side). Freedom taken: of {_freedoms(c)}.")
+
+
+def _freedoms(c: _Layout) -> str:
+    return ("the part's three ways to move in its plane (two shifts, one turn)" if c.is_2d else
+            "the part's six ways to move (three shifts, three turns)")
+
+
+def _alignment_words(planned, plan) -> str:
+    """The alignment in a sentence: '3-2-1 on datums A|B|C, tangent planes; remaining freedom:
+    none'."""
+    al = planned.alignment
+    if al is None:
+        return ("Best fit over all points (the registration's pose): the plan names no datums "
+                "to place the part")
+    ds = al.datums
+    if planned.method == "rps":
+        head = (f"RPS (reference point system) on {ds[0].n_points} locked coordinates of "
+                f"{len(plan.rps)} points ({', '.join(p.label for p in plan.rps)})")
+    elif len(ds) == 1:
+        head = f"Datum {ds[0].label} ({ds[0].feature}, {_FIT_WORDS[ds[0].fit]})"
+    else:
+        kind = "3-2-1" if [d.constrained for d in ds] == [3, 2, 1] else "Datum reference frame"
+        same = len({(d.feature, d.fit) for d in ds}) == 1
+        what = (f"{_FIT_WORDS[ds[0].fit]} {ds[0].feature}s" if same else
+                ", ".join(f"{d.label} {d.feature} ({_FIT_WORDS[d.fit]})" for d in ds))
+        head = f"{kind} on datums {'|'.join(d.label for d in ds)}, {what}"
+    free = ", ".join(_free_words(f) for f in al.free)
+    who = "it leaves" if len(ds) == 1 else "they leave"
+    if not al.free:
+        tail = "remaining freedom: none"
+    elif al.best_fitted:
+        tail = (f"the freedom {who} ({free}) best-fitted on regions "
+                f"{', '.join(plan.alignment.best_fit_regions)}")
+    else:
+        tail = f"the freedom {who} ({free}) stays where the registration placed the part"
+    return (f"{head}; {tail}" + ("" if al.complete else
+                                 f"; incomplete: {al.message}"))
+
+
+def _free_words(f) -> str:
+    """A free direction with its axis named when it is one of the nominal frame's."""
+    axis = next((("+" if a > 0 else "-") + "xyz"[k] for k, a in enumerate(f.along)
+                 if abs(a) > 1 - 1e-6), None) or _vec(f.along)
+    if f.type == "translation":
+        return f"shift along {axis}"
+    return f"turn about {axis} through ({', '.join(f'{a:.2f}' for a in f.through)})"
 
 
 def _registration_rows(c: _Layout) -> list[tuple[str, str]]:
@@ -701,7 +1021,9 @@ def _deviation_map(c: _Layout) -> list:
                  f"oblique, camera along {_vec(views[1].direction)} (nominal frame, "
                  "parallel projection). Every measured point drawn at its foot on the "
                  "nominal surface, coloured by deviation; labels on the five worst "
-                 "points.", S["small"]))
+                 "points." + ("" if c.plan is None else " The part at the plan's alignment "
+                              "(section 6), coloured against the zone of the statistics "
+                              "(section 3)."), S["small"]))
     return out
 
 
@@ -726,7 +1048,8 @@ def _histogram(c: _Layout) -> list:
 def _characteristics(c: _Layout) -> list:
     """9  Characteristic accountability (AS9102 Form 3 style): every out-of-tolerance point,
     then the in-tolerance points nearest to a limit; without a trusted pose the largest
-    deviations, not judged."""
+    deviations, not judged. With a plan (whose characteristics are in section 2): the measured
+    points against the zone of the statistics, with their regions."""
     from reportlab.lib import colors
     from reportlab.lib.units import mm
     from reportlab.platypus import PageBreak, Spacer
@@ -736,46 +1059,76 @@ def _characteristics(c: _Layout) -> list:
     st, order, d = res.statistics, run.worst_order, res.deviations.signed
     out_idx = order[: min(st.n_out, MAX_OUT_ROWS)]
     rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + WORST_ROWS]]
-    judged = res.verdict != INCONCLUSIVE
+    judged = res.verdict != INCONCLUSIVE if c.plan is None else _registration_trusted(res)
     if not judged:  # no pose to trust: the points are listed, not judged
         out_idx = []
         rows_idx = list(order[:WORST_ROWS])
-    rows = [["Char. No.", "Point", "Requirement", "X (mm)", "Y (mm)", "Z (mm)",
-             "Deviation", "Result"]]
+    title, header, words, intro = _point_list_words(c, len(out_idx),
+                                                    len(rows_idx) - len(out_idx), judged)
+    rows = [header]
     res_styles = []
     for k, i in enumerate(rows_idx):
         p = res.registered[i]
         ok = bool(res.in_tolerance[i])
-        result = ("PASS" if ok else "FAIL") if judged else "not judged"
+        result = words[ok] if judged else "not judged"
         name = (P(_esc(_point_name(run, i)) + "<br/><font size=6>excluded from the alignment "
                   f"(gross outlier, d = {d[i]:+.4f} mm)</font>", S["cell"]) if res.outlier[i]
                 else _point_name(run, i))
-        rows.append([f"{k + 1}", name, c.zone,
+        rows.append([f"{k + 1}", name, c.zone if c.plan is None else
+                     P(_esc(c.plan.regions[i] or "—"), S["cell"]),
                      f"{p[0]:.3f}", f"{p[1]:.3f}", f"{p[2]:.3f}", f"{d[i]:+.4f}", result])
         if judged and not ok:
             res_styles.append(("TEXTCOLOR", (7, k + 1), (7, k + 1), colors.Color(0.72, 0.1, 0.1)))
             res_styles.append(("FONT", (7, k + 1), (7, k + 1), "Vera-Bold", 7.5))
-    intro = ((f"Every point out of tolerance ({st.n_out}"
-              + (f"; the worst {MAX_OUT_ROWS} are listed" if st.n_out > MAX_OUT_ROWS else "")
-              + f"), then the {len(rows_idx) - len(out_idx)} in-tolerance points nearest to a "
-              "limit, worst first.") if judged else
-             f"The registration cannot be trusted, so no point is judged; the {len(rows_idx)} "
-             "largest deviations at the best pose found are listed for diagnosis.") + (
-             " Coordinates of the registered points in the nominal frame. A point excluded from "
-             "the alignment (a gross outlier: see section 4) is judged like every other. Every "
-             "point is in the attached points.csv.")
-    return [PageBreak(),
-            P("9  Characteristic accountability (AS9102 Form 3 style)", S["h"]),
-            P(_esc(intro), S["small"]), Spacer(1, 2 * mm),
+    return [PageBreak(), P(title, S["h"]), P(_esc(intro), S["small"]), Spacer(1, 2 * mm),
             c.table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,
                            W - 157 * mm], zebra=True,
                     styles=[("ALIGN", (3, 1), (6, -1), "RIGHT"),
                             ("ALIGN", (7, 0), (7, -1), "CENTER"), *res_styles])]
 
 
+def _registration_trusted(res) -> bool:
+    from engine.verdict import MIN_NEAR_FRACTION
+
+    reg = res.registration
+    return bool(reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION)
+
+
+def _point_list_words(c: _Layout, n_out: int, n_near: int, judged: bool):
+    """Section 9's title, header row, result words (by in-tolerance) and introduction."""
+    n_all = c.res.statistics.n_out
+    listed = f"; the worst {MAX_OUT_ROWS} are listed" if n_all > MAX_OUT_ROWS else ""
+    tail = (" A point excluded from the alignment (a gross outlier: see section 4) is judged "
+            "like every other. Every point is in the attached points.csv.")
+    if not judged:
+        head = (f"The registration cannot be trusted, so no point is judged; the {n_near} "
+                "largest deviations at the best pose found are listed for diagnosis.")
+    elif c.plan is None:
+        head = (f"Every point out of tolerance ({n_all}{listed}), then the {n_near} "
+                "in-tolerance points nearest to a limit, worst first.")
+    else:
+        head = (f"Every point outside the zone of the statistics {c.zone} ({n_all}{listed}), "
+                f"then the {n_near} inside it nearest to a limit, worst first, with the regions "
+                "of the plan they belong to (—: none). " + (
+                    "That zone is also characteristic 'tol' (judged at the best fit over all "
+                    "points)." if c.plan.zone_in_verdict else
+                    "That zone is not part of the verdict: the characteristics in section 2 "
+                    "are."))
+    if c.plan is None:
+        return ("9  Characteristic accountability (AS9102 Form 3 style)",
+                ["Char. No.", "Point", "Requirement", "X (mm)", "Y (mm)", "Z (mm)",
+                 "Deviation", "Result"], {True: "PASS", False: "FAIL"},
+                head + " Coordinates of the registered points in the nominal frame." + tail)
+    return ("9  Measured points", ["No.", "Point", "Region", "X (mm)", "Y (mm)", "Z (mm)",
+                                   "Deviation", "In zone"], {True: "inside", False: "outside"},
+            head + " Coordinates at the plan's alignment (section 6), in the nominal frame."
+            + tail)
+
+
 def _evidence(c: _Layout) -> list:
     """10  Attached evidence: each embedded file with its content and SHA-256."""
     from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether
     from reportlab.platypus import Paragraph as P
 
     S = c.styles
@@ -783,10 +1136,11 @@ def _evidence(c: _Layout) -> list:
     for a in c.attachments:
         rows.append([a.name, P(_esc(a.description), S["cell"]),
                      P(hashlib.sha256(a.data).hexdigest(), S["mono"])])
-    return [P("10  Attached evidence (embedded in this PDF, covered by the signature)", S["h"]),
-            c.table(rows, [22 * mm, 62 * mm, c.width - 84 * mm]),
-            P("Extract them with any PDF reader's attachment panel or "
-              "<font name='Courier'>pdfdetach -saveall</font>.", S["small"])]
+    return [KeepTogether([
+        P("10  Attached evidence (embedded in this PDF, covered by the signature)", S["h"]),
+        c.table(rows, [22 * mm, 62 * mm, c.width - 84 * mm]),
+        P("Extract them with any PDF reader's attachment panel or "
+          "<font name='Courier'>pdfdetach -saveall</font>.", S["small"])])]
 
 
 def _statement_and_signatures(c: _Layout) -> list:
@@ -798,7 +1152,9 @@ def _statement_and_signatures(c: _Layout) -> list:
 
     S, W, res, identity, zone = c.styles, c.width, c.res, c.identity, c.zone
     st = res.statistics
-    if res.verdict == ACCEPT:
+    if c.plan is not None and res.verdict != INCONCLUSIVE:
+        statement = _plan_statement(c)
+    elif res.verdict == ACCEPT:
         statement = (f"The part identified above conforms to the stated requirement: all "
                      f"{st.count} measured points lie within the tolerance zone {zone}, "
                      "under the decision rule stated in section 3.")
@@ -824,7 +1180,8 @@ def _statement_and_signatures(c: _Layout) -> list:
         P(_esc(statement), S["base"]), Spacer(1, 2 * mm),
         P(sig_text, S["small"]),
         P("Verify the signature and the evidence: <font name='Courier'>qa-inspect verify "
-          "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE]</font> or any "
+          "certificate.pdf --trust ca.pem [--nominal FILE --measured FILE"
+          + ("" if c.plan is None else " --plan FILE") + "]</font> or any "
           "PAdES-capable reader with the issuing CA as trust anchor.", S["small"]),
         Spacer(1, 3 * mm),
         Table([[_Slot(INSPECTOR_FIELD, "Inspector signature", bw, 24 * mm, c.slots,
@@ -833,6 +1190,26 @@ def _statement_and_signatures(c: _Layout) -> list:
                       bw, 24 * mm, c.slots)]],
               colWidths=[bw + 4 * mm, bw + 4 * mm],
               style=[("LEFTPADDING", (0, 0), (-1, -1), 0)])])]
+
+
+def _plan_statement(c: _Layout) -> str:
+    """The statement of conformity to an inspection plan (accepted or rejected)."""
+    rec = next(r for r in c.run.inputs if r.role == "plan")
+    name = os.path.basename(rec.path)
+    results = c.plan.characteristics
+    if c.res.verdict == ACCEPT:
+        return (f"The part identified above conforms to the inspection plan {name}: all "
+                f"{len(results)} characteristics lie within their tolerances, under the "
+                "decision rule stated in section 3.")
+    out = [f"{ch.id} ({_type_word(c, ch.type)} of "
+           + ("all points)" if ch.region == "(all points)" else f"region {ch.region})")
+           for ch in (r.characteristic for r in results if r.verdict == REJECT)]
+    one = len(out) == 1
+    listed = out[0] if one else ", ".join(out[:-1]) + " and " + out[-1]
+    return (f"The part identified above does not conform to the inspection plan {name}: "
+            f"characteristic{'' if one else 's'} {listed} {'lies' if one else 'lie'} outside "
+            f"{'its tolerance' if one else 'their tolerances'} (section 2; {len(results)} "
+            "characteristics in all).")
 
 
 _SECTIONS = (_identification, _result, _requirement, _method, _inputs, _registration,

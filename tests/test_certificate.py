@@ -892,3 +892,248 @@ def test_an_accept_the_result_does_not_support_is_never_certified(tmp_path, monk
     assert "refusing to certify ACCEPTED" in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
     assert os.listdir(tmp_path) == []
+
+
+# ---------------------------------------------------------------------------- 12. plans
+BRACKET_DIR = os.path.join(ROOT, "samples", "seat_bracket")
+BRACKET_MEASURED = os.path.join(BRACKET_DIR, "measured.csv")
+BRACKET_PLAN = os.path.join(BRACKET_DIR, "plan.toml")
+WORD = {"ACCEPT": "ACCEPTED", "REJECT": "REJECTED", "INCONCLUSIVE": "INCONCLUSIVE"}
+
+
+def read_toml(path) -> dict:
+    import tomllib
+
+    with open(path, "rb") as f:
+        return tomllib.load(f)
+
+
+@pytest.fixture(scope="module")
+def bracket(signed, tmp_path_factory):
+    """A signed certificate of the seat bracket's plan run (its skin 0.012 mm proud: rejected
+    by the profile relative to A|B|C), with the --json document of the same run. The plan is
+    given as a copy that is gone afterwards (a re-run must use the plan handed to verify), and
+    the part number given is a dash number of the plan's."""
+    d = tmp_path_factory.mktemp("bracket")
+    (d / "drawing").mkdir()
+    plan = d / "drawing" / "plan.toml"
+    shutil.copyfile(BRACKET_PLAN, plan)
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        code, out, err = cli("inspect", BRACKET_NOMINAL, BRACKET_MEASURED, "--plan", plan,
+                             "--report", d / "c.pdf", "--json", d / "r.json",
+                             "--sign", signed.p12, "--sign-pass-env", PASS_VAR,
+                             "--part-number", "SB-1020-1", "--serial", "SN-B7")
+    assert code == 1 and out.startswith("REJECT"), out + err
+    shutil.rmtree(d / "drawing")
+    pages = page_texts(d / "c.pdf")
+    return SimpleNamespace(pdf=d / "c.pdf", doc=json.loads((d / "r.json").read_text()),
+                           plan=read_toml(BRACKET_PLAN), pages=pages,
+                           text=squeeze("\n".join(pages)))
+
+
+def test_a_plan_certificate_lists_its_characteristics_after_the_result(bracket):
+    """Each characteristic of the plan file on its own row of section 2, right after the
+    verdict: balloon number, requirement, datums (or form), the measured value to 4 decimals,
+    the points and its verdict in words; the planted excess rejects only the datum-referenced
+    profile of the skin."""
+    first = bracket.pages[0]
+    table = first[first.index("Characteristics of the inspection plan"):
+                  re.search(r"3\s+Requirement", first).start()]
+    assert first.index("REJECTED") < first.index("Characteristics of the inspection plan")
+    got = {c["id"]: c for c in bracket.doc["characteristics"]}
+    assert [c["id"] for c in bracket.plan["characteristic"]] == list(got) == list("12345")
+    assert [got[i]["verdict"] for i in "12345"] == ["REJECT"] + ["ACCEPT"] * 4
+    for c in bracket.plan["characteristic"]:
+        r = got[c["id"]]
+        datums = "|".join(c.get("datums", [])) or ("—" if c["type"] == "size" else "form")
+        limits = (f"Ø{c['nominal']:.4f} {c['lower']:+.4f}/{c['upper']:+.4f} mm"
+                  if c["type"] == "size" else f"zone {c['zone']:.4f} mm")
+        row = (rf"^\s*{re.escape(c['id'])}\s+{re.escape(limits)}\s+{re.escape(datums)}\s+"
+               rf"{r['value']:.4f}\s+{r['n_points']}\s+{WORD[r['verdict']]}\s*$")
+        assert re.search(row, table, re.M), (row, table)
+    assert table.count("region skin") == 2 and table.count("region hole1") == 2
+    assert "84 of 100 points lie outside the tolerance zone" in squeeze(
+        page_texts(bracket.pdf, layout=False)[0])
+
+
+def test_a_plan_certificate_states_its_alignment_and_datums_in_words(bracket):
+    """The 3-2-1 frame on the three tangent datum planes in one sentence, and each datum's
+    feature, fit, points (the sample's probed faces, truth.json) and form error."""
+    with open(os.path.join(BRACKET_DIR, "truth.json")) as f:
+        faces = json.load(f)["datum_faces"]
+    text = bracket.text
+    assert "Registration and alignment" in text
+    assert "3-2-1 on datums A|B|C, tangent planes; remaining freedom: none." in text
+    fits = {d["label"]: d for d in bracket.doc["alignment"]["datums"]}
+    for label, taken in zip("ABC", (3, 2, 1)):
+        region = next(d["region"] for d in bracket.plan["datum"] if d["label"] == label)
+        assert re.search(rf"{label} plane tangent {region} {len(faces[label]['labels'])} "
+                         rf"{taken} of 6 {fits[label]['form_error']:.4f}", text), label
+
+
+def test_a_plan_certificate_names_the_plan_and_its_part(bracket, signed):
+    """The plan among the inputs (its SHA-256 from the file) and in the requirement; the part's
+    name and revision from the plan's [part], the part number given winning but printed beside
+    the plan's, and kept in results.json."""
+    from reports.signing import read_trust_roots, verify_pdf
+
+    sha = sha256_file(BRACKET_PLAN)
+    assert f"plan.toml (SHA-256 {sha[:16]}…" in bracket.text
+    raw = page_texts(bracket.pdf, layout=False)
+    assert "plan plan.toml 5 characteristics" in squeeze(raw[1])
+    assert f"5characteristics{sha}" in "".join(raw[1].split())  # the SHA-256 wraps in its cell
+    part = bracket.plan["part"]
+    first = squeeze(raw[0])
+    assert (f"Part number SB-1020-1 (the inspection plan states {part['number']}) Part name "
+            f"{part['name']}") in first
+    assert f"Revision {part['revision']} " in first
+    v = verify_pdf(bracket.pdf.read_bytes(), read_trust_roots(str(signed.ca)))
+    cert = json.loads(v.attachments["results.json"])["certificate"]
+    assert (cert["part_number"], cert["part_name"], cert["revision"]) == (
+        "SB-1020-1", part["name"], part["revision"])
+    assert cert["plan_part"] == part
+
+
+def test_a_plan_certificate_carries_the_plan_results(bracket, signed):
+    """The results.json embedded in the certificate holds the same plan, alignment and
+    characteristics as the --json document of the run."""
+    from reports.signing import read_trust_roots, verify_pdf
+
+    v = verify_pdf(bracket.pdf.read_bytes(), read_trust_roots(str(signed.ca)))
+    assert v.valid, v.problems
+    attached = json.loads(v.attachments["results.json"])
+    for key in ("plan", "alignment", "characteristics", "region_distance_mm",
+                "tolerance_in_verdict", "characteristic_value_definition"):
+        assert attached[key] == bracket.doc[key], key
+    assert attached["plan"]["sha256"] == sha256_file(BRACKET_PLAN)
+    assert attached == dict(bracket.doc, certificate=attached["certificate"])
+
+
+def test_a_plan_certificate_states_which_characteristic_does_not_conform(bracket):
+    assert ("does not conform to the inspection plan plan.toml: characteristic 1 (surface "
+            "profile of region skin) lies outside its tolerance (section 2; 5 characteristics "
+            "in all)") in bracket.text
+    assert "--measured FILE --plan FILE]" in bracket.text
+    # The point list is no second list of characteristics: the zone it uses is the statistics'.
+    assert "9 Measured points" in bracket.text and "Characteristic accountability" not in \
+        bracket.text
+    assert "That zone is not part of the verdict" in bracket.text
+
+
+def test_verify_reruns_a_plan_certificate_with_its_plan(bracket, signed, tmp_path, capsys):
+    """verify --plan: the plan's SHA-256 checked like the other files and the inspection re-run
+    with it (the path the certificate recorded is gone); another plan, or none, is refused."""
+    files = ["--nominal", BRACKET_NOMINAL, "--measured", BRACKET_MEASURED]
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, *files,
+                            "--plan", BRACKET_PLAN)
+    assert code == 0, out + err
+    assert any("plan file matches" in ln and ln.endswith(BRACKET_PLAN)
+               for ln in out.splitlines())
+    assert re.search(r"re-run: REJECT, max \|deviation\| \d+\.\d{6} mm, as certified", out)
+
+    changed = tmp_path / "plan.toml"
+    changed.write_text(read_text(BRACKET_PLAN).replace("zone = 0.02\n", "zone = 0.05\n", 1))
+    assert sha256_file(changed) != sha256_file(BRACKET_PLAN)
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, *files,
+                            "--plan", changed)
+    assert code == 1 and out.startswith("INVALID"), out + err
+    problem = [ln for ln in out.splitlines() if "problem:" in ln]
+    assert len(problem) == 1 and f"plan file {changed}" in problem[0]
+    assert sha256_file(changed)[:16] in problem[0] and "re-run" not in out
+
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, *files)
+    assert code == 64 and "Traceback" not in err
+    assert f"inspection plan plan.toml (SHA-256 {sha256_file(BRACKET_PLAN)[:16]}" in err
+    assert "--plan FILE" in err
+    code, out, err = verify(capsys, signed.pdf, "--trust", signed.ca, "--nominal",
+                            BELLY_NOMINAL, "--measured", BELLY_MEASURED, "--plan", BRACKET_PLAN)
+    assert code == 64 and "made without an inspection plan" in err
+    code, out, err = verify(capsys, bracket.pdf, "--trust", signed.ca, "--plan", BRACKET_PLAN)
+    assert code == 64 and "--plan re-runs the inspection with --nominal and --measured" in err
+
+
+def test_verify_compares_each_characteristic_of_the_re_run(signed, tmp_path, capsys):
+    """A certificate whose flatness value is not what the files and the plan give (made, signed,
+    by a doctored run: same verdict, same deviations) fails verify, naming the characteristic."""
+    from dataclasses import replace
+
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from reports.certificate import CertificateInfo, make_certificate
+    from reports.signing import load_identity
+
+    run = run_files(BRACKET_NOMINAL, BRACKET_MEASURED,
+                    InspectionSettings(-0.015, 0.015, plan=BRACKET_PLAN, zone_in_verdict=False))
+    plan = run.result.plan
+    flat = next(r for r in plan.characteristics if r.characteristic.type == "flatness")
+    assert flat.verdict == "ACCEPT" and flat.value < 0.009
+    doctored = tuple(replace(r, value=r.value + 0.001) if r is flat else r
+                     for r in plan.characteristics)
+    run = replace(run, result=replace(run.result, plan=replace(plan, characteristics=doctored)))
+    pdf = tmp_path / "c.pdf"
+    pdf.write_bytes(make_certificate(run, CertificateInfo(serial="SN-B9"),
+                                     load_identity(str(signed.p12), PASSPHRASE.encode())))
+    code, out, err = verify(capsys, pdf, "--trust", signed.ca, "--nominal", BRACKET_NOMINAL,
+                            "--measured", BRACKET_MEASURED, "--plan", BRACKET_PLAN)
+    assert code == 1 and out.startswith("INVALID"), out + err
+    problem = [ln for ln in out.splitlines() if "problem:" in ln]
+    assert problem == [f"  problem: re-run characteristic(s) {flat.characteristic.id} differ "
+                       "from the certified value or verdict"]
+
+
+def test_a_signed_accepted_plan_certificate_takes_its_part_number_from_the_plan(signed,
+                                                                               tmp_path):
+    """Datum A alone, the freedom it leaves best-fitted on the skin, and a profile zone the
+    skin's excess fits: ACCEPTED, signed with only --serial given (the plan's [part] names the
+    part)."""
+    plan = tmp_path / "plan.toml"
+    text = read_text(BRACKET_PLAN).replace('reference = ["A", "B", "C"]',
+                                           'reference = ["A"]\nbest_fit_regions = ["skin"]')
+    text = text.replace('zone = 0.02\ndatums = ["A", "B", "C"]', 'zone = 0.1\ndatums = ["A"]')
+    plan.write_text(text)
+    pdf = tmp_path / "c.pdf"
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv(PASS_VAR, PASSPHRASE)
+        code, out, err = cli("inspect", BRACKET_NOMINAL, BRACKET_MEASURED, "--plan", plan,
+                             "--report", pdf, "--sign",
+                             signed.p12, "--sign-pass-env", PASS_VAR, "--serial", "SN-B8")
+    assert code == 0 and out.startswith("ACCEPT"), out + err
+    text = squeeze("\n".join(page_texts(pdf, layout=False)))
+    number = read_toml(plan)["part"]["number"]
+    assert f"Part number {number} Part name" in text and "the inspection plan states" not in text
+    assert ("Datum A (plane, tangent); the freedom it leaves (shift along +x, shift along +y, "
+            "turn about +z through (") in text and ") best-fitted on regions skin." in text
+    assert ("conforms to the inspection plan plan.toml: all 5 characteristics lie within their "
+            "tolerances") in text
+    assert "REJECTED" not in text
+
+
+def test_a_plan_accept_rests_on_its_characteristics_not_the_statistics_zone(tmp_path):
+    """A plan's ACCEPT is certified though points lie outside the zone of the statistics (which
+    is not part of its verdict); a bug upstream that calls the seat bracket's rejected plan run
+    ACCEPT is refused."""
+    from dataclasses import replace
+
+    from engine.errors import QAError
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from engine.tolerance import Tolerance
+    from reports.certificate import CertificateInfo, make_certificate
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(read_text(BRACKET_PLAN).replace("zone = 0.02\n", "zone = 0.1\n", 1))
+    run = run_files(BRACKET_NOMINAL, BRACKET_MEASURED,
+                    InspectionSettings(-0.001, 0.001, plan=str(plan), zone_in_verdict=False))
+    d = run.result.deviations.signed
+    assert run.result.verdict == "ACCEPT" and (np.abs(d) > 0.001).any()
+    assert make_certificate(run, CertificateInfo(), None)[:5] == b"%PDF-"
+
+    run = run_files(BRACKET_NOMINAL, BRACKET_MEASURED,
+                    InspectionSettings(-0.015, 0.015, plan=BRACKET_PLAN, zone_in_verdict=False))
+    assert run.plan is not None and run.plan.part.number == "SB-1020"
+    assert run.result.verdict == "REJECT"
+    wrong = replace(run, result=replace(run.result, verdict="ACCEPT",
+                                        tolerance=Tolerance(-1.0, 1.0)))
+    with pytest.raises(QAError, match="a characteristic is not within its limits"):
+        make_certificate(wrong, CertificateInfo(), None)
