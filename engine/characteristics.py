@@ -82,7 +82,6 @@ class PlanResult:
     deviations: np.ndarray
     regions: np.ndarray
     members: dict
-    region_distance: float
     characteristics: tuple[CharacteristicResult, ...]
     zone_in_verdict: bool = False
     """Whether the inspection's zone over all points is one of the characteristics (``tol``);
@@ -141,6 +140,9 @@ def statistics_zone(plan: Plan) -> Tolerance:
     """The zone of the per-point statistics when the plan alone states the requirement: the
     widest profile zone of its characteristics (else +-half the widest zone of any); it is not
     part of the verdict."""
+    if not plan.characteristics:
+        raise InputError("the plan has no [[characteristic]]: add one, or give a zone over all "
+                         "points (--tol)", plan.path)
     profiles = [c for c in plan.characteristics if c.type == "profile"]
     if profiles:
         c = max(profiles, key=lambda c: c.width)
@@ -149,7 +151,7 @@ def statistics_zone(plan: Plan) -> Tolerance:
 
 
 def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,
-               region_distance: float, regions: np.ndarray) -> PlanResult:
+               regions: np.ndarray) -> PlanResult:
     """Evaluate ``plan`` on the registered part (module docstring)."""
     datums = {d.label: d for d in plan.datums}
     cache: dict = {}
@@ -178,13 +180,17 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
         T_part = alignment.T_nominal_measured
     results = []
     for c in plan.characteristics:
-        idx = members[c.region]
-        results.append(_judge(c, idx, geo, placed, T_part))
+        try:
+            results.append(_judge(c, members[c.region], geo, placed, T_part))
+        except InputError as e:  # a plan the nominal shows wrong: name the plan
+            if e.path is not None:
+                raise
+            raise InputError(e.message, plan.path) from None
     everything = np.arange(n)
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = _verdict(results, alignment)
     return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
-                      region_distance, tuple(results),
+                      tuple(results),
                       features=region_features(plan, geo, members, T_part))
 
 
@@ -269,8 +275,21 @@ def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry):
     from .features import flatness
 
     X, _, n = geo.evaluate(geo.T0, idx)
-    hint = n.mean(axis=0)
-    f = flatness(X, hint / np.linalg.norm(hint))
+    hint = n.mean(axis=0) / np.linalg.norm(n.mean(axis=0))
+    if X.shape[1] == 3:
+        flat = X - X.mean(axis=0)
+        flat -= np.outer(flat @ hint, hint)
+        ev = np.linalg.eigvalsh(flat.T @ flat)  # (0, smaller, larger) spreads in the plane
+        if ev[1] < SPAN ** 2 * ev[2]:
+            return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of "
+                                        f"region '{c.region}' lie along a line: they do not "
+                                        "determine a plane", idx)
+    f = flatness(X, hint)
+    turn = float(np.degrees(np.arccos(np.clip(f.normal @ hint, -1.0, 1.0))))
+    if turn > np.degrees(FACING):
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"the points' minimum zone stands "
+                                    f"at {turn:.0f}° to the nominal face: they do not "
+                                    "determine its plane", idx)
     return _by_value(c, idx, f.width, {"normal": f.normal}, "minimum-zone width")
 
 
@@ -284,33 +303,88 @@ def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str):
 
 
 def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
-    from .features import fit_circle_lsq, fit_cylinder_lsq, position_value
+    """Size or position of the hole of ``c``'s region (a cylinder in 3D, a circle in 2D)."""
+    from .features import position_value
 
-    planar = geo.nominal_points.shape[1] == 2
     mask = geo.nominal_masks[c.region]
     nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
+    nom = _hole_fit(nominal, normals)
+    if nom.form_error > HOLE_FORM * nom.radius:
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no hole: its "
+                         f"nominal points lie up to {nom.form_error:.3g} mm off their "
+                         f"best {'circle' if nominal.shape[1] == 2 else 'cylinder'}")
     if c.type == "size":
-        X = geo.evaluate(geo.T0, idx)[0]
-        fit = fit_circle_lsq(X) if planar else _cylinder(fit_cylinder_lsq, X, normals)
-        return _by_value(c, idx, 2.0 * fit.radius, {"fit": "least squares",
-                                                    "form_error": fit.form_error},
+        got = _measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
+        if isinstance(got, CharacteristicResult):
+            return got
+        return _by_value(c, idx, 2.0 * got.radius, {"fit": "least squares",
+                                                    "form_error": got.form_error},
                          "least-squares diameter")
     al = placed(tuple(c.datums), (), T_part)
     if not al.complete:
         return _untrusted(c, idx, al)
-    X = geo.evaluate(al.T_nominal_measured, idx)[0]
-    if planar:
-        nom, got = fit_circle_lsq(nominal), fit_circle_lsq(X)
+    _check_located(c, al, nom, geo)
+    got = _measured_hole(c, idx, geo.evaluate(al.T_nominal_measured, idx)[0], normals, nom)
+    if isinstance(got, CharacteristicResult):
+        return got
+    if nominal.shape[1] == 2:
         value = position_value(got.centre, nom.centre).value
         facts = {"centre": got.centre, "nominal_centre": nom.centre}
     else:
-        nom = _cylinder(fit_cylinder_lsq, nominal, normals)
-        got = _cylinder(fit_cylinder_lsq, X, normals)
         value = position_value(got.ends, nom.point, nom.direction).value
         facts = {"axis_ends": got.ends, "nominal_point": nom.point,
                  "nominal_direction": nom.direction}
     facts["free"] = [f.describe() for f in al.free]
     return _by_value(c, idx, value, facts, "position (diameter)")
+
+
+def _check_located(c: Characteristic, al: Alignment, nom, geo: Geometry) -> None:
+    """A position is relative to datums that locate the hole: none of the motions they leave
+    free may move the nominal hole (a plane alone leaves it free to slide)."""
+    from .datums import invariant_motions, moving
+
+    feature = {"centre": nom.centre} if geo.nominal_points.shape[1] == 2 else \
+        {"point": nom.point, "direction": nom.direction}
+    kind = "circle" if geo.nominal_points.shape[1] == 2 else "cylinder"
+    loose = moving(al.free_basis, invariant_motions(kind, feature, geo.centre, geo.length),
+                   geo.centre, geo.length)
+    if loose:
+        raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} leave "
+                         f"the hole free to move ({'; '.join(f.describe() for f in loose)}): a "
+                         "position needs datums that locate it")
+
+
+def _hole_fit(X: np.ndarray, normals: np.ndarray):
+    """The least-squares circle (2D) or cylinder (3D, its axis started from the normals)."""
+    from .features import fit_circle_lsq, fit_cylinder_lsq
+
+    return fit_circle_lsq(X) if X.shape[1] == 2 else _cylinder(fit_cylinder_lsq, X, normals)
+
+
+def _measured_hole(c: Characteristic, idx: np.ndarray, X: np.ndarray, normals: np.ndarray,
+                   nom):
+    """The measured hole's fit, or an INCONCLUSIVE result when its points do not determine it
+    (the fit did not settle, or its axis turned from the nominal's by more than FACING: a hole
+    probed on a narrow arc)."""
+    radial = X - (nom.centre if X.shape[1] == 2 else nom.point)
+    if X.shape[1] == 3:
+        radial -= np.outer(radial @ nom.direction, nom.direction)
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    across = np.linalg.svd(np.column_stack([radial, np.ones(len(X))]) / np.sqrt(len(X)),
+                           compute_uv=False)
+    if across[2] < HOLE_SPREAD:  # (3D: a 4th, along the axis, is zero)
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
+                                    f"'{c.region}' do not determine the hole (they cover too "
+                                    "little of its circumference)", idx)
+    got = _hole_fit(X, normals)
+    turn = 0.0 if X.shape[1] == 2 else float(np.degrees(np.arccos(np.clip(
+        abs(got.direction @ nom.direction), 0.0, 1.0))))
+    if got.converged and turn <= np.degrees(FACING):
+        return got
+    why = f"its axis turns {turn:.0f}° from the nominal's" if got.converged else \
+        "the fit does not settle"
+    return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
+                                f"'{c.region}' do not determine the hole ({why})", idx)
 
 
 def _cylinder(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
@@ -321,9 +395,21 @@ def _cylinder(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
 
 
 _IMPLIED_FEATURE = {"flatness": "plane", "position": "cylinder", "size": "cylinder"}
-PLANE_FACING = np.radians(10.0)
-"""A nominal plane is fitted to its region's points whose outward normals lie within this angle
-of the region's mean outward normal."""
+FACING = np.radians(10.0)
+"""How far a sample's normal may turn from its feature's and still be of it (engine.regions
+boxes take in strips of the neighbouring faces), and how far a measured feature's fitted plane
+or axis may turn from the nominal's before its points are taken not to determine it."""
+SPAN = 0.05
+"""A flatness needs its points spread both ways over the face: the smaller in-plane spread at
+least this fraction of the larger (points along a line leave the plane free to turn about it)."""
+HOLE_SPREAD = 0.05
+"""A hole's points determine its centre and size apart when the smallest singular value of
+[radial direction, 1] per point (over the square root of their number) is at least this: about
+a 75-degree arc; a 45-degree arc has 0.018, which turns 1 um of probing noise into 50 um of
+size."""
+HOLE_FORM = 0.02
+"""A region is a hole when its nominal points lie within this fraction of its radius of their
+least-squares cylinder (circle); a tessellated hole of 32 facets is within 0.5%."""
 
 
 def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
@@ -331,13 +417,10 @@ def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
     """Every region a datum or characteristic uses, in the plan's order, as its feature
     (RegionFeature): the nominal fitted to the region's nominal points, the measured to its
     measured points at pose ``T``."""
-    kinds: dict[str, str] = {}
+    kinds = _region_kinds(plan)
     datums: dict[str, list] = {}
     for d in plan.datums:
-        kinds.setdefault(d.region, d.feature)
         datums.setdefault(d.region, []).append((d.label, d.fit))
-    for c in plan.characteristics:
-        kinds.setdefault(c.region, _IMPLIED_FEATURE.get(c.type, "freeform"))
     out = []
     for r in plan.regions:
         kind = kinds.get(r.name)
@@ -356,16 +439,49 @@ def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
     return tuple(out)
 
 
+def _region_kinds(plan: Plan) -> dict[str, str]:
+    """{region: the feature it is}: its datum's feature, else what its characteristic implies
+    (flatness a plane, position and size a hole), else freeform (a profile's surface)."""
+    kinds: dict[str, str] = {}
+    for d in plan.datums:
+        kinds.setdefault(d.region, d.feature)
+    for c in plan.characteristics:
+        kinds.setdefault(c.region, _IMPLIED_FEATURE.get(c.type, "freeform"))
+    return kinds
+
+
+def _feature_masks(plan: Plan, geo: Geometry) -> dict[str, np.ndarray]:
+    """The regions' nominal masks, those of a plane (line) or a cylinder kept to the samples
+    that face as the feature does (within FACING of the region's mean normal; at right angles
+    to a hole's axis within FACING): a box takes in strips of the neighbouring faces, whose
+    points must not join a datum or tilt its nominal."""
+    out = dict(geo.nominal_masks)
+    planar = geo.nominal_points.shape[1] == 2
+    for name, kind in _region_kinds(plan).items():
+        if kind not in ("plane", "line", "cylinder") or (planar and kind == "cylinder"):
+            continue
+        idx = np.flatnonzero(out[name])
+        n = geo.nominal_normals(idx)
+        if kind == "cylinder":
+            axis = np.linalg.eigh(n.T @ n)[1][:, 0]
+            keep = np.abs(n @ axis) <= np.sin(FACING)
+        else:
+            mean = n.sum(axis=0)
+            keep = n @ (mean / (np.linalg.norm(mean) or 1.0)) >= np.cos(FACING)
+        if keep.sum() < MIN_POINTS[kind]:
+            raise InputError(f"[[region]] '{name}': its nominal points do not form a {kind} "
+                             f"(only {int(keep.sum())} of {idx.size} face as one does)",
+                             plan.path)
+        mask = np.zeros_like(out[name])
+        mask[idx[keep]] = True
+        out[name] = mask
+    return out
+
+
 def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict | None:
-    """The least-squares ``kind`` of a region's nominal points (a plane: of those facing its
-    way, within ``PLANE_FACING`` of the mean outward normal, so that the strips of the
-    neighbouring faces a box takes in do not tilt or shift it); a cylinder or sphere says
-    whether it is a hole (internal: the outward normals point towards its axis / centre)."""
-    if kind in ("plane", "line"):
-        mean = normals.sum(axis=0)
-        facing = normals @ (mean / (np.linalg.norm(mean) or 1.0)) >= np.cos(PLANE_FACING)
-        if facing.sum() >= 3:
-            points, normals = points[facing], normals[facing]
+    """The least-squares ``kind`` of a region's nominal points (kept by _feature_masks to those
+    facing as the feature does); a cylinder or sphere says whether it is a hole (internal: the
+    outward normals point towards its axis / centre)."""
     fit = _fit_feature(kind, points, normals)
     if fit is None:
         return None
@@ -431,6 +547,9 @@ def _rps(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:
         if len(found) != 1:
             raise InputError(f"[[rps]] '{p.label}': {len(found)} measured points carry this "
                              "label; it must name exactly one", plan.path)
+        if dim == 2 and "z" in p.lock:
+            raise InputError(f"[[rps]] '{p.label}': a 2D template's points lock x and y only, "
+                             "not z", plan.path)
         for a in p.lock:
             e = np.zeros(dim)
             e["xyz".index(a)] = 1.0
@@ -546,14 +665,12 @@ def _judged(result, plan: Plan, geo: Geometry, tree, zone_in_verdict: bool) -> P
                              f"{'a 2D template' if dim == 2 else '3D'}", plan.path)
     reg = result.registration
     n = result.registered.shape[0]
-    # A point belongs where it lies: within the near distance of the surface (its deviation,
-    # not the distance to the nearest sample, which grows with the sampling), in the region of
-    # the sample nearest its closest point on the surface.
+    geo = replace(geo, nominal_masks=_feature_masks(plan, geo))
+    # A point belongs where it lies: in the region of the sample nearest its closest point on
+    # the surface (not its nearest sample, which may lie on the next face).
     foot = result.deviations.foot[:, :geo.nominal_points.shape[1]]
-    members = measured_members(plan, geo.nominal_masks, tree.query(foot)[1],
-                               np.abs(result.deviations.signed), reg.near_distance, geo.labels)
-    planned = check_plan(plan, geo, members, n, reg.near_distance,
-                         region_column(plan, members, n))
+    members = measured_members(plan, geo.nominal_masks, tree.query(foot)[1], geo.labels)
+    planned = check_plan(plan, geo, members, n, region_column(plan, members, n))
     results = list(planned.characteristics)
     if zone_in_verdict:
         tol = result.tolerance

@@ -46,6 +46,11 @@ SIZE_FEATURES = ("cylinder", "sphere", "circle")
 RANK_TOLERANCE = 1e-6
 """RPS: a direction counts as locked when its singular value exceeds this fraction of the
 largest one (exact lock axes give exact zeros)."""
+DETERMINED = 0.01
+"""A datum's points determine each direction it takes when the smallest singular value of its
+linearised deviations (per point, rotations weighed by the lever) is at least this: a plane
+probed along one line leaves its tilt about that line below it (a hole probed on a narrow arc,
+its centre against its size); the datum is then not established, rather than fitted to noise."""
 ALIGNED_TOLERANCE = 1e-4
 """A datum's invariant motion counts as one of the free ones when it lies within this angle
 (rad; rotations weighed by the lever) of their span: nominally perpendicular or coaxial features
@@ -87,7 +92,7 @@ class FreeDirection:
     through: tuple[float, ...] | None = None
 
     def describe(self) -> str:
-        v = ", ".join(f"{a:+.3f}" for a in self.along)
+        v = ", ".join(f"{round(a, 3) + 0.0:+.3f}" for a in self.along)  # no "-0.000"
         if self.type == "translation":
             return f"translation along ({v})"
         p = ", ".join(f"{a:.2f}" for a in self.through)
@@ -111,6 +116,9 @@ class Alignment:
     best_fitted: bool
     complete: bool
     message: str = ""
+    free_basis: np.ndarray | None = None
+    """(dof, f) the free directions in the fits' coordinates (rotation x length, translation,
+    about the fits' centre), orthonormal: what ``free`` names."""
 
 
 Evaluate = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -153,6 +161,15 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
                                  0.0, float("nan")))
             continue
         taken = _complement(free, _within(free, inv))
+        if not _determined(evaluate, T, idx, taken, centre, length, nrot,
+                           datum.feature in SIZE_FEATURES):
+            complete = False
+            message = (f"datum {datum.label}: its {idx.size} points do not determine its "
+                       f"{datum.feature} (they span too little of it: along a line, or a "
+                       "narrow arc)")
+            fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
+                                 0.0, float("nan")))
+            continue
         T, offset, gap = _fit_datum(evaluate, T, datum, idx, taken, centre, length, nrot)
         fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
                              taken.shape[1], offset, gap))
@@ -163,7 +180,20 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
                            length, nrot, size=False)[0]
         fitted = True
     return Alignment(T, tuple(fits), _describe_free(free, centre, length, nrot), fitted,
-                     complete, message)
+                     complete, message, free)
+
+
+def _determined(evaluate, T, idx, taken, centre, length, nrot, size) -> bool:
+    """Whether the points ``idx`` determine every direction ``taken`` (dof, r) (and a size
+    feature's size beside them): DETERMINED."""
+    if taken.shape[1] == 0:
+        return True
+    X, _, n = evaluate(T, idx)
+    A = _jacobian(X, n, centre, length, nrot) @ taken
+    if size:
+        A = np.column_stack([A, -np.ones(len(idx))])
+    s = np.linalg.svd(A / np.sqrt(len(idx)), compute_uv=False)
+    return bool(s[-1] >= DETERMINED)
 
 
 def _fit_datum(evaluate: Evaluate, T, datum, idx, taken, centre, length, nrot):
@@ -187,6 +217,16 @@ def _within(free: np.ndarray, invariant: np.ndarray) -> np.ndarray:
     _, s, vt = np.linalg.svd(off, full_matrices=True)
     s = np.concatenate([s, np.zeros(vt.shape[0] - s.size)])
     return free @ vt[s < ALIGNED_TOLERANCE].T
+
+
+def moving(free: np.ndarray | None, invariant: np.ndarray, centre: np.ndarray,
+           length: float) -> tuple[FreeDirection, ...]:
+    """The free directions (dof, f) that move a feature whose invariant motions are
+    ``invariant`` (dof, k), named; () when every free direction leaves it in place."""
+    if free is None or free.shape[1] == 0:
+        return ()
+    nrot = 3 if free.shape[0] == 6 else 1
+    return _describe_free(_complement(free, _within(free, invariant)), centre, length, nrot)
 
 
 def invariant_motions(feature: str, nominal: dict, centre: np.ndarray,
@@ -323,6 +363,9 @@ def _describe_free(free: np.ndarray, centre: np.ndarray, length: float, nrot: in
     out = []
     # Rotations first: the combination without translation parts comes out as its own vector.
     for v in free.T:
+        # The sign of a basis vector is arbitrary: show each with its largest component positive,
+        # so that the same freedom reads the same whatever the pose.
+        v = v * (1.0 if v[np.argmax(np.abs(v))] > 0 else -1.0)
         w, t = v[:nrot] / length, v[nrot:]
         if np.linalg.norm(w) * length < 1e-9 * max(np.linalg.norm(v), 1e-300):
             u = t / np.linalg.norm(t)
@@ -367,5 +410,6 @@ def align_rps(evaluate: Evaluate, T0: np.ndarray, indices: np.ndarray, targets: 
         T = _least_squares(evaluate, T, np.asarray(best_fit, dtype=np.int64), free, centre,
                            length, nrot, size=False)[0]
         fitted = True
-    fit = DatumFit("RPS", "points", "lsq", int(indices.size), r, 0.0, gap)
-    return Alignment(T, (fit,), _describe_free(free, centre, length, nrot), fitted, True)
+    fit = DatumFit("RPS", "points", "lsq", int(np.unique(indices).size), r, 0.0, gap)
+    return Alignment(T, (fit,), _describe_free(free, centre, length, nrot), fitted, True, "",
+                     free)

@@ -2,9 +2,9 @@
 
 A region selects nominal points (a box in nominal coordinates, or a glob on the nominal point
 file's labels). A measured point belongs to the regions of the nominal sample nearest its
-closest point on the surface when it lies within ``max_distance`` of the surface at the
-registered pose, or, where the region gives ``measured_labels``, to the region its label
-matches. Regions may overlap (a datum face inside
+closest point on the surface at the registered pose, however far from it (a gross defect is
+judged in its region, never dropped), or, where the region gives ``measured_labels``, to the
+region its label matches. Regions may overlap (a datum face inside
 a profile's region). Units mm, nominal frame.
 """
 
@@ -52,20 +52,21 @@ def _selector(r: Region) -> str:
 
 
 def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: np.ndarray,
-                     distance: np.ndarray, max_distance: float,
                      labels: np.ndarray | None) -> dict[str, np.ndarray]:
     """{region name: indices of its measured points (ascending)}.
 
-    nearest, distance : (n,) index of the nominal sample nearest each registered measured
-    point's closest point on the surface, and its distance from the surface (mm); labels : the
-    measured points' labels, or None."""
-    near = distance <= max_distance
+    nearest : (n,) index of the nominal sample nearest each registered measured point's closest
+    point on the surface, however far the point lies from it (a gross defect stays in its
+    region, to be judged there); labels : the measured points' labels, or None."""
     out = {}
     for r in plan.regions:
-        if r.measured_labels is not None and labels is not None:
+        if r.measured_labels is not None:
+            if labels is None:
+                raise InputError(f"[[region]] '{r.name}': 'measured_labels' selects measured "
+                                 "points by label, and the measured file has none", plan.path)
             mask = np.array([fnmatchcase(str(s), r.measured_labels) for s in labels], bool)
         else:
-            mask = near & nominal_masks[r.name][nearest]
+            mask = nominal_masks[r.name][nearest]
         out[r.name] = np.flatnonzero(mask)
     return out
 

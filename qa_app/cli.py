@@ -162,7 +162,8 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
 
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
-                  [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U] [--scale CHORD]
+                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U]
+                  [--scale CHORD]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
        qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE

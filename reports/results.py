@@ -139,7 +139,6 @@ def plan_json(planned, inputs: list[InputRecord]) -> dict:
     return {
         "plan": None if rec is None else {"path": rec.path, "sha256": rec.sha256},
         "alignment": alignment,
-        "region_distance_mm": _num(planned.region_distance),
         "tolerance_in_verdict": bool(planned.zone_in_verdict),
         "tolerance_definition": "with a plan, 'deviations', 'tolerance' and the per-point CSV "
                                 "are at the plan's alignment; the tolerance is a characteristic "

@@ -1003,7 +1003,7 @@ def test_a_plan_certificate_carries_the_plan_results(bracket, signed):
     v = verify_pdf(bracket.pdf.read_bytes(), read_trust_roots(str(signed.ca)))
     assert v.valid, v.problems
     attached = json.loads(v.attachments["results.json"])
-    for key in ("plan", "alignment", "characteristics", "region_distance_mm",
+    for key in ("plan", "alignment", "characteristics",
                 "tolerance_in_verdict", "characteristic_value_definition"):
         assert attached[key] == bracket.doc[key], key
     assert attached["plan"]["sha256"] == sha256_file(BRACKET_PLAN)
