@@ -120,9 +120,9 @@ class Geometry:
     evaluate(T, idx) -> (X, d, normals): measured points ``idx`` at pose T (nominal frame),
     signed deviations (mm) and the nominal's outward normals there. T0 : the registration's
     pose. margin(idx, T) -> per-point nominal-sampling margins (mm) or None (simple rule).
-    nominal_points : (N, dim); nominal_normals(idx) -> their outward normals; nominal_masks : {region: (N,) bool}; centre,
-    length: the measured points' centroid and RMS radius at T0 (rotations are scaled by it);
-    labels : (n,) the measured points' labels, or None.
+    nominal_points : (N, dim); nominal_normals(idx) -> their outward normals; nominal_masks :
+    {region: (N,) bool}; centre, length: the measured points' centroid and RMS radius at T0
+    (rotations are scaled by it); labels : (n,) the measured points' labels, or None.
     """
 
     evaluate: object

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .neighbours import query_workers
+
 SEGMENT, ARC = 0, 1
 
 
@@ -239,7 +241,7 @@ class ContourIndex:
     def nearest(self, p: np.ndarray):
         """For points (n, 2): (primitive index, foot, distance, left normal, at_end), exact."""
         k = min(8, self.owner.size)
-        d, j = self.tree.query(p, k=k, workers=-1)
+        d, j = self.tree.query(p, k=k, workers=query_workers(len(p)))
         d = d.reshape(p.shape[0], -1)
         cand = self.owner[j.reshape(p.shape[0], -1)]
         n = p.shape[0]

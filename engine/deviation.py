@@ -29,6 +29,7 @@ import numpy as np
 
 from . import kernels
 from .geometry import closest_point_on_triangles
+from .neighbours import query_workers
 from .nominal import Nominal
 
 MAX_NORMAL_TILT_DEG = 25.0
@@ -113,13 +114,13 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
     own normal is meaningless. Points whose facet is already well shaped never get here.
     """
     k = min(4, nominal.n)
-    _, nn = nominal.tree.query(pts, k=k, workers=-1)
+    _, nn = nominal.tree.query(pts, k=k, workers=query_workers(len(pts)))
     tris = nn[:, _QUAD_TRIS] if k == 4 else nn[:, None, :3]  # (n, t, 3) point indices
     sel, b, good, shaped = _pick_facet(nominal, pts, tris)
     bad = np.flatnonzero(~good)
     if bad.size and nominal.n > 4:
         k8 = min(8, nominal.n)
-        _, nn8 = nominal.tree.query(pts[bad], k=k8, workers=-1)
+        _, nn8 = nominal.tree.query(pts[bad], k=k8, workers=query_workers(bad.size))
         i, j = np.triu_indices(k8 - 1, 1)
         fan = np.stack([np.broadcast_to(nn8[:, :1], (bad.size, i.size)),
                         nn8[:, 1:][:, i], nn8[:, 1:][:, j]], axis=2)
@@ -151,7 +152,7 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
     """
     m = pts.shape[0]
     k = min(SPREAD_NEIGHBOURS, nominal.n)
-    _, nb = nominal.tree.query(pts, k=k, workers=-1)
+    _, nb = nominal.tree.query(pts, k=k, workers=query_workers(len(pts)))
     centre = nb[:, 0]
     n0 = nominal.normals(centre)
     c = nominal.points[centre]
@@ -227,7 +228,7 @@ def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray, shaped_next
 def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     tree = nominal.sample_tree
     n = pts.shape[0]
-    _, centre = tree.query(pts, k=1, workers=-1)
+    _, centre = tree.query(pts, k=1, workers=query_workers(len(pts)))
     best_tri = np.zeros(n, np.int64)
     best_d2 = np.full(n, np.inf)
     best_b = np.zeros((n, 3))
@@ -241,7 +242,7 @@ def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     rim = np.flatnonzero((centre >= nominal.n) | (at_centre <= 1e-12))
     k = min(4, tree.n)
     if rim.size and k > 1:
-        _, nn = tree.query(pts[rim], k=k, workers=-1)
+        _, nn = tree.query(pts[rim], k=k, workers=query_workers(int(np.count_nonzero(rim))))
         for col in range(1, k):
             kernels.best_in_stars(pts, rim, nn[:, col].astype(np.int64), *args)
     sel = nominal.triangles[best_tri]

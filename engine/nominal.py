@@ -19,6 +19,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 from scipy.spatial import cKDTree
 
 from .errors import InputError
+from .neighbours import query_workers
 from .pointset import PointSet
 
 NORMAL_NEIGHBOURS = 12
@@ -117,7 +118,7 @@ class Nominal:
         k = min(k, self.n)
         p = self.points[idx]
         n = self.normals(idx)
-        _, nb = self.tree.query(p, k=k, workers=-1)
+        _, nb = self.tree.query(p, k=k, workers=query_workers(len(p)))
         dx = self.points[nb] - p[:, None, :]
         dn = self.normals(nb) - n[:, None, :]
         helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))

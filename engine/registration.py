@@ -41,6 +41,7 @@ from scipy.spatial import cKDTree
 
 from .contour import Deviations2D
 from .deviation import Deviations, point_to_surface
+from .neighbours import query_workers
 from .geometry import (
     make_transform,
     rotation_angle_deg,
@@ -490,7 +491,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
             report(f"{stage[0]}, ICP iteration {k + 1}",
                    stage[1] + (stage[2] - stage[1]) * k / iterations)
         X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
-        dist, j = tree.query(X.reshape(-1, 3), workers=_workers(H * m),
+        dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
                              distance_upper_bound=reach)
         far = ~np.isfinite(dist).reshape(H, m)
         j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
@@ -544,11 +545,6 @@ def _trimmed_mean(e2: np.ndarray, keep: float = 0.75) -> np.ndarray:
     m = e2.shape[1]
     k = max(1, int(np.ceil(keep * m)))
     return np.mean(np.partition(e2, k - 1, axis=1)[:, :k], axis=1)
-
-
-def _workers(n_queries: int) -> int:
-    """Threads for a kd-tree query: more only where they pay for their start-up."""
-    return -1 if n_queries >= 20000 else 1
 
 
 def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarray:

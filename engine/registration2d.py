@@ -27,6 +27,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
+from .neighbours import query_workers
 from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
                        gross_rule)
 from .progress import report
@@ -304,7 +305,7 @@ def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
     score = np.zeros(H)
     for _ in range(iterations):
         X = src @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]
-        _, j = S.tree.query(X.reshape(-1, 2), workers=-1 if H * m >= 20000 else 1)
+        _, j = S.tree.query(X.reshape(-1, 2), workers=query_workers(H * m))
         j = j.reshape(H, m)
         r = X - S.pts[j]
         n = S.normal[j]
