@@ -198,7 +198,7 @@ def _companions(tree: cKDTree, pts: np.ndarray, d: np.ndarray, idx: np.ndarray, 
     return np.abs(d[nb] - d[idx][:, None]) <= threshold, nb
 
 
-def fit_without_gross(fit, T: np.ndarray, n: int):
+def fit_without_gross(fit, T: np.ndarray, n: int, probe=None):
     """The final fit under the rule's second condition: a point is left out only if it is gross
     both at the least-squares pose over the points kept and at the least-squares pose over every
     point (fitted WITH it).
@@ -209,19 +209,30 @@ def fit_without_gross(fit, T: np.ndarray, n: int):
     they fit and stop being gross; a true mis-probe (millimetres off) stays gross there.
 
     fit(T, included) runs least squares from pose T (opaque here: a pose, or a pose with what
-    is known at it) over
-    every one of the n points but those gross at its pose and True in ``included`` ((n,) bool;
-    None: every gross point; all False: plain least squares over every point, at most
-    ``INCLUDED_FIT_ITERATIONS`` iterations, converged or not) and returns
-    (T, gross (n,) bool: the rule alone at the returned pose, kept (n,) bool, converged, result).
-    Returns (the chosen fit's tuple, number of fits run). When the first fit keeps every point
-    (the usual case) nothing else runs."""
+    is known at it) over every one of the n points but those gross at its pose and True in
+    ``included`` ((n,) bool; None: every gross point; all False: plain least squares over every
+    point) and returns (T, gross (n,) bool: the rule alone at the returned pose, kept (n,) bool,
+    converged, result). Whichever call is chosen is the final fit: its result must be a real
+    fit's, whatever ``included`` is.
+
+    probe(T) -> (T, gross (n,) bool): the rule alone at (or near) the least-squares pose over
+    every point, reached from T, and a pose to start the final fit from. Only which points it
+    finds gross decides; it is never the final fit, so it may be cheaper than one (a linear step,
+    at most ``INCLUDED_FIT_ITERATIONS`` iterations, converged or not). None: fit(T, all False).
+
+    Returns (the chosen fit's tuple, number of calls run, the probe counted). When the first
+    fit keeps every point (the usual case) nothing else runs."""
     first = fit(T, None)
     T1, _, kept, _, _ = first
     if kept.all():
         return first, 1
-    T_all, gross_all, _, _, _ = fit(T1, np.zeros(n, bool))
+    if probe is None:
+        T_all, gross_all = fit(T1, np.zeros(n, bool))[:2]
+    else:
+        T_all, gross_all = probe(T1)
     if not np.any(~kept & ~gross_all):
         # Every point left out stays gross with it included: the first fit stands.
         return first, 2
+    # Some point left out is not gross with every point included: least squares over every
+    # point but those gross there (over every point when none is).
     return fit(T_all, gross_all), 3

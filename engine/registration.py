@@ -682,29 +682,34 @@ def _gross_floor(nominal: Nominal, settings: RegistrationSettings,
 def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
     """Least squares over every point of ``pts`` but the gross outliers, a point left out only
     if it is gross with it included too (engine.outliers.fit_without_gross): _least_squares_rounds
-    once, and when it leaves points out, over every point and then again. Same arguments and
-    returns as _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
+    once, and when it leaves points out, the rule at the least-squares pose over every point (the
+    probe: one linear step when that suffices, else at most ``INCLUDED_FIT_ITERATIONS``
+    iterations), and then _least_squares_rounds again. Same arguments and returns as
+    _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
     used = 0
 
-    def fit(start, included):
+    def fit(start, included, cap=None):
         nonlocal used
-        left = budget - used
-        if included is not None and not included.any():
-            T0, d0, _ = start
-            # Every point included usually moves the pose so little that the deviations can
-            # follow to first order: no new evaluation (mis-probes among many points).
-            gross = _gross_included(pts @ T0[:3, :3].T + T0[:3, 3], d0, zone_width, floor)
-            used += 1
-            if gross is not None:
-                return start, gross, np.ones(len(pts), bool), True, None
-            left = min(left, INCLUDED_FIT_ITERATIONS)
+        left = budget - used if cap is None else min(budget - used, cap)
         out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
                                     included)
         used += out[2]
         T1, converged, _, keep, _, d1, s1, gross = out
         return (T1, d1, s1), gross, keep, converged, out
 
-    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0])
+    def probe(start):
+        nonlocal used
+        T0, d0, _ = start
+        # Every point included usually moves the pose so little that the deviations can
+        # follow to first order: no new evaluation (mis-probes among many points). Only which
+        # points are gross there is used: the final fit is a real one.
+        gross = _gross_included(pts @ T0[:3, :3].T + T0[:3, 3], d0, zone_width, floor)
+        used += 1
+        if gross is not None:
+            return start, gross
+        return fit(start, np.zeros(len(pts), bool), INCLUDED_FIT_ITERATIONS)[:2]
+
+    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0], probe)
     T1, _, _, keep, rule, d1, s1, _ = out
     return T1, converged and used <= budget, used, keep, rule, d1, s1
 

@@ -277,10 +277,11 @@ def d_shaft():
     return Nominal.from_point_set(point_set(pts, nrm, (721, 60)))
 
 
-@pytest.mark.parametrize("turn_deg, subset", [(10.0, None), (12.0, None), (14.0, None),
-                                               (16.0, None), (10.0, 256), (12.0, 256)])
+@pytest.mark.parametrize("turn_deg, subset, mis_probe", [
+    (10.0, None, True), (12.0, None, True), (14.0, None, True), (16.0, None, True),
+    (10.0, 256, True), (12.0, 256, True), (10.0, None, False), (12.0, 256, False)])
 def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft, turn_deg,
-                                                                         subset):
+                                                                         subset, mis_probe):
     """600 points on the D shaft's round part only (three 4-5 deg clear of the flat, the rest
     12 deg or more) and one 10 mm mis-probe. The final fit starts turned about the axis (the
     cylinder leaves the turn free), with a few good points over the flat, far off and on their
@@ -288,6 +289,11 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft
     the mis-probe stays gross with it included, and is the only point excluded. Before, the good
     points were excluded too, and nothing turned the pose back (sum d^2 over 1,000 times the
     optimum). ``subset``: the fit runs on that many points first, then over every point.
+
+    Without the mis-probe no point is gross with every point included, and the final fit is
+    least squares over every point (before, the engine crashed there: it took the fit that only
+    probes which points are gross with every point included, which fits no pose, for the final
+    one).
 
     Sum d^2 is within 2% of an independent optimiser's (scipy, from the true pose): a point
     can end exactly at the flat's edge, where the one point that constrains the turn has a
@@ -300,12 +306,84 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft
     q = np.column_stack([(R0 + rng.normal(0, 0.003, m))[:, None]
                          * np.column_stack([np.cos(a), np.sin(a)]), rng.uniform(-60, 60, m)])
     bad = 300
-    q[bad, :2] *= (R0 + 10.0) / R0
+    if mis_probe:
+        q[bad, :2] *= (R0 + 10.0) / R0
     T0 = np.eye(4)
     T0[:3, :3] = rotation_from_rotvec(np.radians(turn_deg) * np.array([[0, 0, 1.0]]))[0]
     T, converged, _, keep, rule, dev = _point_to_surface_fit(
         d_shaft, q, T0, RegistrationSettings(fit_measured=subset or 16384), 0.06)[:6]
     assert converged and rule.threshold_mm == pytest.approx(0.3)
-    assert np.flatnonzero(~keep).tolist() == [bad]
+    assert np.flatnonzero(~keep).tolist() == ([bad] if mis_probe else [])
     best = _optimum(d_shaft, q, np.eye(4), keep)
     assert float(np.sum(dev.signed[keep] ** 2)) <= best * 1.02
+
+
+BOSS, BOSS_R = np.array([15.0, 30.0, 50.0]), 10.0
+
+
+@pytest.fixture(scope="module")
+def cube_with_boss():
+    """A 50 mm cube (a corner at the origin) with a hemispherical boss R10 on its top at
+    (15, 30): the faces on 20 x 20 grids, the boss on a Fibonacci lattice of 1,500 points; a
+    point-set nominal of 3,848 points."""
+    g = (np.arange(20) + 0.5) * 2.5
+    u, v = (a.ravel() for a in np.meshgrid(g, g))
+    pts, nrm = [], []
+    for axis in range(3):
+        for side in (0.0, 1.0):
+            p = np.insert(np.column_stack([u, v]), axis, 50.0 * side, axis=1)
+            if axis == 2 and side:
+                p = p[np.hypot(p[:, 0] - BOSS[0], p[:, 1] - BOSS[1]) > BOSS_R]
+            pts.append(p)
+            nrm.append(np.tile(np.insert([0.0, 0.0], axis, 2 * side - 1), (len(p), 1)))
+    i = np.arange(1500) + 0.5
+    z, phi = i / 1500, i * np.pi * (3 - np.sqrt(5))
+    s = np.column_stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z])
+    return Nominal.from_point_set(point_set(np.vstack(pts + [BOSS + BOSS_R * s]),
+                                            np.vstack(nrm + [s]), None))
+
+
+def _cube_points(rng):
+    """110 points on the cube with boss, in its frame: 20 on each of the bottom, the sides x = 0
+    and y = 0 and the top (5 mm or more from every edge and the boss), 30 on the boss; and their
+    outward normals."""
+    pts, nrm = [], []
+    for axis, side in ((2, 0.0), (0, 0.0), (1, 0.0), (2, 1.0)):
+        p = np.insert(rng.uniform(5, 45, (80, 2)), axis, 50.0 * side, axis=1)
+        p = p[np.hypot(p[:, 0] - BOSS[0], p[:, 1] - BOSS[1]) > BOSS_R + 5][:20] if side else p[:20]
+        pts.append(p)
+        nrm.append(np.tile(np.insert([0.0, 0.0], axis, 2 * side - 1), (20, 1)))
+    s = rng.normal(size=(30, 3))
+    s[:, 2] = np.abs(s[:, 2]) + 0.3
+    s /= np.linalg.norm(s, axis=1)[:, None]
+    return np.vstack(pts + [BOSS + BOSS_R * s]), np.vstack(nrm + [s])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_a_point_gross_only_while_left_out_is_fitted_with_the_others(cube_with_boss, seed):
+    """110 points on a cube with a boss (0.001 mm noise) in an arbitrary pose, one of them on the
+    top 0.26 mm high: beyond the 0.25 mm gross threshold (5 zone widths of +-0.025) at the
+    least-squares pose of the others, within it once fitted too (it pulls the pose some 0.015 mm
+    towards it). So it is not left out, and, no point being gross with every point included,
+    the final fit is least squares over every point. Before, the engine crashed there: it took
+    the fit that only probes which points are gross with every point included (one linear step,
+    no pose fitted) for the final one."""
+    rng = np.random.default_rng(seed)
+    q, nrm = _cube_points(rng)
+    d = rng.normal(0.0, 0.001, len(q))
+    high = 70
+    d[high] = 0.26
+    q = q + d[:, None] * nrm
+    T = make_transform(random_rotation(rng), rng.uniform(-300, 300, 3))
+    res = inspect(cube_with_boss, apply_transform(T, q), Tolerance.symmetric(0.025))
+    assert res.registration.gross_rule.threshold_mm == pytest.approx(0.25)
+    assert res.registration.converged and not res.outlier.any()
+    # Judged: the high point alone is out of tolerance; the others deviate as planted, but for
+    # the high point's pull.
+    assert res.verdict == "REJECT"
+    assert np.flatnonzero(~res.in_tolerance).tolist() == [high]
+    others = np.arange(len(q)) != high
+    assert np.max(np.abs(res.deviations.signed - d)[others]) < 0.02
+    # The pose is the least-squares optimum over every point.
+    best = _optimum(cube_with_boss, q, np.eye(4), np.ones(len(q), bool))
+    assert _sum_sq(res, np.ones(len(q), bool)) <= best * (1 + 2e-4)
