@@ -561,11 +561,13 @@ def _rps(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:
 
 
 def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
-                 measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool):
+                 measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool,
+                 nominal_groups: dict[str, np.ndarray] | None = None):
     """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
     reasons become the plan's (with the zone of ``result`` as one more profile characteristic
     over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
-    outputs are at the plan's alignment."""
+    outputs are at the plan's alignment. nominal_labels, nominal_groups : the nominal file's
+    point labels and groups (engine.pointset.PointSet), which regions may select."""
     from dataclasses import replace
 
     from .deviation import point_to_surface
@@ -573,7 +575,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     from .regions import nominal_members
     from .verdict import margins_3d
 
-    masks = nominal_members(plan, nominal.points, nominal_labels)
+    masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups)
 
     def evaluate(T, idx):
         X = apply_transform(T, measured[idx])
@@ -604,7 +606,8 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     """:func:`inspect_plan` for a 2D template (``index``: its engine.contour.ContourIndex):
     the plan works in the template's plane on the registered points' x, y (poses 3x3 there,
     starting from the identity); the part's pose and per-point outputs are lifted back into
-    3D. Template lines and arcs are exact: no sampling margin."""
+    3D. Template lines and arcs are exact: no sampling margin. A region's ``group`` selects
+    the samples of a DXF layer's contours (its name compared without case, as DXF does)."""
     from dataclasses import replace
 
     from .contour import deviations_2d
@@ -615,7 +618,12 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
 
     P2 = result.registered[:, :2]
     samples = index.tree.data
-    masks = nominal_members(plan, samples, None)
+    t = index.t
+    layers = None
+    if t.layer is not None:  # each sample's layer is its primitive's
+        of_sample = t.layer[index.owner]
+        layers = {name: np.flatnonzero(of_sample == i) for i, name in enumerate(t.layers)}
+    masks = nominal_members(plan, samples, None, layers, fold_case=True)
 
     def evaluate(T, idx):
         X = apply2(T, P2[idx])

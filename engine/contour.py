@@ -42,6 +42,9 @@ class Template2D:
         consecutive and in drawing order.
     closed : (c,) bool; side : (c,) +1 or -1, the factor that turns "left of the drawn direction"
         into the contour's positive side (see the module docstring).
+    layer : (m,) int64, each primitive's index in ``layers`` (the DXF layer it is drawn on), or
+        None for a template without layers (airfoil ordinates).
+    layers : the layer names, sorted.
     """
 
     kind: np.ndarray
@@ -54,6 +57,8 @@ class Template2D:
     contour: np.ndarray
     closed: np.ndarray
     side: np.ndarray
+    layer: np.ndarray | None = None
+    layers: tuple[str, ...] = ()
 
     @property
     def n_primitives(self) -> int:
@@ -76,7 +81,8 @@ def arc(centre, radius, angle0, sweep) -> dict:
 
 
 def build_template(contours: list[tuple[list[dict], bool]]) -> Template2D:
-    """Arrays of a template from contours given as (primitives in drawing order, closed)."""
+    """Arrays of a template from contours given as (primitives in drawing order, closed); a
+    primitive's ``"layer"`` (a name) gives the template's layers when every primitive has one."""
     rows = [(ci, p) for ci, (prims, _) in enumerate(contours) for p in prims]
     m = len(rows)
     kind = np.array([p["kind"] for _, p in rows], dtype=np.int8)
@@ -90,8 +96,13 @@ def build_template(contours: list[tuple[list[dict], bool]]) -> Template2D:
     closed = np.array([c for _, c in contours], dtype=bool)
     t = Template2D(kind, start, end, centre, radius, angle0, sweep, contour, closed,
                    np.ones(len(contours)))
+    layer, layers = None, ()
+    if rows and all("layer" in p for _, p in rows):
+        layers = tuple(sorted({p["layer"] for _, p in rows}))
+        index = {name: i for i, name in enumerate(layers)}
+        layer = np.array([index[p["layer"]] for _, p in rows], dtype=np.int64)
     return Template2D(kind, start, end, centre, radius, angle0, sweep, contour, closed,
-                      _positive_sides(t))
+                      _positive_sides(t), layer, layers)
 
 
 def signed_area(t: Template2D, c: int) -> float:

@@ -239,7 +239,8 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
 
             report("judging the plan's characteristics", 0.99)
             result = inspect_plan(result, plan, nominal, nominal_ps.labels, measured_ps.points,
-                                  measured_ps.labels, settings.zone_in_verdict)
+                                  measured_ps.labels, settings.zone_in_verdict,
+                                  nominal_ps.groups)
     if result.verdict != ACCEPT:
         hint = (not_planar_hint(result, measured_ps, nominal_path) if tpl is not None
                 else swap_hint(nominal_ps, measured_ps))

@@ -4,7 +4,7 @@ Without a plan the product answers one question: after a best fit over all point
 within the zone? A plan states, like the drawing's feature control frames:
 
 * regions: named sets of nominal points (a box in nominal coordinates, a glob on the nominal's
-  point labels, or a mesh group / DXF layer), optionally with the measured points' labels;
+  point labels, or a named group: a mesh's face group, a DXF layer), optionally with the measured points' labels;
 * datums: features fitted to a region's measured points (plane, cylinder, sphere in 3D; line,
   circle in 2D), tangent (outside the material, ASME Y14.5 / ISO 5459 default) or least squares;
 * the alignment: how the part is placed before it is judged: a best fit (today's behaviour), a
@@ -55,7 +55,9 @@ class Region:
 
     box : ((3,), (3,)) lower and upper corners of an axis-aligned box, nominal frame, mm;
     labels : fnmatch glob on the nominal point file's label column;
-    group : a mesh group (OBJ g/o), DXF layer, or STEP face (later);
+    group : the name of a group of the nominal: a mesh's face group (OBJ ``g``/``o``, a PLY
+        face property's number), a 2D template's DXF layer (compared without case), later a
+        STEP face (engine.regions);
     measured_labels : fnmatch glob: measured points with these labels belong here (else a
         measured point belongs to the region of its nearest nominal point).
     """

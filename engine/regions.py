@@ -1,7 +1,10 @@
 """Which nominal and measured points belong to each region of an inspection plan.
 
-A region selects nominal points (a box in nominal coordinates, or a glob on the nominal point
-file's labels). A measured point belongs to the regions of the nominal sample nearest its
+A region selects nominal points: a box in nominal coordinates, a glob on the nominal point
+file's labels, or a named group (a mesh's face group: OBJ ``g``/``o``, a PLY face property; a 2D
+template's DXF layer; engine.io). A group's nominal points are the vertices of its faces (a
+vertex between two groups' faces is in both), a layer's the samples of its contours. A measured
+point belongs to the regions of the nominal sample nearest its
 closest point on the surface at the registered pose, however far from it (a gross defect is
 judged in its region, never dropped), or, where the region gives ``measured_labels``, to the
 region its label matches. Regions may overlap (a datum face inside
@@ -18,20 +21,28 @@ from .errors import InputError
 from .plan import Plan, Region
 
 
-def nominal_members(plan: Plan, points: np.ndarray, labels: np.ndarray | None
+def nominal_members(plan: Plan, points: np.ndarray, labels: np.ndarray | None,
+                    groups: dict[str, np.ndarray] | None = None, fold_case: bool = False
                     ) -> dict[str, np.ndarray]:
     """{region name: (N,) bool over the nominal points (N, dim)}; a region that selects no
-    nominal point, or a selector the nominal cannot answer, is an InputError naming the plan."""
+    nominal point, or a selector the nominal cannot answer (a group it does not have), is an
+    InputError naming the plan.
+
+    labels : (N,) the nominal points' labels, or None. groups : {name: indices of its nominal
+    points} (engine.pointset.PointSet ``groups``; a 2D template's layers), or None for a
+    nominal without groups. fold_case : group names compare without case (DXF layer names do).
+    """
     out = {}
     for r in plan.regions:
-        out[r.name] = _select(plan, r, points, labels)
+        out[r.name] = _select(plan, r, points, labels, groups, fold_case)
         if not out[r.name].any():
             raise InputError(f"[[region]] '{r.name}': selects no point of the nominal "
                              f"({_selector(r)})", plan.path)
     return out
 
 
-def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None) -> np.ndarray:
+def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None,
+            groups: dict[str, np.ndarray] | None, fold_case: bool) -> np.ndarray:
     if r.box is not None:
         lo = np.asarray(r.box[0], float)[:points.shape[1]]
         hi = np.asarray(r.box[1], float)[:points.shape[1]]
@@ -41,8 +52,26 @@ def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None
             raise InputError(f"[[region]] '{r.name}': 'labels' selects by the nominal's point "
                              "labels, and this nominal has none", plan.path)
         return np.array([fnmatchcase(str(s), r.labels) for s in labels], dtype=bool)
-    raise InputError(f"[[region]] '{r.name}': 'group' selects a mesh group, DXF layer or STEP "
-                     "face, and this nominal has no groups", plan.path)
+    if not groups:
+        raise InputError(f"[[region]] '{r.name}': 'group' selects a named group of the "
+                         "nominal (an OBJ mesh's g or o, a PLY mesh's group property, a DXF "
+                         "layer), and this nominal has no groups", plan.path)
+    key = r.group
+    if fold_case:
+        key = {name.lower(): name for name in groups}.get(key.lower(), key)
+    if key not in groups:
+        names = list(groups)
+        shown = ", ".join(f"'{n}'" for n in names[:GROUPS_SHOWN])
+        more = f", … ({len(names)} in all)" if len(names) > GROUPS_SHOWN else ""
+        raise InputError(f"[[region]] '{r.name}': the nominal has no group '{r.group}' (its "
+                         f"groups: {shown}{more})", plan.path)
+    mask = np.zeros(points.shape[0], dtype=bool)
+    mask[groups[key]] = True
+    return mask
+
+
+GROUPS_SHOWN = 12
+"""How many of the nominal's groups a message about a missing group lists."""
 
 
 def _selector(r: Region) -> str:

@@ -9,12 +9,15 @@ inside the readers that need them.
 
 * ``.ply`` (ASCII or binary; scanner PLYs with extra elements such as ``range_grid`` are fine),
   ``.stl``, ``.obj``: points, and triangles when the file has faces (polygons are triangulated);
-  PLY ``nx ny nz`` normals when present. Declared counts, face indices and file length are
+  PLY ``nx ny nz`` normals when present; the named groups of the faces (OBJ ``g``/``o``, a PLY
+  face property such as ``group``), as the vertices of each (``PointSet.groups``), which an
+  inspection plan's regions select. Declared counts, face indices and file length are
   checked first: a damaged file is refused ("truncated: the header declares …"), never read in
   part and never handed to native code that could crash the process on it;
-* ``.vtk``, ``.vtp``: the same, read by VTK; any error or warning VTK reports while reading means
-  a damaged or truncated file, an ASCII legacy file's section lengths are checked first (VTK
-  reads one cut short without complaint), and cell indices before any VTK filter runs;
+* ``.vtk``, ``.vtp``: the same without groups, read by VTK; any error or warning VTK reports
+  while reading means a damaged or truncated file, an ASCII legacy file's section lengths are
+  checked first (VTK reads one cut short without complaint), and cell indices before any VTK
+  filter runs;
 * ``.vts`` (structured grid): a u-v grid (x fastest), its cells are the facets.
 """
 

@@ -10,14 +10,30 @@ raises :class:`~engine.errors.InputError` naming the file, line where known, and
 * PLY: ``ascii``, ``binary_little_endian`` and ``binary_big_endian``, any elements and properties
   (scalar and list); the ``vertex`` element's x y z (and nx ny nz) and the ``face`` element's
   ``vertex_indices`` (or ``vertex_index``) list are used, other elements (a scanner's
-  ``range_grid``, ``edge``, ``material``) are checked for length and skipped.
+  ``range_grid``, ``edge``, ``material``) are checked for length and skipped. Groups: a scalar
+  face property named ``group``, ``part``, ``region``, ``face_id`` or ``label`` (the first of
+  these the face declares) numbers each face's group, its whole-number values naming the groups
+  ("1", "2", … as written, ``-3`` included; PLY holds no strings); without one, the same
+  property on the vertices groups them (a labelled point cloud). A value that is no whole number
+  is refused.
 * OBJ: ``v`` (x y z, optional w or colour ignored), ``vn``, ``f`` with ``v``, ``v/vt``, ``v//vn``
   or ``v/vt/vn`` corners, 1-based, negative indices relative to the vertices defined so far;
   ``vn`` become vertex normals when there is one per vertex and every corner uses its vertex's
-  own; other statements (``vt``, ``l``, ``g``, ``usemtl``, …) are ignored.
+  own. Groups: ``g NAME …`` puts the faces that follow into each NAME (several names: several
+  groups; ``g`` alone: the group ``default``), ``o NAME`` into the object NAME as well (the rest
+  of the line is its name); an ``o`` starts a new object, whose faces are in no ``g`` group until
+  the next ``g``. Group and object names share one namespace. A face under neither (before the
+  first ``g`` or ``o``) is in ``default``, as the OBJ specification has it. A file without ``g``
+  or ``o`` has no groups, nor does one without faces; a name no face follows (a ``g`` just
+  before another) names no group.
+  Other statements (``vt``, ``l``, ``s``, ``usemtl``, …) are ignored.
 * STL: binary (length exactly 84 + 50 x the declared triangle count) or ASCII (``solid`` …
   ``facet normal`` … ``outer loop`` three ``vertex`` ``endloop endfacet`` … ``endsolid``, any
   number of solids); bit-identical corners are merged into shared vertices, as VTK's reader did.
+
+A group's points are the vertices of its faces: a vertex on the edge between faces of two groups
+is in both (:class:`engine.pointset.PointSet` ``groups``). STL solids and VTK's formats carry no
+groups here.
 
 Coordinates stay in the file's units (meshes carry none; millimetres by convention).
 
@@ -65,6 +81,28 @@ class MeshData:
     points: np.ndarray
     polygons: np.ndarray | None = None
     normals: np.ndarray | None = None
+    groups: dict[str, np.ndarray] | None = None
+    """{name: ascending vertex indices} (engine.pointset.PointSet ``groups``), or None."""
+
+
+GROUP_PROPERTIES = ("group", "part", "region", "face_id", "label")
+"""Names of the PLY scalar property that numbers a face's (else a vertex's) group, first wins."""
+
+
+GROUP_FLAGS_MAX = 1 << 26
+"""Up to this many (group, vertex) pairs, a face group's vertices are found with a flag per
+pair (that many bytes); beyond, by sorting."""
+
+
+def _lens_flat(faces) -> tuple[np.ndarray, np.ndarray]:
+    """(corners per face (m,), every face's vertex indices one after the other) of faces given
+    as an (m, k) int array or a list of index sequences."""
+    if isinstance(faces, np.ndarray):
+        m, k = faces.shape
+        return np.full(m, k, dtype=np.int64), faces.astype(np.int64).ravel()
+    lens = np.fromiter((len(f) for f in faces), dtype=np.int64, count=len(faces))
+    return lens, np.fromiter((v for f in faces for v in f), dtype=np.int64,
+                             count=int(lens.sum()))
 
 
 def _cells(faces, n_vertices: int, path: str, where) -> np.ndarray:
@@ -72,14 +110,8 @@ def _cells(faces, n_vertices: int, path: str, where) -> np.ndarray:
     checking every face has >= 3 corners and every index lies in [0, n_vertices).
 
     where(i) -> (description of face i, 1-based line or None) for messages."""
-    if isinstance(faces, np.ndarray):
-        m, k = faces.shape
-        lens = np.full(m, k, dtype=np.int64)
-        flat = faces.astype(np.int64).ravel()
-    else:
-        lens = np.fromiter((len(f) for f in faces), dtype=np.int64, count=len(faces))
-        flat = np.fromiter((v for f in faces for v in f), dtype=np.int64, count=int(lens.sum()))
-        m = len(faces)
+    lens, flat = _lens_flat(faces)
+    m = lens.size
     short = np.flatnonzero(lens < 3)
     if short.size:
         what, line = where(int(short[0]))
@@ -98,6 +130,48 @@ def _cells(faces, n_vertices: int, path: str, where) -> np.ndarray:
     mask[starts] = False
     cells[mask] = flat
     return cells
+
+
+def _split_by(ids: np.ndarray, count: int) -> list[np.ndarray]:
+    """For ids (m,) in [0, count): the ascending positions holding each id, id by id."""
+    order = np.argsort(ids, kind="stable")
+    bounds = np.searchsorted(ids[order], np.arange(count + 1))
+    return [order[bounds[i]:bounds[i + 1]] for i in range(count)]
+
+
+def _vertex_groups(faces, face_of: np.ndarray, group_of: np.ndarray, names: list[str],
+                   n_vertices: int) -> dict[str, np.ndarray]:
+    """{name: ascending indices of the vertices of its faces}, each pair (face_of[i],
+    group_of[i]) putting a face (checked by :func:`_cells`) into group names[group_of[i]]."""
+    lens, flat = _lens_flat(faces)
+    starts = np.cumsum(lens) - lens
+    k = lens[face_of]
+    pair = np.repeat(np.arange(face_of.size), k)
+    corner = starts[face_of][pair] + np.arange(pair.size) - np.repeat(np.cumsum(k) - k, k)
+    key = group_of[pair].astype(np.int64) * n_vertices + flat[corner]
+    size = len(names) * n_vertices
+    if size <= GROUP_FLAGS_MAX:  # a flag per (group, vertex): faster than sorting the pairs
+        seen = np.zeros(size, dtype=bool)
+        seen[key] = True
+        key = np.flatnonzero(seen)
+    else:
+        key = np.unique(key)
+    return {name: key[i] % n_vertices
+            for name, i in zip(names, _split_by(key // n_vertices, len(names)))}
+
+
+def _group_numbers(values, prop: str, what: str, path: str, lines=None
+                   ) -> tuple[list[str], np.ndarray]:
+    """(group names, each row's group index) of a PLY group property's values: whole numbers,
+    named as written ("7"). lines : each row's 1-based line (ASCII) or None."""
+    v = np.asarray(values, dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(v) | (v != np.round(v)))
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"{what} {i}: its group property '{prop}' is {v[i]:g}; group numbers "
+                         "are whole numbers", path, None if lines is None else int(lines[i]))
+    numbers, ids = np.unique(v, return_inverse=True)
+    return [str(int(x)) for x in numbers], ids.ravel()
 
 
 # --------------------------------------------------------------------------------------- PLY
@@ -211,12 +285,37 @@ def _ply_mesh(values: dict, path: str) -> MeshData:
     normals = None
     if all(c in vert for c in ("nx", "ny", "nz")):
         normals = np.column_stack([vert[c] for c in ("nx", "ny", "nz")]).astype(np.float64)
-    polygons = None
+    polygons = groups = None
+    n = points.shape[0]
+    lines = values.get("face_lines")
     if values.get("face") is not None and len(values["face"]):
-        lines = values.get("face_lines")
-        polygons = _cells(values["face"], points.shape[0], path,
+        polygons = _cells(values["face"], n, path,
                           lambda i: (f"face {i}", None if lines is None else int(lines[i])))
-    return MeshData(points, polygons, normals)
+    prop = next((p for p in GROUP_PROPERTIES if p in vert), None)
+    if polygons is not None and values.get("face_group") is not None:
+        names, ids = _group_numbers(*values["face_group"], "face", path, lines)
+        groups = _vertex_groups(values["face"], np.arange(ids.size), ids, names, n)
+    elif prop is not None:
+        names, ids = _group_numbers(vert[prop], prop, "vertex", path)
+        groups = dict(zip(names, _split_by(ids, len(names))))
+    return MeshData(points, polygons, normals, groups)
+
+
+def _named_group(el: _Element, numbers) -> tuple[object, str] | None:
+    """(the face group property's values, its name) for _ply_mesh, or None without one."""
+    grp = _face_props(el)[1]
+    return None if grp is None else (numbers, el.props[grp].name)
+
+
+def _face_props(el: _Element) -> tuple[int | None, int | None]:
+    """(index of the face element's vertex list, of its group property), each or None (for
+    other elements both None)."""
+    if el.name != "face":
+        return None, None
+    want = next((j for j, p in enumerate(el.props) if p.name in _FACE_LISTS and p.count_code),
+                None)
+    scalars = {p.name: j for j, p in enumerate(el.props) if not p.count_code}
+    return want, next((scalars[g] for g in GROUP_PROPERTIES if g in scalars), None)
 
 
 def _truncated(el: _Element, held: int, path: str, line=None):
@@ -256,7 +355,8 @@ def _ply_ascii(raw: bytes, body: int, header_lines: int, elements, path) -> dict
         if el.name == "vertex":
             values["vertex"] = got
         elif el.name == "face":
-            values["face"], values["face_lines"] = got
+            values["face"], group, values["face_lines"] = got
+            values["face_group"] = _named_group(el, group)
         pos += el.count
     if pos < len(rows):
         last = elements[-1] if elements else None
@@ -314,20 +414,15 @@ def _ascii_fixed(el: _Element, block: list[str], pos: int, line_of, path) -> dic
 
 
 def _ascii_lists(el: _Element, block: list[str], pos: int, line_of, path):
-    """(face index lists (an (m, k) array when uniform), row -> line) of a list element; other
-    list elements are only checked."""
-    want = next((j for j, p in enumerate(el.props) if el.name == "face"
-                 and p.name in _FACE_LISTS and p.count_code), None)
+    """(face index lists (an (m, k) array when uniform), face group numbers (m,) or None,
+    row -> line) of a list element; other list elements are only checked."""
+    want, grp = _face_props(el)
     lines = line_of[pos:pos + len(block)]
-    if len(block) == el.count and len(el.props) == 1 and block:
-        # Fast path: one list per row, every row the same length (triangle or quad meshes).
-        try:
-            arr = np.loadtxt(block, dtype=np.int64, ndmin=2, comments=None)
-        except ValueError:
-            arr = None
-        if arr is not None and np.all(arr[:, 0] == arr.shape[1] - 1):
-            return (arr[:, 1:] if want is not None else None), lines
-    out = []
+    if len(block) == el.count and block:
+        got = _ascii_uniform(el, block, want, grp)
+        if got is not None:
+            return (*got, lines)
+    out, groups = [], []
     for k, s in enumerate(block):
         tok = s.split()
         t = 0
@@ -350,13 +445,56 @@ def _ascii_lists(el: _Element, block: list[str], pos: int, line_of, path):
                                          path, int(lines[k])) from None
                 t += 1 + n
             else:
+                if j == grp:
+                    groups.append(_ascii_number(tok, t, f"{el.name} row {k}: its '{p.name}'",
+                                                path, int(lines[k])))
                 t += 1
         if t != len(tok):
             raise InputError(f"{el.name} row {k} holds {len(tok)} values where its properties "
                              f"take {t}", path, int(lines[k]))
     if len(block) < el.count:
         raise _truncated(el, len(block), path)
-    return (out if want is not None else None), lines
+    return (out if want is not None else None), (groups if grp is not None else None), lines
+
+
+def _ascii_number(tok: list[str], t: int, what: str, path: str, line: int) -> float:
+    """Token ``t`` of a row as a number (``what``: the value it is, for messages)."""
+    if t >= len(tok):
+        raise InputError(f"{what} is missing: the row ends before it", path, line)
+    try:
+        return float(tok[t])
+    except ValueError:
+        raise InputError(f"{what} '{tok[t]}' is not a number", path, line) from None
+
+
+def _ascii_uniform(el: _Element, block: list[str], want: int | None, grp: int | None):
+    """(face index lists (m, k), group numbers (m,) or None) when every row's lists are as long
+    as the first row's (triangle or quad meshes) and every index is an integer; None otherwise
+    (the row-by-row reader then names the row at fault)."""
+    whole = all(p.code[0] in "iu" for p in el.props)
+    try:
+        arr = np.loadtxt(block, dtype=np.int64 if whole else np.float64, ndmin=2,
+                         comments=None)
+    except ValueError:
+        return None
+    col, lists, group = 0, None, None
+    for j, p in enumerate(el.props):
+        if col >= arr.shape[1]:
+            return None
+        if p.count_code:
+            n = arr[0, col]
+            if not (np.isfinite(n) and 0 <= n == int(n)) or np.any(arr[:, col] != n):
+                return None
+            if j == want:
+                lists = arr[:, col + 1:col + 1 + int(n)]
+            col += 1 + int(n)
+        else:
+            if j == grp:
+                group = arr[:, col]
+            col += 1
+    if col != arr.shape[1] or (lists is not None and np.any(lists != np.round(lists))):
+        return None
+    return (None if lists is None else lists.astype(np.int64)), group
 
 
 def _vertices_that_fit(raw: bytes, off: int, order: str, elements) -> int | None:
@@ -400,9 +538,9 @@ def _ply_binary(raw: bytes, off: int, order: str, elements, path) -> dict:
             if el.name == "vertex":
                 values["vertex"] = {p.name: arr[p.name] for p in el.props}
             continue
-        lists, off = _binary_lists(raw, off, order, el, path)
+        lists, group, off = _binary_lists(raw, off, order, el, path)
         if el.name == "face":
-            values["face"] = lists
+            values["face"], values["face_group"] = lists, _named_group(el, group)
     rest = raw[off:]
     if rest.strip(b" \t\r\n\x00"):
         raise InputError(f"inconsistent: {len(rest)} bytes follow the data the header declares "
@@ -411,11 +549,11 @@ def _ply_binary(raw: bytes, off: int, order: str, elements, path) -> dict:
 
 
 def _binary_lists(raw: bytes, off: int, order: str, el: _Element, path):
-    """(face index lists, or None for other elements; the offset after the element)."""
-    want = next((j for j, p in enumerate(el.props) if el.name == "face"
-                 and p.name in _FACE_LISTS and p.count_code), None)
+    """(face index lists, or None for other elements; face group numbers or None; the offset
+    after the element)."""
+    want, grp = _face_props(el)
     if el.count == 0:
-        return [], off
+        return [], None, off
     # Fast path: every row's lists as long as the first row's (triangle or quad meshes).
     counts, pos = [], off
     for p in el.props:
@@ -439,19 +577,26 @@ def _binary_lists(raw: bytes, off: int, order: str, el: _Element, path):
     if el.count * dt.itemsize <= len(raw) - off:
         arr = np.frombuffer(raw, dt, el.count, off)
         if all(np.all(arr[f"n{j}"] == n) for j, n in enumerate(counts) if n is not None):
-            return (arr[f"l{want}"] if want is not None else None), off + el.count * dt.itemsize
-    # Rows of different lengths: walk them.
-    out = []
+            return ((arr[f"l{want}"] if want is not None else None),
+                    (arr[f"s{grp}"] if grp is not None else None), off + el.count * dt.itemsize)
+    return _binary_rows(raw, off, order, el, path, want, grp)
+
+
+def _binary_rows(raw: bytes, off: int, order: str, el: _Element, path, want, grp):
+    """:func:`_binary_lists` for rows of different lengths: walk them."""
+    out, groups = [], []
     pos = off
     end = len(raw)
     fmt = [(order + _STRUCT[p.count_code], np.dtype(p.count_code).itemsize,
             _STRUCT[p.code], np.dtype(p.code).itemsize) if p.count_code else
-           (None, np.dtype(p.code).itemsize, None, 0) for p in el.props]
+           (None, np.dtype(p.code).itemsize, order + _STRUCT[p.code], 0) for p in el.props]
     for k in range(el.count):
         for j, (cf, csize, item, isize) in enumerate(fmt):
             if pos + csize > end:
                 raise _truncated(el, k, path)
             if cf is None:
+                if j == grp:
+                    groups.append(struct.unpack_from(item, raw, pos)[0])
                 pos += csize
                 continue
             n = struct.unpack_from(cf, raw, pos)[0]
@@ -463,7 +608,7 @@ def _binary_lists(raw: bytes, off: int, order: str, el: _Element, path):
             if j == want:
                 out.append(struct.unpack_from(f"{order}{n}{item}", raw, pos))
             pos += n * isize
-    return (out if want is not None else None), pos
+    return (out if want is not None else None), (groups if grp is not None else None), pos
 
 
 # --------------------------------------------------------------------------------------- OBJ
@@ -473,7 +618,9 @@ def read_obj(path: str) -> MeshData:
     vertex)."""
     lines = text_lines(read_bytes(path), path, "text OBJ file")
     v_rows, v_lines, vn_rows = [], [], []
-    f_rows, f_lines, f_before = [], [], []
+    f_rows, f_lines, f_before, f_set = [], [], [], []
+    groups = _ObjGroups()
+    now = groups.current()
     for i, s in enumerate(lines):
         if s.startswith("v "):  # the common cases first, without splitting the line
             v_rows.append(s[2:])
@@ -483,6 +630,7 @@ def read_obj(path: str) -> MeshData:
             f_rows.append(s[2:])
             f_lines.append(i + 1)
             f_before.append(len(v_rows))
+            f_set.append(now)
             continue
         parts = s.split(None, 1)
         if not parts:
@@ -497,24 +645,74 @@ def read_obj(path: str) -> MeshData:
             f_rows.append(parts[1] if len(parts) > 1 else "")
             f_lines.append(i + 1)
             f_before.append(len(v_rows))
+            f_set.append(now)
+        elif key in ("g", "o"):
+            now = groups.statement(key, parts[1] if len(parts) > 1 else "")
         elif s.rstrip().endswith("\\"):
             raise InputError("line continuations ('\\') are not supported", path, i + 1)
     if not v_rows:
         raise InputError("the file holds no vertices ('v' lines)", path)
     points = _obj_numbers(v_rows, v_lines, path, "v")
     nv = points.shape[0]
-    polygons = None
+    polygons = named = None
     if f_rows:
         faces = _obj_faces_uniform(f_rows, np.asarray(f_before), nv)
         if faces is None:
             faces = [_obj_face(row, ln, before, nv, path)
                      for row, ln, before in zip(f_rows, f_lines, f_before)]
         polygons = _cells(faces, nv, path, lambda i: ("face", f_lines[i]))
+        named = groups.of_vertices(faces, np.asarray(f_set, dtype=np.int64), nv)
     normals = None
     if vn_rows and len(vn_rows) == nv and all(_same_vn(row) for row in f_rows):
         # One normal per vertex, each corner using its vertex's own: vertex normals.
         normals = _obj_numbers(vn_rows, None, path, "vn")
-    return MeshData(points, polygons, normals)
+    return MeshData(points, polygons, normals, named)
+
+
+class _ObjGroups:
+    """The groups of an OBJ file's faces as its lines are read (the module docstring): each
+    distinct set of groups a face can be in gets an id, the faces keep the id."""
+
+    def __init__(self):
+        self.named = False  # whether the file has a g or o statement
+        self.g: tuple[str, ...] = ()
+        self.o: str | None = None
+        self.sets: dict[tuple[str, ...], int] = {}
+
+    def current(self) -> int:
+        """The id of the groups a face gets now."""
+        names = tuple(dict.fromkeys(self.g + ((self.o,) if self.o else ()))) or ("default",)
+        return self.sets.setdefault(names, len(self.sets))
+
+    def statement(self, key: str, rest: str) -> int:
+        """Take a ``g`` or ``o`` statement (``rest``: the line after its keyword); the id of
+        the groups of the faces that follow."""
+        rest = rest.split("#")[0]
+        self.named = True
+        if key == "g":
+            self.g = tuple(rest.split()) or ("default",)
+        else:  # a new object: its faces are in no g group until the next g
+            self.o, self.g = rest.strip() or None, ()
+        return self.current()
+
+    def of_vertices(self, faces, face_set: np.ndarray, n_vertices: int
+                    ) -> dict[str, np.ndarray] | None:
+        """{group: ascending indices of the vertices of its faces} (faces checked by _cells;
+        face_set (m,) each face's id), the groups in the order the file names them; None for a
+        file without g or o. A name no face is under names no group."""
+        if not self.named:
+            return None
+        sets = sorted(self.sets, key=self.sets.get)
+        used = np.zeros(len(sets), dtype=bool)
+        used[face_set] = True
+        names = list(dict.fromkeys(n for k, u in zip(sets, used) if u for n in k))
+        index = {n: i for i, n in enumerate(names)}
+        members = [np.array([index[n] for n in k] if u else [], dtype=np.int64)
+                   for k, u in zip(sets, used)]
+        by_set = _split_by(face_set, len(sets))
+        face_of = np.concatenate([np.repeat(f, m.size) for f, m in zip(by_set, members)])
+        group_of = np.concatenate([np.tile(m, f.size) for f, m in zip(by_set, members)])
+        return _vertex_groups(faces, face_of, group_of, names, n_vertices)
 
 
 def _same_vn(row: str) -> bool:
@@ -827,15 +1025,16 @@ def read_mesh(path: str, suffix: str) -> PointSet:
     _check_vertices(pts, path)
     normals = _unit_normals_or_none(mesh.normals, pts)
     if mesh.polygons is None:
-        return finish_point_set(PointSet(pts, normals, None, None, None, 3, path))
+        return finish_point_set(PointSet(pts, normals, None, None, None, 3, path, mesh.groups))
     import pyvista as pv
 
     _vtk_log()
-    return _surface(pv.PolyData(pts, mesh.polygons), normals, path)
+    return _surface(pv.PolyData(pts, mesh.polygons), normals, path, mesh.groups)
 
 
-def _surface(data, normals, path: str) -> PointSet:
-    """PointSet of a checked PolyData with faces: triangulated, windings made consistent."""
+def _surface(data, normals, path: str, groups=None) -> PointSet:
+    """PointSet of a checked PolyData with faces: triangulated, windings made consistent (the
+    points kept as they are, so ``groups``' vertex indices stay theirs)."""
     # Meshes in the wild mix windings; make neighbouring triangles agree (the engine then
     # turns a closed mesh outward by its signed volume).
     tri = data.triangulate().compute_normals(cell_normals=True, point_normals=False,
@@ -848,7 +1047,10 @@ def _surface(data, normals, path: str) -> PointSet:
     pts = np.asarray(tri.points, dtype=np.float64)
     if normals is not None and normals.shape != pts.shape:
         normals = None
-    return finish_point_set(PointSet(pts, normals, None, None, triangles, 3, path))
+    if groups is not None and pts.shape[0] != data.n_points:
+        raise InputError("its mesh's points changed in triangulation; its groups cannot be "
+                         "kept", path)
+    return finish_point_set(PointSet(pts, normals, None, None, triangles, 3, path, groups))
 
 
 _VTK_LOCK = threading.Lock()

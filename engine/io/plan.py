@@ -24,7 +24,7 @@ types, choices, names that must exist and be unique, zones. Each problem raises
 
     plan.toml: [[characteristic]] #3 (id "3"): 'zone' must be > 0, got -0.1
 
-Whether a region selects any nominal point, and whether a region has enough measured points for
+Whether a region selects any nominal point (a ``group`` the nominal has), and whether a region has enough measured points for
 its feature, depend on the nominal and measured files and are checked by the inspection.
 """
 

@@ -17,6 +17,11 @@ counted in ``ignored`` as e.g. ``"LINE (zero length)"``; a drawing with nothing 
 
 Chaining: entity ends closer than ``chain_tol`` are joined, whatever the order and direction the
 entities are stored in; each chain becomes a contour, closed when it returns to its start.
+
+Layers: every primitive keeps the layer of the entity it comes from (``Template2D.layer``,
+``layers``), spelled as the drawing's layer table spells it (DXF layer names compare without
+case); an inspection plan's ``group = "NAME"`` selects a layer's contours. An entity inside an
+INSERTed block keeps its own layer (as ``--layer`` sees it), layer ``0`` included.
 """
 
 from __future__ import annotations
@@ -157,19 +162,21 @@ def _wanted_layers(doc, layers: list[str] | None, path: str) -> set[str] | None:
 def _drawing_primitives(doc, wanted: set[str] | None, scale: float,
                         path: str) -> tuple[list[dict], Counter, int]:
     """The primitives (mm, WCS XY) of the model space's geometry on the ``wanted`` layers
-    (INSERTed blocks expanded), the count of ignored entities by type, and the number of
-    entities flattened."""
+    (INSERTed blocks expanded), each with its ``"layer"`` name, the count of ignored entities
+    by type, and the number of entities flattened."""
     from ezdxf.disassemble import recursive_decompose
 
     prims: list[dict] = []
     ignored: Counter = Counter()
     flattened = 0
+    spelled = {layer.dxf.name.lower(): layer.dxf.name for layer in doc.layers}
     for e in recursive_decompose(doc.modelspace()):
         kind = e.dxftype()
         if kind not in GEOMETRY:
             ignored[kind] += 1
             continue
-        if wanted is not None and e.dxf.get("layer", "0").lower() not in wanted:
+        layer = e.dxf.get("layer", "0")
+        if wanted is not None and layer.lower() not in wanted:
             continue
         try:
             _check_entity_range(e, scale)
@@ -185,7 +192,8 @@ def _drawing_primitives(doc, wanted: set[str] | None, scale: float,
         if not got:
             ignored[f"{kind} (zero length)"] += 1
             continue
-        prims.extend(got)
+        layer = spelled.setdefault(layer.lower(), layer)
+        prims.extend({**p, "layer": layer} for p in got)
         flattened += flat
     return prims, ignored, flattened
 
