@@ -93,27 +93,39 @@ def _check_options(fit: str, decision_rule: str) -> None:
 
 def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
             settings: RegistrationSettings = RegistrationSettings(), fit: str = "lsq",
-            decision_rule: str = "simple") -> InspectionResult:
+            decision_rule: str = "simple",
+            exact: "Callable[[np.ndarray], Deviations] | None" = None) -> InspectionResult:
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
-    with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded")."""
+    with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded").
+
+    exact(X) -> Deviations of points X (n, 3) in the nominal frame from the true surface the
+    nominal samples (a STEP model's faces, engine.io.step): given, the registration runs on the
+    nominal's sample, its pose is then refined by least squares on the exact deviations, and
+    every deviation judged is exact (no nominal-sampling margin)."""
     from .deviation import point_to_surface
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
     reg = register(nominal, measured, settings, zone_width=tolerance.upper - tolerance.lower)
     t1 = time.perf_counter()
+    surface = exact or (lambda X: point_to_surface(nominal, X))
 
     def measure(Tc):
         X = apply_transform(Tc, measured)
-        return X, point_to_surface(nominal, X)
+        return X, surface(X)
 
-    deviations_at, beyond_at = _deviations_and_border(nominal, measured)
+    deviations_at, beyond_at = _deviations_and_border(nominal, measured, surface)
     extra: dict = {}
     # The flow starts from the registration's last evaluation: every point at its final pose.
     T = reg.T_nominal_measured
-    j = _judge_pose(reg, T, apply_transform(T, measured), reg.deviations,
+    dev = reg.deviations
+    if exact is not None:
+        T, dev = _refined(measure, T, reg.inlier)
+        reg = _with_pose(reg, T, dev)
+    j = _judge_pose(reg, T, apply_transform(T, measured), dev,
                     _Measure(measure, deviations_at, beyond_at,
-                             lambda dv: margins_3d(nominal, dv.foot)),
+                             (lambda dv: np.zeros(dv.signed.size)) if exact is not None else
+                             (lambda dv: margins_3d(nominal, dv.foot))),
                     tolerance, fit, decision_rule, extra)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
@@ -124,8 +136,30 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     if j.T is not reg.T_nominal_measured:
         reg = _with_pose(reg, j.T, j.deviations)
     return InspectionResult(tolerance=tolerance, registration=reg, registered=j.points,
-                            deviations=j.deviations, normals_source=nominal.normals_source,
+                            deviations=j.deviations,
+                            normals_source="B-rep" if exact is not None else
+                            nominal.normals_source,
                             timings_s=timings, extra=extra, **j.verdict_fields)
+
+
+def _refined(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 20):
+    """(T, deviations): Gauss-Newton least squares of the exact deviations over the points
+    ``use`` from the pose T (the sample's registration is within the sample's chordal error
+    of it: a few steps), until no point moves by more than 1e-9 of their extent."""
+    from .fits import _apply_update, pose_jacobian
+
+    X, dev = measure(T)
+    extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
+    for _ in range(max_iterations):
+        c = X[use].mean(axis=0)
+        J = pose_jacobian(X[use], dev.normal[use], c)
+        step = np.linalg.lstsq(J, -dev.signed[use], rcond=None)[0]
+        T = _apply_update(T, step, c)
+        moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
+        X, dev = measure(T)
+        if moved <= 1e-9 * extent:
+            break
+    return T, dev
 
 
 @dataclass(frozen=True)
@@ -193,18 +227,21 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
     return _Judged(T, X, dev, fields, fitted_at, ts)
 
 
-def _deviations_and_border(nominal: Nominal, measured: np.ndarray):
+def _deviations_and_border(nominal: Nominal, measured: np.ndarray, surface=None):
     """(deviations_at, beyond_at)(T, idx) for engine.trust.pose_sensitivity: the signed
     deviations (mm) of measured points ``idx`` at pose T, and which of them lie past the
     nominal's border: the direction from its closest point to the point more than
     acos(BORDER_COSINE) from the nominal's normal at the sample nearest that closest point
     (past a mesh's or grid's border the distance is to its edge; past bare points' last facet,
-    the facet continued ends too)."""
+    the facet continued ends too). surface(X) -> Deviations: how deviations are measured (None:
+    on the nominal's sample, engine.deviation.point_to_surface); the border is the sample's."""
     from .deviation import point_to_surface
     from .trust import BORDER_COSINE, BORDER_MIN_MM
 
+    surface = surface or (lambda X: point_to_surface(nominal, X))
+
     def deviations_at(Tc, idx):
-        return point_to_surface(nominal, apply_transform(Tc, measured[idx])).signed
+        return surface(apply_transform(Tc, measured[idx])).signed
 
     def beyond_at(Tc, idx):
         X = apply_transform(Tc, measured[idx])

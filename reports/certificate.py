@@ -780,7 +780,8 @@ def _method(c: _Layout) -> list:
         ("Deviation method", doc["deviations"]["method"]),
         ("Normals", {"file": "from the nominal file (I J K)", "mesh": "from the mesh faces",
                      "grid": "from the grid cells", "estimated": "estimated from the nominal "
-                     "points (no normals in the file)", "contour": "contour normals"}.get(
+                     "points (no normals in the file)", "contour": "contour normals",
+                     "B-rep": "the STEP model's faces (outward)"}.get(
                          res.normals_source, res.normals_source)),
     ], [28 * mm, W - 28 * mm])]
     if c.info.notes:

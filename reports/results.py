@@ -84,12 +84,7 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "worst": [{"index": i, "deviation": float(dev[i])} for i in st.worst],
             "sign": "positive along the nominal's outward normal (excess material)",
             "normals_source": result.normals_source,
-            "method": ("exact distance to the template's line segments and circular arcs "
-                       "(splines and ellipses flattened within 0.1 um); positive outward for "
-                       "closed contours (into holes), to the left of the drawn direction for "
-                       "open ones" if result.normals_source == "contour" else
-                       "local facets around the nearest nominal points, curvature-corrected "
-                       "with the nominal normals"),
+            "method": DEVIATION_METHODS.get(result.normals_source, DEVIATION_METHODS["facets"]),
             "units": "mm",
         },
         "tolerance": {"lower": result.tolerance.lower, "upper": result.tolerance.upper},
@@ -226,6 +221,16 @@ def pose_sensitivity_json(result: InspectionResult) -> dict | None:
     }
 
 
+DEVIATION_METHODS = {
+    "contour": "exact distance to the template's line segments and circular arcs (splines and "
+               "ellipses flattened within 0.1 um); positive outward for closed contours (into "
+               "holes), to the left of the drawn direction for open ones",
+    "B-rep": "exact B-rep: the distance to the nearest face of the STEP model with its trim "
+             "respected (an edge or vertex where the nearest point lies on one), positive along "
+             "the face's outward normal; no nominal-sampling margin",
+    "facets": "local facets around the nearest nominal points, curvature-corrected with the "
+              "nominal normals"}
+"""The deviation method in words, by the result's ``normals_source``."""
 FIT_DEFINITIONS = {
     "lsq": "least squares of point-to-surface distances over every point but those excluded "
            "from the alignment as gross outliers (a best fit: it spreads the error and can "
