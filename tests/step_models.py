@@ -206,6 +206,96 @@ def oriented_normal_at_centre(face) -> np.ndarray:
     return -n if face.Orientation() == TopAbs_REVERSED else n
 
 
+def wedge(angle_deg: float = 30.0, length: float = 40.0, height: float = 10.0):
+    """A triangular prism whose edge along z through the origin is sharp: the faces y = 0 and
+    the plane through z at ``angle_deg`` from +x meet there at that angle."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.gp import gp_Pnt, gp_Vec
+    a = math.radians(angle_deg)
+    poly = BRepBuilderAPI_MakePolygon(gp_Pnt(0, 0, 0), gp_Pnt(length, 0, 0),
+                                      gp_Pnt(length, length * math.tan(a), 0), True)
+    base = BRepBuilderAPI_MakeFace(poly.Wire()).Face()
+    return BRepPrimAPI_MakePrism(base, gp_Vec(0, 0, height)).Shape()
+
+
+def read_faces(path):
+    """A compound of all the faces of a STEP file as OpenCascade's plain reader gives them (for
+    brute-force checks; the file's wireframe curves, if any, left out)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.STEPControl import STEPControl_Reader
+    from OCP.TopoDS import TopoDS_Compound
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)).name == "IFSelect_RetDone"
+    reader.TransferRoots()
+    compound, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(compound)
+    for face in faces_of(reader.OneShape()):
+        builder.Add(compound, face)
+    return compound
+
+
+def distance_to_shape(shape, points: np.ndarray) -> np.ndarray:
+    """Unsigned distances from points to a whole shape, one BRepExtrema_DistShapeShape each:
+    no candidate faces, no bounds — the slow, obvious twin of StepNominal.deviations."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+    from OCP.gp import gp_Pnt
+    out = []
+    for p in points:
+        dss = BRepExtrema_DistShapeShape(BRepBuilderAPI_MakeVertex(gp_Pnt(*p)).Vertex(), shape)
+        assert dss.IsDone()
+        out.append(dss.Value())
+    return np.array(out)
+
+
+def half_cylinder_sheet(radius: float = 10.0, height: float = 20.0):
+    """An open sheet: the half of the cylinder x^2 + y^2 = r^2 with y >= 0, 0 <= z <= height."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.Geom import Geom_CylindricalSurface
+    from OCP.gp import gp_Ax3
+    return BRepBuilderAPI_MakeFace(Geom_CylindricalSurface(gp_Ax3(), radius), 0.0, math.pi,
+                                   0.0, height, 1e-7).Face()
+
+
+def trough_sheet(half_width: float = 5.0, length: float = 20.0):
+    """An open B-spline sheet, the parabolic trough z = x^2 / 4 for |x| <= half_width, 0 <= y <=
+    length (a quadratic Bezier across, linear along: its control points are exact)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
+    from OCP.collections import Array1_double, Array1_int, Array2_gp_Pnt
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.gp import gp_Pnt
+    w = half_width
+    across = [(-w, w * w / 4), (0.0, -w * w / 4), (w, w * w / 4)]
+    poles = Array2_gp_Pnt(1, 3, 1, 2)
+    for i, (x, z) in enumerate(across):
+        for j, y in enumerate((0.0, length)):
+            poles.SetValue(i + 1, j + 1, gp_Pnt(x, y, z))
+    knots, ends = Array1_double(1, 2), Array1_int(1, 2)
+    knots.SetValue(1, 0.0)
+    knots.SetValue(2, 1.0)
+    mults_u, mults_v = Array1_int(1, 2), Array1_int(1, 2)
+    for k in (1, 2):
+        mults_u.SetValue(k, 3)
+        mults_v.SetValue(k, 2)
+    surface = Geom_BSplineSurface(poles, knots, knots, mults_u, mults_v, 2, 1)
+    return BRepBuilderAPI_MakeFace(surface, 1e-7).Face()
+
+
+def cone_and_torus():
+    """A solid cone frustum (semi-angle ~21.8 degrees) and a torus (radii 20 and 4), apart."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeCone, BRepPrimAPI_MakeTorus
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+    from OCP.TopoDS import TopoDS_Compound
+    compound, builder = TopoDS_Compound(), BRep_Builder()
+    builder.MakeCompound(compound)
+    builder.Add(compound, BRepPrimAPI_MakeCone(10.0, 2.0, 20.0).Shape())
+    builder.Add(compound, BRepPrimAPI_MakeTorus(gp_Ax2(gp_Pnt(60, 0, 0), gp_Dir(0.3, 0.2, 0.9)),
+                                                20.0, 4.0).Shape())
+    return compound
+
+
 # ------------------------------------------------------------------------------ the hemisphere
 
 def hemisphere():
