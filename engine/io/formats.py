@@ -26,6 +26,8 @@ AIRFOIL = "airfoil template"
 """2D airfoil ordinate templates, Selig order (``engine.io.templates``)."""
 PLAN = "inspection plan"
 """Inspection plans in TOML: regions, datums, alignment, characteristics (``engine.io.plan``)."""
+STEP = "STEP"
+"""STEP CAD models (ISO 10303-21; AP203/AP214/AP242), read with OpenCascade (``engine.io.step``)."""
 
 KIND = {
     ".csv": POINT_TEXT, ".txt": POINT_TEXT, ".xyz": POINT_TEXT, ".asc": POINT_TEXT,
@@ -36,6 +38,7 @@ KIND = {
     ".dxf": DXF,
     ".dat": AIRFOIL,
     ".toml": PLAN,
+    ".stp": STEP, ".step": STEP,
 }
 """Suffix (lower case, with its dot) -> kind of file."""
 
@@ -55,6 +58,7 @@ MESH_SUFFIXES = suffixes(MESH, VTK, GRID)
 ALL_SUFFIXES = suffixes(*POINT_SET_KINDS)
 TEMPLATE_SUFFIXES = suffixes(*TEMPLATE_KINDS)
 PLAN_SUFFIXES = suffixes(PLAN)
+STEP_SUFFIXES = suffixes(STEP)
 MEASURED_SUFFIXES = suffixes(POINT_TEXT, NPY) + (".ply",)
 """What CMMs and scanners write: the desktop app's filter for measured files (any point set is
 accepted)."""
