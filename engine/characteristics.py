@@ -562,12 +562,18 @@ def _rps(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:
 
 def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                  measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool,
-                 nominal_groups: dict[str, np.ndarray] | None = None):
+                 nominal_groups: dict[str, np.ndarray] | None = None, exact=None,
+                 sample_of=None):
     """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
     reasons become the plan's (with the zone of ``result`` as one more profile characteristic
     over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
     outputs are at the plan's alignment. nominal_labels, nominal_groups : the nominal file's
-    point labels and groups (engine.pointset.PointSet), which regions may select."""
+    point labels and groups (engine.pointset.PointSet), which regions may select. exact(X) ->
+    Deviations from the true surface (a STEP model's faces; engine.inspection.inspect), None:
+    deviations on the nominal's sample, with its sampling margins. sample_of(feet) -> the
+    nominal sample whose regions each foot (closest surface point) takes (None: the nearest;
+    a STEP model: the nearest of the foot's own face, whose samples its edges share with the
+    next face's)."""
     from dataclasses import replace
 
     from .deviation import point_to_surface
@@ -576,29 +582,33 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     from .verdict import margins_3d
 
     masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups)
+    surface = exact or (lambda X: point_to_surface(nominal, X))
 
     def evaluate(T, idx):
         X = apply_transform(T, measured[idx])
-        dv = point_to_surface(nominal, X)
+        dv = surface(X)
         return X, dv.signed, dv.normal
 
     def margin(idx, T):
         if result.decision_rule != "guarded":
             return None
+        if exact is not None:
+            return np.zeros(len(idx))
         X = apply_transform(T, measured[idx])
         return margins_3d(nominal, point_to_surface(nominal, X).foot)
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels)
-    planned = _judged(result, plan, geo, nominal.tree, zone_in_verdict)
+    planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
+                      zone_in_verdict)
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
     if planned.alignment is None:
         return result
     # The per-point outputs at the plan's alignment: where the drawing places the part.
     X = apply_transform(planned.T_nominal_measured, measured)
-    dv = point_to_surface(nominal, X)
-    return _at_plan_pose(result, X, dv,
-                         None if result.margin is None else margins_3d(nominal, dv.foot))
+    dv = surface(X)
+    return _at_plan_pose(result, X, dv, None if result.margin is None else margin(
+        np.arange(len(X)), planned.T_nominal_measured))
 
 
 def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
@@ -635,7 +645,7 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
 
     geo = Geometry(evaluate, np.eye(3), lambda idx, T: None, samples, normals, masks,
                    *_centre_and_length(P2), labels)
-    planned = _judged(result, plan, geo, index.tree, zone_in_verdict)
+    planned = _judged(result, plan, geo, lambda f: index.tree.query(f)[1], zone_in_verdict)
     T2 = planned.T_nominal_measured
     planned = replace(planned, T_nominal_measured=in_plane(T2)
                       @ result.registration.T_nominal_measured)
@@ -656,7 +666,7 @@ def _centre_and_length(X: np.ndarray) -> tuple[np.ndarray, float]:
     return centre, float(np.sqrt(np.mean(np.sum((X - centre) ** 2, axis=1)))) or 1.0
 
 
-def _judged(result, plan: Plan, geo: Geometry, tree, zone_in_verdict: bool) -> PlanResult:
+def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool) -> PlanResult:
     """The plan checked on ``geo``, with the inspection's own zone as a characteristic over all
     points when ``zone_in_verdict``; everything INCONCLUSIVE when the registration, on which
     the regions rest, cannot be trusted."""
@@ -677,7 +687,7 @@ def _judged(result, plan: Plan, geo: Geometry, tree, zone_in_verdict: bool) -> P
     # A point belongs where it lies: in the region of the sample nearest its closest point on
     # the surface (not its nearest sample, which may lie on the next face).
     foot = result.deviations.foot[:, :geo.nominal_points.shape[1]]
-    members = measured_members(plan, geo.nominal_masks, tree.query(foot)[1], geo.labels)
+    members = measured_members(plan, geo.nominal_masks, sample_of(foot), geo.labels)
     planned = check_plan(plan, geo, members, n, region_column(plan, members, n))
     results = list(planned.characteristics)
     if zone_in_verdict:

@@ -117,11 +117,10 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     deviations_at, beyond_at = _deviations_and_border(nominal, measured, surface)
     extra: dict = {}
     # The flow starts from the registration's last evaluation: every point at its final pose.
+    if exact is not None:
+        reg = _exact_fit(reg, measure, tolerance.upper - tolerance.lower)
     T = reg.T_nominal_measured
     dev = reg.deviations
-    if exact is not None:
-        T, dev = _refined(measure, T, reg.inlier)
-        reg = _with_pose(reg, T, dev)
     j = _judge_pose(reg, T, apply_transform(T, measured), dev,
                     _Measure(measure, deviations_at, beyond_at,
                              (lambda dv: np.zeros(dv.signed.size)) if exact is not None else
@@ -142,10 +141,37 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                             timings_s=timings, extra=extra, **j.verdict_fields)
 
 
-def _refined(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 20):
-    """(T, deviations): Gauss-Newton least squares of the exact deviations over the points
-    ``use`` from the pose T (the sample's registration is within the sample's chordal error
-    of it: a few steps), until no point moves by more than 1e-9 of their extent."""
+def _exact_fit(reg, measure, zone_width: float):
+    """The registration finished on the exact surface: least squares of the exact deviations
+    from the pose found on the nominal's sample (within its chordal error of the answer), with
+    the gross-outlier rule (engine.outliers) applied again to the exact deviations until the
+    points kept settle; converged, rms, inliers and rule are this fit's."""
+    from dataclasses import replace
+
+    from .outliers import gross_outliers, gross_rule
+    from .registration import MAX_ROUNDS
+
+    T = reg.T_nominal_measured
+    X, dev = measure(T)
+    use, converged = None, False
+    for _ in range(MAX_ROUNDS):
+        rule = gross_rule(dev.signed, zone_width, reg.gross_rule.floor_mm)
+        keep = ~gross_outliers(dev.signed, dev.foot, rule)
+        if use is not None and converged and np.array_equal(keep, use):
+            break
+        use = keep
+        T, dev, converged = _refined(measure, T, use)
+    d_in = dev.signed[use]
+    message = "" if converged else ("the least-squares fit on the exact surface did not settle")
+    return replace(reg, T_nominal_measured=T, deviations=dev, converged=converged,
+                   message=message, inlier=use, n_inliers=int(use.sum()),
+                   rms=float(np.sqrt(np.mean(d_in * d_in))) if use.any() else float("nan"),
+                   outlier_cut=rule.threshold_mm, gross_rule=rule)
+
+
+def _refined(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 50):
+    """(T, deviations, converged): Gauss-Newton least squares of the exact deviations over the
+    points ``use`` from the pose T, until no point moves by more than 1e-9 of their extent."""
     from .fits import _apply_update, pose_jacobian
 
     X, dev = measure(T)
@@ -158,8 +184,8 @@ def _refined(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 20):
         moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
         X, dev = measure(T)
         if moved <= 1e-9 * extent:
-            break
-    return T, dev
+            return T, dev, True
+    return T, dev, False
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .errors import InputError, SettingsError
 from .inspection import InspectionResult, inspect, inspect_2d
@@ -38,6 +39,8 @@ class InputRecord:
     """Points in the file (None for a 2D template, which has primitives instead)."""
     n_primitives: int | None = None
     """Line segments and arcs of a 2D template."""
+    n_faces: int | None = None
+    """Faces of a STEP model."""
 
 
 @dataclass(frozen=True)
@@ -179,35 +182,20 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
                          + ("; the files look swapped" if not is_template(nominal_path) else ""),
                          measured_path)
     report("loading the nominal", 0.0)
-    tol = settings.tolerance
     t0 = time.perf_counter()
-    nominal = tpl = None
-    if is_template(nominal_path):
-        from .io.templates import read_template
-
-        tpl = read_template(nominal_path, layers=settings.layers, units=settings.units,
-                            scale=settings.scale)
-        nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path), None,
-                                     tpl.template.n_primitives)
-    else:
-        nominal_ps = load_point_set(nominal_path)
-        if nominal_ps.dim != 3:
-            raise InputError("the nominal has 2 columns (x y): a 2D nominal must be a contour "
-                             "template (a .dxf drawing, or .dat airfoil ordinates with "
-                             "--scale); a 3D nominal needs x y z", nominal_path)
-        nominal_record = InputRecord("nominal", nominal_path, sha256_of(nominal_path),
-                                     nominal_ps.n)
+    source = _read_nominal(nominal_path, settings)
     report("loading the measured points", 0.0)
     measured_ps = load_point_set(measured_path)
-    if tpl is None:
+    nominal = None
+    if source.template is None:
         if measured_ps.dim != 3:
             raise InputError(f"the measured points have 2 columns (x y), but the nominal "
                              f"{nominal_path} is a 3D surface: give the measured points as x y "
                              "z, or a 2D template (.dxf, .dat) as NOMINAL for a 2D inspection",
                              measured_ps.path)
         report("preparing the nominal", 0.0)
-        nominal = Nominal.from_point_set(nominal_ps)
-    inputs = [nominal_record,
+        nominal = Nominal.from_point_set(source.point_set)
+    inputs = [source.record,
               InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
     plan = None
     if settings.plan is not None:
@@ -216,39 +204,152 @@ def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettin
         plan = read_plan(settings.plan)
         inputs.append(InputRecord("plan", settings.plan, plan.sha256, None))
     t1 = time.perf_counter()
-    if tpl is not None:
-        from .contour import ContourIndex
-
-        index = ContourIndex(tpl.template)
-        result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, tol,
-                            index=index, fit=settings.fit, decision_rule=settings.decision_rule,
-                            template_facts={"units": tpl.units, "unitless": tpl.unitless,
-                                            "flattened_curves": tpl.flattened,
-                                            "ignored_entities": tpl.ignored})
-        if plan is not None:
-            from .characteristics import inspect_plan_2d
-
-            report("judging the plan's characteristics", 0.99)
-            result = inspect_plan_2d(result, plan, index, measured_ps.labels,
-                                     settings.zone_in_verdict)
+    if source.template is not None:
+        result = _inspect_template(source.template, measured_ps, settings, plan)
     else:
-        result = inspect(nominal, measured_ps.points, tol, fit=settings.fit,
-                         decision_rule=settings.decision_rule)
-        if plan is not None:
-            from .characteristics import inspect_plan
-
-            report("judging the plan's characteristics", 0.99)
-            result = inspect_plan(result, plan, nominal, nominal_ps.labels, measured_ps.points,
-                                  measured_ps.labels, settings.zone_in_verdict,
-                                  nominal_ps.groups)
+        result = _inspect_3d(nominal, source, measured_ps, settings, plan)
     if result.verdict != ACCEPT:
-        hint = (not_planar_hint(result, measured_ps, nominal_path) if tpl is not None
-                else swap_hint(nominal_ps, measured_ps))
+        hint = (not_planar_hint(result, measured_ps, nominal_path)
+                if source.template is not None else swap_hint(source.point_set, measured_ps))
         if hint:
             result = dataclasses.replace(result, reasons=result.reasons + (hint,))
     report("judging", 1.0)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
-    return Run(settings, result, inputs, measured_ps, nominal, tpl, timings, plan)
+    return Run(settings, result, inputs, measured_ps, nominal, source.template, timings, plan)
+
+
+@dataclass(frozen=True)
+class _Nominal:
+    """The nominal file as read: its record, and a point set (3D), a 2D template (read_template's
+    result) or a STEP model (engine.io.step.StepNominal, whose tessellation is the point set)."""
+
+    record: InputRecord
+    point_set: PointSet | None = None
+    template: object | None = None
+    step: object | None = None
+
+
+def _read_nominal(path: str, settings: InspectionSettings) -> _Nominal:
+    sha = sha256_of(path)
+    if is_template(path):
+        from .io.templates import read_template
+
+        tpl = read_template(path, layers=settings.layers, units=settings.units,
+                            scale=settings.scale)
+        return _Nominal(InputRecord("nominal", path, sha, None, tpl.template.n_primitives),
+                        template=tpl)
+    if formats.kind_of(path) == formats.STEP:
+        from .io.step import read_step
+
+        step = read_step(path)
+        return _Nominal(InputRecord("nominal", path, sha, None, n_faces=step.n_faces),
+                        point_set=dataclasses.replace(step.point_set,
+                                                      groups=_face_groups(step)), step=step)
+    ps = load_point_set(path)
+    if ps.dim != 3:
+        raise InputError("the nominal has 2 columns (x y): a 2D nominal must be a contour "
+                         "template (a .dxf drawing, or .dat airfoil ordinates with "
+                         "--scale); a 3D nominal needs x y z", path)
+    return _Nominal(InputRecord("nominal", path, sha, ps.n), point_set=ps)
+
+
+def _face_sample(step, k: int = 32):
+    """feet (n, 3) on a STEP model -> (n,) the tessellation point nearest each foot among those
+    of the face it lies on (exactly: the model's own distance), so that a point joins its
+    face's regions even where the face's samples lie only on its edges, shared with the next
+    face's; the face's first sample when none of the k nearest is on it."""
+    points = step.point_set.points
+    ids = np.asarray(step.face_ids)
+    first = np.full(step.n_faces + 1, -1)
+    first[ids[::-1]] = np.arange(ids.size)[::-1]
+    tree = cKDTree(points)
+
+    def sample_of(feet: np.ndarray) -> np.ndarray:
+        face = step.deviations(feet)[3]
+        _, near = tree.query(feet, k=min(k, ids.size))
+        hit = ids[near] == face[:, None]
+        pick = np.where(hit.any(axis=1), near[np.arange(len(feet)), hit.argmax(axis=1)],
+                        first[face])
+        return pick
+
+    return sample_of
+
+
+def _face_groups(step) -> dict[str, np.ndarray]:
+    """A STEP model's faces as the tessellation's point groups a plan's region may select:
+    ``face:N`` (its id) and ``name:NAME`` (where the file names the face, or its part)."""
+    ids = np.asarray(step.face_ids)
+    order = np.argsort(ids, kind="stable")
+    bounds = np.searchsorted(ids[order], np.arange(1, step.n_faces + 2))
+    groups: dict[str, list] = {}
+    for f in step.faces:
+        members = order[bounds[f.id - 1]:bounds[f.id]]
+        groups[f"face:{f.id}"] = [members]
+        for name in (f.name, f.part):
+            if name:
+                groups.setdefault(f"name:{name}", []).append(members)
+    return {k: np.unique(np.concatenate(v)) for k, v in groups.items()}
+
+
+def _inspect_template(tpl, measured_ps: PointSet, settings: InspectionSettings, plan):
+    """A 2D template's inspection, and its plan's characteristics."""
+    from .contour import ContourIndex
+
+    index = ContourIndex(tpl.template)
+    result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, settings.tolerance,
+                        index=index, fit=settings.fit, decision_rule=settings.decision_rule,
+                        template_facts={"units": tpl.units, "unitless": tpl.unitless,
+                                        "flattened_curves": tpl.flattened,
+                                        "ignored_entities": tpl.ignored})
+    if plan is None:
+        return result
+    from .characteristics import inspect_plan_2d
+
+    report("judging the plan's characteristics", 0.99)
+    return inspect_plan_2d(result, plan, index, measured_ps.labels, settings.zone_in_verdict)
+
+
+def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
+                settings: InspectionSettings, plan):
+    """A 3D inspection (exact to a STEP model's faces when the nominal is one), and its plan's
+    characteristics."""
+    exact = None
+    if source.step is not None:
+        exact = _exact_deviations(source.step)
+    result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
+                     decision_rule=settings.decision_rule, exact=exact)
+    if source.step is not None:
+        result = dataclasses.replace(result, extra={**result.extra,
+                                                    "step": step_facts(source.step)})
+    if plan is None:
+        return result
+    from .characteristics import inspect_plan
+
+    report("judging the plan's characteristics", 0.99)
+    ps = source.point_set
+    return inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
+                        measured_ps.labels, settings.zone_in_verdict, ps.groups, exact,
+                        None if source.step is None else _face_sample(source.step))
+
+
+def _exact_deviations(step):
+    """Deviations from a STEP model's faces (engine.io.step.StepNominal.deviations) as the
+    engine's Deviations."""
+    from .deviation import Deviations
+
+    def exact(X: np.ndarray) -> Deviations:
+        signed, foot, normal, _ = step.deviations(X)
+        return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
+
+    return exact
+
+
+def step_facts(step) -> dict:
+    """What the outputs say of a STEP nominal (JSON ``step``)."""
+    return {"schema": step.schema, "unit": step.unit, "mm_per_unit": step.mm_per_unit,
+            "faces": step.n_faces, "deflection_mm": step.deflection,
+            "method": "exact B-rep",
+            "units_definition": "the file's length unit; every coordinate is converted to mm"}
 

@@ -71,8 +71,9 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i.add_argument("nominal", metavar="NOMINAL",
                    help="nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, "
                         "'# grid: NU x NV' header for a u-v grid), mesh (.stl .ply .obj .vtk "
-                        ".vtp), structured grid (.vts), or a 2D contour template: a DXF "
-                        "drawing (.dxf) or airfoil ordinates (.dat, with --scale)")
+                        ".vtp), structured grid (.vts), a STEP model (.stp .step: deviations "
+                        "exact to its faces), or a 2D contour template: a DXF drawing (.dxf) or "
+                        "airfoil ordinates (.dat, with --scale)")
     i.add_argument("measured", metavar="MEASURED", help="measured points (same formats)")
     i.add_argument("--tol", type=_finite_float, metavar="T",
                    help="symmetric tolerance: deviations within ±T mm are in tolerance")

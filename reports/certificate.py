@@ -803,6 +803,7 @@ def _inputs(c: _Layout) -> list:
     for r in c.run.inputs:
         size = (f"{r.n_points} points" if r.n_points is not None else
                 f"{r.n_primitives} primitives" if r.n_primitives is not None else
+                f"{r.n_faces} B-rep faces" if r.n_faces is not None else
                 f"{len(c.run.plan.characteristics)} characteristics" if r.role == "plan" and
                 c.run.plan is not None else "—")
         rows.append([r.role, P(_esc(os.path.basename(r.path)), S["cell"]), size,

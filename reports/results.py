@@ -100,7 +100,8 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
                           "a chord between samples sags below the surface); 0 for a 2D "
                           "template's exact lines and arcs"}}),
         "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points,
-                    **({} if r.n_primitives is None else {"n_primitives": r.n_primitives})}
+                    **({} if r.n_primitives is None else {"n_primitives": r.n_primitives}),
+                    **({} if r.n_faces is None else {"n_faces": r.n_faces})}
                    for r in inputs],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},

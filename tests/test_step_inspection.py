@@ -1,0 +1,115 @@
+"""STEP nominals through the pipeline (engine.pipeline, qa-inspect): the NIST FTC-06 test part
+(tests/data/step, public domain) measured at points on its faces with planted deviations, in a
+random pose: the deviations are the exact B-rep distances."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from qa_app.cli import main
+
+STEP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "step",
+                    "nist_ftc_06_asme1_rd.stp")
+
+
+@pytest.fixture(scope="module")
+def part():
+    from engine.io.step import read_step
+
+    return read_step(STEP)
+
+
+def measured_on(part, rng, n=400, sigma=0.01, true_points=False):
+    """Points on the part's faces, away from their edges (offsets of +-0.05 mm stay on the same
+    face, exactly), moved along the exact outward normal by planted deviations free of any rigid
+    motion's share; (measured in a random pose, planted, true face ids)."""
+    from engine.fits import pose_jacobian
+    from surfaces import random_rotation
+
+    ps = part.point_set
+    # Random points on random tessellation triangles, carried onto the B-rep exactly (their
+    # feet): interior points of every kind of face, planes included.
+    tri = ps.triangles[rng.choice(len(ps.triangles), 6 * n)]
+    w = rng.dirichlet(np.ones(3), 6 * n)
+    _, P, N, face = part.deviations(np.einsum("ij,ijk->ik", w, ps.points[tri]))
+    ok = np.ones(len(P), bool)
+    for off in (-0.05, 0.05):
+        so, _, _, fo = part.deviations(P + off * N)
+        ok &= (np.abs(so - off) < 1e-9) & (fo == face)
+    P, N, face = P[ok][:n], N[ok][:n], face[ok][:n]
+    planted = rng.normal(0, sigma, len(P))
+    J = pose_jacobian(P, N, P.mean(axis=0))
+    planted -= J @ np.linalg.lstsq(J, planted, rcond=None)[0]
+    R = random_rotation(rng)
+    true = P + planted[:, None] * N
+    out = (true @ R.T + rng.uniform(-300, 300, 3), planted, face)
+    return out + ((true, N) if true_points else ())
+
+
+def write(path, M):
+    np.savetxt(path, M, delimiter=",", header="x,y,z", comments="", fmt="%.9f")
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_step_nominal_gives_exact_deviations(tmp_path, part, seed):
+    import csv
+
+    rng = np.random.default_rng(seed)
+    M, planted, _ = measured_on(part, rng)
+    write(tmp_path / "m.csv", M)
+    code = main(["inspect", STEP, str(tmp_path / "m.csv"), "--tol", "0.05", "--json",
+                 str(tmp_path / "r.json"), "--csv", str(tmp_path / "r.csv")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    with open(tmp_path / "r.csv") as f:
+        d = np.array([float(r["deviation"]) for r in csv.DictReader(f)])
+    assert np.max(np.abs(d - planted)) < 1e-5  # the CSV prints 6 decimals
+    assert code == 0 and doc["verdict"] == "ACCEPT"
+    assert doc["deviations"]["normals_source"] == "B-rep"
+    assert doc["deviations"]["method"].startswith("exact B-rep")
+    assert doc["step"]["faces"] == part.n_faces and doc["step"]["method"] == "exact B-rep"
+    assert doc["inputs"][0]["n_faces"] == part.n_faces
+
+
+def test_a_plan_region_selects_a_step_face(tmp_path, part):
+    """A flatness on `group = "face:N"` (a planar face of the model): its measured points are
+    the ones on that face (though the face's tessellation points lie only on its edges, shared
+    with the next faces'), and its value is their minimum zone, found here as a linear program
+    in the face's own frame on the true points."""
+    from scipy.optimize import linprog
+
+    rng = np.random.default_rng(3)
+    M, planted, face, true, N = measured_on(part, rng, n=600, true_points=True)
+    planar = [f.id for f in part.faces if f.surface == "plane"]
+    counts = {i: int(np.sum(face == i)) for i in planar}
+    fid = max(counts, key=counts.get)
+    write(tmp_path / "m.csv", M)
+    (tmp_path / "plan.toml").write_text(f"""
+[[region]]
+name = "F"
+group = "face:{fid}"
+[[characteristic]]
+id = "1"
+type = "flatness"
+region = "F"
+zone = 1.0
+""")
+    main(["inspect", STEP, str(tmp_path / "m.csv"), "--plan", str(tmp_path / "plan.toml"),
+          "--json", str(tmp_path / "r.json")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    (c,) = doc["characteristics"]
+    on = face == fid
+    assert c["n_points"] == int(on.sum())
+    n = N[on][0]
+    e1, e2 = np.linalg.svd(n[None, :])[2][1:]
+    q = true[on]
+    G = np.column_stack([q @ e1, q @ e2, np.ones(on.sum())])
+    w = q @ n
+    # min h: |w - G p| <= h/2 ... as G p - w <= t, w - G p <= t, width 2t (|n| = 1 tilt-free).
+    lp = linprog([0, 0, 0, 1], A_ub=np.vstack([np.column_stack([G, -np.ones(len(w))]),
+                                               np.column_stack([-G, -np.ones(len(w))])]),
+                 b_ub=np.concatenate([w, -w]), bounds=[(None, None)] * 3 + [(0, None)],
+                 method="highs")
+    a, b = lp.x[:2]
+    assert c["value"] == pytest.approx(2 * lp.x[3] / np.sqrt(1 + a * a + b * b), abs=1e-7)
