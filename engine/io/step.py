@@ -171,17 +171,18 @@ class StepNominal:
         For each point the candidate faces are those of its ``K_NEAREST`` nearest tessellation
         points, then every other face whose bounding box is nearer than the best distance found
         (or than the nearest tessellation point, which lies on the B-rep within the model's
-        tolerance): no face that could be nearer is left out. A candidate's surface is projected on exactly: planes, cylinders,
-        cones, spheres and tori in closed form (vectorised; the unbounded surface's nearest
-        point, whose distance also bounds the face's from below), other surfaces with
-        OpenCascade's extrema over the face's (u, v) box (one reused projector per face). The
-        foot is kept when it lies on the face's trimmed domain (``IntTools_FClass2d``, IN or
-        ON), nearest candidates first; when it lies outside, the nearest point of the trimmed
-        face (on an edge, at a vertex, or another interior minimum) comes from
-        ``BRepExtrema_DistShapeShape``, asked only while the face's lower bound is below the
-        best so far. The nearest wins. On a face the sign comes from the face's outward normal
-        at the foot; at a foot on an edge or a vertex from the sum of the outward normals of
-        the faces that meet there (right on either side of a sharp convex or concave edge).
+        tolerance): no face that could be nearer is left out. A candidate's surface is projected
+        on exactly: planes, cylinders, cones, spheres and tori in closed form (vectorised; the
+        unbounded surface's nearest point, whose distance also bounds the face's from below),
+        other surfaces with OpenCascade's extrema over the face's (u, v) box (one reused
+        projector per face). The foot is kept when it lies on the face's trimmed domain
+        (``IntTools_FClass2d``, IN or ON), nearest candidates first; when it lies outside, the
+        nearest point of the trimmed face (on an edge, at a vertex, or another interior
+        minimum) comes from ``BRepExtrema_DistShapeShape``, asked only while the face's lower
+        bound is below the best so far. The nearest wins. On a face the sign comes from the
+        face's outward normal at the foot; at a foot on an edge or a vertex from the sum of the
+        outward normals of the faces that meet there (right on either side of a sharp convex or
+        concave edge).
 
         Exact to OpenCascade's precision (tested to 0.1 µm against analytic truth and against
         the distance to all faces at once); an extrema search over a general (B-spline) face's
