@@ -235,6 +235,27 @@ def read_faces(path):
     return compound
 
 
+def outside_solid(path, points: np.ndarray) -> np.ndarray:
+    """Per point: 1.0 outside the STEP file's (first) solid, 0.0 inside, NaN on it —
+    OpenCascade's solid classifier (rays cast against the faces), independent of any normal."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.gp import gp_Pnt
+    from OCP.STEPControl import STEPControl_Reader
+    from OCP.TopAbs import TopAbs_IN, TopAbs_OUT, TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)).name == "IFSelect_RetDone"
+    reader.TransferRoots()
+    classifier = BRepClass3d_SolidClassifier(TopExp_Explorer(reader.OneShape(),
+                                                             TopAbs_SOLID).Current())
+    out = []
+    for p in points:
+        classifier.Perform(gp_Pnt(*p), 1e-7)
+        state = classifier.State()
+        out.append(1.0 if state == TopAbs_OUT else 0.0 if state == TopAbs_IN else np.nan)
+    return np.array(out)
+
+
 def distance_to_shape(shape, points: np.ndarray) -> np.ndarray:
     """Unsigned distances from points to a whole shape, one BRepExtrema_DistShapeShape each:
     no candidate faces, no bounds — the slow, obvious twin of StepNominal.deviations."""

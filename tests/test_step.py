@@ -120,7 +120,8 @@ def test_past_a_sharp_edge_the_sign_is_outward(tmp_path):
 def test_deviations_agree_with_brute_force_over_all_faces():
     """Points anywhere near and around NIST FTC-06 (inside, outside, far): the distance equals
     OpenCascade's distance to all its faces at once (no candidate faces, no bounds), so the
-    candidate search leaves no nearer face out."""
+    candidate search leaves no nearer face out; and the sign is OpenCascade's solid
+    classifier's (rays against the faces, no normals): positive outside, negative inside."""
     nominal = read_step(NIST)
     rng = np.random.default_rng(12)
     lo, hi = nominal.bounds
@@ -128,7 +129,11 @@ def test_deviations_agree_with_brute_force_over_all_faces():
                         nominal.point_set.points[rng.choice(nominal.point_set.n, 100)]
                         + rng.normal(0, 1.0, (100, 3))])
     brute = sm.distance_to_shape(sm.read_faces(NIST), q)
-    assert np.abs(np.abs(nominal.deviations(q)[0]) - brute).max() < PRECISION
+    signed = nominal.deviations(q)[0]
+    assert np.abs(np.abs(signed) - brute).max() < PRECISION
+    outside = sm.outside_solid(NIST, q)
+    clear = (np.abs(signed) > 1e-6) & ~np.isnan(outside)  # NaN: on the boundary
+    assert clear.sum() > 240 and ((signed > 0) == (outside == 1.0))[clear].all()
 
 
 def test_a_far_side_extremum_is_not_the_nearest_point_of_a_partial_face(tmp_path):

@@ -34,7 +34,8 @@ Faces
     contributes all its faces, moved by the product of the placements above it. A face's ``name``
     is its own name in the file (``ADVANCED_FACE('MOUNTING_FACE', …)``; the placeholders ``''``
     and ``NONE`` are no name); ``part`` is the name of the solid (or shell) it belongs to when the
-    file names that, else the name of its product (``PRODUCT('bracket', …)``).
+    file names that, else the name of its product (``PRODUCT('bracket', …)``), else that of the
+    instance or assembly above it.
 
 Tessellation
     ``BRepMesh_IncrementalMesh`` with the chordal deflection :func:`deflection_for` (2.5e-5 of the
@@ -70,8 +71,9 @@ times the file's size."""
 K_NEAREST = 8
 """Tessellation points whose faces are the first candidates of a measured point."""
 UPPER_MARGIN_MM = 1e-6
-"""The distance to the nearest tessellation node, plus this, bounds the distance to the B-rep
-from above (the nodes lie on the faces, within OpenCascade's tolerances)."""
+"""The distance to the nearest tessellation node, plus this or the model's largest tolerance,
+bounds the distance to the B-rep from above (nodes on edges lie on the edges' curves, which
+stray from the faces' surfaces by up to the edges' tolerances)."""
 TIE_MM = 1e-9
 """A face whose lower bound is within this of the best distance found is not measured: it could
 improve the distance by no more."""
@@ -133,6 +135,8 @@ class StepNominal:
     face_ids : (n,) int64, the face id of every tessellation point.
     deflection : the tessellation's chordal deflection, mm.
     bounds : (2, 3) the B-rep's bounding box (min, max), mm.
+    tolerance : the model's largest tolerance (of a face, edge or vertex), mm: how far its
+        edges may stray from its faces' surfaces (the CTC-05 test part: 0.034 mm).
     """
 
     def __init__(self, path: str, schema: str, unit: str, mm_per_unit: float | None,
@@ -148,6 +152,7 @@ class StepNominal:
         self.deflection = deflection
         self.bounds = bounds
         self._brep = brep
+        self.tolerance = brep.tolerance
         self._tree = cKDTree(point_set.points)
 
     @property
@@ -165,18 +170,19 @@ class StepNominal:
 
         For each point the candidate faces are those of its ``K_NEAREST`` nearest tessellation
         points, then every other face whose bounding box is nearer than the best distance found
-        (or than the nearest tessellation point, which lies on the B-rep): no face that could be
-        nearer is left out. A candidate's surface is projected on exactly: planes, cylinders,
-        cones, spheres and tori in closed form (vectorised; the unbounded surface's nearest
-        point, whose distance also bounds the face's from below), other surfaces with
-        OpenCascade's extrema over the face's (u, v) box (one reused projector per face). The
-        foot is kept when it lies on the face's trimmed domain (``IntTools_FClass2d``, IN or
-        ON), nearest candidates first; when it lies outside, the nearest point of the trimmed
-        face (on an edge, at a vertex, or another interior minimum) comes from
-        ``BRepExtrema_DistShapeShape``, asked only while the face's lower bound is below the
-        best so far. The nearest wins. On a face the sign comes from the face's outward normal
-        at the foot; at a foot on an edge or a vertex from the sum of the outward normals of
-        the faces that meet there (right on either side of a sharp convex or concave edge).
+        (or than the nearest tessellation point, which lies on the B-rep within the model's
+        tolerance): no face that could be nearer is left out. A candidate's surface is projected
+        on exactly: planes, cylinders, cones, spheres and tori in closed form (vectorised; the
+        unbounded surface's nearest point, whose distance also bounds the face's from below),
+        other surfaces with OpenCascade's extrema over the face's (u, v) box (one reused
+        projector per face). The foot is kept when it lies on the face's trimmed domain
+        (``IntTools_FClass2d``, IN or ON), nearest candidates first; when it lies outside, the
+        nearest point of the trimmed face (on an edge, at a vertex, or another interior
+        minimum) comes from ``BRepExtrema_DistShapeShape``, asked only while the face's lower
+        bound is below the best so far. The nearest wins. On a face the sign comes from the
+        face's outward normal at the foot; at a foot on an edge or a vertex from the sum of the
+        outward normals of the faces that meet there (right on either side of a sharp convex or
+        concave edge).
 
         Exact to OpenCascade's precision (tested to 0.1 µm against analytic truth and against
         the distance to all faces at once); an extrema search over a general (B-spline) face's
@@ -194,7 +200,7 @@ class StepNominal:
         dist, idx = self._tree.query(p, k=k, workers=query_workers(n))
         dist, idx = np.asarray(dist).reshape(n, k), np.asarray(idx).reshape(n, k)
         best = _Best(n)
-        best.upper = dist[:, 0] + UPPER_MARGIN_MM  # tessellation nodes lie on the B-rep
+        best.upper = dist[:, 0] + max(UPPER_MARGIN_MM, self.tolerance)
         pairs = _unique_pairs(np.repeat(np.arange(n), k), self.face_ids[idx].ravel())
         bound, inside = self._brep.project(p, pairs, best)
         more = self._brep.nearer_boxes(p, np.minimum(best.dist, best.upper), pairs)
@@ -718,7 +724,10 @@ class _Brep:
     """The placed faces (id i is ``faces[i - 1]``), their names, tools, boxes and adjacency."""
 
     def __init__(self, placed: list[tuple]):
+        from OCP.BRep import BRep_Builder
         from OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap
+        from OCP.ShapeAnalysis import ShapeAnalysis_ShapeTolerance
+        from OCP.TopoDS import TopoDS_Compound
 
         self.index = ShapeMap()
         self.faces, self.names, self.parts = [], [], []
@@ -728,6 +737,12 @@ class _Brep:
                 self.names.append(name)
                 self.parts.append(part)
         self.n = len(self.faces)
+        compound, builder = TopoDS_Compound(), BRep_Builder()
+        builder.MakeCompound(compound)
+        for face in self.faces:
+            builder.Add(compound, face)
+        self.compound = compound
+        self.tolerance = ShapeAnalysis_ShapeTolerance().Tolerance(compound, 1)
         self._tools: dict[int, _FaceTools] = {}
         self._boxes: np.ndarray | None = None
         self._ancestors = None
@@ -768,16 +783,9 @@ class _Brep:
     def tessellate(self, deflection: float):
         """Mesh every face; (points (n, 3), outward normals (n, 3), triangles (m, 3) with
         outward winding, face id (n,)), faces in id order."""
-        from OCP.BRep import BRep_Builder
         from OCP.BRepMesh import BRepMesh_IncrementalMesh
-        from OCP.TopoDS import TopoDS_Compound
 
-        compound = TopoDS_Compound()
-        builder = BRep_Builder()
-        builder.MakeCompound(compound)
-        for face in self.faces:
-            builder.Add(compound, face)
-        BRepMesh_IncrementalMesh(compound, deflection, False, ANGULAR_DEFLECTION, True)
+        BRepMesh_IncrementalMesh(self.compound, deflection, False, ANGULAR_DEFLECTION, True)
         parts, offset = [], 0
         for fid in range(1, self.n + 1):
             mesh = self._face_mesh(fid)
@@ -950,20 +958,14 @@ class _Brep:
 
     def _adjacency(self):
         """(edge -> faces, vertex -> faces) maps over all placed faces."""
-        from OCP.BRep import BRep_Builder
         from OCP.collections import \
             IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as Ancestors
         from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_VERTEX
         from OCP.TopExp import TopExp
-        from OCP.TopoDS import TopoDS_Compound
 
-        compound, builder = TopoDS_Compound(), BRep_Builder()
-        builder.MakeCompound(compound)
-        for face in self.faces:
-            builder.Add(compound, face)
         edges, vertices = Ancestors(), Ancestors()
-        TopExp.MapShapesAndAncestors_s(compound, TopAbs_EDGE, TopAbs_FACE, edges)
-        TopExp.MapShapesAndAncestors_s(compound, TopAbs_VERTEX, TopAbs_FACE, vertices)
+        TopExp.MapShapesAndAncestors_s(self.compound, TopAbs_EDGE, TopAbs_FACE, edges)
+        TopExp.MapShapesAndAncestors_s(self.compound, TopAbs_VERTEX, TopAbs_FACE, vertices)
         return edges, vertices
 
 
