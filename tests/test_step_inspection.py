@@ -113,3 +113,23 @@ zone = 1.0
                  method="highs")
     a, b = lp.x[:2]
     assert c["value"] == pytest.approx(2 * lp.x[3] / np.sqrt(1 + a * a + b * b), abs=1e-7)
+
+
+def test_the_desktop_session_opens_and_inspects_a_step_nominal(tmp_path, part):
+    """The app (its Qt-free session and controller) takes a STEP file as the nominal, dropped
+    first or second, and inspects it as the command line does: exact deviations."""
+    from qa_app.desktop.controller import Controller
+    from qa_app.desktop.model import Session
+
+    rng = np.random.default_rng(4)
+    M, planted, _ = measured_on(part, rng, n=200)
+    write(tmp_path / "m.csv", M)
+    s = Session()
+    c = Controller(s, synchronous=True)
+    c.open_files([str(tmp_path / "m.csv"), STEP])  # the STEP model is the nominal either way
+    assert s.nominal_path == os.path.abspath(STEP)
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    res = s.run.result
+    assert res.verdict == "ACCEPT" and res.normals_source == "B-rep"
+    assert np.max(np.abs(res.deviations.signed - planted)) < 1e-9

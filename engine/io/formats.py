@@ -59,6 +59,8 @@ ALL_SUFFIXES = suffixes(*POINT_SET_KINDS)
 TEMPLATE_SUFFIXES = suffixes(*TEMPLATE_KINDS)
 PLAN_SUFFIXES = suffixes(PLAN)
 STEP_SUFFIXES = suffixes(STEP)
+NOMINAL_SUFFIXES = ALL_SUFFIXES + STEP_SUFFIXES + TEMPLATE_SUFFIXES
+"""Every file a nominal may be: a point set, a STEP model or a 2D template."""
 MEASURED_SUFFIXES = suffixes(POINT_TEXT, NPY) + (".ply",)
 """What CMMs and scanners write: the desktop app's filter for measured files (any point set is
 accepted)."""

@@ -68,7 +68,9 @@ class Controller:
         return self.busy
 
     def open_nominal(self, path: str) -> None:
-        if self._refuse_while_busy() or not self._check_file(path):
+        from engine.io.formats import NOMINAL_SUFFIXES
+
+        if self._refuse_while_busy() or not self._check_file(path, NOMINAL_SUFFIXES):
             return
         self.session.set_nominal(os.path.abspath(path))
         self.session.tell("info", f"Nominal: {os.path.basename(path)}")
@@ -117,24 +119,30 @@ class Controller:
         self.session.tell("info", "No plan: the zone over all points is the verdict")
 
     def open_files(self, paths: list[str]) -> None:
-        """Dropped or command-line files: a template or the first file is the nominal when none
-        is set yet, the next one the measured points; a session file opens the session, a plan
-        (.toml) the plan."""
+        """Dropped or command-line files: a template or a STEP model (in any position), else the
+        first file, is the nominal when none is set yet, the next one the measured points; a
+        session file opens the session, a plan (.toml) the plan."""
         from engine.io import is_template
-        from engine.io.formats import PLAN_SUFFIXES
+        from engine.io.formats import PLAN_SUFFIXES, STEP_SUFFIXES
 
-        for p in paths:
+        def nominal_only(p: str) -> bool:
+            return is_template(p) or os.path.splitext(p)[1].lower() in STEP_SUFFIXES
+
+        # A file that can only be a nominal (a template, a STEP model) goes first, whatever
+        # order the files were dropped in.
+        for p in sorted(paths, key=lambda p: not nominal_only(p)):
             if p.endswith(SESSION_SUFFIX):
                 self.open_session(p)
             elif os.path.splitext(p)[1].lower() in PLAN_SUFFIXES:
                 self.open_plan(p)
-            elif self.session.nominal_path is None or is_template(p):
+            elif self.session.nominal_path is None or nominal_only(p):
                 self.open_nominal(p)
             else:
                 self.open_measured(p)
 
     def _check_file(self, path: str, suffixes: tuple[str, ...] | None = None) -> bool:
-        """suffixes : the file types accepted (default: nominals and measured points)."""
+        """suffixes : the file types accepted (default: measured points, and 3D nominals and
+        templates, which the measured slot refuses later with a clearer message)."""
         from engine.io.formats import ALL_SUFFIXES, TEMPLATE_SUFFIXES
 
         suffixes = suffixes or ALL_SUFFIXES + TEMPLATE_SUFFIXES

@@ -26,7 +26,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from engine.io.formats import ALL_SUFFIXES, MEASURED_SUFFIXES, PLAN_SUFFIXES, TEMPLATE_SUFFIXES
+from engine.io.formats import MEASURED_SUFFIXES, NOMINAL_SUFFIXES, PLAN_SUFFIXES
 
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
@@ -43,7 +43,7 @@ from .widgets import (
     VerdictBanner,
 )
 
-NOMINAL_FILTER = (f"Nominals ({' '.join('*' + s for s in ALL_SUFFIXES + TEMPLATE_SUFFIXES)});;"
+NOMINAL_FILTER = (f"Nominals ({' '.join('*' + s for s in NOMINAL_SUFFIXES)});;"
                   "All files (*)")
 MEASURED_FILTER = (f"Measured points ({' '.join('*' + s for s in MEASURED_SUFFIXES)});;"
                    "All files (*)")
