@@ -150,9 +150,9 @@ EXACT_HANDOVER_ITERATIONS = 8
 """Iterations of the registration's final fit on the nominal's sample before the exact surface
 takes over (engine.inspection.inspect with ``exact``)."""
 EXACT_FIT_POINTS = 8192
-"""The exact least squares iterates on at most this many of the points it keeps (spread over
-them, seeded), then checks the pose on every point: each exact evaluation costs tens of
-microseconds a point."""
+"""The exact least squares iterates on at most this many of the points it keeps (a seeded random
+choice), then takes one step on every point: each exact evaluation costs tens of microseconds a
+point."""
 
 
 def _exact_fit(reg, measure, zone_width: float):
@@ -160,8 +160,6 @@ def _exact_fit(reg, measure, zone_width: float):
     from the pose found on the nominal's sample (within its chordal error of the answer), with
     the gross-outlier rule (engine.outliers) applied again to the exact deviations until the
     points kept settle; converged, rms, inliers and rule are this fit's."""
-    from dataclasses import replace
-
     from .outliers import gross_outliers, gross_rule
     from .registration import MAX_ROUNDS
 
@@ -186,9 +184,9 @@ def _exact_fit(reg, measure, zone_width: float):
 def _refined(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 50):
     """(T, deviations of every point, converged): Gauss-Newton least squares of the exact
     deviations over the points ``use`` from the pose T, until no point moves by more than 1e-9
-    of their extent; on a seeded spread of at most EXACT_FIT_POINTS of them (the pose of a
-    least-squares fit is set to that precision by a few thousand points spread over the part),
-    then one step on every point kept, and every point evaluated at the end."""
+    of their extent, on a seeded random choice of at most EXACT_FIT_POINTS of them (whose
+    optimum is within their sampling of every point's), then one step on every point kept;
+    every point evaluated at the end."""
     from .fits import _apply_update, pose_jacobian
 
     idx = np.flatnonzero(use)
