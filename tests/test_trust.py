@@ -230,11 +230,16 @@ def test_sampling_margin_is_curvature_times_spacing_squared_over_8():
     rng = np.random.default_rng(1)
     v = rng.normal(size=(300, 3))
     v /= np.linalg.norm(v, axis=1, keepdims=True)
-    v = v[np.abs(v[:, 2]) < 0.5]  # away from the poles, where the sampling is even
+    v = v[np.abs(v[:, 2]) < 0.5]
     res = inspect(nominal, v * R, Tolerance.symmetric(0.5), decision_rule="guarded")
     h = R * np.pi / 60  # the sampling step along a meridian
     assert res.margin is not None and res.decision_rule == "guarded"
-    ratio = res.margin / (h * h / (8 * R))
+    # The sphere's rotations are free: the points land wherever the registration turns them.
+    # Where they land away from the poles the sampling is even (near a pole the parallels'
+    # samples crowd 10:1 and more).
+    even = np.abs(res.registered[:, 2]) < 0.5 * R
+    assert even.sum() >= 0.25 * len(v)
+    ratio = res.margin[even] / (h * h / (8 * R))
     assert np.all((0.75 < ratio) & (ratio < 1.15)) and 0.9 < np.median(ratio) < 1.1
     # A sphere measured all over leaves the three rotations free, but its points lie on it
     # exactly whichever way it is turned: the verdict is about form (turned into the nominal's
