@@ -220,6 +220,34 @@ def test_guarded_rule_switches_to_inconclusive_near_the_limits():
     assert judge(far_outside, tol, _Reg(), margin=m)[0] == REJECT
 
 
+def test_a_pose_another_pose_fits_better_is_never_judged():
+    """Whatever the registration hands over, a verdict never stands at a pose that a distinct
+    pose it found fits better (a lower score): ACCEPT or REJECT there would judge the wrong
+    pose, so the verdict is INCONCLUSIVE and says why. A runner-up scoring worse, or a 2D
+    template's symmetry (every deviation the same), leaves the verdict alone."""
+    tol = Tolerance(-0.1, 0.1)
+    inside, outside = np.array([0.0, 0.05, -0.05]), np.array([0.0, 0.05, -0.2])
+
+    class Better(_Reg):
+        runner_up_score, symmetric = 0.008, False
+
+    for d in (inside, outside):
+        verdict, reasons, _ = judge(d, tol, Better())
+        assert verdict == INCONCLUSIVE
+        assert any("another pose fits better" in r and "0.008 mm against 0.01 mm" in r
+                   for r in reasons)
+
+    class Worse(_Reg):
+        runner_up_score, symmetric = 0.012, False
+
+    class Symmetry(_Reg):
+        runner_up_score, symmetric = 0.008, True
+
+    for reg in (Worse(), Symmetry()):
+        assert judge(inside, tol, reg)[0] == ACCEPT
+        assert judge(outside, tol, reg)[0] == REJECT
+
+
 def test_sampling_margin_is_curvature_times_spacing_squared_over_8():
     """On a sphere of radius R sampled every h, the margin is about h^2 / (8 R)."""
     from surfaces import sphere_points
