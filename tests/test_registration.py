@@ -9,7 +9,8 @@ from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.registration import RegistrationSettings, register
 from engine.verdict import ACCEPT, REJECT
-from surfaces import height, height_grid, height_normal, point_set, random_rotation
+from surfaces import (bracket_two_faces, height, height_grid, height_normal, point_set,
+                      random_rotation)
 
 import samples.generate as gen
 
@@ -78,12 +79,7 @@ def test_gross_outliers_do_not_move_the_pose(fairing):
 
 def test_two_faces_of_a_bracket_cover_a_small_part():
     rng = np.random.default_rng(21)
-    nominal = gen.bracket_points(60_000, rng)
-    nom = Nominal.from_point_set(point_set(nominal[:, :3], nominal[:, 3:]))
-    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
-    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
-    q = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
-                   np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
+    nom, q, _ = bracket_two_faces(rng, 60_000)
     for trial in range(3):
         T = _pose(rng)
         res = register(nom, apply_transform(T, q))
@@ -216,16 +212,10 @@ def test_material_in_the_hole_is_judged_where_it_is_not_slid_away():
     score capping each point at 1% of the part's size took the slid pose: INCONCLUSIVE, 2 mm
     off), and the part is rejected for that point alone."""
     rng = np.random.default_rng(12345)
-    nominal = gen.bracket_points(200_000, rng)
-    nom = Nominal.from_point_set(point_set(nominal[:, :3], nominal[:, 3:]))
-    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
-    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
-    q = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
-                   np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
-    nq = np.vstack([gen.face_a_normal(xa, ya), gen.face_b_normal(yb, zb)])
-    q = q + rng.normal(0.0, 0.003, len(q))[:, None] * nq
-    in_hole = np.flatnonzero(np.hypot(xa - gen.HOLE_CENTRE[0], ya - gen.HOLE_CENTRE[1])
+    nom, q, nq = bracket_two_faces(rng, 200_000)
+    in_hole = np.flatnonzero(np.hypot(q[:, 0] - gen.HOLE_CENTRE[0], q[:, 1] - gen.HOLE_CENTRE[1])
                              < gen.HOLE_D / 2)
+    q = q + rng.normal(0.0, 0.003, len(q))[:, None] * nq
     assert in_hole.size == 1
     T = make_transform(gen.rotation([0.4, -0.7, 0.2], 137.0), np.array([1520.0, -830.0, 410.0]))
     res = inspect(nom, apply_transform(T, q), Tolerance.symmetric(0.05))

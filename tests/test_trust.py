@@ -12,8 +12,8 @@ from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.trust import conditioning
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT, judge
-from surfaces import (half_turn_symmetric_part, height, height_grid, height_normal, point_set,
-                      random_rotation)
+from surfaces import (bracket_two_faces, half_turn_symmetric_part, height, height_grid,
+                      height_normal, point_set, random_rotation)
 
 
 @pytest.fixture(scope="module")
@@ -444,17 +444,8 @@ def test_a_weak_direction_counts_only_when_the_measurement_leaves_it_uncertain(f
     """Two flat-ish faces at right angles leave the slide along their edge to the noise (0.07
     mm, above a quarter of a ±0.05 zone): unconstrained. A small patch of a gently curved panel
     is as weak by shape, but its points pin the pose to a few micrometres: constrained."""
-    import samples.generate as gen
-    from engine.pointset import PointSet
-
     rng = np.random.default_rng(77)
-    nom = gen.bracket_points(200_000, rng)
-    bracket = Nominal.from_point_set(PointSet(nom[:, :3], nom[:, 3:]))
-    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
-    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
-    on = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
-                    np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
-    nrm = np.vstack([gen.face_a_normal(xa, ya), gen.face_b_normal(yb, zb)])
+    bracket, on, nrm = bracket_two_faces(rng, 200_000)
     pts = on + (0.012 + rng.normal(0, 0.004, 100))[:, None] * nrm
     res = inspect(bracket, pts, Tolerance.symmetric(0.05))
     (w,) = res.conditioning.weak
