@@ -673,7 +673,7 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
     from dataclasses import replace
 
     from .regions import measured_members, region_column
-    from .verdict import MIN_NEAR_FRACTION
+    from .verdict import pose_trusted
 
     dim = geo.nominal_points.shape[1]
     for d in plan.datums:
@@ -698,7 +698,7 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
             whole, float(2.0 * np.max(np.abs(d - 0.5 * (tol.lower + tol.upper)))),
             result.verdict, result.reasons[0], np.arange(d.size), d, result.statistics.worst))
     verdict, reasons = _verdict(results, planned.alignment)
-    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
+    if not pose_trusted(reg):
         results = [replace(r, verdict=INCONCLUSIVE, reason=f"the registration cannot be "
                            f"trusted: {result.reasons[0]}") for r in results]
         verdict, reasons = INCONCLUSIVE, result.reasons

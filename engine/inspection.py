@@ -23,8 +23,8 @@ from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
 from .tolerance import Tolerance
-from .verdict import (DECISION_RULES, MIN_NEAR_FRACTION, RESOLUTION_OF_ZONE, Statistics, ambiguity,
-                      judge, margins_3d, plausible_runner_up, pointwise_verdict)
+from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
+                      margins_3d, plausible_runner_up, pointwise_verdict, pose_trusted)
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
@@ -331,7 +331,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     region, engine.trust.uncertainty_poses, is probed too)."""
     from .trust import pose_sensitivity, trust_statements, uncertainty_poses
 
-    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION):
+    if not pose_trusted(reg):
         return None, ()
     alternatives = []
     if plausible_runner_up(reg):

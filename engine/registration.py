@@ -5,24 +5,34 @@ The method is the paper's modified ICP (section 4) with a global stage in front 
 1. **Global search.** Pose hypotheses are the principal-axes alignments (the four proper sign
    combinations), an even spread of rotations over SO(3) placed at the centroid and at a few
    anchors, and -- what carries partial coverage -- the measured surface normal turned onto the
-   nominal normal at anchors spread over the whole nominal, at 12 spins. Every hypothesis runs a
+   nominal normal at anchors spread over the whole nominal, at 18 spins. Every hypothesis runs a
    few ICP iterations on a coarse sample of the nominal, paired point-to-quadric (each sample
    carries its local curvature, so a coarse sample still scores close fits correctly); poses
-   that arrive at the same place merge and only the best distinct ones go on.
+   that arrive at the same place merge and only the best distinct ones go on. A pose scores the
+   mean over every point of its squared distance, each point's capped at 3 sample spacings: a
+   point off the part costs the same whatever the pose, and every point counts, so that a
+   feature carried by a few points (a boss on a cube, whose faces fit at 24 poses) decides.
 2. **Modified ICP, coarse to fine.** The surviving distinct poses are refined while the nominal
    sample is made denser level by level (x4 each level, then the full nominal), the paper's
    Fig. 4 argument: a coarse sample finds the basin cheaply, density only matters at the end.
    Each iteration is a closed-form rigid update: linearised point-to-plane (or point-to-quadric)
    least squares, with a small point-to-point term in the global stage that keeps sliding
    directions in check far from the solution.
-3. **Point-to-surface finish.** Gauss-Newton on the signed point-to-surface deviations of
+3. **Point-to-surface finish.** The remaining candidates are compared by the score of their
+   point-to-surface deviations (:func:`pose_score`: their RMS while they are small, each point
+   counting by the logarithm of its distance beyond ``outlier_floor`` x the nominal's diagonal),
+   so that neither a few gross outliers nor a quarter of the points fitting exactly at a wrong
+   pose decide. The best gets Gauss-Newton on the signed point-to-surface deviations of
    :mod:`engine.deviation` (local facets, curvature-corrected), so that the final pose is the
    least-squares optimum of point-to-surface distance over every measured point but the gross
-   outliers, not of the distance to the nearest sample.
+   outliers, not of the distance to the nearest sample. Should that finish score worse than
+   another distinct candidate, the candidate is finished too and the better finished pose is
+   the answer: no pose found scores better than the one reported.
 
-The coarse stages weight robustly (trimmed pairs in ICP; a robust cut of ``outlier_sigmas`` x
-1.4826 x median absolute deviation, never below ``outlier_floor`` x the nominal's diagonal, in
-the first ``ROBUST_ITERATIONS`` point-to-surface iterations) so that they reach the right basin.
+The coarse stages weight robustly (trimmed pairs in the ICP updates; a robust cut of
+``outlier_sigmas`` x 1.4826 x median absolute deviation, never below ``outlier_floor`` x the
+nominal's diagonal, in the first ``ROBUST_ITERATIONS`` point-to-surface iterations) so that they
+reach the right basin.
 The final fit is plain least squares: the only points it excludes from the alignment are the
 gross outliers of :mod:`engine.outliers` (a mis-probed point, far beyond any plausible deviation
 of the part and isolated from its neighbours, both at the fit without it and at the fit with
@@ -68,8 +78,11 @@ class RegistrationSettings:
     max_anchors: int = 256
     """At most this many anchors for the normal-aligned hypotheses (one per voxel of a tenth of
     the measured extent, the voxel grown until no more remain)."""
-    n_spins: int = 12
-    """Spins about the normal tried at each anchor by the normal-aligned hypotheses."""
+    n_spins: int = 18
+    """Spins about the normal tried at each anchor by the normal-aligned hypotheses (20 degrees
+    apart: the right anchor's nearest spin starts within 10 degrees of the answer; 30 degrees
+    apart left a cube with a boss, whose faces fit at 24 poses, without a start that the global
+    search's few ICP iterations bring home, now and then)."""
     coarse_size: int = 1000
     """Nominal points in the coarsest ICP level, at least …"""
     coarse_samples_per_area: float = 500.0
@@ -88,8 +101,8 @@ class RegistrationSettings:
     max_final_iterations: int = 50
     """Point-to-surface Gauss-Newton iterations at most."""
     outlier_sigmas: float = 6.0
-    """Robust cut of the coarse point-to-surface iterations and of the candidates' scores, in
-    robust standard deviations of the deviations (the final fit uses the gross-outlier rule)."""
+    """Robust cut of the coarse point-to-surface iterations, in robust standard deviations of
+    the deviations (the final fit uses the gross-outlier rule)."""
     near_fraction_of_size: float = 0.01
     """A point lies *near* the nominal within this fraction of its bounding-box diagonal …"""
     min_near_fraction: float = 0.5
@@ -97,7 +110,8 @@ class RegistrationSettings:
     measured points lies near the nominal."""
     outlier_floor: float = 1e-4
     """The robust cut, and the gross-outlier threshold when the tolerance zone is known, are never
-    below this fraction of the nominal's bounding-box diagonal."""
+    below this fraction of the nominal's bounding-box diagonal; it is also the scale of the
+    candidates' scores (:func:`pose_score`: least squares below it, logarithmic beyond)."""
     gross_floor_without_zone: float = 1e-3
     """Without a tolerance zone (the registration used on its own), the gross-outlier threshold
     is never below this fraction of the nominal's diagonal: nothing then says what deviation is
@@ -130,11 +144,15 @@ class RegistrationResult:
     inlier : (n,) bool, the points the final least-squares fit used: False only on the gross
         outliers of ``gross_rule``, which are excluded from the alignment (and judged).
     outlier_cut : the gross-outlier threshold (``gross_rule.threshold_mm``), mm.
-    score : truncated RMS sqrt(mean(min(d^2, cut^2))) of the deviations, mm, over a seeded subset
-        of at most 4,096 measured points (all of them when fewer), outliers included up to the
-        cut; lower is better; the same measure on the same points scores the runner-up pose.
+    score : how well the pose fits, mm, over a seeded subset of at most 4,096 measured points
+        (all of them when fewer), outliers included: in 3D :func:`pose_score` (the RMS of the
+        deviations while they are small against ``outlier_floor`` x the nominal's diagonal, a
+        point beyond that counting by the logarithm of its distance); in 2D the truncated RMS
+        sqrt(mean(min(d^2, cut^2))) at the smallest robust cut among the candidates; lower is
+        better; the same measure on the same points scores the runner-up pose.
     runner_up_score, runner_up_T : score and pose of the best pose distinct from the chosen one
-        (None when the global search ended with a single distinct pose).
+        (None when the global search ended with a single distinct pose); in 3D never below
+        ``score`` (engine.verdict.better_runner_up makes the verdict INCONCLUSIVE if it were).
     symmetric : the runner-up fits as well and maps the nominal onto itself, so that every
         deviation is the same at both poses (tested for 2D templates; always False in 3D, where
         weak and free directions are the concern of engine.trust).
@@ -294,45 +312,75 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
                settings: RegistrationSettings, zone_width: float | None, hypotheses: int,
                iterations: int) -> RegistrationResult:
     """Score every refined candidate pose (4, 4) by its point-to-surface deviations (on a seeded
-    subset of the measured points) under one common cut; the best gets the point-to-surface
-    finish, the best distinct other one is the runner-up."""
-    floor = settings.outlier_floor * nominal.diagonal
+    subset of the measured points) with :func:`pose_score`; the best gets the
+    point-to-surface finish, and so does every distinct candidate that scores better than the
+    finished poses (a finish may move a pose away: least squares over every point pulls a
+    wrong pose towards the points it leaves off the part). The answer is the best finished
+    pose: no candidate scores better. The best distinct other pose is the runner-up."""
+    near = settings.near_fraction_of_size * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
     report("comparing the candidate poses", 0.8)
     devs = [point_to_surface(nominal, measured[ssub] @ Tc[:3, :3].T + Tc[:3, 3]).signed
             for Tc in refined]
-    cut0 = min(robust_cut(d, settings.outlier_sigmas, floor) for d in devs)
-    scores = [_truncated_rms(d, cut0) for d in devs]
-    order = np.argsort(scores, kind="stable")
-    best = int(order[0])
-    near = settings.near_fraction_of_size * nominal.diagonal
-    if np.mean(np.abs(devs[best]) <= near) < settings.min_near_fraction:
-        # Most points lie nowhere near the nominal at the best pose found: the measurement is
-        # not (only) of this part. No fit can make that trustworthy; measure and say so.
-        Tb = refined[best]
-        X = measured @ Tb[:3, :3].T + Tb[:3, 3]
-        t0 = time.perf_counter()
-        dev_b = point_to_surface(nominal, X)
-        dev_s = time.perf_counter() - t0
-        converged, it = False, 0
-        rule = gross_rule(dev_b.signed, zone_width, _gross_floor(nominal, settings, zone_width))
-        inlier = ~gross_outliers(dev_b.signed, dev_b.foot, rule)
-        message = "the measured points do not match the nominal at any pose found"
-    else:
-        Tb, converged, it, inlier, rule, dev_b, dev_s, message = _point_to_surface_fit(
+    scale = settings.outlier_floor * nominal.diagonal
+    scores = [pose_score(d, scale) for d in devs]
+    order = [int(i) for i in np.argsort(scores, kind="stable")]
+    best = order[0]
+    # Most points nowhere near the nominal at the best pose found: the measurement is not (only)
+    # of this part. No fit can make that trustworthy; measure and say so.
+    unfit = np.mean(np.abs(devs[best]) <= near) < settings.min_near_fraction
+    finished, final = {}, {}
+    while best is not None:
+        finished[best] = (_unfitted if unfit else _point_to_surface_fit)(
             nominal, measured, refined[best], settings, zone_width)
-    runner = next((int(j) for j in order[1:]
-                   if _is_distinct(refined[j], Tb, measured[sub], nominal.diagonal)), None)
+        final[best] = pose_score(finished[best][5].signed[ssub], scale)
+        chosen = min(final, key=final.get)
+        best = None if unfit else next(
+            (j for j in order if j not in finished and scores[j] < final[chosen]
+             and _is_distinct(refined[j], finished[chosen][0], measured[sub], nominal.diagonal)),
+            None)
+    Tb, converged, _, inlier, rule, dev_b, dev_s, message = finished[chosen]
+    # Every candidate at its finished pose and score where it was finished.
+    poses = [finished[i][0] if i in finished else refined[i] for i in range(len(refined))]
+    scores = [final.get(i, scores[i]) for i in range(len(refined))]
+    runner = min((j for j in range(len(refined)) if j != chosen
+                  and _is_distinct(poses[j], Tb, measured[sub], nominal.diagonal)),
+                 key=lambda j: scores[j], default=None)
     return RegistrationResult.from_fit(
-        Tb, dev_b, inlier, rule, near, converged=converged, iterations=iterations + it,
-        score=_truncated_rms(dev_b.signed[ssub], cut0), hypotheses=hypotheses,
-        runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else refined[runner], deviation_s=dev_s,
+        Tb, dev_b, inlier, rule, near, converged=converged,
+        iterations=iterations + sum(f[2] for f in finished.values()), score=final[chosen],
+        hypotheses=hypotheses, runner_up_score=None if runner is None else scores[runner],
+        runner_up_T=None if runner is None else poses[runner], deviation_s=dev_s,
         message=message)
 
 
-def _truncated_rms(d: np.ndarray, cut: float) -> float:
-    return float(np.sqrt(np.mean(np.minimum(d * d, cut * cut))))
+def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
+              settings: RegistrationSettings, zone_width: float | None):
+    """The candidate pose T measured as it is, unfitted (no pose there is worth fitting), in
+    the form of _point_to_surface_fit's result."""
+    X = measured @ T[:3, :3].T + T[:3, 3]
+    t0 = time.perf_counter()
+    dev = point_to_surface(nominal, X)
+    dev_s = time.perf_counter() - t0
+    rule = gross_rule(dev.signed, zone_width, _gross_floor(nominal, settings, zone_width))
+    inlier = ~gross_outliers(dev.signed, dev.foot, rule)
+    return (T, False, 0, inlier, rule, dev, dev_s,
+            "the measured points do not match the nominal at any pose found")
+
+
+def pose_score(d: np.ndarray, scale: float) -> float:
+    """How well deviations d (mm) fit, mm: sqrt(exp(mean(log(d^2 + scale^2))) - scale^2).
+
+    Poses rank as by the mean Cauchy loss log(1 + (d / scale)^2) of their points: 0.01 for a
+    point at a tenth of ``scale``, 0.7 at ``scale``, 9.2 at 100 x ``scale``. While the
+    deviations are small against ``scale`` the score is about their RMS (close fits compare as
+    least squares does); beyond it a point counts by the logarithm of its distance. So a few
+    gross outliers do not decide between poses; a pose that leaves a quarter of the points
+    millimetres off loses to one that keeps every point within hundredths; and a pose with
+    every point but one (a mis-probe, a missing hole) at the noise does not lose to one slid
+    along a weak direction that spreads that point's error over all of them."""
+    s2 = scale * scale
+    return float(np.sqrt(max(np.exp(np.mean(np.log(d * d + s2))) - s2, 0.0)))
 
 
 # ---------------------------------------------------------------------------- global stage
@@ -345,7 +393,7 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
       anchor points spread over the nominal;
     * ``p0``'s local normal turned onto the nominal normal at anchors spread over the whole
       nominal surface (about one per tenth of the measured extent), both ways round, at
-      ``n_spins`` spins about it: with the right anchor, one of these starts within 15 degrees
+      ``n_spins`` spins about it: with the right anchor, one of these starts within 10 degrees
       and a few millimetres of the answer, whatever part of the nominal was measured.
 
     ``p0`` is a measured point near the measured centroid whose neighbours lie on a plane (so that
@@ -478,73 +526,82 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
     farther than max(3 x spacing, 2.5 x the pose's median distance). Stops early once every
     update rotates less than ``stop_rad`` and moves less than ``stop_rad`` x 100 x spacing.
     Points farther than ``reach`` from every sample are left unpaired (it bounds the search).
-    The score (of the pose before the last update) is the mean of the smallest 75% of
-    min(e^2, (3 spacing)^2), where e combines the distance along the sample's normal with the
-    sideways distance beyond 3 x the sample spacing (a point hanging off the nominal's border):
-    up to a quarter of the points may be gross outliers without deciding which pose wins.
+    The score (of the poses returned: one more pairing after the last update) is the mean over
+    every point of min(e^2, (3 spacing)^2), where e combines the distance along the sample's
+    normal with the sideways distance beyond 3 x the sample spacing (a point hanging off the
+    nominal's border): a point off the part costs the same at every pose, however far off, so
+    gross outliers do not decide which pose wins; and every point counts, so a feature carried
+    by a few points (a boss on a cube, whose faces fit at 24 poses) does.
     """
-    H, m = T.shape[0], src.shape[0]
-    score = np.zeros(H)
     done = 0
-    for k in range(iterations):
+    for k in range(iterations + 1):
+        X, r, rn, n, e2 = _pairs(T, src, tree, pts, nrm, spacing, reach, shape)
+        if k == iterations:
+            break
         if stage is not None:
             report(f"{stage[0]}, ICP iteration {k + 1}",
                    stage[1] + (stage[2] - stage[1]) * k / iterations)
-        X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
-        dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
-                             distance_upper_bound=reach)
-        far = ~np.isfinite(dist).reshape(H, m)
-        j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
-        mp, n = pts[j], (nrm(j) if callable(nrm) else nrm[j])
-        r = X - mp
-        rn = np.sum(r * n, axis=2)
-        lat2 = np.maximum(np.sum(r * r, axis=2) - rn * rn, 0.0)
-        if shape is not None:
-            # Second-order distance to the surface through the sample (see
-            # Nominal.shape_operators), and its gradient as the direction of the residual.
-            Sr = np.einsum("hmij,hmj->hmi", shape[j], r)
-            rn = rn - 0.5 * np.sum(r * Sr, axis=2)
-            n = n - Sr
-        lat = np.maximum(np.sqrt(lat2) - 3 * spacing, 0.0)
-        e2 = np.where(far, np.inf, rn * rn + lat * lat)
-        score = _trimmed_mean(np.minimum(e2, (3 * spacing) ** 2))
-        tau = np.minimum(np.maximum(3 * spacing, 2.5 * np.sqrt(np.median(e2, axis=1))), reach)
-        w = (e2 <= (tau * tau)[:, None]).astype(np.float64)
-        sw = w.sum(1)
-        c = (w[..., None] * X).sum(1) / np.maximum(sw, 1.0)[:, None]
-        xt = X - c[:, None, :]
-        Jp = np.concatenate([np.cross(xt, n), n], axis=2)  # (H, m, 6)
-        Jw = Jp * w[..., None]
-        A = Jw.transpose(0, 2, 1) @ Jp
-        b = (Jw * rn[..., None]).sum(1)
-        if lam2:
-            # Point-to-point term: x' - m = r - [xt]x w + t.
-            xw = xt * w[..., None]
-            sx = xw.sum(1)
-            sxx = xw.transpose(0, 2, 1) @ xt
-            A_pp = np.zeros((H, 6, 6))
-            A_pp[:, :3, :3] = np.trace(sxx, axis1=1, axis2=2)[:, None, None] * np.eye(3) - sxx
-            A_pp[:, :3, 3:] = skew(sx)
-            A_pp[:, 3:, :3] = np.transpose(A_pp[:, :3, 3:], (0, 2, 1))
-            A_pp[:, 3:, 3:] = sw[:, None, None] * np.eye(3)
-            b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
-            A = A + lam2 * A_pp
-            b = b + lam2 * b_pp
-        length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(sw, 1.0))
-        delta = -min_norm_solve(A, b, 3, length)
+        delta, c = _icp_step(X, r, rn, n, e2, spacing, reach, lam2)
         T = _compose_update(T, delta, c)
         done += 1
         if stop_rad and np.all(np.linalg.norm(delta[:, :3], axis=1) < stop_rad) and \
                 np.all(np.linalg.norm(delta[:, 3:], axis=1) < stop_rad * 100 * spacing):
+            X, r, rn, n, e2 = _pairs(T, src, tree, pts, nrm, spacing, reach, shape)
             break
-    return T, score, done
+    return T, np.mean(np.minimum(e2, (3 * spacing) ** 2), axis=1), done
 
 
-def _trimmed_mean(e2: np.ndarray, keep: float = 0.75) -> np.ndarray:
-    """Per row of (H, m), the mean of the smallest ``keep`` fraction of the values."""
-    m = e2.shape[1]
-    k = max(1, int(np.ceil(keep * m)))
-    return np.mean(np.partition(e2, k - 1, axis=1)[:, :k], axis=1)
+def _pairs(T, src, tree, pts, nrm, spacing, reach, shape):
+    """The points ``src`` (m, 3) at the H poses T, each paired with its nearest sample (see
+    _icp_batch): (X (H, m, 3), residual to the sample r, distance along its normal rn (second
+    order with ``shape``), the residual's direction n, squared error e2 (inf: unpaired))."""
+    H, m = T.shape[0], src.shape[0]
+    X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+    dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
+                         distance_upper_bound=reach)
+    far = ~np.isfinite(dist).reshape(H, m)
+    j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
+    mp, n = pts[j], (nrm(j) if callable(nrm) else nrm[j])
+    r = X - mp
+    rn = np.sum(r * n, axis=2)
+    lat2 = np.maximum(np.sum(r * r, axis=2) - rn * rn, 0.0)
+    if shape is not None:
+        # Second-order distance to the surface through the sample (see
+        # Nominal.shape_operators), and its gradient as the direction of the residual.
+        Sr = np.einsum("hmij,hmj->hmi", shape[j], r)
+        rn = rn - 0.5 * np.sum(r * Sr, axis=2)
+        n = n - Sr
+    lat = np.maximum(np.sqrt(lat2) - 3 * spacing, 0.0)
+    return X, r, rn, n, np.where(far, np.inf, rn * rn + lat * lat)
+
+
+def _icp_step(X, r, rn, n, e2, spacing, reach, lam2):
+    """One ICP update per pose from the pairs of _pairs: (delta (H, 6), centres c (H, 3))."""
+    H = X.shape[0]
+    tau = np.minimum(np.maximum(3 * spacing, 2.5 * np.sqrt(np.median(e2, axis=1))), reach)
+    w = (e2 <= (tau * tau)[:, None]).astype(np.float64)
+    sw = w.sum(1)
+    c = (w[..., None] * X).sum(1) / np.maximum(sw, 1.0)[:, None]
+    xt = X - c[:, None, :]
+    Jp = np.concatenate([np.cross(xt, n), n], axis=2)  # (H, m, 6)
+    Jw = Jp * w[..., None]
+    A = Jw.transpose(0, 2, 1) @ Jp
+    b = (Jw * rn[..., None]).sum(1)
+    if lam2:
+        # Point-to-point term: x' - m = r - [xt]x w + t.
+        xw = xt * w[..., None]
+        sx = xw.sum(1)
+        sxx = xw.transpose(0, 2, 1) @ xt
+        A_pp = np.zeros((H, 6, 6))
+        A_pp[:, :3, :3] = np.trace(sxx, axis1=1, axis2=2)[:, None, None] * np.eye(3) - sxx
+        A_pp[:, :3, 3:] = skew(sx)
+        A_pp[:, 3:, :3] = np.transpose(A_pp[:, :3, 3:], (0, 2, 1))
+        A_pp[:, 3:, 3:] = sw[:, None, None] * np.eye(3)
+        b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
+        A = A + lam2 * A_pp
+        b = b + lam2 * b_pp
+    length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(sw, 1.0))
+    return -min_norm_solve(A, b, 3, length), c
 
 
 def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarray:

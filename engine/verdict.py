@@ -11,8 +11,10 @@ Decision rules (the paper's L-infinity argument: one point out is a reject):
   lies outside the zone grown by its m, INCONCLUSIVE otherwise.
 
 Whatever the deviations say, the verdict is INCONCLUSIVE when the pose cannot be trusted: the fit
-did not converge, or fewer than half of the points lie within 1% of the nominal's size of its
-surface (the measurement is not of this part). It is INCONCLUSIVE too when the verdict depends on
+did not converge, fewer than half of the points lie within 1% of the nominal's size of its
+surface (the measurement is not of this part), or another pose the registration found fits
+better than the one it reports (it is not the best fit; engine.registration reports the best,
+so this is a safety net). It is INCONCLUSIVE too when the verdict depends on
 a pose the measurement does not fix: when moving the part along a direction the measured points
 leave unconstrained (within +-3 sigma of the pose's uncertainty, or far along a free direction)
 or to another pose that fits about as well changes the verdict (engine.trust.pose_sensitivity).
@@ -83,6 +85,20 @@ difference of two rigid poses' deviations varies smoothly over the part, so a su
 over it finds its largest value."""
 
 
+def better_runner_up(reg) -> bool:
+    """A distinct runner-up pose that scores better than the chosen one (and is no symmetry of
+    a 2D template): the chosen pose is not the best fit found, and nothing judged there stands."""
+    return (reg.runner_up_score is not None and not reg.symmetric
+            and reg.runner_up_score < reg.score)
+
+
+def pose_trusted(reg) -> bool:
+    """The pose can be trusted: the fit converged, at least MIN_NEAR_FRACTION of the points lie
+    near the nominal, and no distinct pose found fits better."""
+    return bool(reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
+                and not better_runner_up(reg))
+
+
 def plausible_runner_up(reg) -> bool:
     """A distinct runner-up pose scoring within AMBIGUITY_SCORE_RATIO of the chosen one, and no
     symmetry of a 2D template (which leaves every deviation as it is)."""
@@ -96,8 +112,7 @@ def ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool, 
     template) that moves some deviation by more than a tenth of the zone width.
 
     deviations_at(T, idx) : signed deviations of measured points ``idx`` at pose T."""
-    if not (reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION
-            and plausible_runner_up(reg)):
+    if not (pose_trusted(reg) and plausible_runner_up(reg)):
         return False, 0.0
     idx = np.arange(d.size)
     if d.size > AMBIGUITY_POINTS:
@@ -161,6 +176,10 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
         reasons.append(f"only {100 * reg.near_fraction:.0f}% of the {d.size} points lie within "
                        f"{reg.near_distance:.3g} mm (1% of the nominal's size) of the nominal at "
                        "the best pose found; the pose cannot be trusted")
+    if better_runner_up(reg):
+        reasons.append(f"another pose fits better than the one found (score "
+                       f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm); the pose "
+                       "cannot be trusted")
     if sensitivity is None:
         if ambiguous:
             reasons.append(f"the pose is ambiguous: another pose fits nearly as well (score "

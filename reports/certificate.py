@@ -1090,10 +1090,9 @@ def _characteristics(c: _Layout) -> list:
 
 
 def _registration_trusted(res) -> bool:
-    from engine.verdict import MIN_NEAR_FRACTION
+    from engine.verdict import pose_trusted
 
-    reg = res.registration
-    return bool(reg.converged and reg.near_fraction >= MIN_NEAR_FRACTION)
+    return pose_trusted(res.registration)
 
 
 def _point_list_words(c: _Layout, n_out: int, n_near: int, judged: bool):

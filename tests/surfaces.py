@@ -102,3 +102,20 @@ def half_turn_symmetric_part(bump: float, dent: float = 0.0, seed: int = 0):
         prng = np.random.default_rng(1000 + seed)
         T = make_transform(random_rotation(prng), prng.uniform(-1000, 1000, 3))
     return nominal, apply_transform(T, q)
+
+
+def bracket_two_faces(rng, n_nominal: int):
+    """The seat bracket of samples.generate as a point-set nominal of ``n_nominal`` points, and
+    100 points on its two curved faces drawn from ``rng`` after it (50 on A, the flange top, x in
+    [25, 105], y in [8, 52]; 50 on B, the web face, y in [8, 52], z in [25, 80]): (Nominal,
+    points (100, 3), their outward normals (100, 3))."""
+    import samples.generate as gen
+    from engine.nominal import Nominal
+
+    nominal = gen.bracket_points(n_nominal, rng)
+    nom = Nominal.from_point_set(point_set(nominal[:, :3], nominal[:, 3:]))
+    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
+    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
+    q = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
+                   np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
+    return nom, q, np.vstack([gen.face_a_normal(xa, ya), gen.face_b_normal(yb, zb)])

@@ -1,12 +1,16 @@
-"""Pose recovery from arbitrary poses: full and partial coverage, two faces, outliers."""
+"""Pose recovery from arbitrary poses: full and partial coverage, two faces, outliers, a cube
+with a boss (faces that fit at 24 poses)."""
 
 import numpy as np
 import pytest
 
 from engine.geometry import apply_transform, make_transform
+from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
-from engine.registration import register
-from surfaces import height, height_grid, height_normal, point_set, random_rotation
+from engine.registration import RegistrationSettings, register
+from engine.verdict import ACCEPT, REJECT
+from surfaces import (bracket_two_faces, height, height_grid, height_normal, point_set,
+                      random_rotation)
 
 import samples.generate as gen
 
@@ -75,12 +79,7 @@ def test_gross_outliers_do_not_move_the_pose(fairing):
 
 def test_two_faces_of_a_bracket_cover_a_small_part():
     rng = np.random.default_rng(21)
-    nominal = gen.bracket_points(60_000, rng)
-    nom = Nominal.from_point_set(point_set(nominal[:, :3], nominal[:, 3:]))
-    xa, ya = rng.uniform(25, 105, 50), rng.uniform(8, 52, 50)
-    yb, zb = rng.uniform(8, 52, 50), rng.uniform(25, 80, 50)
-    q = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
-                   np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
+    nom, q, _ = bracket_two_faces(rng, 60_000)
     for trial in range(3):
         T = _pose(rng)
         res = register(nom, apply_transform(T, q))
@@ -113,3 +112,113 @@ def test_without_a_zone_a_dent_stays_and_mis_probed_points_go(fairing):
     assert rule.floor_mm == pytest.approx(1e-3 * fairing.diagonal)
     assert res.outlier_cut == rule.threshold_mm
     assert np.array_equal(np.flatnonzero(~res.inlier), idx)
+
+
+# A 50 mm cube (a corner at the origin) with a hemispherical boss R10 on its top: its faces fit
+# at 24 poses, and only the boss's points (a quarter of them) tell the right one from the others.
+BOSS, BOSS_R = np.array([15.0, 30.0, 50.0]), 10.0
+
+
+def _hemisphere(rng, k):
+    v = rng.normal(size=(4 * k, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    return v[v[:, 2] > 0][:k]
+
+
+def _face(rng, axis, side, k, lo, hi, clear):
+    """k points uniform over [lo, hi]^2 on the face x[axis] = 50 x side (on the top, farther
+    than ``clear`` from the boss's axis), and its outward normals."""
+    p = np.insert(rng.uniform(lo, hi, (k, 2)), axis, 50.0 * side, axis=1)
+    if axis == 2 and side:
+        p = p[np.hypot(p[:, 0] - BOSS[0], p[:, 1] - BOSS[1]) > clear]
+    return p, np.tile(np.insert([0.0, 0.0], axis, 2 * side - 1), (len(p), 1))
+
+
+def _cube_with_boss(rng):
+    """The nominal: 1,500 random points on each face, 2,000 on the boss, with normals."""
+    faces = [_face(rng, axis, side, 1500, 0.0, 50.0, BOSS_R)
+             for axis in range(3) for side in (0.0, 1.0)]
+    s = _hemisphere(rng, 2000)
+    return Nominal.from_point_set(point_set(np.vstack([p for p, _ in faces] + [BOSS + BOSS_R * s]),
+                                            np.vstack([n for _, n in faces] + [s])))
+
+
+def _cube_measured(rng, boss_r=BOSS_R, boss_shift=0.0):
+    """About 110 points (0.001 mm noise) in the cube's frame: 20 on each of the bottom, the
+    sides x = 0 and y = 0 and the top (5 mm or more from every edge and the boss), the rest
+    (1 mm or more above the top) on a boss of radius ``boss_r`` moved ``boss_shift`` along x."""
+    faces = [_face(rng, axis, side, 80, 5.0, 45.0, BOSS_R + 5)
+             for axis, side in ((2, 0.0), (0, 0.0), (1, 0.0), (2, 1.0))]
+    s = _hemisphere(rng, 30)
+    s = s[s[:, 2] > 0.1]
+    q = np.vstack([p[:20] for p, _ in faces] + [BOSS + [boss_shift, 0.0, 0.0] + boss_r * s])
+    n = np.vstack([n[:20] for _, n in faces] + [s])
+    return q + rng.normal(0.0, 0.001, len(q))[:, None] * n
+
+
+@pytest.mark.parametrize("seed, boss_r, boss_shift, pose_mm", [
+    (23, BOSS_R, 0.0, 0.005), (37, BOSS_R, 0.0, 0.005), (39, BOSS_R, 0.0, 0.005),
+    (64, BOSS_R + 0.01, 0.02, 0.05), (19, BOSS_R + 0.01, 0.02, 0.05),
+    (3, BOSS_R + 0.01, 0.02, 0.05)])
+def test_a_cube_with_a_boss_is_found_at_its_pose(seed, boss_r, boss_shift, pose_mm):
+    """A good cube with a boss in an arbitrary pose, its boss as drawn or 0.01 mm larger and
+    0.02 mm off (within the +-0.025 zone): the registration finds the pose (within what the
+    boss's offset pulls the least-squares fit) and the part is accepted; no other pose found
+    scores better.
+
+    Before, the global search scored each pose by its best 75% of points, which left the boss
+    out, and by where it stood one ICP step earlier, so that the right pose lost to the
+    wrong ones that fit the faces; the candidates were then compared with a cut set by the
+    tightest of them, a wrong pose fitting three quarters of the points exactly: seeds 23 and 64
+    came back REJECT at a wrong pose (most points out of tolerance), 37, 39 and 19 INCONCLUSIVE
+    at a wrong pose, 3 INCONCLUSIVE at the right pose (a wrong runner-up taken for a
+    competitor)."""
+    rng = np.random.default_rng(seed)
+    nominal = _cube_with_boss(rng)
+    q = _cube_measured(rng, boss_r, boss_shift)
+    T = make_transform(random_rotation(rng), rng.uniform(-300, 300, 3))
+    res = inspect(nominal, apply_transform(T, q), Tolerance.symmetric(0.025))
+    reg = res.registration
+    assert _max_error(reg, apply_transform(T, q), q) < pose_mm
+    assert res.verdict == ACCEPT, res.reasons
+    assert reg.runner_up_score is None or reg.runner_up_score >= reg.score
+
+
+@pytest.mark.parametrize("seed, boss_r, boss_shift", [(1, BOSS_R, 0.0),
+                                                     (64, BOSS_R + 0.01, 0.02)])
+def test_the_pose_reported_is_the_best_found_even_when_the_search_misses(seed, boss_r,
+                                                                          boss_shift):
+    """A global search left few starts (2 spins, 4 even rotations) may miss the cube's pose; the
+    pose reported is still the best the registration found: no distinct pose it found scores
+    better (the finish of the best candidate may move it somewhere worse than the runner-up:
+    then the runner-up is finished too, and the better one reported). Before, seed 1 reported a
+    pose scoring 0.75 mm with a runner-up at 0.44 mm, seed 64 (REJECT) 0.0094 against 0.0050."""
+    rng = np.random.default_rng(seed)
+    nominal = _cube_with_boss(rng)
+    q = _cube_measured(rng, boss_r, boss_shift)
+    T = make_transform(random_rotation(rng), rng.uniform(-300, 300, 3))
+    few = RegistrationSettings(n_spins=2, n_rotations=4)
+    res = inspect(nominal, apply_transform(T, q), Tolerance.symmetric(0.025), settings=few)
+    reg = res.registration
+    assert reg.runner_up_score is not None and reg.runner_up_score >= reg.score
+
+
+def test_material_in_the_hole_is_judged_where_it_is_not_slid_away():
+    """The engine benchmark's seat bracket (200,000 points) measured on its two curved faces A
+    and B, 100 points, one of which lies where the flange has its through hole: material where
+    the drawing has none, 1.2 mm off the nominal at the true pose. Slid 2 mm along the direction
+    two curved faces fix only weakly, every point lies within 0.035 mm. The pose stays true: 99
+    points at the noise and one far off fit better than every point a few hundredths off (a
+    score capping each point at 1% of the part's size took the slid pose: INCONCLUSIVE, 2 mm
+    off), and the part is rejected for that point alone."""
+    rng = np.random.default_rng(12345)
+    nom, q, nq = bracket_two_faces(rng, 200_000)
+    in_hole = np.flatnonzero(np.hypot(q[:, 0] - gen.HOLE_CENTRE[0], q[:, 1] - gen.HOLE_CENTRE[1])
+                             < gen.HOLE_D / 2)
+    q = q + rng.normal(0.0, 0.003, len(q))[:, None] * nq
+    assert in_hole.size == 1
+    T = make_transform(gen.rotation([0.4, -0.7, 0.2], 137.0), np.array([1520.0, -830.0, 410.0]))
+    res = inspect(nom, apply_transform(T, q), Tolerance.symmetric(0.05))
+    assert _max_error(res.registration, apply_transform(T, q), q) < 0.05
+    assert res.verdict == REJECT
+    assert np.array_equal(np.flatnonzero(~res.in_tolerance), in_hole)
