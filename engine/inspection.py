@@ -18,7 +18,7 @@ import numpy as np
 
 from .deviation import Deviations
 from .errors import SettingsError
-from .fits import FITS, minimax
+from .fits import FITS, _apply_update, minimax
 from .geometry import apply_transform
 from .nominal import Nominal
 from .registration import RegistrationResult, RegistrationSettings, register
@@ -109,7 +109,8 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         # The exact least squares finishes the pose: the sample's final fit need only get near
         # it (a CAD tessellation's long facets make it creep, not converge, at its last digits).
         settings = replace(settings, max_final_iterations=min(settings.max_final_iterations,
-                                                              EXACT_HANDOVER_ITERATIONS))
+                                                              EXACT_HANDOVER_ITERATIONS),
+                           finish_on_all_points=False)
     t0 = time.perf_counter()
     reg = register(nominal, measured, settings, zone_width=tolerance.upper - tolerance.lower)
     t1 = time.perf_counter()
@@ -155,24 +156,43 @@ choice), then takes one step on every point: each exact evaluation costs tens of
 point."""
 
 
+EXACT_MAX_STEPS = 20
+"""All-point Gauss-Newton steps of the exact fit at most (each one exact evaluation of every
+point); it ends sooner when a step would move no point by more than 1e-9 of their extent."""
+
+
 def _exact_fit(reg, measure, zone_width: float):
     """The registration finished on the exact surface: least squares of the exact deviations
-    from the pose found on the nominal's sample (within its chordal error of the answer), with
-    the gross-outlier rule (engine.outliers) applied again to the exact deviations until the
-    points kept settle; converged, rms, inliers and rule are this fit's."""
-    from .outliers import gross_outliers, gross_rule
-    from .registration import MAX_ROUNDS
+    from the pose found on the nominal's sample (within its chordal error of the answer), over
+    the points the gross-outlier rule (engine.outliers) keeps at the pose reached.
 
-    T = reg.T_nominal_measured
+    The points kept at first are those the rule keeps by the sample's deviations at the
+    handover pose; Gauss-Newton iterates on a seeded spread of at most ``EXACT_FIT_POINTS`` of
+    them (cheap: its optimum is within its sampling of every point's), then steps over every
+    point, each step at the exact deviations of every point and the rule applied to them again,
+    until a step would move no point by more than 1e-9 of their extent: the pose is then the
+    least-squares optimum over the points the rule keeps there, and the deviations returned are
+    exact at it. converged, rms, inliers and rule are this fit's."""
+    from .outliers import gross_outliers, gross_rule
+
+    floor = reg.gross_rule.floor_mm
+    rule = gross_rule(reg.deviations.signed, zone_width, floor)
+    use = ~gross_outliers(reg.deviations.signed, reg.deviations.foot, rule)
+    T = _subset_fit(measure, reg.T_nominal_measured, use)
     X, dev = measure(T)
-    use, converged = None, False
-    for _ in range(MAX_ROUNDS):
-        rule = gross_rule(dev.signed, zone_width, reg.gross_rule.floor_mm)
-        keep = ~gross_outliers(dev.signed, dev.foot, rule)
-        if use is not None and converged and np.array_equal(keep, use):
+    extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
+    converged = False
+    for _ in range(EXACT_MAX_STEPS):
+        rule = gross_rule(dev.signed, zone_width, floor)
+        use = ~gross_outliers(dev.signed, dev.foot, rule)
+        if np.count_nonzero(use) < 6:
             break
-        use = keep
-        T, dev, converged = _refined(measure, T, use)
+        step, c, moved = _gn_step_exact(X[use], dev.normal[use], dev.signed[use])
+        if moved <= 1e-9 * extent:
+            converged = True
+            break
+        T = _apply_update(T, step, c)
+        X, dev = measure(T)
     d_in = dev.signed[use]
     message = "" if converged else ("the least-squares fit on the exact surface did not settle")
     return replace(reg, T_nominal_measured=T, deviations=dev, converged=converged,
@@ -181,41 +201,36 @@ def _exact_fit(reg, measure, zone_width: float):
                    outlier_cut=rule.threshold_mm, gross_rule=rule)
 
 
-def _refined(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 50):
-    """(T, deviations of every point, converged): Gauss-Newton least squares of the exact
-    deviations over the points ``use`` from the pose T, until no point moves by more than 1e-9
-    of their extent, on a seeded random choice of at most EXACT_FIT_POINTS of them (whose
-    optimum is within their sampling of every point's), then one step on every point kept;
-    every point evaluated at the end."""
-    from .fits import _apply_update, pose_jacobian
+def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray):
+    """One Gauss-Newton step of the signed deviations ``signed`` (m,) of points X (m, 3) with
+    the surface normals at their feet: (step (6,): rotation vector then translation, about c;
+    c (3,) the points' centroid; moved: the largest displacement the step gives a point, mm)."""
+    from .fits import pose_jacobian
 
+    c = X.mean(axis=0)
+    step = np.linalg.lstsq(pose_jacobian(X, normal, c), -signed, rcond=None)[0]
+    moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
+    return step, c, moved
+
+
+def _subset_fit(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 50) -> np.ndarray:
+    """The pose from T by Gauss-Newton least squares of the exact deviations of a seeded random
+    choice of at most EXACT_FIT_POINTS of the points ``use``, until no point moves by more
+    than 1e-9 of their extent (or ``max_iterations``)."""
     idx = np.flatnonzero(use)
     if idx.size > EXACT_FIT_POINTS:
         idx = np.sort(np.random.default_rng(11).choice(idx, EXACT_FIT_POINTS, replace=False))
-
+    if idx.size < 6:
+        return T
     X, dev = measure(T, idx)
     extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
-    converged = False
     for _ in range(max_iterations):
-        c = X.mean(axis=0)
-        J = pose_jacobian(X, dev.normal, c)
-        step = np.linalg.lstsq(J, -dev.signed, rcond=None)[0]
+        step, c, moved = _gn_step_exact(X, dev.normal, dev.signed)
         T = _apply_update(T, step, c)
-        moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
-        X, dev = measure(T, idx)
         if moved <= 1e-9 * extent:
-            converged = True
             break
-    if idx.size == np.count_nonzero(use):
-        return T, measure(T)[1], converged
-    # The subset's optimum is within its sampling of every point's: one more step on every
-    # point kept (the deviations follow to first order, ~curvature x step^2) lands on theirs.
-    X, dev = measure(T)
-    c = X[use].mean(axis=0)
-    step = np.linalg.lstsq(pose_jacobian(X[use], dev.normal[use], c), -dev.signed[use],
-                           rcond=None)[0]
-    T = _apply_update(T, step, c)
-    return T, measure(T)[1], converged
+        X, dev = measure(T, idx)
+    return T
 
 
 @dataclass(frozen=True)

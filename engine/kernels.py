@@ -247,3 +247,79 @@ def phong_finish(pts, V, N, bary, curvature, cos_tilt, extrapolate,
         foot[i, 0], foot[i, 1], foot[i, 2] = sx, sy, sz
         normal[i, 0], normal[i, 1], normal[i, 2] = nx, ny, nz
         curved[i] = is_curved
+
+
+@njit(cache=True, nogil=True)
+def _box_gap(p, box):
+    """Distance from point p (3,) to the axis-aligned box (2, 3) (0 inside)."""
+    s = 0.0
+    for a in range(3):
+        g = max(box[0, a] - p[a], p[a] - box[1, a], 0.0)
+        s += g * g
+    return math.sqrt(s)
+
+
+@njit(cache=True, nogil=True)
+def boxes_nearer(p, boxes, limit, done_start, done_face):
+    """The (point, box) pairs whose box is nearer to the point than ``limit``, leaving out those
+    already done.
+
+    p (n, 3); boxes (F, 2, 3) min and max corners; limit (n,); done_face holds, for point i, the
+    box numbers (1-based) done_face[done_start[i]:done_start[i + 1]]. Returns (m, 2) int64 pairs
+    (point index, box number 1-based), by point then box. Twin: tests/naive.py boxes_nearer."""
+    n, nb = p.shape[0], boxes.shape[0]
+    count = np.zeros(n, np.int64)
+    for i in range(n):
+        for f in range(nb):
+            if _box_gap(p[i], boxes[f]) < limit[i]:
+                count[i] += 1
+    out = np.empty((count.sum(), 2), np.int64)
+    k = 0
+    for i in range(n):
+        if count[i] == 0:
+            continue
+        for f in range(nb):
+            if _box_gap(p[i], boxes[f]) < limit[i]:
+                seen = False
+                for j in range(done_start[i], done_start[i + 1]):
+                    if done_face[j] == f + 1:
+                        seen = True
+                        break
+                if not seen:
+                    out[k, 0] = i
+                    out[k, 1] = f + 1
+                    k += 1
+    return out[:k]
+
+
+@njit(cache=True, nogil=True)
+def in_polygon(uv, segments, band):
+    """Even-odd classification of 2D points against closed polylines given as a soup of
+    segments, with the points within ``band`` of any segment marked apart.
+
+    uv (m, 2); segments (E, 4): u0 v0 u1 v1 each, the union of closed loops in any order and
+    direction. Returns (inside (m,) bool: an odd number of crossings of the ray towards +u;
+    near (m,) bool: within ``band`` of a segment, where the caller decides otherwise)."""
+    m, e = uv.shape[0], segments.shape[0]
+    inside = np.zeros(m, np.bool_)
+    near = np.zeros(m, np.bool_)
+    band2 = band * band
+    for i in range(m):
+        u, v = uv[i, 0], uv[i, 1]
+        odd = False
+        for k in range(e):
+            a0, a1, b0, b1 = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
+            if (a1 > v) != (b1 > v):
+                if u < a0 + (v - a1) * (b0 - a0) / (b1 - a1):
+                    odd = not odd
+            if not near[i]:
+                dx, dy = b0 - a0, b1 - a1
+                length2 = dx * dx + dy * dy
+                t = 0.0
+                if length2 > 0.0:
+                    t = min(1.0, max(0.0, ((u - a0) * dx + (v - a1) * dy) / length2))
+                gx, gy = u - a0 - t * dx, v - a1 - t * dy
+                if gx * gx + gy * gy <= band2:
+                    near[i] = True
+        inside[i] = odd
+    return inside, near

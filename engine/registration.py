@@ -122,6 +122,11 @@ class RegistrationSettings:
     """The single all-point step after a subset fit is taken, with deviations updated to first
     order, when it moves no point by more than this (error ~ step^2 x curvature); otherwise
     iteration over all points continues."""
+    finish_on_all_points: bool = True
+    """After a subset fit, finish over every point (the step or iterations above). False when
+    another fit finishes the pose (engine.inspection.inspect on a STEP model's exact surface):
+    every point is then only evaluated and judged by the gross-outlier rule at the subset's
+    pose."""
 
 
 SURFACE_RMS = ("RMS of signed point-to-surface deviations over the points used by the final fit: "
@@ -695,8 +700,8 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
         dev_s = time.perf_counter() - t0
         rule = gross_rule(dev.signed, zone_width, floor)
         keep = ~gross_outliers(dev.signed, dev.foot, rule)
-        finished = False
-        if converged and keep.sum() >= 6:
+        finished = not settings.finish_on_all_points
+        if not finished and converged and keep.sum() >= 6:
             delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
             total += 1
             if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:

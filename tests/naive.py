@@ -42,3 +42,15 @@ def distance_to_mesh(p, points, triangles):
         q = closest_point_on_triangle(p, points[t[0]], points[t[1]], points[t[2]])
         best = min(best, float(np.linalg.norm(p - q)))
     return best
+
+
+def boxes_nearer(p, boxes, limit, done):
+    """Slow twin of engine.kernels.boxes_nearer: the set of (point, box number 1-based) pairs
+    whose box is nearer than limit[i] to p[i], minus the pairs in ``done``."""
+    out = set()
+    for i in range(len(p)):
+        for f in range(len(boxes)):
+            gap = [max(boxes[f][0][a] - p[i][a], p[i][a] - boxes[f][1][a], 0.0) for a in range(3)]
+            if (gap[0] ** 2 + gap[1] ** 2 + gap[2] ** 2) ** 0.5 < limit[i]:
+                out.add((i, f + 1))
+    return out - {tuple(d) for d in done}

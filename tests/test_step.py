@@ -136,6 +136,57 @@ def test_deviations_agree_with_brute_force_over_all_faces():
     assert clear.sum() > 240 and ((signed > 0) == (outside == 1.0))[clear].all()
 
 
+def test_box_search_kernel_matches_its_naive_twin():
+    """The compiled search for faces whose bounding box is nearer than a point's best distance
+    (engine.kernels.boxes_nearer) finds the same pairs as the obvious loop, leaving out the
+    pairs already measured; points inside, on and far from boxes, zero and infinite limits."""
+    from engine.kernels import boxes_nearer
+    from naive import boxes_nearer as naive
+
+    rng = np.random.default_rng(5)
+    lo = rng.uniform(-10, 10, (25, 3))
+    boxes = np.stack([lo, lo + rng.uniform(0, 8, (25, 3))], axis=1)
+    p = np.concatenate([rng.uniform(-15, 15, (300, 3)), boxes[:5, 0], boxes[5:10].mean(axis=1)])
+    limit = rng.uniform(0, 12, len(p))
+    limit[:10], limit[10:20] = 0.0, np.inf
+    done = np.unique(np.column_stack([rng.integers(0, len(p), 400),
+                                      rng.integers(1, 26, 400)]), axis=0)
+    start = np.searchsorted(done[:, 0], np.arange(len(p) + 1))
+    got = boxes_nearer(p, boxes, limit, start, np.ascontiguousarray(done[:, 1]))
+    pairs = {tuple(r) for r in got.tolist()}
+    assert len(pairs) == len(got) and pairs == naive(p, boxes, limit, done.tolist())
+    assert len(pairs) > 1000 and (np.diff(got[:, 0]) >= 0).all()
+
+
+def test_trim_polylines_classify_as_opencascade_does_right_up_to_their_band():
+    """Feet are classified on a face by its trim's polylines in the (u, v) domain away from
+    them: on every face of NIST FTC-06, random (u, v) points over the face's box and points just
+    outside the band on both sides of every polyline segment classify exactly as OpenCascade's
+    classifier (IntTools_FClass2d) does, and the polylines are drawn for every face."""
+    from engine.io.step import TRIM_BAND  # noqa: F401  (the band is the polylines' own)
+
+    nominal = read_step(NIST)
+    rng = np.random.default_rng(8)
+    checked = 0
+    for fid in range(1, nominal.n_faces + 1):
+        tools = nominal._brep.tools(fid)
+        u0, u1, v0, v1 = tools.uv_box
+        box = np.column_stack([rng.uniform(u0, u1, 300), rng.uniform(v0, v1, 300)])
+        trim = tools._trim_polylines()
+        assert trim is not None, f"face {fid}: no trim polylines"
+        segments, band = trim
+        a, b = segments[:, :2], segments[:, 2:]
+        long = np.linalg.norm(b - a, axis=1) > 0
+        mid, d = 0.5 * (a + b)[long], (b - a)[long]
+        normal = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+        near = np.concatenate([mid + 1.5 * band * normal, mid - 1.5 * band * normal])
+        uv = np.concatenate([box, near])
+        got, truth = tools.contains(uv), tools._classify(uv)
+        assert np.array_equal(got, truth), f"face {fid}: {np.count_nonzero(got != truth)} differ"
+        checked += uv.shape[0]
+    assert checked > 50_000
+
+
 def test_a_far_side_extremum_is_not_the_nearest_point_of_a_partial_face(tmp_path):
     """An open half cylinder (radius 10, y >= 0): from inside, on the missing half's side, the
     surface's extremum on the face is its far side (13 away), the nearest point is the face's

@@ -78,6 +78,15 @@ TIE_MM = 1e-9
 """A face whose lower bound is within this of the best distance found is not measured: it could
 improve the distance by no more."""
 
+TRIM_DEFLECTION = 2e-4
+"""A face's trim is drawn in its (u, v) domain as polylines within this fraction of the domain
+box's diagonal of the boundary curves; a foot farther than ``TRIM_BAND`` x that from every
+polyline is classified by them (even-odd), the others by OpenCascade's classifier."""
+TRIM_BAND = 4.0
+TRIM_CHECKS = 32
+"""Seeded random (u, v) points on which the polylines must classify as OpenCascade does before
+they are used for a face (else that face keeps OpenCascade's classifier)."""
+
 MAX_DEFLECTION_MM = 0.01
 MIN_DEFLECTION_MM = 0.001
 ANGULAR_DEFLECTION = 0.5
@@ -617,6 +626,7 @@ class _FaceTools:
         self.classifier = IntTools_FClass2d(face, max(BRep_Tool.Tolerance_s(face), 1e-7))
         self.props = GeomLProp_SLProps(self.surface, 1, 1e-12)
         self._distance = None
+        self._trim: tuple | None | bool = False  # not built yet; None: unusable
 
     def normal(self, u: float, v: float) -> np.ndarray | None:
         """The outward unit normal at (u, v), or None where the surface has none (a pole)."""
@@ -686,7 +696,69 @@ class _FaceTools:
         return foot, normal
 
     def contains(self, uv: np.ndarray) -> np.ndarray:
-        """Whether the (u, v) points (m, 2) lie on the trimmed face (IN or ON its boundary)."""
+        """Whether the (u, v) points (m, 2) lie on the trimmed face (IN or ON its boundary):
+        by the trim's polylines (see ``TRIM_DEFLECTION``) away from them, by OpenCascade's
+        classifier near them (or for a face whose polylines could not be drawn)."""
+        from engine.kernels import in_polygon
+
+        if self._trim is False:
+            self._trim = self._trim_polylines()
+        if self._trim is None or uv.shape[0] == 0:
+            return self._classify(uv)
+        segments, band = self._trim
+        # A periodic parameter into the face's domain, as OpenCascade's classifier takes it.
+        wrapped = np.column_stack([self._in_period(uv[:, 0], 0), self._in_period(uv[:, 1], 1)])
+        inside, near = in_polygon(wrapped, segments, band)
+        if near.any():
+            inside[near] = self._classify(uv[near])
+        return inside
+
+    def _trim_polylines(self) -> tuple[np.ndarray, float] | None:
+        """The face's boundary in its (u, v) domain: (segments (E, 4) u0 v0 u1 v1 of the
+        polylines of every edge's curve on the surface, within TRIM_DEFLECTION of it; the band
+        within which the polylines do not decide), or None when a curve is missing, the
+        polylines do not close, or they classify a check point unlike OpenCascade."""
+        from OCP.BRepAdaptor import BRepAdaptor_Curve2d
+        from OCP.GCPnts import GCPnts_UniformDeflection
+        from OCP.TopAbs import TopAbs_EDGE
+        from OCP.TopExp import TopExp_Explorer
+        from OCP.TopoDS import TopoDS
+
+        from engine.kernels import in_polygon
+
+        u0, u1, v0, v1 = self.uv_box
+        deflection = TRIM_DEFLECTION * float(np.hypot(u1 - u0, v1 - v0))
+        if not deflection > 0:
+            return None
+        lines = []
+        try:
+            explorer = TopExp_Explorer(self.face, TopAbs_EDGE)
+            while explorer.More():
+                curve = BRepAdaptor_Curve2d(TopoDS.Edge(explorer.Current()), self.face)
+                cut = GCPnts_UniformDeflection(curve, deflection, curve.FirstParameter(),
+                                               curve.LastParameter())
+                if not cut.IsDone() or cut.NbPoints() < 2:
+                    return None
+                lines.append(np.array([curve.Value(cut.Parameter(i)).Coord()
+                                       for i in range(1, cut.NbPoints() + 1)]))
+                explorer.Next()
+        except Exception:  # a missing curve on the surface, OpenCascade's Standard_Failure
+            return None
+        band = TRIM_BAND * deflection
+        lines = _joined(lines, band) if lines else None
+        if lines is None:
+            return None
+        segments = np.concatenate([np.hstack([p[:-1], p[1:]]) for p in lines])
+        rng = np.random.default_rng(3)
+        check = np.column_stack([rng.uniform(u0, u1, TRIM_CHECKS),
+                                 rng.uniform(v0, v1, TRIM_CHECKS)])
+        inside, near = in_polygon(check, segments, band)
+        if (inside != self._classify(check))[~near].any():
+            return None
+        return segments, band
+
+    def _classify(self, uv: np.ndarray) -> np.ndarray:
+        """OpenCascade's classification of (u, v) points (m, 2): IN or ON the trimmed face."""
         from OCP.gp import gp_Pnt2d
         from OCP.TopAbs import TopAbs_IN, TopAbs_ON
 
@@ -890,17 +962,12 @@ class _Brep:
     def nearer_boxes(self, p: np.ndarray, dist: np.ndarray, done: np.ndarray) -> np.ndarray:
         """(point index, face id) pairs not in ``done`` whose face's bounding box is nearer to
         the point than ``dist``: the faces that could still hold a nearer foot."""
-        boxes = self.boxes()
-        found = []
-        for fid in range(1, self.n + 1):
-            near = np.flatnonzero(_box_distance(boxes[fid - 1][None], p) < dist)
-            if near.size:
-                found.append(near * (1 << 32) + fid)
-        if not found:
-            return np.zeros((0, 2), np.int64)
-        key = np.concatenate(found)
-        key = key[~np.isin(key, done[:, 0] * (1 << 32) + done[:, 1])]
-        return np.stack([key >> 32, key & ((1 << 32) - 1)], axis=1)
+        from engine.kernels import boxes_nearer
+
+        done = done[np.argsort(done[:, 0], kind="stable")]
+        start = np.searchsorted(done[:, 0], np.arange(p.shape[0] + 1))
+        return boxes_nearer(p, self.boxes(), np.ascontiguousarray(dist, np.float64), start,
+                            np.ascontiguousarray(done[:, 1]))
 
     def finish(self, p: np.ndarray, best: _Best):
         """(signed, foot, normal, face) from each point's nearest foot (see deviations)."""
@@ -977,6 +1044,22 @@ def _by_face(pairs: np.ndarray):
     starts = np.flatnonzero(np.diff(pairs[order, 1], prepend=-1))
     for block in np.split(order, starts[1:]):
         yield int(pairs[block[0], 1]), block
+
+
+def _joined(lines: list[np.ndarray], tol: float) -> list[np.ndarray] | None:
+    """The polylines (each (k, 2)) with the ends that meet made identical, or None when they do
+    not join end to end into closed loops (an end meeting an even number of other ends within
+    ``tol``). Ends computed from different curves differ in their last digits: left apart, a
+    ray through the vertex would slip between them and miss or double a crossing."""
+    ends = np.concatenate([p[[0, -1]] for p in lines])
+    meets = np.linalg.norm(ends[:, None] - ends[None], axis=2) <= tol
+    if not np.all((np.count_nonzero(meets, axis=1) - 1) % 2 == 1):
+        return None
+    shared = ends[np.argmax(meets, axis=1)]  # each end's first meeting end (itself at least)
+    out = [p.copy() for p in lines]
+    for k, p in enumerate(out):
+        p[0], p[-1] = shared[2 * k], shared[2 * k + 1]
+    return out
 
 
 def _box_distance(boxes: np.ndarray, p: np.ndarray) -> np.ndarray:
