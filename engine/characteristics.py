@@ -30,7 +30,7 @@ QIF 3.0 write as datum features and toleranced features.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -134,6 +134,10 @@ class Geometry:
     centre: np.ndarray
     length: float
     labels: np.ndarray | None = None
+    exact_feature: object = None
+    """exact_feature(kind, mask) -> a region's nominal feature (as :func:`_nominal_feature`)
+    from the model's exact surface when its samples ``mask`` all lie on one surface of that
+    kind (a STEP model's plane, cylinder or sphere faces), else None; None: always fitted."""
 
 
 def statistics_zone(plan: Plan) -> Tolerance:
@@ -309,6 +313,10 @@ def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
     mask = geo.nominal_masks[c.region]
     nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
     nom = _hole_fit(nominal, normals)
+    exact = _exact_nominal(geo, "cylinder", mask) if nominal.shape[1] == 3 else None
+    if exact is not None:  # the model's own axis and radius, not a fit to its samples
+        nom = replace(nom, point=exact["point"], direction=exact["direction"],
+                      radius=0.5 * exact["diameter"], form_error=0.0)
     if nom.form_error > HOLE_FORM * nom.radius:
         raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no hole: its "
                          f"nominal points lie up to {nom.form_error:.3g} mm off their "
@@ -434,8 +442,7 @@ def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
         normals = geo.nominal_normals(np.flatnonzero(mask))
         idx = members[r.name]
         measured = _fit_feature(kind, geo.evaluate(T, idx)[0], normals) if idx.size else None
-        out.append(RegionFeature(r.name, kind, _nominal_feature(kind, geo.nominal_points[mask],
-                                                                normals), measured, on))
+        out.append(RegionFeature(r.name, kind, _region_nominal(kind, geo, mask), measured, on))
     return tuple(out)
 
 
@@ -494,14 +501,28 @@ def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict
     return out
 
 
+def _exact_nominal(geo: Geometry, kind: str, mask: np.ndarray) -> dict | None:
+    """The region's nominal ``kind`` from the model's exact surface, or None (see
+    Geometry.exact_feature)."""
+    return None if geo.exact_feature is None else geo.exact_feature(kind, mask)
+
+
+def _region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
+    """A region's nominal feature: the model's exact surface where it has one, else the
+    least-squares fit to the region's nominal samples (``mask``)."""
+    exact = _exact_nominal(geo, kind, mask)
+    if exact is not None:
+        return exact
+    return _nominal_feature(kind, geo.nominal_points[mask],
+                            geo.nominal_normals(np.flatnonzero(mask)))
+
+
 def _invariants(datum, geo: Geometry) -> np.ndarray | None:
     """The motions that leave datum's ideal nominal feature in place (engine.datums), from the
     least-squares feature of its region's nominal points; None when they do not form it."""
     from .datums import invariant_motions
 
-    mask = geo.nominal_masks[datum.region]
-    nominal = _nominal_feature(datum.feature, geo.nominal_points[mask],
-                               geo.nominal_normals(np.flatnonzero(mask)))
+    nominal = _region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
     if nominal is None:
         return None
     return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
@@ -563,7 +584,7 @@ def _rps(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:
 def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                  measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool,
                  nominal_groups: dict[str, np.ndarray] | None = None, exact=None,
-                 sample_of=None):
+                 sample_of=None, exact_feature=None):
     """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
     reasons become the plan's (with the zone of ``result`` as one more profile characteristic
     over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
@@ -573,9 +594,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     deviations on the nominal's sample, with its sampling margins. sample_of(feet) -> the
     nominal sample whose regions each foot (closest surface point) takes (None: the nearest;
     a STEP model: the nearest of the foot's own face, whose samples its edges share with the
-    next face's)."""
-    from dataclasses import replace
-
+    next face's). exact_feature : see Geometry.exact_feature (a STEP model's faces)."""
     from .deviation import point_to_surface
     from .geometry import apply_transform
     from .regions import nominal_members
@@ -598,7 +617,8 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
         return margins_3d(nominal, point_to_surface(nominal, X).foot)
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
-                   nominal.normals, masks, *_centre_and_length(result.registered), labels)
+                   nominal.normals, masks, *_centre_and_length(result.registered), labels,
+                   exact_feature)
     planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
                       zone_in_verdict)
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
@@ -618,8 +638,6 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     starting from the identity); the part's pose and per-point outputs are lifted back into
     3D. Template lines and arcs are exact: no sampling margin. A region's ``group`` selects
     the samples of a DXF layer's contours (its name compared without case, as DXF does)."""
-    from dataclasses import replace
-
     from .contour import deviations_2d
     from .deviation import Deviations
     from .registration import in_plane
@@ -670,8 +688,6 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
     """The plan checked on ``geo``, with the inspection's own zone as a characteristic over all
     points when ``zone_in_verdict``; everything INCONCLUSIVE when the registration, on which
     the regions rest, cannot be trusted."""
-    from dataclasses import replace
-
     from .regions import measured_members, region_column
     from .verdict import pose_trusted
 
@@ -709,8 +725,6 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
 def _at_plan_pose(result, X: np.ndarray, dv, margin):
     """``result`` with its per-point outputs (points, deviations, in-tolerance, statistics,
     margins) at the plan's alignment: where the drawing places the part."""
-    from dataclasses import replace
-
     tol = result.tolerance
     return replace(result, registered=X, deviations=dv,
                    in_tolerance=(dv.signed >= tol.lower) & (dv.signed <= tol.upper),

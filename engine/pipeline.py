@@ -331,7 +331,65 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
     ps = source.point_set
     return inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
                         measured_ps.labels, settings.zone_in_verdict, ps.groups, exact,
-                        None if source.step is None else _face_sample(source.step))
+                        None if source.step is None else _face_sample(source.step),
+                        None if source.step is None else _exact_features(source.step))
+
+
+SAME_SURFACE = 1e-9
+"""Faces lie on one surface when their planes, axes, centres and radii agree to this (unit
+vectors; lengths relative to the model's size)."""
+
+
+def _exact_features(step):
+    """feature(kind, mask) -> the nominal feature (engine.characteristics._nominal_feature's
+    keys) of a region whose tessellation samples ``mask`` all lie on faces of one plane,
+    cylinder or sphere of the STEP model ``step``: its exact surface (a cylinder's axis and
+    radius from the model, not a fit to samples whose edge nodes stray from it by the edges'
+    tolerance), the axis point or plane point taken nearest the samples' centroid; None
+    otherwise (the caller fits the samples)."""
+    scale = float(np.linalg.norm(np.ptp(step.bounds, axis=0))) or 1.0
+
+    def feature(kind: str, mask: np.ndarray) -> dict | None:
+        faces = [step.faces[int(f) - 1] for f in np.unique(step.face_ids[mask])]
+        if not faces or any(f.surface != kind for f in faces) or kind not in _EXACT_KINDS:
+            return None
+        g = [{k: np.asarray(v, float) for k, v in f.geometry.items()} for f in faces]
+        if not all(_EXACT_KINDS[kind](g[0], h, scale) for h in g[1:]):
+            return None
+        c = step.point_set.points[mask].mean(axis=0)
+        if kind == "plane":
+            n, p = g[0]["normal"], g[0]["point"]
+            return {"point": c - ((c - p) @ n) * n, "normal": n}
+        internal = bool(g[0]["hole"])
+        if kind == "cylinder":
+            a, o = g[0]["axis"], g[0]["point"]
+            return {"point": o + ((c - o) @ a) * a, "direction": a,
+                    "diameter": 2.0 * float(g[0]["radius"]), "internal": internal}
+        return {"centre": g[0]["centre"], "diameter": 2.0 * float(g[0]["radius"]),
+                "internal": internal}
+
+    return feature
+
+
+def _same_plane(g: dict, h: dict, scale: float) -> bool:
+    return (abs(g["normal"] @ h["normal"] - 1.0) <= SAME_SURFACE
+            and abs((h["point"] - g["point"]) @ g["normal"]) <= SAME_SURFACE * scale)
+
+
+def _same_cylinder(g: dict, h: dict, scale: float) -> bool:
+    a, d = g["axis"], h["point"] - g["point"]
+    return (abs(abs(a @ h["axis"]) - 1.0) <= SAME_SURFACE and bool(g["hole"]) == bool(h["hole"])
+            and np.linalg.norm(d - (d @ a) * a) <= SAME_SURFACE * scale
+            and abs(g["radius"] - h["radius"]) <= SAME_SURFACE * scale)
+
+
+def _same_sphere(g: dict, h: dict, scale: float) -> bool:
+    return (np.linalg.norm(g["centre"] - h["centre"]) <= SAME_SURFACE * scale
+            and abs(g["radius"] - h["radius"]) <= SAME_SURFACE * scale
+            and bool(g["hole"]) == bool(h["hole"]))
+
+
+_EXACT_KINDS = {"plane": _same_plane, "cylinder": _same_cylinder, "sphere": _same_sphere}
 
 
 def _exact_deviations(step):

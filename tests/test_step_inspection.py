@@ -115,6 +115,55 @@ zone = 1.0
     assert c["value"] == pytest.approx(2 * lp.x[3] / np.sqrt(1 + a * a + b * b), abs=1e-7)
 
 
+CTC01 = os.path.join(os.path.dirname(STEP), "nist_ctc_01_asme1_ap203.stp")
+
+
+def test_datums_and_holes_on_step_faces_use_the_models_exact_surfaces(tmp_path):
+    """NIST CTC-01 measured exactly on its faces (no deviation planted), in a random pose: the
+    position of the 20 mm hole (face 87, half of it) relative to datums A|B|C on three of its
+    planes is 0 and its nominal is the model's own cylinder (axis x = 240, z = -60 along y,
+    diameter 20). The model's edges stray from its faces by up to 6.5 um, so a cylinder fitted
+    to the tessellation's nodes, which lie on the edges, is off by micrometres (diameter
+    19.997, axis 2.6 um away: a position of ~5 um on a perfect part)."""
+    from engine.io.step import read_step
+
+    ctc = read_step(CTC01)
+    M, planted, face = measured_on(ctc, np.random.default_rng(21), n=6000, sigma=0.0)
+    assert np.all(planted == 0.0) and np.count_nonzero(face == 87) >= 20
+    write(tmp_path / "m.csv", M)
+    regions = {"A": 4, "B": 25, "C": 15, "H": 87}
+    (tmp_path / "plan.toml").write_text("".join(
+        f'[[region]]\nname = "{r}"\ngroup = "face:{f}"\n' for r, f in regions.items()) + """
+[[datum]]
+label = "A"
+region = "A"
+feature = "plane"
+[[datum]]
+label = "B"
+region = "B"
+feature = "plane"
+[[datum]]
+label = "C"
+region = "C"
+feature = "plane"
+[[characteristic]]
+id = "1"
+type = "position"
+region = "H"
+datums = ["A", "B", "C"]
+zone = 0.01
+""")
+    main(["inspect", CTC01, str(tmp_path / "m.csv"), "--plan", str(tmp_path / "plan.toml"),
+          "--json", str(tmp_path / "r.json")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    (c,) = doc["characteristics"]
+    assert c["verdict"] == "ACCEPT" and c["value"] < 1e-6
+    hole = next(f for f in doc["features"] if f["region"] == "H")["nominal"]
+    assert hole["diameter"] == pytest.approx(20.0, abs=1e-9)
+    assert np.allclose(np.abs(hole["direction"]), [0, 1, 0], atol=1e-12)
+    assert np.allclose(np.array(hole["point"])[[0, 2]], [240.0, -60.0], atol=1e-9)
+
+
 def test_the_desktop_session_opens_and_inspects_a_step_nominal(tmp_path, part):
     """The app (its Qt-free session and controller) takes a STEP file as the nominal, dropped
     first or second, and inspects it as the command line does: exact deviations."""
