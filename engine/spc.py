@@ -67,7 +67,7 @@ RULES = {1: "one point beyond 3 sigma", 2: "9 points in a row on one side of the
          3: "6 points in a row rising or falling", 4: "14 points in a row alternating"}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Series:
     """One characteristic over a lot, in measurement order.
 
@@ -78,7 +78,7 @@ class Series:
 
     name: str
     unit: str
-    values: np.ndarray = field(compare=False)
+    values: np.ndarray
     serials: tuple[str, ...]
     lower: float | None = None
     upper: float | None = None
@@ -103,7 +103,7 @@ class Series:
                                 f"{self.lower:g} is not below upper limit {self.upper:g}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ControlChart:
     """The I-MR chart. Limits are None when undefined (``reason`` says why: fewer than two values,
     or no variation). ``moving_ranges`` (n,) has NaN where a part has no value or no predecessor
@@ -118,7 +118,7 @@ class ControlChart:
     mr_ucl: float | None
     mr_lcl: float | None
     std_overall: float | None
-    moving_ranges: np.ndarray = field(compare=False, repr=False)
+    moving_ranges: np.ndarray = field(repr=False)
     reason: str | None = None
 
 
@@ -297,8 +297,7 @@ def run_rules(values: np.ndarray, centre: float | None,
     if sigma:  # consecutive points beyond the same limit are one violation
         for sign, word in ((1, "above the upper"), (-1, "below the lower")):
             for a, b in _runs(sign * (x - centre) > 3 * sigma):
-                out.append(_run_violation(1, idx[a:b + 1], f"{word} control limit (beyond "
-                                          "3 sigma)"))
+                out.append(_run_violation(1, idx[a:b + 1], f"{word} control limit"))
     if centre is not None:
         for sign, word in ((1, "above"), (-1, "below")):
             for a, b in _runs(np.sign(x - centre) == sign):
@@ -317,8 +316,8 @@ def run_rules(values: np.ndarray, centre: float | None,
 
 def _run_violation(rule: int, indices: np.ndarray, words: str) -> Violation:
     ind = tuple(int(i) for i in indices)
-    if len(ind) == 1:
-        return Violation(rule, ind, f"{_parts(ind)} {words}")
+    if len(ind) == 1:  # rule 1 only
+        return Violation(rule, ind, f"{_parts(ind)} {words} (beyond 3 sigma)")
     return Violation(rule, ind, f"{len(ind)} points {'in a row ' * (rule == 1)}{words} "
                                 f"({_parts(ind)})")
 
