@@ -41,10 +41,11 @@ TABLE_ROWS = 24
 """Characteristics listed on the first page; more go on the pages after it."""
 WORDS_ROWS = 9
 """Rule violations listed on a characteristic's page (the rest counted)."""
-RULE_TEXT = ("Run rules (Nelson 1984): R1 a point beyond 3σ of the centre; R2 nine points in a row "
-             "on one side of the centre; R3 six points in a row rising or falling; R4 fourteen "
-             "points in a row alternating. Control limits mean ± 3σ within, σ within = mean moving range / 1.128; "
-             "Cp, Cpk from σ within, 95 % intervals (chi-square; Bissell).")
+RULE_TEXT = ("Run rules (Nelson 1984): R1 a point beyond 3σ of the centre; R2 nine points in a "
+             "row on one side of the centre; R3 six points in a row rising or falling; R4 "
+             "fourteen points in a row alternating. Control limits mean ± 3σ within, σ within = "
+             "mean moving range / 1.128; Cp, Cpk from σ within, 95 % intervals (chi-square; "
+             "Bissell).")
 
 
 def spc_pdf(series: Iterable[Series | tuple], title: str, facts: Mapping[str, object]) -> bytes:
@@ -276,8 +277,8 @@ def _numbers(fig: Figure, a: Analysis, top: float) -> None:
         (f"tolerance {_limits_text(s)} {s.unit}; out of tolerance: {a.out_of_tolerance}",
          FLAG_RGB if a.out_of_tolerance else None),
         (f"mean {_fmt(c.centre)}   s overall {_fmt(c.std_overall)}", None),
-        (f"σ within {_fmt(c.sigma_within)}   mean MR {_fmt(c.mr_centre)}   MR UCL {_fmt(c.mr_ucl)}",
-         None),
+        (f"σ within {_fmt(c.sigma_within)}   mean MR {_fmt(c.mr_centre)}   "
+         f"MR UCL {_fmt(c.mr_ucl)}", None),
         (f"UCL {_fmt(c.ucl)}   LCL {_fmt(c.lcl)}" if c.reason is None else c.reason, None),
         (f"Cp {_index_text(cap.cp)}   Cpk {_index_text(cap.cpk)}", None),
         (f"Cpu {_index_text(cap.cpu)}   Cpl {_index_text(cap.cpl)}", None),
