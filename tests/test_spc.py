@@ -1,0 +1,274 @@
+"""Statistical process control of a lot (engine.spc, reports.spc): the I-MR chart and capability
+indices against hand computation and Montgomery's published examples, each of Nelson's rules 1-4
+on a series built to break exactly it (and one point short of it), the drift warning on a lot that
+passes but heads for a limit, parts without a value, one-sided limits, too few values, a constant
+series, and the PDF (pages, text, same bytes twice)."""
+
+import json
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+from engine import spc
+from engine.errors import InputError, SettingsError
+
+Z975 = 1.959964  # standard normal 97.5 % point (table)
+
+
+def series(values, lower=None, upper=None, name="x"):
+    values = np.asarray(values, dtype=float)
+    return spc.Series(name, "mm", values, [f"S{k:03d}" for k in range(len(values))], lower, upper)
+
+
+# --- I-MR chart and capability ---------------------------------------------------------------
+
+def test_chart_and_capability_of_a_small_series_by_hand():
+    a = spc.analyse(series([10.0, 12.0, 11.0, 14.0, 13.0], lower=5.0, upper=17.0))
+    # By hand: mean 60/5 = 12; moving ranges 2, 1, 3, 1 -> MR̄ 7/4; sigma = MR̄ / d2 (1.128).
+    sigma = 1.75 / 1.128
+    c = a.chart
+    assert c.n == 5 and c.centre == pytest.approx(12.0)
+    assert c.mr_centre == pytest.approx(1.75)
+    assert c.sigma_within == pytest.approx(sigma)
+    assert (c.lcl, c.ucl) == pytest.approx((12 - 3 * sigma, 12 + 3 * sigma))
+    assert (c.mr_lcl, c.mr_ucl) == pytest.approx((0.0, 3.267 * 1.75))
+    # sample std: squared deviations 4 + 0 + 1 + 4 + 1 = 10 over n - 1 = 4
+    assert c.std_overall == pytest.approx(math.sqrt(10 / 4))
+    cap = a.capability
+    cp, cpu, cpl = 12 / (6 * sigma), 5 / (3 * sigma), 7 / (3 * sigma)
+    assert (cap.cp.value, cap.cpu.value, cap.cpl.value) == pytest.approx((cp, cpu, cpl))
+    assert cap.cpk.value == pytest.approx(cpu)  # nearer the upper limit
+    # Cp: chi-square interval with 4 degrees of freedom; table values chi2_0.025 = 0.4844,
+    # chi2_0.975 = 11.143.
+    assert cap.cp.ci == pytest.approx((cp * math.sqrt(0.4844 / 4), cp * math.sqrt(11.143 / 4)),
+                                      rel=2e-4)
+    # Cpk: Bissell, Cpk [1 -+ z sqrt(1 / (9 n Cpk²) + 1 / (2 (n - 1)))]
+    half = Z975 * math.sqrt(1 / (9 * 5 * cpu ** 2) + 1 / (2 * 4))
+    assert cap.cpk.ci == pytest.approx((cpu * (1 - half), cpu * (1 + half)), rel=1e-5)
+    assert a.violations == () and a.out_of_tolerance == 0
+
+
+def test_individuals_chart_matches_montgomery_example():
+    """Montgomery, Introduction to Statistical Quality Control (6th ed.), Example 6.5: the cost
+    of processing mortgage loan applications over 20 weeks; published centre 300.5,
+    MR̄ 7.79, UCL 321.22, LCL 279.78, MR chart UCL 25.45."""
+    cost = [310, 288, 297, 298, 307, 303, 294, 297, 308, 306,
+            294, 299, 297, 299, 314, 295, 293, 306, 301, 304]
+    c = spc.individuals_chart(np.array(cost, dtype=float))
+    assert round(c.centre, 2) == 300.5 and round(c.mr_centre, 2) == 7.79
+    assert (round(c.ucl, 2), round(c.lcl, 2)) == (321.22, 279.78)
+    assert round(c.mr_ucl, 2) == 25.45
+
+
+def test_capability_intervals_match_montgomery_examples():
+    """Montgomery (6th ed.) §8.3.5: Cp = 2.29 from n = 20 gives 1.57 <= Cp <= 3.01; Cpk = 1.33
+    from n = 20 gives 0.88 <= Cpk <= 1.78 (Bissell's approximation)."""
+    assert [round(v, 2) for v in spc.cp_interval(2.29, 20)] == [1.57, 3.01]
+    assert [round(v, 2) for v in spc.cpk_interval(1.33, 20)] == [0.88, 1.78]
+
+
+def test_one_sided_limit_gives_cpu_only():
+    a = spc.analyse(series([0.020, 0.024, 0.021, 0.025, 0.022, 0.023], upper=0.05))
+    sigma = ((0.004 + 0.003 + 0.004 + 0.003 + 0.001) / 5) / 1.128
+    cap = a.capability
+    assert cap.cp.value is None and "both" in cap.cp.reason
+    assert cap.cpl.value is None and cap.cpl.reason
+    assert cap.cpu.value == pytest.approx((0.05 - 0.0225) / (3 * sigma))
+    assert cap.cpk == cap.cpu and cap.cpk.ci is not None
+    lower_only = spc.analyse(series([1.0, 1.2, 0.9, 1.1], lower=0.0)).capability
+    assert lower_only.cpk.value == pytest.approx(1.05 / (3 * (0.2 + 0.3 + 0.2) / 3 / 1.128))
+
+
+# --- run rules -------------------------------------------------------------------------------
+
+STABLE = np.array([0.5, -0.3, -0.8, 0.2, 0.9, -0.1, -0.6, 0.2] * 5)
+"""A stable lot: no point beyond 3 sigma (sigma 0.63), no more than two points in a row on one
+side, rising or falling, or alternating."""
+
+
+def with_block(block, before, after, at=12):
+    x = STABLE.copy()
+    x[at - 1], x[at:at + len(block)], x[at + len(block)] = before, block, after
+    return x
+
+
+def rules(values):
+    return [(v.rule, v.indices) for v in spc.analyse(series(values, -6, 6)).violations]
+
+
+@pytest.mark.parametrize("block, before, after, rule, text", [
+    ([4.0], 0.0, 0.0, 1, "part 13 above the upper control limit"),
+    ([-4.0], 0.0, 0.0, 1, "part 13 below the lower control limit"),
+    ([0.5, 0.3, 0.4, 0.6, 0.9, 0.4, 0.3, 0.7, 0.8], -0.7, -0.7, 2,
+     "9 points in a row above the centre line (parts 13-21)"),
+    ([-0.5, -0.3, -0.4, -0.6, -0.9, -0.4, -0.3, -0.7, -0.8], 0.7, 0.7, 2,
+     "9 points in a row below the centre line (parts 13-21)"),
+    ([-0.9, -0.5, -0.1, 0.3, 0.7, 1.1], 0.5, -0.5, 3, "6 points in a row rising (parts 13-18)"),
+    ([1.1, 0.7, 0.3, -0.1, -0.5, -0.9], -0.5, 0.5, 3, "6 points in a row falling (parts 13-18)"),
+    ([0.6, -0.6] * 7, 0.9, -0.8, 4, "14 points in a row alternating up and down (parts 13-26)"),
+])
+def test_each_rule_fires_on_exactly_its_pattern(block, before, after, rule, text):
+    assert rules(STABLE) == []
+    found = spc.analyse(series(with_block(block, before, after), -6, 6)).violations
+    assert [(v.rule, v.indices) for v in found] == [(rule, tuple(range(12, 12 + len(block))))]
+    assert found[0].text.startswith(text)
+
+
+@pytest.mark.parametrize("block, before, after", [
+    ([0.5, 0.3, 0.4, 0.6, 0.9, 0.4, 0.3, 0.7], -0.7, -0.7),  # 8 on one side
+    ([-0.9, -0.5, -0.1, 0.3, 0.7], 0.5, -0.5),  # 5 rising
+    ([0.6, -0.6] * 6 + [0.6], 0.9, 0.8),  # 13 alternating
+])
+def test_one_point_short_of_a_rule_is_not_flagged(block, before, after):
+    assert rules(with_block(block, before, after)) == []
+
+
+def test_a_seeded_stable_normal_lot_breaks_no_rule_and_does_not_drift():
+    x = np.random.default_rng(2).normal(0.0, 0.01, 40)
+    a = spc.analyse(series(x, -0.05, 0.05))
+    assert a.violations == () and not a.drift.significant and not a.drift.warning
+
+
+def test_rule_sentences_name_the_parts_and_runs_are_maximal():
+    x = np.concatenate([STABLE[:10], [-1.0, -0.6, -0.2, 0.2, 0.6, 1.0, 1.4], STABLE[:10] - 0.9])
+    (v,) = [v for v in spc.analyse(series(x, -6, 6)).violations if v.rule == 3]
+    assert v.text == "7 points in a row rising (parts 11-17)" and v.indices == tuple(range(10, 17))
+
+
+# --- drift -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("start, per_part", [(0.5, 0.015), (0.4, 0.02)])
+def test_a_passing_lot_that_drifts_towards_a_limit_is_flagged(start, per_part):
+    """30 parts, all in tolerance, the value rising by 1.5-2 % of the zone per part: the line
+    reaches the upper limit (1 - start - 29 per_part) / per_part parts after the last one
+    (4.3 and 1.0 parts by hand; noise moves the fitted line a little)."""
+    zone = 0.1
+    rng = np.random.default_rng(5)
+    x = -0.05 + zone * (start + per_part * np.arange(30)) + rng.normal(0, 0.002 * zone, 30)
+    assert np.all((x > -0.05) & (x < 0.05))  # every part passes
+    d = spc.analyse(series(x, -0.05, 0.05)).drift
+    by_hand = (1 - start - 29 * per_part) / per_part
+    assert d.significant and d.warning and d.limit == "upper"
+    assert abs(d.parts_to_limit - by_hand) <= 1.5
+    assert d.slope == pytest.approx(zone * per_part, rel=0.05)
+    assert f"upper limit is reached in {d.parts_to_limit} more part" in d.text
+    falling = spc.analyse(series(-x, -0.05, 0.05)).drift
+    assert falling.warning and falling.limit == "lower"
+    assert falling.parts_to_limit == d.parts_to_limit
+
+
+def test_a_slow_or_one_sided_trend_is_not_a_warning():
+    x = 0.01 * np.arange(30) / 29 + np.random.default_rng(3).normal(0, 0.0005, 30)
+    d = spc.analyse(series(x, -1.0, 1.0)).drift  # significant but ~3000 parts from the limit
+    assert d.significant and not d.warning and d.parts_to_limit > 1000
+    falling = spc.analyse(series(0.05 - x, None, 0.06)).drift  # max |d| falling: no lower limit
+    assert falling.significant and falling.limit is None and not falling.warning
+    short = spc.analyse(series(x, -1.0, 1.0), horizon=10_000).drift
+    assert short.warning
+
+
+# --- missing values, too few, constant -------------------------------------------------------
+
+def test_parts_without_a_value_are_skipped_but_keep_their_place():
+    x = with_block([-0.9, -0.5, -0.1, 0.3, 0.7, 1.1], 0.5, -0.5)
+    holes = np.insert(x, [3, 14, 14], np.nan)  # NaN at 3, 15, 16: one before the run, two in it
+    a, b = spc.analyse(series(holes, -6, 6)), spc.analyse(series(x, -6, 6))
+    for field in ("n", "centre", "sigma_within", "ucl", "lcl", "mr_centre", "std_overall"):
+        assert getattr(a.chart, field) == pytest.approx(getattr(b.chart, field))
+    assert a.capability.cpk.value == pytest.approx(b.capability.cpk.value)
+    assert np.flatnonzero(np.isnan(a.chart.moving_ranges)).tolist() == [0, 3, 15, 16]
+    assert a.chart.moving_ranges[17] == pytest.approx(abs(x[14] - x[13]))  # joins the gap
+    (v,) = a.violations
+    assert v.rule == 3 and v.indices == (13, 14, 17, 18, 19, 20)  # the original positions
+    assert v.text == "6 points in a row rising (parts 14-21)"
+    doc = spc.to_json(a)
+    json.dumps(doc, allow_nan=False)
+    assert doc["n"] == 40 and doc["parts"] == 43
+    assert doc["violations"][0]["serials"] == ["S013", "S014", "S017", "S018", "S019", "S020"]
+
+
+@pytest.mark.parametrize("values", [[], [np.nan, np.nan], [0.02, np.nan]])
+def test_fewer_than_two_values_give_reasons_not_numbers(values):
+    a = spc.analyse(series(values, -0.05, 0.05))
+    assert a.chart.ucl is None and a.chart.lcl is None and a.chart.reason
+    assert a.capability.cpk.value is None and a.capability.cpk.reason
+    assert a.drift.slope is None and not a.drift.warning and a.drift.reason
+    assert a.violations == ()
+    json.dumps(spc.to_json(a), allow_nan=False)
+
+
+def test_a_constant_series_has_no_control_limits_and_no_flags():
+    a = spc.analyse(series([0.1] * 30, -0.05, 0.2))
+    c = a.chart
+    assert c.mr_centre == 0.0 and c.sigma_within is None and c.ucl is None
+    assert "equal" in c.reason and c.centre == 0.1
+    assert a.capability.cp.value is None and a.capability.cp.reason
+    assert a.violations == () and not a.drift.significant and a.flags == []
+    doc = spc.to_json(a)
+    json.dumps(doc, allow_nan=False)
+    assert doc["individuals"]["ucl"] is None and doc["capability"]["cpk"]["value"] is None
+
+
+def test_invalid_series_raise():
+    with pytest.raises(InputError, match="3 values but 2 serials"):
+        spc.Series("x", "mm", [1.0, 2.0, 3.0], ["a", "b"])
+    with pytest.raises(SettingsError, match="empty"):
+        series([1.0, 2.0], lower=0.1, upper=0.1)
+    with pytest.raises(InputError, match="finite"):
+        series([1.0, np.inf])
+
+
+# --- the PDF ---------------------------------------------------------------------------------
+
+def pdf_text(path) -> str:
+    return subprocess.run(["pdftotext", "-raw", str(path), "-"], capture_output=True, text=True,
+                          check=True).stdout
+
+
+def pages(path) -> int:
+    info = subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True, check=True)
+    return int(next(ln.split()[-1] for ln in info.stdout.splitlines() if ln.startswith("Pages:")))
+
+
+def lot():
+    rng = np.random.default_rng(11)
+    drift = -0.05 + 0.1 * (0.5 + 0.015 * np.arange(30)) + rng.normal(0, 0.0002, 30)
+    maxd = np.abs(rng.normal(0.03, 0.004, 30))
+    maxd[7] = np.nan
+    alternating = with_block([0.6, -0.6] * 7, 0.9, -0.8)[:30] * 0.01
+    serials = [f"P{k:03d}" for k in range(30)]
+    return [spc.Series("profile A", "mm", drift, serials, -0.05, 0.05),
+            ("max |d|", "mm", maxd, serials, None, 0.05),
+            spc.Series("flatness B", "mm", alternating, serials, None, 0.04)]
+
+
+def test_spc_pdf_pages_text_and_same_bytes(tmp_path):
+    from reports.spc import spc_pdf
+
+    facts = {"parts": 30, "ACCEPT": 29, "ERROR": 1}
+    data = spc_pdf(lot(), "Lot 7 bracket", facts)
+    assert data == spc_pdf(lot(), "Lot 7 bracket", facts)  # deterministic
+    path = tmp_path / "spc.pdf"
+    path.write_bytes(data)
+    assert pages(path) == 1 + 3
+    text = pdf_text(path)
+    first = text.split("\f")[0]
+    for words in ("Lot 7 bracket", "profile A", "max |d|", "flatness B", "ACCEPT 29", "ERROR 1"):
+        assert words in first, words
+    assert "drift→upper" in first  # the drifting lot is flagged in the table
+    profile, maxd, flatness = (" ".join(page.split()) for page in text.split("\f")[1:4])
+    assert "upper limit is reached in" in profile and "R3: " in profile
+    assert "29 of 30 parts (1 without a value)" in maxd
+    assert "R4: 14 points in a row alternating up and down (parts 13-26)" in flatness
+
+
+def test_long_lots_continue_the_table(tmp_path, monkeypatch):
+    from reports import spc as report
+
+    monkeypatch.setattr(report, "TABLE_ROWS", 2)
+    path = tmp_path / "spc.pdf"
+    path.write_bytes(report.spc_pdf(lot(), "Lot 7", {"parts": 30}))
+    assert pages(path) == 2 + 3
+    assert "flatness B" in pdf_text(path).split("\f")[1]
