@@ -31,6 +31,9 @@ CASES = {
     "200k/100 bracket": (None, 100, None, None, "points+IJK"),
     "1M/200k": ((1414, 707), 200_000, (-245, 245), (-120, 120), "grid+IJK"),
     "5M/1M": ((3162, 1581), 1_000_000, (-245, 245), (-120, 120), "grid+IJK"),
+    # The same 1M fairing samples given as bare points with normals (no grid): a scanner's or
+    # another tool's export, whose surface the engine builds from the points alone.
+    "1M points/200k": ((1414, 707), 200_000, (-245, 245), (-120, 120), "points+IJK"),
 }
 
 
@@ -56,7 +59,10 @@ def run_case(name: str) -> dict:
         X, Y = np.meshgrid(np.linspace(-250, 250, nu), np.linspace(-125, 125, nv))
         x, y = X.ravel(), Y.ravel()
         ps = PointSet(np.column_stack([x, y, gen.fairing_height(x, y)]), gen.fairing_normal(x, y),
-                      grid_shape=(nu, nv), path="fairing")
+                      grid_shape=(nu, nv) if kind == "grid+IJK" else None, path="fairing")
+        if kind != "grid+IJK":  # in no order a grid could be read from
+            order = rng.permutation(ps.n)
+            ps = PointSet(ps.points[order], ps.normals[order], path="fairing points")
         del X, Y, x, y
         mx, my = rng.uniform(*xr, m), rng.uniform(*yr, m)
         q = np.column_stack([mx, my, gen.fairing_height(mx, my)])

@@ -1,5 +1,5 @@
 """The layering the product card fixes, checked by import-linter (contracts in pyproject.toml): the
-rooms are layered qa_app > reports > engine; engine has no Qt, reportlab or pyHanko, and only
+rooms are layered qa_app > reports > engine; engine has no Qt, reportlab, pyHanko or matplotlib, and only
 engine.io may import pyvista/VTK or ezdxf; reports has no Qt; the command line has no Qt; the
 desktop app's session model and controller are Qt-free."""
 
