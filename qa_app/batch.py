@@ -445,9 +445,10 @@ def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0
     logging.getLogger("distributed").setLevel(logging.ERROR)
     with contextlib.ExitStack() as stack:
         if scheduler is None:
-            cluster = stack.enter_context(LocalCluster(
-                n_workers=workers or _cores(), threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=logging.ERROR))
+            with _sigint_ignored():  # inherited by the worker processes: see _sigint_ignored
+                cluster = stack.enter_context(LocalCluster(
+                    n_workers=workers or _cores(), threads_per_worker=1, processes=True,
+                    dashboard_address=None, silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
         else:
             try:
@@ -460,6 +461,24 @@ def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0
                 raise ConnectionError(f"the Dask scheduler {scheduler} has no worker (none "
                                       f"joined within {wait_s:.0f} s)") from e
         yield client
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """Ignore SIGINT while the local cluster's processes start, which keep it ignored: Ctrl-C
+    in a terminal reaches every process of its group, and a worker interrupted by it prints
+    tracebacks; this process alone takes it, cancels the parts and closes the cluster."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _cores() -> int:
