@@ -3,7 +3,6 @@
 resume; the single-part command as the truth of each part's numbers."""
 
 import csv
-import glob
 import json
 import os
 import subprocess
@@ -18,7 +17,8 @@ from engine.pipeline import inspection_settings, load_nominal
 from engine.tolerance import Tolerance
 from qa_app import batch as qb
 from qa_app.cli import main
-from surfaces import height, height_grid, height_normal, random_rotation
+from surfaces import (height, height_normal, random_rotation, write_grid_nominal,
+                      write_labelled_points)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.dirname(sys.executable)
@@ -32,21 +32,15 @@ def _write_part(path, rng, out_of_tolerance: bool) -> None:
         height_normal(x, y)
     if out_of_tolerance:
         q[7] += 0.2 * height_normal(x[7], y[7])
-    p = apply_transform(make_transform(random_rotation(rng), rng.uniform(-500, 500, 3)), q)
-    with open(path, "w") as f:
-        f.write("id,x,y,z\n")
-        for i, v in enumerate(p):
-            f.write(f"P{i:03d},{v[0]:.6f},{v[1]:.6f},{v[2]:.6f}\n")
+    T = make_transform(random_rotation(rng), rng.uniform(-500, 500, 3))
+    write_labelled_points(path, apply_transform(T, q))
 
 
 @pytest.fixture(scope="module")
 def lot(tmp_path_factory):
     """A grid nominal and a lot of parts s01..s12: s03 and s08 with a point 0.2 mm out."""
     d = tmp_path_factory.mktemp("lot")
-    pts, nrm, (nu, nv) = height_grid(150, 100)
-    with open(d / "nominal.csv", "w") as f:
-        f.write(f"# grid: {nu} x {nv}\nx,y,z,i,j,k\n")
-        np.savetxt(f, np.hstack([pts, nrm]), fmt="%.9f", delimiter=",")
+    write_grid_nominal(d / "nominal.csv", 150, 100)
     rng = np.random.default_rng(14)
     truth = {}
     os.mkdir(d / "parts")
