@@ -346,8 +346,10 @@ def _finished(batch: Batch, loaded: LoadedNominal, part: Part) -> tuple[str, dic
     return sha, doc
 
 
-def _write_part(batch: Batch, loaded: LoadedNominal, part: Part, res: PartResult) -> str:
-    """Write one part's files, all or none (signing its certificate here); its SHA-256."""
+def _write_part(batch: Batch, loaded: LoadedNominal, part: Part,
+                res: PartResult) -> tuple[str, dict]:
+    """Write one part's files, all or none (signing its certificate here); (its SHA-256, its
+    JSON document)."""
     from reports.outputs import Output, write_all
 
     doc = json.loads(res.json)
@@ -360,7 +362,7 @@ def _write_part(batch: Batch, loaded: LoadedNominal, part: Part, res: PartResult
         outputs.append(Output(files["pdf"], finish_certificate(res.draft, batch.identity)))
     key = json.dumps(part_key(batch, loaded, sha), indent=1) + "\n"
     write_all(outputs + [Output(files["key"], key)])
-    return sha
+    return sha, doc
 
 
 def run_batch(batch: Batch, loaded: LoadedNominal, client, on_row=None) -> list[dict]:
@@ -388,8 +390,7 @@ def run_batch(batch: Batch, loaded: LoadedNominal, client, on_row=None) -> list[
         for i, res in results:
             part = batch.parts[i]
             if res.error is None:
-                sha = _write_part(batch, loaded, part, res)
-                rows[i] = summary_row(part, sha, json.loads(res.json), tracked)
+                rows[i] = summary_row(part, *_write_part(batch, loaded, part, res), tracked)
             else:
                 rows[i] = summary_row(part, _sha_or_none(part.path), None, tracked, res.error,
                                       res.seconds)

@@ -198,6 +198,29 @@ def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys)
     assert [r["verdict"] for r in rows] == ["ACCEPT", "ACCEPT", "ACCEPT", "ERROR"]
 
 
+def test_a_step_nominal_reaches_the_workers_by_path(tmp_path):
+    """A STEP model cannot be pickled: the worker reads it itself (checked by its SHA-256) and
+    keeps it for the next part; the parts' deviations are the planted exact ones."""
+    from test_step_inspection import STEP, measured_on, write
+
+    from engine.io.step import read_step
+
+    part = read_step(STEP)
+    rng = np.random.default_rng(5)
+    planted = {}
+    for serial in ("a1", "a2"):
+        M, planted[serial], _ = measured_on(part, rng, n=150)
+        write(tmp_path / f"{serial}.csv", M)
+    out = tmp_path / "out"
+    assert run("batch", STEP, tmp_path / "a1.csv", tmp_path / "a2.csv", "--tol", "0.05",
+               "--out", out, "--workers", "1", "--quiet") == 0
+    for serial, want in planted.items():
+        with open(out / "parts" / f"{serial}.csv") as f:
+            d = np.array([float(r["deviation"]) for r in csv.DictReader(f)])
+        assert np.max(np.abs(d - want)) < 1e-5  # the CSV prints 6 decimals
+    assert [r["verdict"] for r in _summary(out)["parts"]] == ["ACCEPT", "ACCEPT"]
+
+
 # ---------------------------------------------------------------------------- an external cluster
 @pytest.fixture()
 def cluster(tmp_path):
