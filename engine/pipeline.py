@@ -1,7 +1,9 @@
 """One inspection from files: read the nominal and the measured points, register, judge.
 
 The command line, the certificate's ``verify --nominal/--measured`` re-run and the desktop app all
-go through :func:`run_files`, so one set of settings gives one answer everywhere. Nothing here
+go through :func:`run_files`, so one set of settings gives one answer everywhere; a batch of parts
+reads the nominal once (:func:`load_nominal`) and inspects each measured file against it
+(:func:`inspect_measured`), which gives the same answers. Nothing here
 writes an output: the results document, the CSV, QIF and the certificate are made from the
 :class:`Run` by ``reports`` (``reports.results.run_document``).
 """
@@ -174,35 +176,108 @@ def not_planar_hint(result: InspectionResult, measured: PointSet, template_path:
             "nominal")
 
 
-def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettings) -> Run:
+@dataclass(frozen=True)
+class LoadedNominal:
+    """What an inspection reads besides the measured file, read once for any number of measured
+    files (:func:`load_nominal`, then :func:`inspect_measured` per file).
+
+    source : the nominal file as read (a point set, a 2D template or a STEP model);
+    nominal : the engine's 3D nominal built from it (None for a 2D template). Its search
+        structures are built on the first inspection and reused by the next ones;
+    plan : the inspection plan of ``settings.plan`` as read, and its record (None without one);
+    settings : the settings it was read with (template layers, units, scale, plan), which the
+        inspections use; load_s : seconds spent reading and preparing it.
+
+    Picklable (to share with other processes, e.g. Dask workers) unless the nominal is a STEP
+    model, whose OpenCascade objects are not: see :attr:`picklable`.
+    """
+
+    source: "_Nominal"
+    nominal: Nominal | None
+    plan: Plan | None
+    plan_record: InputRecord | None
+    settings: InspectionSettings
+    load_s: float
+
+    @property
+    def path(self) -> str:
+        return self.source.record.path
+
+    @property
+    def picklable(self) -> bool:
+        """False for a STEP model (its OpenCascade shapes cannot be pickled)."""
+        return self.source.step is None
+
+
+def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNominal:
+    """Read the nominal (and the plan of ``settings``) and prepare it for inspections.
+
+    Raises InputError / InputNotFoundError for a file that cannot be read and SettingsError for
+    options that do not fit it (the checks of :func:`run_files`).
+    """
     check_settings(nominal_path, settings)
-    if is_template(measured_path):
-        raise InputError("a 2D template cannot be the measured points: the template is the "
-                         "first argument (NOMINAL), the measured points the second"
-                         + ("; the files look swapped" if not is_template(nominal_path) else ""),
-                         measured_path)
     report("loading the nominal", 0.0)
     t0 = time.perf_counter()
     source = _read_nominal(nominal_path, settings)
-    report("loading the measured points", 0.0)
-    measured_ps = load_point_set(measured_path)
     nominal = None
     if source.template is None:
-        if measured_ps.dim != 3:
-            raise InputError(f"the measured points have 2 columns (x y), but the nominal "
-                             f"{nominal_path} is a 3D surface: give the measured points as x y "
-                             "z, or a 2D template (.dxf, .dat) as NOMINAL for a 2D inspection",
-                             measured_ps.path)
         report("preparing the nominal", 0.0)
         nominal = Nominal.from_point_set(source.point_set)
-    inputs = [source.record,
-              InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
-    plan = None
+    plan = record = None
     if settings.plan is not None:
         from .io.plan import read_plan
 
         plan = read_plan(settings.plan)
-        inputs.append(InputRecord("plan", settings.plan, plan.sha256, None))
+        record = InputRecord("plan", settings.plan, plan.sha256, None)
+    return LoadedNominal(source, nominal, plan, record, settings, time.perf_counter() - t0)
+
+
+def inspect_measured(loaded: LoadedNominal, measured_path: str,
+                     progress: Callback | None = None) -> Run:
+    """Read one measured file and inspect it against ``loaded`` with ``loaded.settings``: the
+    same Run as :func:`run_files` gives for the same files (its ``load`` and ``total`` timings
+    count the measured file only). Raises InputError / InputNotFoundError for a bad file.
+
+    progress : as for :func:`run_files`.
+    """
+    with reporting(progress):
+        return _inspect_measured(loaded, measured_path)
+
+
+def _run_files(nominal_path: str, measured_path: str, settings: InspectionSettings) -> Run:
+    if is_template(measured_path):  # before reading a nominal that may take a while
+        _refuse_template(nominal_path, measured_path)
+    loaded = load_nominal(nominal_path, settings)
+    run = _inspect_measured(loaded, measured_path)
+    timings = dict(run.timings_s, load=run.timings_s["load"] + loaded.load_s,
+                   total=run.timings_s["total"] + loaded.load_s)
+    return dataclasses.replace(run, timings_s=timings)
+
+
+def _refuse_template(nominal_path: str, measured_path: str) -> None:
+    raise InputError("a 2D template cannot be the measured points: the template is the "
+                     "first argument (NOMINAL), the measured points the second"
+                     + ("; the files look swapped" if not is_template(nominal_path) else ""),
+                     measured_path)
+
+
+def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
+    source, nominal, settings, plan = loaded.source, loaded.nominal, loaded.settings, loaded.plan
+    nominal_path = loaded.path
+    if is_template(measured_path):
+        _refuse_template(nominal_path, measured_path)
+    report("loading the measured points", 0.0)
+    t0 = time.perf_counter()
+    measured_ps = load_point_set(measured_path)
+    if source.template is None and measured_ps.dim != 3:
+        raise InputError(f"the measured points have 2 columns (x y), but the nominal "
+                         f"{nominal_path} is a 3D surface: give the measured points as x y "
+                         "z, or a 2D template (.dxf, .dat) as NOMINAL for a 2D inspection",
+                         measured_ps.path)
+    inputs = [source.record,
+              InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
+    if loaded.plan_record is not None:
+        inputs.append(loaded.plan_record)
     t1 = time.perf_counter()
     if source.template is not None:
         result = _inspect_template(source.template, measured_ps, settings, plan)

@@ -1,7 +1,9 @@
 """``qa-inspect``: the command line over the engine's pipeline and the reports.
 
 Exit codes (a contract): 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE, 64 usage error, 65 bad input data,
-66 input file not found, 73 an output could not be written, 70 internal error, 130 interrupted.
+66 input file not found, 69 the Dask scheduler cannot be reached or has no worker (``batch``), 73
+an output could not be written, 70 internal error, 130 interrupted. ``batch`` exits 0 when every
+part is ACCEPT, else 1 if any is REJECT, else 2 if any is INCONCLUSIVE, else 65 (ERROR parts).
 
 Usage errors (64) include an empty file name, an output that is one of the run's inputs (NOMINAL,
 MEASURED, the --sign identity) or another output, an output onto a folder, a socket, a block
@@ -25,7 +27,7 @@ import sys
 from engine.errors import QAError
 
 EXIT = {"ACCEPT": 0, "REJECT": 1, "INCONCLUSIVE": 2}
-EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 70, 73
+EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_UNAVAILABLE, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 69, 70, 73
 
 
 class UsageError(QAError, ValueError):
@@ -56,9 +58,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     _add_inspect(sub)
+    _add_batch(sub)
     _add_keygen(sub)
     _add_verify(sub)
     return p
+
+
+NOMINAL_HELP = ("nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, '# grid: NU x "
+                "NV' header for a u-v grid), mesh (.stl .ply .obj .vtk .vtp), structured grid "
+                "(.vts), a STEP model (.stp .step: deviations exact to its faces), or a 2D "
+                "contour template: a DXF drawing (.dxf) or airfoil ordinates (.dat, with "
+                "--scale)")
 
 
 def _add_inspect(sub: argparse._SubParsersAction) -> None:
@@ -69,12 +79,24 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
                        "point's signed deviation (positive = excess material, mm) and judge it "
                        "against the tolerance zone. Exit code 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE.")
     i.add_argument("nominal", metavar="NOMINAL",
-                   help="nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, "
-                        "'# grid: NU x NV' header for a u-v grid), mesh (.stl .ply .obj .vtk "
-                        ".vtp), structured grid (.vts), a STEP model (.stp .step: deviations "
-                        "exact to its faces), or a 2D contour template: a DXF drawing (.dxf) or "
-                        "airfoil ordinates (.dat, with --scale)")
+                   help=NOMINAL_HELP)
     i.add_argument("measured", metavar="MEASURED", help="measured points (same formats)")
+    _add_zone_options(i)
+    i.add_argument("--layer", action="append", metavar="NAME",
+                   help="DXF template: take this layer (repeatable; default: every layer)")
+    i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
+                   help="DXF template: its units, overriding the file's $INSUNITS")
+    i.add_argument("--scale", type=_finite_float, metavar="CHORD",
+                   help="airfoil ordinate template (.dat): chord length in mm")
+    _add_fit_options(i)
+    i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
+    i.add_argument("--csv", metavar="FILE|-",
+                   help="write one CSV row per measured point (- for stdout)")
+    _add_certificate_options(i)
+
+
+def _add_zone_options(i: argparse.ArgumentParser) -> None:
+    """The tolerance zone (mm) or the inspection plan, of ``inspect`` and ``batch``."""
     i.add_argument("--tol", type=_finite_float, metavar="T",
                    help="symmetric tolerance: deviations within ±T mm are in tolerance")
     i.add_argument("--tol-lower", type=_finite_float, metavar="L",
@@ -85,12 +107,10 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
                    help="inspection plan: regions, datums, alignment and characteristics "
                         "(profile, flatness, position, size); with it --tol is optional and "
                         "adds a profile over all points")
-    i.add_argument("--layer", action="append", metavar="NAME",
-                   help="DXF template: take this layer (repeatable; default: every layer)")
-    i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
-                   help="DXF template: its units, overriding the file's $INSUNITS")
-    i.add_argument("--scale", type=_finite_float, metavar="CHORD",
-                   help="airfoil ordinate template (.dat): chord length in mm")
+
+
+def _add_fit_options(i: argparse.ArgumentParser) -> None:
+    """The fit and the decision rule, of ``inspect`` and ``batch``."""
     i.add_argument("--fit", choices=["lsq", "minimax"], default="lsq",
                    help="lsq: least-squares best fit (default); minimax: the pose minimising the "
                         "largest excursion from the zone's centre ('can the part be placed "
@@ -98,10 +118,6 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i.add_argument("--decision-rule", choices=["simple", "guarded"], default="simple",
                    help="simple: every point inside the zone (default); guarded: limits guarded "
                         "by each point's nominal-sampling margin, INCONCLUSIVE between")
-    i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
-    i.add_argument("--csv", metavar="FILE|-",
-                   help="write one CSV row per measured point (- for stdout)")
-    _add_certificate_options(i)
 
 
 def _add_certificate_options(i: argparse.ArgumentParser) -> None:
@@ -116,15 +132,60 @@ def _add_certificate_options(i: argparse.ArgumentParser) -> None:
     c.add_argument("--sign-pass-env", metavar="VAR",
                    help="read the PKCS#12 passphrase from environment variable VAR (default: "
                         "ask without echo)")
-    for name, text in (("part-number", "part number"), ("part-name", "part name"),
-                       ("revision", "drawing/part revision"), ("serial", "serial number"),
-                       ("order", "order or job number"),
-                       ("inspector", "inspector's name (signed: the signer's, which is the "
-                                     "default)"),
-                       ("organisation", "inspecting organisation"),
-                       ("device", "measuring device (CMM, scanner)"),
-                       ("notes", "free text printed on the certificate")):
-        c.add_argument(f"--{name}", metavar="TEXT", help=text)
+    _add_part_fields(c, PART_FIELDS)
+
+
+PART_FIELDS = (("part-number", "part number"), ("part-name", "part name"),
+               ("revision", "drawing/part revision"), ("serial", "serial number"),
+               ("order", "order or job number"),
+               ("inspector", "inspector's name (signed: the signer's, which is the default)"),
+               ("organisation", "inspecting organisation"),
+               ("device", "measuring device (CMM, scanner)"),
+               ("notes", "free text printed on the certificate"))
+"""The certificate's fields the inspector states (``--part-number TEXT``, ...)."""
+
+
+def _add_part_fields(group, fields) -> None:
+    for name, text in fields:
+        group.add_argument(f"--{name}", metavar="TEXT", help=text)
+
+
+def _add_batch(sub: argparse._SubParsersAction) -> None:
+    """``qa-inspect batch NOMINAL MEASURED...``: the parts, the zone or plan, the output folder,
+    the certificates, and the Dask cluster."""
+    b = sub.add_parser("batch", help="inspect many parts against one nominal (on Dask)",
+                       description="Inspect every MEASURED part against NOMINAL on a local Dask "
+                       "cluster (or an existing one, --scheduler) and write DIR/parts/SERIAL."
+                       "json/.csv (and .pdf with --report), DIR/summary.csv and "
+                       "DIR/summary.json. A part that fails is an ERROR row. Re-running skips "
+                       "the parts already done for the same inputs and settings. Exit code 0 "
+                       "all ACCEPT, else 1 any REJECT, else 2 any INCONCLUSIVE, else 65.")
+    b.add_argument("nominal", metavar="NOMINAL", help=NOMINAL_HELP)
+    b.add_argument("measured", metavar="MEASURED", nargs="+",
+                   help="measured files or quoted globs ('lot7/*.csv'), one part each, in "
+                        "measurement order (a glob's matches sorted by name); a part's serial "
+                        "is its file's stem")
+    _add_zone_options(b)
+    b.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    _add_fit_options(b)
+    c = b.add_argument_group("certificates")
+    c.add_argument("--report", action="store_true",
+                   help="write each part's certificate DIR/parts/SERIAL.pdf (an UNSIGNED DRAFT "
+                        "without --sign)")
+    c.add_argument("--sign", metavar="IDENTITY.p12",
+                   help="sign the certificates with this PKCS#12 identity (in this process: the "
+                        "key is never sent to the workers)")
+    c.add_argument("--sign-pass-env", metavar="VAR",
+                   help="read the PKCS#12 passphrase from environment variable VAR (default: "
+                        "ask without echo)")
+    _add_part_fields(c, [f for f in PART_FIELDS if f[0] != "serial"])
+    d = b.add_argument_group("cluster")
+    d.add_argument("--scheduler", metavar="ADDRESS",
+                   help="the Dask scheduler of an existing cluster (tcp://HOST:PORT); its "
+                        "workers must read the files at the same paths")
+    d.add_argument("--workers", type=int, metavar="N",
+                   help="worker processes of the local cluster (default: the cores)")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _add_keygen(sub: argparse._SubParsersAction) -> None:
@@ -166,6 +227,10 @@ USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --t
                   [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U]
                   [--scale CHORD]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
+       qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
+                  --plan PLAN.toml) --out DIR [--fit …] [--decision-rule …]
+                  [--report [--sign ID.p12 --sign-pass-env VAR] [--part-number …]]
+                  [--scheduler ADDRESS] [--workers N] [--quiet]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
        qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE
                   [--plan FILE]]
@@ -181,7 +246,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.command is None:
             raise UsageError("qa-inspect: a command is required (try 'qa-inspect inspect --help')")
-        command = {"inspect": _cmd_inspect, "keygen": _cmd_keygen, "verify": _cmd_verify}
+        command = {"inspect": _cmd_inspect, "batch": _cmd_batch, "keygen": _cmd_keygen,
+                   "verify": _cmd_verify}
         return _guarded(command[args.command], args)
     except UsageError as e:
         print(str(e), file=sys.stderr)
@@ -211,28 +277,28 @@ def _no_empty_paths(command: str, paths: dict[str, str | None]) -> None:
                                  "empty one)")
 
 
-def _tolerance(args):
+def _tolerance(args, command: str = "inspect"):
     from engine.errors import SettingsError
     from engine.inspection import Tolerance
 
     asym = args.tol_lower is not None or args.tol_upper is not None
     try:
         if args.tol is not None and asym:
-            raise UsageError("qa-inspect inspect: give either --tol or --tol-lower/--tol-upper, "
-                             "not both")
+            raise UsageError(f"qa-inspect {command}: give either --tol or --tol-lower/"
+                             "--tol-upper, not both")
         if args.tol is not None:
             return Tolerance.symmetric(args.tol)
         if asym:
             if args.tol_lower is None or args.tol_upper is None:
-                raise UsageError("qa-inspect inspect: an asymmetric zone needs both --tol-lower "
-                                 "and --tol-upper")
+                raise UsageError(f"qa-inspect {command}: an asymmetric zone needs both "
+                                 "--tol-lower and --tol-upper")
             return Tolerance(args.tol_lower, args.tol_upper)
     except SettingsError as e:
-        raise UsageError(f"qa-inspect inspect: {e}") from e
+        raise UsageError(f"qa-inspect {command}: {e}") from e
     if args.plan is not None:
         return None  # the plan's characteristics are the requirement
-    raise UsageError("qa-inspect inspect: a tolerance is required (--tol T, or --tol-lower L "
-                     "--tol-upper U, or an inspection plan --plan PLAN.toml)")
+    raise UsageError(f"qa-inspect {command}: a tolerance is required (--tol T, or --tol-lower "
+                     "L --tol-upper U, or an inspection plan --plan PLAN.toml)")
 
 
 def _guarded(command, args) -> int:
@@ -291,6 +357,62 @@ def _cmd_inspect(args) -> int:
     finally:
         if renderer is not None:
             renderer.close()
+
+
+def _cmd_batch(args) -> int:
+    from engine.errors import SettingsError
+    from engine.pipeline import inspection_settings, load_nominal
+    from qa_app import batch as qb
+
+    _no_empty_paths("batch", {"NOMINAL": args.nominal, "MEASURED": args.measured,
+                              "--out": args.out, "--sign": args.sign, "--plan": args.plan})
+    tol = _tolerance(args, "batch")
+    if args.sign and not args.report:
+        raise UsageError("qa-inspect batch: --sign needs --report")
+    if args.workers is not None and (args.scheduler or args.workers < 1):
+        raise UsageError("qa-inspect batch: --workers N (N >= 1) sets the local cluster's "
+                         "workers; an existing cluster (--scheduler) has its own")
+    try:
+        parts = qb.find_parts(args.measured)
+        info, identity = _certificate_identity(args, "batch")
+        job = qb.Batch(parts, args.out, info, identity)
+        qb.check_batch_outputs(job, [args.nominal, args.plan, args.sign]
+                               + [p.path for p in parts])
+        # Absolute paths: the workers may run elsewhere (the same files at the same paths).
+        settings = inspection_settings(tol, args.plan and os.path.abspath(args.plan),
+                                       fit=args.fit, decision_rule=args.decision_rule)
+        loaded = load_nominal(os.path.abspath(args.nominal), settings)  # once, before the cluster
+        qb.check_certifiable(job, loaded)
+    except SettingsError as e:
+        raise UsageError(f"qa-inspect batch: {e}") from e
+    return _run_batch(args, job, loaded)
+
+
+def _run_batch(args, job, loaded) -> int:
+    import time
+
+    from qa_app import batch as qb
+
+    bar = None if args.quiet or not sys.stderr.isatty() else qb.ProgressBar(len(job.parts))
+    t0 = time.monotonic()
+    try:
+        with qb.dask_client(args.scheduler, args.workers) as client:
+            rows = qb.run_batch(job, loaded, client, on_row=bar and bar.update)
+    except KeyboardInterrupt:
+        if bar is not None:
+            bar.close()
+        print(f"qa-inspect batch: interrupted; each part in {os.path.join(job.out, 'parts')} "
+              "is complete, the others were not written; run the same command again to "
+              "resume", file=sys.stderr)
+        return 130
+    except ConnectionError as e:
+        print(f"qa-inspect: error: {e}", file=sys.stderr)
+        return EX_UNAVAILABLE
+    if bar is not None:
+        bar.close()
+    written = qb.write_summary(job, loaded, rows)
+    print(qb.summary_text(rows, time.monotonic() - t0, written))
+    return qb.exit_code([r["verdict"] for r in rows])
 
 
 def _cmd_keygen(args) -> int:
@@ -445,19 +567,15 @@ def _changed_characteristics(certified: list[dict], rerun: list[dict]) -> list[s
     return changed + [i for i in again if i not in {c["id"] for c in certified}]
 
 
-def _run_inspect(args, tol, renderer) -> int:
-    from engine.errors import SettingsError
-    from engine.pipeline import inspection_settings, run_files
-    from reports.outputs import Output, OutputConflictError, write_all
-    from reports.results import points_csv, result_json, run_document
-
+def _certificate_identity(args, command: str):
+    """(CertificateInfo or None without --report, the signing Identity or None without
+    --sign), the identity loaded and checked against --inspector before any work."""
     info = identity = None
     if args.report:
         from reports.certificate import CertificateInfo
 
-        info = CertificateInfo(**{k: getattr(args, k) for k in (
-            "part_number", "part_name", "revision", "serial", "order", "inspector",
-            "organisation", "device", "notes")})
+        info = CertificateInfo(**{k.replace("-", "_"): getattr(args, k.replace("-", "_"), None)
+                                  for k, _ in PART_FIELDS})
     if args.sign:
         from reports.certificate import CertificationError, check_inspector
         from reports.signing import load_identity
@@ -468,9 +586,19 @@ def _run_inspect(args, tol, renderer) -> int:
         try:
             check_inspector(info, identity)
         except CertificationError as e:
-            raise UsageError(f"qa-inspect inspect: {e}") from e
+            raise UsageError(f"qa-inspect {command}: {e}") from e
     elif args.sign_pass_env:
-        raise UsageError("qa-inspect inspect: --sign-pass-env applies with --sign only")
+        raise UsageError(f"qa-inspect {command}: --sign-pass-env applies with --sign only")
+    return info, identity
+
+
+def _run_inspect(args, tol, renderer) -> int:
+    from engine.errors import SettingsError
+    from engine.pipeline import inspection_settings, run_files
+    from reports.outputs import Output, OutputConflictError, write_all
+    from reports.results import points_csv, result_json, run_document
+
+    info, identity = _certificate_identity(args, "inspect")
     try:
         # A plan alone (no --tol): its zone for the per-point statistics, outside the verdict.
         settings = inspection_settings(tol, args.plan, layers=None if args.layer is None

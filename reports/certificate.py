@@ -204,6 +204,29 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     renderer : a :class:`reports.figures.RenderProcess` started earlier (default: render in
         this process).
     """
+    return finish_certificate(draft_certificate(run, info, identity, issued, renderer), identity)
+
+
+@dataclass(frozen=True)
+class CertificateDraft:
+    """A certificate laid out for its signer but not yet finished: the PDF, the files to embed,
+    the signature boxes and the signature's reason and location. Made where the inspection ran
+    (:func:`draft_certificate`, which needs only the signer's public identity), finished and
+    signed where the key is (:func:`finish_certificate`); picklable."""
+
+    pdf: bytes
+    attachments: list[Attachment]
+    slots: dict[str, SignatureSlot]
+    reason: str
+    location: str
+
+
+def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
+                      issued: dt.datetime | None = None, renderer=None) -> CertificateDraft:
+    """Lay out the certificate of ``run`` as ``identity`` will sign it (None: an unsigned
+    draft). ``identity`` may be :meth:`Identity.public`: no key is used here. Raises
+    CertificationError as :func:`certified_info` does; renderer : as for
+    :func:`make_certificate`."""
     check_trustworthy(run)
     res = run.result
     info = certified_info(plan_info(info, run), identity, res.verdict)
@@ -234,13 +257,20 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
                    "qa-inspect results with the settings to re-run the inspection"),
     ]
     if identity is not None:
-        identity.signer  # the pyHanko import overlaps the render
+        import pyhanko.sign.signers  # noqa: F401  (the import overlaps the render)
     if run.template is None:
         views = pending.result()
     pdf, slots = build_pdf(run, info, number, issued, identity, attachments, views)
-    return finish_pdf(pdf, attachments, slots, identity,
-                      reason=f"Inspection certificate {number}: {VERDICT_WORD[res.verdict]}",
-                      location=info.organisation or "")
+    return CertificateDraft(pdf, attachments, slots,
+                            f"Inspection certificate {number}: {VERDICT_WORD[res.verdict]}",
+                            info.organisation or "")
+
+
+def finish_certificate(draft: CertificateDraft, identity: Identity | None) -> bytes:
+    """The certificate PDF of ``draft``, signed with ``identity`` (which must be the identity,
+    key included, that the draft was laid out for; None: the unsigned draft)."""
+    return finish_pdf(draft.pdf, draft.attachments, draft.slots, identity,
+                      reason=draft.reason, location=draft.location)
 
 
 # ---------------------------------------------------------------------------- layout

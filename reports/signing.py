@@ -19,7 +19,7 @@ import hashlib
 import io
 import logging
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from engine.errors import InputError, QAError
 from engine.io.points import read_bytes
@@ -73,6 +73,11 @@ class Identity:
     _p12: bytes = field(repr=False, default=b"")
     _passphrase: bytes | None = field(repr=False, default=None)
     _signer: object = field(repr=False, default=None)
+
+    def public(self) -> "Identity":
+        """This identity without its key (and passphrase): what a certificate's layout needs
+        (names, issuer, CA fingerprint), safe to hand to another process."""
+        return replace(self, _p12=b"", _passphrase=None, _signer=None)
 
     @property
     def signer(self):

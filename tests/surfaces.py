@@ -27,6 +27,22 @@ def height_grid(nu=300, nv=200):
     return np.column_stack([x, y, height(x, y)]), height_normal(x, y), (nu, nv)
 
 
+def write_grid_nominal(path, nu=150, nv=100):
+    """Write :func:`height_grid` as a nominal file: '# grid:' header, x y z i j k columns."""
+    pts, nrm, _ = height_grid(nu, nv)
+    with open(path, "w") as f:
+        f.write(f"# grid: {nu} x {nv}\nx,y,z,i,j,k\n")
+        np.savetxt(f, np.hstack([pts, nrm]), fmt="%.9f", delimiter=",")
+
+
+def write_labelled_points(path, points):
+    """Write (n, 3) points as a CMM file: 'id,x,y,z' with labels P000, P001, ..."""
+    with open(path, "w") as f:
+        f.write("id,x,y,z\n")
+        for i, p in enumerate(points):
+            f.write(f"P{i:03d},{p[0]:.6f},{p[1]:.6f},{p[2]:.6f}\n")
+
+
 def exact_signed_distance(q):
     """Signed distance (positive along +z-ish normal) from q to the height surface (Newton)."""
     out = np.empty(len(q))

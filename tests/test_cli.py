@@ -14,7 +14,8 @@ import pytest
 
 from engine.geometry import apply_transform, make_transform
 from qa_app.cli import main
-from surfaces import height, height_grid, height_normal, random_rotation
+from surfaces import (height, height_normal, random_rotation, write_grid_nominal,
+                      write_labelled_points)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -23,10 +24,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def files(tmp_path_factory):
     """A grid nominal with normals and two measured files (in tolerance, and one point out)."""
     d = tmp_path_factory.mktemp("cli")
-    pts, nrm, (nu, nv) = height_grid(150, 100)
-    with open(d / "nominal.csv", "w") as f:
-        f.write(f"# grid: {nu} x {nv}\nx,y,z,i,j,k\n")
-        np.savetxt(f, np.hstack([pts, nrm]), fmt="%.9f", delimiter=",")
+    write_grid_nominal(d / "nominal.csv", 150, 100)
     rng = np.random.default_rng(0)
     x, y = rng.uniform(-240, 240, 300), rng.uniform(-115, 115, 300)
     dev = rng.normal(0, 0.002, 300)
@@ -36,10 +34,7 @@ def files(tmp_path_factory):
     bad = good.copy()
     bad[7] = apply_transform(T, (q[7] + 0.2 * height_normal(x[7], y[7]))[None])[0]
     for name, arr in (("good.csv", good), ("bad.csv", bad)):
-        with open(d / name, "w") as f:
-            f.write("id,x,y,z\n")
-            for i, p in enumerate(arr):
-                f.write(f"P{i:03d},{p[0]:.6f},{p[1]:.6f},{p[2]:.6f}\n")
+        write_labelled_points(d / name, arr)
     return d, T, dev, q
 
 
@@ -359,10 +354,7 @@ def test_version(capsys):
 def test_swapped_files_say_so(files, tmp_path, capsys):
     """A grid nominal with normals given as MEASURED, 100 bare measured points as NOMINAL."""
     d, _, _, _ = files
-    pts, nrm, (nu, nv) = height_grid(60, 40)
-    with open(tmp_path / "nominal.csv", "w") as f:
-        f.write(f"# grid: {nu} x {nv}\nx,y,z,i,j,k\n")
-        np.savetxt(f, np.hstack([pts, nrm]), fmt="%.9f", delimiter=",")
+    write_grid_nominal(tmp_path / "nominal.csv", 60, 40)
     with open(d / "good.csv") as src, open(tmp_path / "measured.csv", "w") as f:
         f.writelines(src.readlines()[:101])
     code = run("inspect", tmp_path / "measured.csv", tmp_path / "nominal.csv", "--tol", "0.05",

@@ -1,0 +1,316 @@
+"""``qa-inspect batch``: every part once, on a local Dask cluster and on a real external one (a
+``dask scheduler`` and two ``dask worker`` processes, one killed mid-batch); ERROR rows;
+resume; the single-part command as the truth of each part's numbers."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from engine.geometry import apply_transform, make_transform
+from engine.pipeline import inspection_settings, load_nominal
+from engine.tolerance import Tolerance
+from qa_app import batch as qb
+from qa_app.cli import main
+from surfaces import (height, height_normal, random_rotation, write_grid_nominal,
+                      write_labelled_points)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BIN = os.path.dirname(sys.executable)
+GOOD, BAD = "ACCEPT", "REJECT"
+
+
+def _write_part(path, rng, out_of_tolerance: bool) -> None:
+    """300 points on the grid surface with 2 um noise in a random pose; one point 0.2 mm out."""
+    x, y = rng.uniform(-240, 240, 300), rng.uniform(-115, 115, 300)
+    q = np.column_stack([x, y, height(x, y)]) + rng.normal(0, 0.002, 300)[:, None] * \
+        height_normal(x, y)
+    if out_of_tolerance:
+        q[7] += 0.2 * height_normal(x[7], y[7])
+    T = make_transform(random_rotation(rng), rng.uniform(-500, 500, 3))
+    write_labelled_points(path, apply_transform(T, q))
+
+
+@pytest.fixture(scope="module")
+def lot(tmp_path_factory):
+    """A grid nominal and a lot of parts s01..s12: s03 and s08 with a point 0.2 mm out."""
+    d = tmp_path_factory.mktemp("lot")
+    write_grid_nominal(d / "nominal.csv", 150, 100)
+    rng = np.random.default_rng(14)
+    truth = {}
+    os.mkdir(d / "parts")
+    for k in range(1, 13):
+        serial = f"s{k:02d}"
+        _write_part(d / "parts" / f"{serial}.csv", rng, k in (3, 8))
+        truth[serial] = BAD if k in (3, 8) else GOOD
+    return d, truth
+
+
+def run(*args):
+    return main([str(a) for a in args])
+
+
+def _summary(out):
+    with open(os.path.join(out, "summary.json")) as f:
+        return json.load(f)
+
+
+def _complete_parts(out):
+    """The serials with a complete result; fails on any partial or temporary file."""
+    files = os.listdir(os.path.join(out, "parts"))
+    assert not [f for f in files if f.startswith((".tmp-", ".keep-"))], files
+    serials = {f.split(".")[0] for f in files if f.endswith(".json") and not f.startswith(".")}
+    for s in serials:
+        assert {f"{s}.json", f"{s}.csv", f".{s}.key.json"} <= set(files), s
+    assert len(files) == 3 * len(serials), files
+    return serials
+
+
+# ---------------------------------------------------------------------------- without a cluster
+def test_exit_codes_in_order_of_precedence():
+    assert qb.exit_code(["ACCEPT", "ACCEPT"]) == 0
+    assert qb.exit_code(["ACCEPT", "INCONCLUSIVE", "REJECT", "ERROR"]) == 1
+    assert qb.exit_code(["ACCEPT", "INCONCLUSIVE", "ERROR"]) == 2
+    assert qb.exit_code(["ACCEPT", "ERROR"]) == 65
+    assert qb.exit_code(["ERROR"]) == 65
+
+
+def test_progress_line_counts_rate_and_time_left():
+    # 30 of 200 done, 20 of them inspected in 8 s (10 skipped): 2.5 parts/s, 170 left: 68 s.
+    line = qb.progress_line(30, 200, 20, 8.0, {"ACCEPT": 25, "REJECT": 4, "ERROR": 1}, 20)
+    assert line.startswith("[###.................] 30/200 parts  2.50 parts/s  ETA 1:08")
+    assert line.endswith("ACCEPT 25 REJECT 4 INCONCLUSIVE 0 ERROR 1")
+
+
+def test_parts_in_measurement_order_and_usage_errors(lot, tmp_path, capsys):
+    d, _ = lot
+    parts = qb.find_parts([str(d / "parts" / "s1*.csv"), str(d / "parts" / "s02.csv"),
+                           str(d / "parts" / "s0[12].csv")])
+    assert [p.serial for p in parts] == ["s10", "s11", "s12", "s02", "s01"]
+    os.mkdir(tmp_path / "other")
+    (tmp_path / "other" / "s01.csv").write_bytes((d / "parts" / "s01.csv").read_bytes())
+    for measured, words in (([d / "parts" / "s01.csv", tmp_path / "other" / "s01.csv"],
+                             "two parts have the serial 's01'"),
+                            ([d / "parts" / "*.xyz"], "matches no file"),
+                            ([d / "parts" / "s99.csv"], "does not exist")):
+        code = run("batch", d / "nominal.csv", *measured, "--tol", "0.1", "--out",
+                   tmp_path / "o")
+        assert code == 64 and words in capsys.readouterr().err
+    # An output onto an input: with --out the lot's folder, parts/s01.csv is the measured file.
+    before = (d / "parts" / "s01.csv").read_bytes()
+    code = run("batch", d / "nominal.csv", d / "parts" / "s01.csv", "--tol", "0.1", "--out", d)
+    assert code == 64 and "never replaces an input" in capsys.readouterr().err
+    assert (d / "parts" / "s01.csv").read_bytes() == before
+    assert not os.path.exists(tmp_path / "o") and not os.path.exists(d / "summary.json")
+
+
+def test_one_nominal_for_many_parts_gives_the_single_run_results(lot, tmp_path):
+    """load_nominal once + inspect_measured per part == run_files per part, also for a bare
+    point nominal whose normals are estimated (and cached) on the first part's demand."""
+    from engine.pipeline import inspect_measured, run_files
+    from reports.results import points_csv, run_document
+
+    d, _ = lot
+    with open(d / "nominal.csv") as f:
+        rows = np.loadtxt(f, delimiter=",", skiprows=2)
+    bare = tmp_path / "bare.xyz"
+    np.savetxt(bare, rows[::2, :3], fmt="%.9f")  # no normals, no grid
+    settings = inspection_settings(Tolerance.symmetric(0.1))
+    for nominal in (d / "nominal.csv", bare):
+        loaded = load_nominal(str(nominal), settings)
+        for serial in ("s03", "s01", "s02"):
+            part = str(d / "parts" / f"{serial}.csv")
+            shared, fresh = inspect_measured(loaded, part), run_files(str(nominal), part,
+                                                                      settings)
+            a, b = run_document(shared), run_document(fresh)
+            a.pop("timings_s"), b.pop("timings_s")
+            assert a == b
+            assert points_csv(shared.result, shared.measured.points, None) == \
+                points_csv(fresh.result, fresh.measured.points, None)
+
+
+# ---------------------------------------------------------------------------- the local cluster
+def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys):
+    d, truth = lot
+    bad = tmp_path / "s05x.csv"
+    bad.write_text("id,x,y,z\nP1,1,2\n")
+    measured = [d / "parts" / f"s0{k}.csv" for k in (1, 2, 3)] + [bad]
+    out = tmp_path / "out"
+    args = ["batch", d / "nominal.csv", *measured, "--tol", "0.1", "--out", out,
+            "--workers", "2", "--quiet"]
+    assert run(*args) == 1  # a REJECT among ACCEPTs and an ERROR
+    assert capsys.readouterr().err == ""  # --quiet, and the cluster's logs silenced
+    first = _summary(out)
+    rows = first["parts"]
+    assert [r["serial"] for r in rows] == ["s01", "s02", "s03", "s05x"]
+    assert [r["verdict"] for r in rows] == [truth["s01"], truth["s02"], truth["s03"], "ERROR"]
+    assert rows[3]["message"].startswith(f"{bad}:2:")  # the file and line
+    assert first["counts"] == {"ACCEPT": 2, "REJECT": 1, "INCONCLUSIVE": 0, "ERROR": 1}
+    assert _complete_parts(out) == {"s01", "s02", "s03"}
+    # Each part: the document and CSV of the single-part command (the truth).
+    for r, path in zip(rows[:3], measured):
+        truth_json, truth_csv = tmp_path / "t.json", tmp_path / "t.csv"
+        assert run("inspect", os.path.abspath(d / "nominal.csv"), os.path.abspath(path),
+                   "--tol", "0.1", "--json", truth_json, "--csv", truth_csv) == \
+            (0 if r["verdict"] == GOOD else 1)
+        want = json.loads(truth_json.read_text())
+        got = json.loads((out / "parts" / f"{r['serial']}.json").read_text())
+        want.pop("timings_s"), got.pop("timings_s")
+        assert got == want
+        assert (out / "parts" / f"{r['serial']}.csv").read_text() == truth_csv.read_text()
+        assert r["max_abs"] == want["deviations"]["max_abs"]
+        assert r["n_out"] == want["deviations"]["n_out"]
+        assert r["values"] == {"max_abs": want["deviations"]["max_abs"],
+                               "mean": want["deviations"]["mean"],
+                               "fraction_in": want["deviations"]["fraction_in"]}
+        assert r["sha256"] == next(i["sha256"] for i in want["inputs"]
+                                   if i["role"] == "measured")
+    assert [(c["id"], c["lower"], c["upper"]) for c in first["characteristics"]] == [
+        ("max_abs", None, 0.1), ("mean", -0.1, 0.1), ("fraction_in", 1.0, None)]
+    with open(out / "summary.csv") as f:
+        table = list(csv.DictReader(f))
+    assert [(t["serial"], t["verdict"]) for t in table] == [(r["serial"], r["verdict"])
+                                                            for r in rows]
+    assert float(table[2]["max_abs_mm"]) == rows[2]["max_abs"]
+    capsys.readouterr()
+
+    # Resume: the same command skips the three results, re-tries the ERROR; same summary.
+    assert run(*args) == 1
+    assert "3 skipped" in capsys.readouterr().out
+    again = _summary(out)
+    assert [r["skipped"] for r in again["parts"]] == [True, True, True, False]
+    for r in again["parts"] + first["parts"]:
+        r.pop("skipped")
+    again["parts"][3].pop("time_s"), first["parts"][3].pop("time_s")
+    assert (again.pop("skipped"), first.pop("skipped")) == (3, 0)
+    assert again == first
+
+    # Other settings: every part is inspected again; the 0.2 mm point is inside +-0.3.
+    args[args.index("0.1")] = "0.3"
+    assert run(*args) == 65  # ACCEPTs and an ERROR
+    rows = _summary(out)["parts"]
+    assert [r["skipped"] for r in rows] == [False] * 4
+    assert [r["verdict"] for r in rows] == ["ACCEPT", "ACCEPT", "ACCEPT", "ERROR"]
+
+
+def test_a_step_nominal_reaches_the_workers_by_path(tmp_path):
+    """A STEP model cannot be pickled: the worker reads it itself (checked by its SHA-256) and
+    keeps it for the next part; the parts' deviations are the planted exact ones."""
+    from test_step_inspection import STEP, measured_on, write
+
+    from engine.io.step import read_step
+
+    part = read_step(STEP)
+    rng = np.random.default_rng(5)
+    planted = {}
+    for serial in ("a1", "a2"):
+        M, planted[serial], _ = measured_on(part, rng, n=150)
+        write(tmp_path / f"{serial}.csv", M)
+    out = tmp_path / "out"
+    assert run("batch", STEP, tmp_path / "a1.csv", tmp_path / "a2.csv", "--tol", "0.05",
+               "--out", out, "--workers", "1", "--quiet") == 0
+    for serial, want in planted.items():
+        with open(out / "parts" / f"{serial}.csv") as f:
+            d = np.array([float(r["deviation"]) for r in csv.DictReader(f)])
+        assert np.max(np.abs(d - want)) < 1e-5  # the CSV prints 6 decimals
+    assert [r["verdict"] for r in _summary(out)["parts"]] == ["ACCEPT", "ACCEPT"]
+
+
+# ---------------------------------------------------------------------------- an external cluster
+@pytest.fixture()
+def cluster(tmp_path):
+    """A real ``dask scheduler`` and two ``dask worker`` processes (no nanny: a killed worker
+    stays dead) on localhost, importing this tree; the scheduler's address."""
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    sched_file = str(tmp_path / "scheduler.json")
+    common = dict(env=env, cwd=str(tmp_path), stdout=subprocess.DEVNULL,
+                  stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen([os.path.join(BIN, "dask"), "scheduler", "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard", "--scheduler-file",
+                               sched_file], **common)]
+    try:
+        procs += [subprocess.Popen([os.path.join(BIN, "dask"), "worker", "--scheduler-file",
+                                    sched_file, "--nthreads", "1", "--no-nanny",
+                                    "--no-dashboard", "--name", f"w{k}"], **common)
+                  for k in range(2)]
+        from distributed import Client
+
+        deadline = time.monotonic() + 60
+        while not os.path.exists(sched_file) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        with open(sched_file) as f:
+            address = json.load(f)["address"]
+        with Client(address, timeout=30) as c:
+            c.wait_for_workers(2, timeout=60)
+        yield address, procs[1:]
+    finally:
+        for p in procs:
+            p.kill()  # throwaway processes: no graceful shutdown to wait for
+            p.wait()
+
+
+def _batch(lot, out, serials):
+    d, _ = lot
+    settings = inspection_settings(Tolerance.symmetric(0.1))
+    loaded = load_nominal(os.path.abspath(d / "nominal.csv"), settings)
+    parts = qb.find_parts([str(d / "parts" / f"{s}.csv") for s in serials])
+    return qb.Batch(parts, str(out)), loaded
+
+
+def test_worker_killed_mid_batch_every_part_once(lot, cluster, tmp_path):
+    from distributed import Client
+
+    address, workers = cluster
+    d, truth = lot
+    serials = sorted(truth)
+    job, loaded = _batch(lot, tmp_path / "out", serials)
+    killed = []
+
+    def kill_one_worker(row):
+        if not killed:
+            workers[0].kill()  # SIGKILL: its parts in progress are lost with it
+            workers[0].wait()
+            killed.append(row["serial"])
+
+    with Client(address, timeout=30) as client:
+        rows = qb.run_batch(job, loaded, client, on_row=kill_one_worker)
+        alive = len(client.scheduler_info()["workers"])
+    assert killed and alive == 1  # the kill happened during the batch
+    assert [r["serial"] for r in rows] == serials
+    assert [r["verdict"] for r in rows] == [truth[s] for s in serials]
+    assert _complete_parts(tmp_path / "out") == set(serials)
+
+
+def test_interrupted_then_resumed(lot, cluster, tmp_path, capsys):
+    from distributed import Client
+
+    address, _ = cluster
+    d, truth = lot
+    serials = sorted(truth)
+    out = tmp_path / "out"
+    job, loaded = _batch(lot, out, serials)
+
+    def interrupt(row):
+        raise KeyboardInterrupt  # Ctrl-C as the first result arrives
+
+    with Client(address, timeout=30) as client:
+        with pytest.raises(KeyboardInterrupt):
+            qb.run_batch(job, loaded, client, on_row=interrupt)
+        time.sleep(0.5)
+        assert not client.processing() or not any(client.processing().values())
+    done = _complete_parts(out)
+    assert 1 <= len(done) < len(serials)
+    assert not os.path.exists(out / "summary.json")
+    measured = [d / "parts" / f"{s}.csv" for s in serials]
+    assert run("batch", d / "nominal.csv", *measured, "--tol", "0.1", "--out", out,
+               "--scheduler", address) == 1
+    assert f"{len(done)} skipped" in capsys.readouterr().out
+    rows = _summary(out)["parts"]
+    assert [r["serial"] for r in rows] == serials
+    assert [r["verdict"] for r in rows] == [truth[s] for s in serials]
+    assert {r["serial"] for r in rows if r["skipped"]} == done
