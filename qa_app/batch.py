@@ -28,6 +28,8 @@ import sys
 import time
 from dataclasses import asdict, dataclass, replace
 
+import numpy as np
+
 from engine.errors import InputError, SettingsError
 from engine.io import sha256_of
 from engine.pipeline import LoadedNominal, inspect_measured, load_nominal
@@ -183,6 +185,9 @@ class Tracked:
     lower: float | None
     upper: float | None
     definition: str
+    capability: bool = True
+    """Whether SPC judges the values' capability against the limits (False: a proportion whose
+    limit is its largest possible value, charted for its run rules and drift only)."""
 
 
 def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
@@ -199,7 +204,7 @@ def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
                         "mean signed deviation over the part's points; limits: the zone's"),
                 Tracked("fraction_in", "fraction in tolerance", "1", 1.0, None,
                         "points inside the zone / all points; lower: 1 (every point inside, "
-                        "as the simple decision rule requires)")]
+                        "as the simple decision rule requires)", capability=False)]
     from engine.plan import Characteristic
 
     chars = list(loaded.plan.characteristics)
@@ -280,7 +285,8 @@ class Batch:
 
     def summary_files(self) -> dict[str, str]:
         return {"csv": os.path.join(self.out, "summary.csv"),
-                "json": os.path.join(self.out, "summary.json")}
+                "json": os.path.join(self.out, "summary.json"),
+                "spc": os.path.join(self.out, "spc.pdf")}
 
 
 def check_batch_outputs(batch: Batch, inputs: list[str]) -> None:
@@ -493,6 +499,7 @@ def _cores() -> int:
 def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> dict:
     """summary.json: the inputs and settings, the tracked characteristics with their limits,
     one row per part in measurement order, the counts per verdict and the exit code."""
+    from engine.spc import analyse, to_json
     from reports.results import SOFTWARE_NAME, software_version
 
     tracked = tracked_characteristics(loaded)
@@ -513,8 +520,25 @@ def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> d
                           "time_s: the inspection's time (the part document's timings_s.total, "
                           "or until the error); skipped: the result of an earlier run for the "
                           "same inputs and settings; message: the first reason, or the error",
+        "spc": [{"id": t.id, **to_json(analyse(series))}
+                for t, series in zip(tracked, lot_series(tracked, rows))],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
     }
+
+
+def lot_series(tracked: list[Tracked], rows: list[dict]) -> list:
+    """Each tracked characteristic over the lot (engine.spc.Series): its values in measurement
+    order (NaN for a part without one: an ERROR), the parts' serials, and its limits where SPC
+    judges capability against them."""
+    from engine.spc import Series
+
+    serials = [r["serial"] for r in rows]
+    out = []
+    for t in tracked:
+        values = [np.nan if r["values"].get(t.id) is None else r["values"][t.id] for r in rows]
+        limits = (t.lower, t.upper) if t.capability else (None, None)
+        out.append(Series(t.name, t.unit, np.array(values, float), serials, *limits))
+    return out
 
 
 def summary_csv(tracked: list[Tracked], rows: list[dict]) -> str:
@@ -540,14 +564,23 @@ def _cell(v) -> str:
 
 
 def write_summary(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> list[str]:
-    """Write summary.csv and summary.json, both or neither; return their paths."""
+    """Write summary.csv, summary.json and spc.pdf (the lot's SPC: reports.spc), all or none;
+    return their paths."""
     from reports.outputs import Output, write_all
     from reports.results import result_json
+    from reports.spc import spc_pdf
 
     files = batch.summary_files()
-    write_all([Output(files["csv"], summary_csv(tracked_characteristics(loaded), rows)),
-               Output(files["json"], result_json(summary_document(batch, loaded, rows)))])
-    return [files["csv"], files["json"]]
+    tracked = tracked_characteristics(loaded)
+    counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
+    title = (f"{os.path.basename(loaded.path)}: {len(rows)} parts"
+             + (f", plan {os.path.basename(loaded.plan.path)}" if loaded.plan else ""))
+    write_all([Output(files["csv"], summary_csv(tracked, rows)),
+               Output(files["json"], result_json(summary_document(batch, loaded, rows))),
+               Output(files["spc"], spc_pdf(lot_series(tracked, rows), title,
+                                            {"parts": len(rows), **counts,
+                                             "nominal": loaded.path}))])
+    return [files["csv"], files["json"], files["spc"]]
 
 
 # ---------------------------------------------------------------------------- progress

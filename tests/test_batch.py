@@ -5,6 +5,7 @@ resume; the single-part command as the truth of each part's numbers."""
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -196,6 +197,53 @@ def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys)
     rows = _summary(out)["parts"]
     assert [r["skipped"] for r in rows] == [False] * 4
     assert [r["verdict"] for r in rows] == ["ACCEPT", "ACCEPT", "ACCEPT", "ERROR"]
+
+
+def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
+    """Twelve parts, all ACCEPT at +-0.06 mm, with a bump that grows 4 um a part: summary.json's
+    SPC of max |d| warns of the drift towards the upper limit, after as many more parts as the
+    least-squares line of the summary's own values says (numpy's polyfit, the independent
+    line), with Nelson's rule 3 (six or more in a row rising) among its flags; spc.pdf says so in
+    words, one page for the lot and one per characteristic. A stable lot's max |d| (the
+    fixture's good parts) shows no drift."""
+    d, _ = lot
+    rng = np.random.default_rng(31)
+    files = []
+    for k in range(1, 13):
+        x, y = rng.uniform(-240, 240, 300), rng.uniform(-115, 115, 300)
+        x[:15], y[:15] = rng.uniform(90, 110, 15), rng.uniform(40, 60, 15)
+        q = np.column_stack([x, y, height(x, y)])
+        q += (rng.normal(0, 0.002, 300) + np.r_[np.full(15, 0.004 * k), np.zeros(285)])[:, None] \
+            * height_normal(x, y)
+        T = make_transform(random_rotation(rng), rng.uniform(-500, 500, 3))
+        files.append(tmp_path / f"d{k:02d}.csv")
+        write_labelled_points(files[-1], apply_transform(T, q))
+    out = tmp_path / "out"
+    assert run("batch", d / "nominal.csv", *files, "--tol", "0.06", "--out", out,
+               "--workers", "1", "--quiet") == 0
+    doc = _summary(out)
+    spc = {c["id"]: c for c in doc["spc"]}
+    values = np.array([r["values"]["max_abs"] for r in doc["parts"]])
+    slope, intercept = np.polyfit(np.arange(12), values, 1)
+    drift = spc["max_abs"]["drift"]
+    assert drift["warning"] and drift["limit"] == "upper"
+    assert drift["slope"] == pytest.approx(slope, rel=1e-9)
+    assert drift["parts_to_limit"] == int(np.ceil((0.06 - (intercept + 11 * slope)) / slope))
+    assert any(v["rule"] == 3 for v in spc["max_abs"]["violations"])
+    assert spc["max_abs"]["n"] == 12 and spc["max_abs"]["upper"] == 0.06
+    text = subprocess.run(["pdftotext", "-layout", str(out / "spc.pdf"), "-"],
+                          capture_output=True, text=True, check=True).stdout
+    assert "drift towards the upper limit" in text
+    assert re.search(r"R3: \d+ points in a row rising", text)
+    pages = subprocess.run(["pdfinfo", str(out / "spc.pdf")], capture_output=True, text=True,
+                           check=True).stdout
+    assert re.search(r"^Pages:\s+4$", pages, re.M)  # the lot, max |d|, mean d, fraction in
+    stable = qb.lot_series(qb.tracked_characteristics(load_nominal(
+        str(d / "nominal.csv"), inspection_settings(Tolerance.symmetric(0.06)))),
+        [{"serial": "x", "values": {"max_abs": v}} for v in
+         np.random.default_rng(4).normal(0.02, 0.002, 12)])
+    from engine.spc import analyse
+    assert not analyse(stable[0]).drift.warning
 
 
 def test_a_step_nominal_reaches_the_workers_by_path(tmp_path):
