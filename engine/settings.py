@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from .tolerance import Tolerance
+from .uncertainty import Instrument
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,10 @@ class InspectionSettings:
     """Whether the zone [tol_lower, tol_upper] over all points is part of the verdict. Without
     a plan it is the verdict; with one it is one more profile characteristic when the user gave
     it (--tol), and only the zone of the per-point statistics when the plan chose it."""
+    instrument: Instrument | None = None
+    """What the user states about the measuring instrument (``--uncertainty``, the app's
+    session): the guarded rule decides with each point's expanded uncertainty
+    (engine.uncertainty). None: the plan's ``[measurement]`` when it states one, else none."""
 
     @property
     def tolerance(self) -> Tolerance:
@@ -43,6 +48,8 @@ class InspectionSettings:
     def to_json(self) -> dict:
         d = asdict(self)
         d["layers"] = None if self.layers is None else list(self.layers)
+        if self.instrument is None:
+            del d["instrument"]  # as before instruments existed: old certificates re-run alike
         return d
 
     @classmethod
@@ -52,4 +59,5 @@ class InspectionSettings:
                    None if layers is None else tuple(str(x) for x in layers),
                    d.get("units"), None if d.get("scale") is None else float(d["scale"]),
                    d.get("fit", "lsq"), d.get("decision_rule", "simple"), d.get("plan"),
-                   bool(d.get("zone_in_verdict", True)))
+                   bool(d.get("zone_in_verdict", True)),
+                   Instrument.from_json(d.get("instrument")))

@@ -95,9 +95,16 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
                    help="lsq: least-squares best fit (default); minimax: the pose minimising the "
                         "largest excursion from the zone's centre ('can the part be placed "
                         "inside its zone?')")
-    i.add_argument("--decision-rule", choices=["simple", "guarded"], default="simple",
-                   help="simple: every point inside the zone (default); guarded: limits guarded "
-                        "by each point's nominal-sampling margin, INCONCLUSIVE between")
+    i.add_argument("--decision-rule", choices=["simple", "guarded"], default=None,
+                   help="simple: every point inside the zone (the default without an "
+                        "instrument); guarded (ISO 14253-1, the default with --uncertainty or a "
+                        "plan's [measurement] instrument): accept inside the zone shrunk by each "
+                        "point's expanded uncertainty U, reject outside the zone grown by it, "
+                        "INCONCLUSIVE between")
+    i.add_argument("--uncertainty", type=_finite_float, metavar="U",
+                   help="the instrument's expanded measurement uncertainty, mm (k = 2); "
+                        "combined per point with the registration's pose uncertainty and the "
+                        "nominal-sampling margin (replaces a plan's [measurement] instrument)")
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")
@@ -233,6 +240,18 @@ def _tolerance(args):
         return None  # the plan's characteristics are the requirement
     raise UsageError("qa-inspect inspect: a tolerance is required (--tol T, or --tol-lower L "
                      "--tol-upper U, or an inspection plan --plan PLAN.toml)")
+
+
+def _instrument(args):
+    """The instrument the command line states (``--uncertainty``), or None."""
+    if args.uncertainty is None:
+        return None
+    from engine.uncertainty import Instrument
+
+    if not args.uncertainty > 0:
+        raise UsageError(f"qa-inspect inspect: --uncertainty must be positive (an expanded "
+                         f"uncertainty, mm), got {args.uncertainty:g}")
+    return Instrument(uncertainty_mm=args.uncertainty)
 
 
 def _guarded(command, args) -> int:
@@ -476,7 +495,8 @@ def _run_inspect(args, tol, renderer) -> int:
         settings = inspection_settings(tol, args.plan, layers=None if args.layer is None
                                        else tuple(args.layer), units=args.units,
                                        scale=args.scale, fit=args.fit,
-                                       decision_rule=args.decision_rule)
+                                       decision_rule=args.decision_rule,
+                                       instrument=_instrument(args))
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e

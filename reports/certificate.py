@@ -178,7 +178,8 @@ def check_trustworthy(run: Run) -> None:
     trusted = (_registration_trusted(res) and res.conditioning is not None and sens is not None
                and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
-    m = 0.0 if res.margin is None else res.margin
+    guarded = res.decision_rule == "guarded" and res.uncertainty is not None
+    m = res.uncertainty.expanded if guarded else 0.0  # the guarded rule's U
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):
         raise CertificateError("refusing to certify ACCEPTED: the registration is not "

@@ -18,7 +18,9 @@ from engine.pipeline import InputRecord, Run
 SOFTWARE_NAME = "qa-inspect"
 CSV_COLUMNS = ("index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
                "in_tolerance", "excluded_from_alignment")
-"""Columns of every per-point CSV; with the guarded decision rule a ``margin`` column follows.
+"""Columns of every per-point CSV; with the guarded decision rule (or an instrument stated) a
+``margin`` column (the nominal-sampling margin) and an ``uncertainty`` column (the point's
+expanded uncertainty U, k = 2) follow.
 ``excluded_from_alignment`` is true only on the gross outliers the final fit excluded from the
 alignment (engine.outliers); they are judged like every other point."""
 
@@ -99,6 +101,8 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
                           "directions of curvature x (sample spacing along it)^2 / 8, mm (how far "
                           "a chord between samples sags below the surface); 0 for a 2D "
                           "template's exact lines and arcs"}}),
+        **({} if result.uncertainty is None else {
+            "uncertainty": uncertainty_json(result.uncertainty, result.decision_rule)}),
         "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points,
                     **({} if r.n_primitives is None else {"n_primitives": r.n_primitives}),
                     **({} if r.n_faces is None else {"n_faces": r.n_faces})}
@@ -176,6 +180,32 @@ def _characteristic_json(r) -> dict:
     return out
 
 
+def uncertainty_json(b, rule: str) -> dict:
+    """The uncertainty budget (engine.uncertainty): each term's largest and mean standard
+    uncertainty, the expanded U, the instrument stated and how U enters the decision."""
+    U = b.expanded
+    return {
+        "k": b.k,
+        "expanded_max_mm": _num(float(U.max())) if U.size else 0.0,
+        "expanded_mean_mm": _num(float(U.mean())) if U.size else 0.0,
+        "length_max_mm": _num(float(b.length_mm.max())) if U.size else 0.0,
+        "terms": [{"term": t.key, "name": t.name, "distribution": t.distribution,
+                   "divisor": _num(t.divisor),
+                   "u_max_mm": _num(float(t.u.max())) if t.u.size else 0.0,
+                   "u_mean_mm": _num(float(t.u.mean())) if t.u.size else 0.0,
+                   "basis": t.basis} for t in b.terms],
+        "instrument": None if b.instrument is None else b.instrument.to_json(),
+        "used_by_decision_rule": rule == "guarded",
+        "definition": "per point: U = k x sqrt(sum of the terms' standard uncertainties u^2), "
+                      "k = 2 (GUM); a bound taken as rectangular gives u = bound / sqrt(3), a "
+                      "stated expanded uncertainty u = U / 2, the pose's covariance its own "
+                      "standard deviation; L is the point's distance from the centroid of the "
+                      "fitted points. The guarded rule (ISO 14253-1) accepts inside the zone "
+                      "shrunk by each point's U, rejects outside the zone grown by it, and is "
+                      "inconclusive in between; the per-point U is the CSV's 'uncertainty'",
+    }
+
+
 def pose_sensitivity_json(result: InspectionResult) -> dict | None:
     """Whether the verdict holds over the poses the measurement allows (None: the pose could
     not be trusted at all), and what the measurement does not fix, in plain words."""
@@ -242,9 +272,10 @@ FIT_DEFINITIONS = {
                "the part be placed inside its zone?'"}
 RULE_DEFINITIONS = {
     "simple": "accept only if every point lies inside the zone; reject if any lies outside",
-    "guarded": "accept only if every point lies inside the zone shrunk by its nominal-sampling "
-               "margin; reject only if a point lies outside the zone grown by it; otherwise "
-               "inconclusive (ISO 14253-1 style)"}
+    "guarded": "ISO 14253-1: accept only if every point lies inside the zone shrunk by its "
+               "expanded measurement uncertainty U (k = 2: instrument, pose of the registration, "
+               "nominal sampling; see 'uncertainty'); reject only if a point lies outside the "
+               "zone grown by its U; otherwise inconclusive"}
 
 
 def _gross_outliers(reg, dev: np.ndarray) -> dict:
@@ -316,14 +347,16 @@ def result_json(doc: dict) -> str:
 
 def points_csv(result: InspectionResult, measured: np.ndarray,
                labels: np.ndarray | None) -> str:
-    """One row per measured point in input order (columns: CSV_COLUMNS, plus ``margin`` with the
-    guarded decision rule, and ``region`` with an inspection plan: the point's regions joined by
+    """One row per measured point in input order (columns: CSV_COLUMNS, plus ``margin`` and
+    ``uncertainty`` with the guarded decision rule or an instrument, and ``region`` with an inspection plan: the point's regions joined by
     '+'; the coordinates and deviation are then at the plan's alignment)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     margin = result.margin
+    U = None if result.uncertainty is None else result.uncertainty.expanded
     regions = None if result.plan is None else result.plan.regions
     w.writerow(CSV_COLUMNS + (() if margin is None else ("margin",))
+               + (() if U is None else ("uncertainty",))
                + (() if regions is None else ("region",)))
     reg = result.registered
     d = result.deviations.signed
@@ -336,6 +369,8 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
                "true" if excluded[i] else "false"]
         if margin is not None:
             row.append(f"{margin[i]:.6f}")
+        if U is not None:
+            row.append(f"{U[i]:.6f}")
         if regions is not None:
             row.append(regions[i])
         w.writerow(row)
