@@ -194,8 +194,8 @@ def _instrument_terms(ins: Instrument | None, L: np.ndarray):
         dt = abs(ins.temperature_c - REFERENCE_TEMPERATURE_C)
         yield Term("temperature", "temperature (uncompensated expansion)", "rectangular",
                    SQRT3, L * ins.expansion_per_k * dt / SQRT3,
-                   f"part at {ins.temperature_c:g} °C, α = {ins.expansion_per_k:g}/K: "
-                   f"L x α x {dt:g} K against 20 °C, rectangular")
+                   f"part at {ins.temperature_c:g} °C, CTE {ins.expansion_per_k:g}/K: "
+                   f"L x CTE x {dt:g} K against 20 °C, rectangular")
 
 
 def expanded_at(b: UncertaintyBudget, idx: np.ndarray,

@@ -132,6 +132,31 @@ def _add_certificate_options(i: argparse.ArgumentParser) -> None:
                        ("device", "measuring device (CMM, scanner)"),
                        ("notes", "free text printed on the certificate")):
         c.add_argument(f"--{name}", metavar="TEXT", help=text)
+    _add_traceability_options(c)
+
+
+def _add_traceability_options(c) -> None:
+    """The certificate's traceability fields (also the plan's [measurement] and [part] keys,
+    which fill in what is not given here)."""
+    for name, text in (("device-serial", "the measuring device's serial number"),
+                       ("probe", "probe and stylus (e.g. 'TP20, M2 ruby 2 x 20 mm')"),
+                       ("program", "measurement program (name or file)"),
+                       ("drawing", "drawing number (its revision: --revision)"),
+                       ("cad-revision", "revision of the CAD model (the nominal)")):
+        c.add_argument(f"--{name}", metavar="TEXT", help=text)
+    c.add_argument("--calibration-date", metavar="YYYY-MM-DD", type=_iso_date,
+                   help="the measuring device's last calibration")
+    c.add_argument("--temperature", metavar="C", type=_finite_float, dest="temperature_c",
+                   help="the part's temperature during the measurement, °C")
+
+
+def _iso_date(text: str) -> str:
+    import datetime as dt
+
+    try:
+        return dt.date.fromisoformat(text.strip()).isoformat()
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a date YYYY-MM-DD") from None
 
 
 def _add_keygen(sub: argparse._SubParsersAction) -> None:
@@ -465,6 +490,8 @@ def _changed_characteristics(certified: list[dict], rerun: list[dict]) -> list[s
 
 
 def _run_inspect(args, tol, renderer) -> int:
+    import dataclasses
+
     from engine.errors import SettingsError
     from engine.pipeline import inspection_settings, run_files
     from reports.outputs import Output, OutputConflictError, write_all
@@ -474,9 +501,8 @@ def _run_inspect(args, tol, renderer) -> int:
     if args.report:
         from reports.certificate import CertificateInfo
 
-        info = CertificateInfo(**{k: getattr(args, k) for k in (
-            "part_number", "part_name", "revision", "serial", "order", "inspector",
-            "organisation", "device", "notes")})
+        info = CertificateInfo(**{f.name: getattr(args, f.name)
+                                  for f in dataclasses.fields(CertificateInfo)})
     if args.sign:
         from reports.certificate import CertificationError, check_inspector
         from reports.signing import load_identity
