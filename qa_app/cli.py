@@ -50,9 +50,32 @@ def _finite_float(text: str) -> float:
     return v
 
 
+EXAMPLES = """examples:
+  qa-inspect inspect nominal.csv measured.csv --tol 0.25 --json r.json --csv r.csv
+  qa-inspect inspect nominal.xyz measured.csv --plan plan.toml --report cert.pdf \\
+      --sign inspector.p12 --part-number SB-1020 --serial S-17
+  qa-inspect inspect part.stp scan.ply --tol 0.1 --uncertainty 0.012
+  qa-inspect inspect frame.dxf points.csv --tol-lower -0.1 --tol-upper 0.3
+  qa-inspect keygen --name "Ann Inspector" --out identity/
+  qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv"""
+EXIT_CODES = """exit codes:
+  0   ACCEPT: every point inside the tolerance zone (verify: the certificate is valid)
+  1   REJECT: a point outside it (verify: the certificate is not valid)
+  2   INCONCLUSIVE: the pose cannot be trusted, or the verdict differs at a pose the
+      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit
+  64  usage error: missing or contradictory options, an output that is an input
+  65  bad input data (the message names the file, the line and the problem)
+  66  an input file does not exist
+  70  internal error (no result is written)
+  73  an output could not be written (none is)
+  130 interrupted"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="qa-inspect", description="Dimensional inspection of measured points "
-                "against a nominal, from any pose (soft registration).")
+                "against a nominal, from any pose (soft registration).",
+                epilog=EXAMPLES + "\n\n" + EXIT_CODES,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     _add_inspect(sub)
@@ -67,7 +90,9 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i = sub.add_parser("inspect", help="register measured points to a nominal and judge them",
                        description="Register MEASURED to NOMINAL from any pose, measure every "
                        "point's signed deviation (positive = excess material, mm) and judge it "
-                       "against the tolerance zone. Exit code 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE.")
+                       "against the tolerance zone. Exit code 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE.",
+                       epilog=EXAMPLES + "\n\n" + EXIT_CODES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     i.add_argument("nominal", metavar="NOMINAL",
                    help="nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, "
                         "'# grid: NU x NV' header for a u-v grid), mesh (.stl .ply .obj .vtk "

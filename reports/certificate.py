@@ -986,7 +986,7 @@ def alignment_statement(run: Run) -> str:
         ratio = reg.runner_up_score / reg.score if reg.score > 0 else math.inf
         second = ("the second-best distinct pose fits " + (
             f"{ratio:.1f} times worse" if math.isfinite(ratio) else "worse") +
-            f" (truncated RMS {reg.runner_up_score:.4f} mm against {reg.score:.4f} mm)")
+            f" (fit score {reg.runner_up_score:.4f} mm against {reg.score:.4f} mm)")
         if res.ambiguous:
             second += f" and moves deviations by up to {res.ambiguity_spread:.4f} mm"
     n = res.deviations.signed.size

@@ -199,3 +199,20 @@ def test_no_page_is_less_than_half_full_but_the_last(made, case):
     fills = page_fill(made[case].pdf)
     assert len(fills) >= 3
     assert all(f >= 0.5 for f in fills[:-1]), fills
+
+
+def test_json_and_csv_number_points_from_one_with_their_labels(made):
+    """Like the app: the CSV's first column is the point's number from 1; every point the JSON
+    names carries that number and the file's label (the deviations' worst, a characteristic's
+    worst)."""
+    c = made["bracket"]
+    assert [r["point"] for r in c.rows] == [str(k) for k in range(1, len(c.rows) + 1)]
+    named = c.doc["deviations"]["worst"] + [w for ch in c.doc["characteristics"]
+                                            for w in ch["worst"]]
+    assert len(named) > 10
+    for w in named:
+        row = c.rows[w["point"] - 1]
+        assert w["label"] == row["label"] != ""
+    for w in c.doc["deviations"]["worst"]:
+        assert float(c.rows[w["point"] - 1]["deviation"]) == pytest.approx(w["deviation"],
+                                                                           abs=5e-7)
