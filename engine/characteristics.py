@@ -620,6 +620,8 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     def margin(idx, T):
         if result.decision_rule != "guarded":
             return None
+        if result.uncertainty is None:  # guarded by the sampling margin alone (older runs)
+            return sampling(idx, T)
         return expanded_at(result.uncertainty, idx, sampling(idx, T))
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
@@ -670,7 +672,7 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     def margin(idx, T):  # lines and arcs are exact: the budget's other terms
         from .uncertainty import expanded_at
 
-        if result.decision_rule != "guarded":
+        if result.decision_rule != "guarded" or result.uncertainty is None:
             return None
         return expanded_at(result.uncertainty, idx, np.zeros(len(idx)))
 

@@ -101,7 +101,8 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
             settings: RegistrationSettings = RegistrationSettings(), fit: str = "lsq",
             decision_rule: str = "simple",
             exact: "Callable[[np.ndarray], Deviations] | None" = None,
-            instrument: "Instrument | None" = None) -> InspectionResult:
+            instrument: "Instrument | None" = None,
+            guard: str = "uncertainty") -> InspectionResult:
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
     with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded").
 
@@ -111,7 +112,9 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     every deviation judged is exact (no nominal-sampling margin).
 
     instrument : what the user states about the measuring instrument (engine.uncertainty);
-    with the guarded rule each point is judged with its expanded uncertainty U."""
+    with the guarded rule each point is judged with its expanded uncertainty U (``guard``
+    "uncertainty") or, as before uncertainty budgets, its nominal-sampling margin alone
+    ("sampling": older certificates re-run)."""
     from .deviation import point_to_surface
 
     _check_options(fit, decision_rule)
@@ -141,7 +144,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                     _Measure(measure, deviations_at, beyond_at,
                              (lambda dv: np.zeros(dv.signed.size)) if exact is not None else
                              (lambda dv: margins_3d(nominal, dv.foot))),
-                    tolerance, fit, decision_rule, extra, instrument)
+                    tolerance, fit, decision_rule, extra, instrument, guard)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
@@ -275,11 +278,13 @@ class _Judged:
 
 
 def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
-                fit: str, decision_rule: str, extra: dict, instrument=None) -> _Judged:
+                fit: str, decision_rule: str, extra: dict, instrument=None,
+                guard_by: str = "uncertainty") -> _Judged:
     """The flow both kinds share from the registration's pose T (points X and deviations
     ``dev`` there): conditioning → ambiguity → (minimax refit, its facts into ``extra``) →
     margins and uncertainty → pose sensitivity → judge → statistics. The guarded rule's guard
-    band is each point's expanded uncertainty U (engine.uncertainty)."""
+    band is each point's expanded uncertainty U (engine.uncertainty), or its sampling margin
+    alone (``guard_by`` "sampling")."""
     from .trust import conditioning
 
     cond = conditioning(X[reg.inlier], dev.normal[reg.inlier], reg.rms,
@@ -295,7 +300,9 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
         X, dev = measure.at(T)
     fitted_at = time.perf_counter()
     margin = unc = guard = None
-    if decision_rule == "guarded" or (instrument is not None and instrument.states_anything):
+    if guard_by == "sampling" and decision_rule == "guarded":
+        margin = guard = measure.margin(dev)
+    elif decision_rule == "guarded" or (instrument is not None and instrument.states_anything):
         from .uncertainty import budget
 
         margin = measure.margin(dev)
@@ -385,7 +392,8 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
                index: "ContourIndex | None" = None, fit: str = "lsq",
                decision_rule: str = "simple",
                template_facts: dict | None = None,
-               instrument: "Instrument | None" = None) -> InspectionResult:
+               instrument: "Instrument | None" = None,
+               guard: str = "uncertainty") -> InspectionResult:
     """Register measured points to a 2D contour template and judge them.
 
     measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
@@ -438,7 +446,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     j = _judge_pose(reg, T2, apply2(T2, q2), reg.deviations,
                     _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
-                    tolerance, fit, decision_rule, extra, instrument)
+                    tolerance, fit, decision_rule, extra, instrument, guard)
     t1 = j.fitted_at
     reg3 = reg.lifted(F, j.T, j.deviations)
     T = reg3.T_nominal_measured

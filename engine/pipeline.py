@@ -320,6 +320,7 @@ def _inspect_template(tpl, measured_ps: PointSet, settings: InspectionSettings, 
     result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, settings.tolerance,
                         index=index, fit=settings.fit, decision_rule=settings.decision_rule,
                         instrument=instrument_of(settings.instrument, plan),
+                        guard=settings.guard,
                         template_facts={"units": tpl.units, "unitless": tpl.unitless,
                                         "flattened_curves": tpl.flattened,
                                         "ignored_entities": tpl.ignored})
@@ -340,7 +341,7 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
         exact = _exact_deviations(source.step)
     result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
                      decision_rule=settings.decision_rule, exact=exact,
-                     instrument=instrument_of(settings.instrument, plan))
+                     instrument=instrument_of(settings.instrument, plan), guard=settings.guard)
     if source.step is not None:
         result = dataclasses.replace(result, extra={**result.extra,
                                                     "step": step_facts(source.step)})

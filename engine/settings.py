@@ -29,7 +29,7 @@ class InspectionSettings:
     fit: str = "lsq"
     """"lsq" (least squares) or "minimax" (smallest largest excursion from the zone's centre)."""
     decision_rule: str = "simple"
-    """"simple" or "guarded" (limits guarded by each point's nominal-sampling margin)."""
+    """"simple" or "guarded" (limits guarded by each point's expanded uncertainty, ISO 14253-1)."""
     plan: str | None = None
     """An inspection plan (TOML, engine.io.plan): datums, alignment, characteristics."""
     zone_in_verdict: bool = True
@@ -40,6 +40,10 @@ class InspectionSettings:
     """What the user states about the measuring instrument (``--uncertainty``, the app's
     session): the guarded rule decides with each point's expanded uncertainty
     (engine.uncertainty). None: the plan's ``[measurement]`` when it states one, else none."""
+    guard: str = "uncertainty"
+    """The guarded rule's guard band: "uncertainty", each point's expanded uncertainty U; or
+    "sampling", its nominal-sampling margin alone (how certificates made before uncertainty
+    budgets were judged: ``verify`` re-runs them so)."""
 
     @property
     def tolerance(self) -> Tolerance:
@@ -48,8 +52,8 @@ class InspectionSettings:
     def to_json(self) -> dict:
         d = asdict(self)
         d["layers"] = None if self.layers is None else list(self.layers)
-        if self.instrument is None:
-            del d["instrument"]  # as before instruments existed: old certificates re-run alike
+        if self.guard == "uncertainty":
+            del d["guard"]  # the default; an "instrument" key (null or not) says so
         return d
 
     @classmethod
@@ -60,4 +64,7 @@ class InspectionSettings:
                    d.get("units"), None if d.get("scale") is None else float(d["scale"]),
                    d.get("fit", "lsq"), d.get("decision_rule", "simple"), d.get("plan"),
                    bool(d.get("zone_in_verdict", True)),
-                   Instrument.from_json(d.get("instrument")))
+                   Instrument.from_json(d.get("instrument")),
+                   # Settings without "instrument" are older than uncertainty budgets: their
+                   # guarded rule guarded by the sampling margin alone.
+                   d.get("guard") or ("uncertainty" if "instrument" in d else "sampling"))

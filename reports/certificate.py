@@ -219,8 +219,9 @@ def check_trustworthy(run: Run) -> None:
     trusted = (_registration_trusted(res) and res.conditioning is not None and sens is not None
                and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
-    guarded = res.decision_rule == "guarded" and res.uncertainty is not None
-    m = res.uncertainty.expanded if guarded else 0.0  # the guarded rule's U
+    m = 0.0  # the guarded rule's guard band: U, or the sampling margin alone (older sessions)
+    if res.decision_rule == "guarded":
+        m = res.margin if res.uncertainty is None else res.uncertainty.expanded
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):
         raise CertificateError("refusing to certify ACCEPTED: the registration is not "
@@ -765,7 +766,7 @@ def _requirement(c: _Layout) -> list:
         ("Decision rule", ("Pointwise, simple acceptance: the part is accepted only if every "
                            "measured point lies inside the zone, rejected if any point lies "
                            "outside" if res.decision_rule == "simple" else
-                           "Pointwise, guarded " + _GUARDED_WORDS)
+                           "Pointwise, guarded " + _guarded_words(res))
                           + "; the result is inconclusive when the registration cannot be "
                             "trusted (not converged, or the points do not match the nominal), "
                             "or when the verdict could differ within what the measurement "
@@ -776,17 +777,26 @@ def _requirement(c: _Layout) -> list:
     ], [28 * mm, W - 28 * mm]), *_uncertainty_budget(c)]
 
 
-_GUARDED_WORDS = (
-    "(ISO 14253-1): each point's deviation is uncertain by its expanded measurement "
-    "uncertainty U (the budget below); the part is accepted only if every point lies inside the "
-    "zone shrunk by its U (conformance proven), rejected only if a point lies outside the zone "
-    "grown by its U (non-conformance proven), inconclusive when a point lies between")
+def _guarded_words(res) -> str:
+    """The guarded rule in words: with each point's expanded uncertainty U (or, in a session
+    older than uncertainty budgets, its nominal-sampling margin)."""
+    if res.uncertainty is None:
+        return ("(ISO 14253-1 style): the part is accepted only if every point lies inside the "
+                "zone shrunk by its nominal-sampling margin, rejected only if a point lies "
+                "outside the zone grown by it, inconclusive in between")
+    return ("(ISO 14253-1): each point's deviation is uncertain by its expanded measurement "
+            "uncertainty U (the budget below); the part is accepted only if every point lies "
+            "inside the zone shrunk by its U (conformance proven), rejected only if a point "
+            "lies outside the zone grown by its U (non-conformance proven), inconclusive when "
+            "a point lies between")
 
 
 def _uncertainty_sentence(res) -> str:
     """Whether measurement uncertainty entered the decision, in a sentence."""
     if res.decision_rule == "guarded":
-        return "Measurement uncertainty is deducted from the zone as stated."
+        return ("Measurement uncertainty is deducted from the zone as stated." if
+                res.uncertainty is not None else "Measurement uncertainty is not deducted "
+                "from the zone.")
     if res.uncertainty is not None:
         return (f"Measurement uncertainty (U up to {float(res.uncertainty.expanded.max()):.4f} "
                 "mm, below) is stated but not deducted from the zone (simple acceptance).")

@@ -217,3 +217,25 @@ def test_plan_measurement_errors_name_the_table_and_key(tmp_path, change, messag
     with pytest.raises(InputError) as e:
         read_plan(str(plan))
     assert message in str(e.value) and str(plan) in str(e.value)
+
+
+def test_verify_re_runs_a_certificate_older_than_uncertainty_budgets():
+    """tests/data/results_before_uncertainty.json is the results document qa-inspect wrote
+    before this change (the belly fairing at +-0.137 mm, guarded rule: then guarded by each
+    point's nominal-sampling margin alone, ACCEPT). Its settings carry no instrument: verify
+    re-runs it with that rule and confirms it; the same part judged today with U (pose and
+    sampling) is INCONCLUSIVE, which a re-run with today's rule would have reported as a
+    changed verdict."""
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from qa_app.cli import _recheck
+
+    with open(os.path.join(ROOT, "tests", "data", "results_before_uncertainty.json")) as f:
+        old = json.load(f)
+    assert "instrument" not in old["settings"] and old["verdict"] == ACCEPT
+    notes = []
+    assert _recheck(old, {"nominal": BELLY[0], "measured": BELLY[1], "plan": None}, notes) == []
+    assert notes[-1].startswith("re-run: ACCEPT")
+    today = InspectionSettings.from_json(dict(old["settings"], instrument=None))
+    assert today.guard == "uncertainty"
+    assert run_files(*BELLY, today).result.verdict == INCONCLUSIVE
