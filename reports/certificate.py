@@ -262,7 +262,9 @@ def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
     cert_doc.update(number=number, issued=issued.isoformat().replace("+00:00", "Z"),
                     signed_by=None if identity is None else identity.common_name)
     if run.plan is not None:
-        cert_doc["plan_part"] = asdict(run.plan.part)
+        # What the plan's [part] states (its drawing and CAD revision when it gives them).
+        cert_doc["plan_part"] = {k: v for k, v in asdict(run.plan.part).items()
+                                 if v or k in ("number", "name", "revision")}
     doc = dict(run_document(run), certificate=cert_doc)
     attachments = [
         Attachment("points.csv", points_csv(res, run.measured.points,
