@@ -119,7 +119,9 @@ class Geometry:
 
     evaluate(T, idx) -> (X, d, normals): measured points ``idx`` at pose T (nominal frame),
     signed deviations (mm) and the nominal's outward normals there. T0 : the registration's
-    pose. margin(idx, T) -> per-point nominal-sampling margins (mm) or None (simple rule).
+    pose. margin(idx, T) -> the guarded rule's per-point guard band at T, mm: the expanded
+    uncertainty U (engine.uncertainty) with the nominal-sampling margins there; None (simple
+    rule).
     nominal_points : (N, dim); nominal_normals(idx) -> their outward normals; nominal_masks :
     {region: (N,) bool}; centre, length: the measured points' centroid and RMS radius at T0
     (rotations are scaled by it); labels : (n,) the measured points' labels, or None.
@@ -598,6 +600,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     from .deviation import point_to_surface
     from .geometry import apply_transform
     from .regions import nominal_members
+    from .uncertainty import expanded_at
     from .verdict import margins_3d
 
     masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups)
@@ -608,13 +611,18 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
         dv = surface(X)
         return X, dv.signed, dv.normal
 
-    def margin(idx, T):
-        if result.decision_rule != "guarded":
-            return None
+    def sampling(idx, T):
         if exact is not None:
             return np.zeros(len(idx))
         X = apply_transform(T, measured[idx])
         return margins_3d(nominal, point_to_surface(nominal, X).foot)
+
+    def margin(idx, T):
+        if result.decision_rule != "guarded":
+            return None
+        if result.uncertainty is None:  # guarded by the sampling margin alone (older runs)
+            return sampling(idx, T)
+        return expanded_at(result.uncertainty, idx, sampling(idx, T))
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels,
@@ -627,7 +635,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     # The per-point outputs at the plan's alignment: where the drawing places the part.
     X = apply_transform(planned.T_nominal_measured, measured)
     dv = surface(X)
-    return _at_plan_pose(result, X, dv, None if result.margin is None else margin(
+    return _at_plan_pose(result, X, dv, None if result.margin is None else sampling(
         np.arange(len(X)), planned.T_nominal_measured))
 
 
@@ -661,7 +669,14 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     def normals(idx):
         return deviations_2d(index, samples[idx]).normal
 
-    geo = Geometry(evaluate, np.eye(3), lambda idx, T: None, samples, normals, masks,
+    def margin(idx, T):  # lines and arcs are exact: the budget's other terms
+        from .uncertainty import expanded_at
+
+        if result.decision_rule != "guarded" or result.uncertainty is None:
+            return None
+        return expanded_at(result.uncertainty, idx, np.zeros(len(idx)))
+
+    geo = Geometry(evaluate, np.eye(3), margin, samples, normals, masks,
                    *_centre_and_length(P2), labels)
     planned = _judged(result, plan, geo, lambda f: index.tree.query(f)[1], zone_in_verdict)
     T2 = planned.T_nominal_measured

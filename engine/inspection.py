@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
     from .characteristics import PlanResult
     from .trust import Conditioning, PoseSensitivity
+    from .uncertainty import Instrument, UncertaintyBudget
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,12 @@ class InspectionResult:
     ambiguity_spread: float = 0.0
     """Largest deviation change (mm) between the chosen pose and a nearly-as-good runner-up."""
     margin: np.ndarray | None = None
-    """(n,) nominal-sampling margin per point, mm (the guarded decision rule only)."""
+    """(n,) nominal-sampling margin per point, mm (with the guarded decision rule, or when an
+    instrument is stated: see ``uncertainty``)."""
+    uncertainty: "UncertaintyBudget | None" = None
+    """Each point's expanded measurement uncertainty U (k = 2) and its budget
+    (engine.uncertainty); the guarded decision rule's guard band. None with the simple rule
+    when no instrument is stated."""
     pose_sensitivity: "PoseSensitivity | None" = None
     """Whether the verdict holds over the poses the measurement allows (engine.trust); None
     when the pose cannot be trusted at all (not converged, not this part)."""
@@ -94,14 +100,21 @@ def _check_options(fit: str, decision_rule: str) -> None:
 def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
             settings: RegistrationSettings = RegistrationSettings(), fit: str = "lsq",
             decision_rule: str = "simple",
-            exact: "Callable[[np.ndarray], Deviations] | None" = None) -> InspectionResult:
+            exact: "Callable[[np.ndarray], Deviations] | None" = None,
+            instrument: "Instrument | None" = None,
+            guard: str = "uncertainty") -> InspectionResult:
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
     with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded").
 
     exact(X) -> Deviations of points X (n, 3) in the nominal frame from the true surface the
     nominal samples (a STEP model's faces, engine.io.step): given, the registration runs on the
     nominal's sample, its pose is then refined by least squares on the exact deviations, and
-    every deviation judged is exact (no nominal-sampling margin)."""
+    every deviation judged is exact (no nominal-sampling margin).
+
+    instrument : what the user states about the measuring instrument (engine.uncertainty);
+    with the guarded rule each point is judged with its expanded uncertainty U (``guard``
+    "uncertainty") or, as before uncertainty budgets, its nominal-sampling margin alone
+    ("sampling": older certificates re-run)."""
     from .deviation import point_to_surface
 
     _check_options(fit, decision_rule)
@@ -131,7 +144,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                     _Measure(measure, deviations_at, beyond_at,
                              (lambda dv: np.zeros(dv.signed.size)) if exact is not None else
                              (lambda dv: margins_3d(nominal, dv.foot))),
-                    tolerance, fit, decision_rule, extra)
+                    tolerance, fit, decision_rule, extra, instrument, guard)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
@@ -265,10 +278,13 @@ class _Judged:
 
 
 def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
-                fit: str, decision_rule: str, extra: dict) -> _Judged:
+                fit: str, decision_rule: str, extra: dict, instrument=None,
+                guard_by: str = "uncertainty") -> _Judged:
     """The flow both kinds share from the registration's pose T (points X and deviations
     ``dev`` there): conditioning → ambiguity → (minimax refit, its facts into ``extra``) →
-    margins → pose sensitivity → judge → statistics."""
+    margins and uncertainty → pose sensitivity → judge → statistics. The guarded rule's guard
+    band is each point's expanded uncertainty U (engine.uncertainty), or its sampling margin
+    alone (``guard_by`` "sampling")."""
     from .trust import conditioning
 
     cond = conditioning(X[reg.inlier], dev.normal[reg.inlier], reg.rms,
@@ -283,17 +299,26 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
         T = minimax(evaluate, T, reg.inlier, tol, extra)
         X, dev = measure.at(T)
     fitted_at = time.perf_counter()
-    margin = measure.margin(dev) if decision_rule == "guarded" else None
+    margin = unc = guard = None
+    if guard_by == "sampling" and decision_rule == "guarded":
+        margin = guard = measure.margin(dev)
+    elif decision_rule == "guarded" or (instrument is not None and instrument.states_anything):
+        from .uncertainty import budget
+
+        margin = measure.margin(dev)
+        unc = budget(X, dev.normal, reg.inlier, reg.rms, cond, margin, instrument)
+        guard = unc.expanded if decision_rule == "guarded" else None
     ts = time.perf_counter()
     sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
-                                    tol, margin, fit, X, measure.beyond_at, dev.normal)
+                                    tol, guard, fit, X, measure.beyond_at, dev.normal)
     ts = time.perf_counter() - ts
-    verdict, reasons, inside = judge(dev.signed, tol, reg, cond.weak, ambiguous, spread, margin,
+    verdict, reasons, inside = judge(dev.signed, tol, reg, cond.weak, ambiguous, spread, guard,
                                      sens, statements)
     fields = {"verdict": verdict, "reasons": reasons, "in_tolerance": inside,
               "statistics": Statistics.of(dev.signed, tol), "fit": fit,
               "decision_rule": decision_rule, "conditioning": cond, "ambiguous": ambiguous,
-              "ambiguity_spread": spread, "margin": margin, "pose_sensitivity": sens,
+              "ambiguity_spread": spread, "margin": margin, "uncertainty": unc,
+              "pose_sensitivity": sens,
               "trust_statements": statements}
     return _Judged(T, X, dev, fields, fitted_at, ts)
 
@@ -366,7 +391,9 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
 def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
                index: "ContourIndex | None" = None, fit: str = "lsq",
                decision_rule: str = "simple",
-               template_facts: dict | None = None) -> InspectionResult:
+               template_facts: dict | None = None,
+               instrument: "Instrument | None" = None,
+               guard: str = "uncertainty") -> InspectionResult:
     """Register measured points to a 2D contour template and judge them.
 
     measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
@@ -419,7 +446,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     j = _judge_pose(reg, T2, apply2(T2, q2), reg.deviations,
                     _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
-                    tolerance, fit, decision_rule, extra)
+                    tolerance, fit, decision_rule, extra, instrument, guard)
     t1 = j.fitted_at
     reg3 = reg.lifted(F, j.T, j.deviations)
     T = reg3.T_nominal_measured

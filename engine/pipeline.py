@@ -81,20 +81,39 @@ def inspection_settings(tol: Tolerance | None, plan: str | None = None,
         plan: the plan's characteristics are the requirement, and the zone of the per-point
         statistics is the plan's (engine.characteristics.statistics_zone), outside the verdict.
     plan : the inspection plan's path (TOML), or None; read here when it must give the zone.
-    options : the other InspectionSettings fields (layers, units, scale, fit, decision_rule).
+    options : the other InspectionSettings fields (layers, units, scale, fit, decision_rule,
+        instrument). A decision_rule of None is "guarded" when an instrument is stated (the
+        option's, or the plan's ``[measurement]``), else "simple".
 
     Raises SettingsError without a zone or a plan, InputError for a plan that cannot be read.
     """
+    read = None
+    if plan is not None and (tol is None or options.get("decision_rule") is None):
+        from .io.plan import read_plan
+
+        read = read_plan(plan)
+    if options.get("decision_rule") is None:
+        stated = instrument_of(options.get("instrument"), read)
+        options["decision_rule"] = ("guarded" if stated is not None and stated.states_anything
+                                    else "simple")
     if tol is None:
         if plan is None:
             raise SettingsError("a tolerance zone or an inspection plan is required")
         from .characteristics import statistics_zone
-        from .io.plan import read_plan
 
-        tol = statistics_zone(read_plan(plan))
+        tol = statistics_zone(read)
         return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=False,
                                   **options)
     return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=True, **options)
+
+
+def instrument_of(given, plan: Plan | None):
+    """The instrument an inspection states (engine.uncertainty.Instrument): the one ``given``
+    (the command line's ``--uncertainty``, the app's session), else the plan's
+    ``[measurement]``, else None."""
+    if given is not None:
+        return given
+    return None if plan is None else plan.measurement.instrument
 
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
@@ -375,6 +394,8 @@ def _inspect_template(tpl, measured_ps: PointSet, settings: InspectionSettings, 
     index = ContourIndex(tpl.template)
     result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, settings.tolerance,
                         index=index, fit=settings.fit, decision_rule=settings.decision_rule,
+                        instrument=instrument_of(settings.instrument, plan),
+                        guard=settings.guard,
                         template_facts={"units": tpl.units, "unitless": tpl.unitless,
                                         "flattened_curves": tpl.flattened,
                                         "ignored_entities": tpl.ignored})
@@ -394,7 +415,8 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
     if source.step is not None:
         exact = _exact_deviations(source.step)
     result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
-                     decision_rule=settings.decision_rule, exact=exact)
+                     decision_rule=settings.decision_rule, exact=exact,
+                     instrument=instrument_of(settings.instrument, plan), guard=settings.guard)
     if source.step is not None:
         result = dataclasses.replace(result, extra={**result.extra,
                                                     "step": step_facts(source.step)})

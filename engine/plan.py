@@ -20,6 +20,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .uncertainty import Instrument
+
 FEATURES_3D = ("plane", "cylinder", "sphere")
 FEATURES_2D = ("line", "circle")
 DATUM_FITS = ("tangent", "lsq")
@@ -42,11 +44,34 @@ are INCONCLUSIVE, never guessed)."""
 
 @dataclass(frozen=True)
 class Part:
-    """What the certificate names: part number, name, drawing revision (each may be empty)."""
+    """What the certificate names: part number, name, drawing revision, drawing number and the
+    CAD model's revision (each may be empty)."""
 
     number: str = ""
     name: str = ""
     revision: str = ""
+    drawing: str = ""
+    cad_revision: str = ""
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """How the part was measured (``[measurement]``): what the certificate's traceability block
+    states (each may be empty), and the instrument's performance for the uncertainty budget."""
+
+    device: str = ""
+    device_serial: str = ""
+    calibration_date: str = ""
+    """ISO 8601 date, YYYY-MM-DD."""
+    probe: str = ""
+    """The probe and stylus (e.g. "TP20, stylus M2 ruby 2 mm x 20 mm")."""
+    program: str = ""
+    """The measurement program (its name or file)."""
+    temperature_c: float | None = None
+    """The part's temperature during the measurement, °C."""
+    instrument: Instrument | None = None
+    """The instrument's stated performance (engine.uncertainty), None when the plan states
+    none: its temperature is ``temperature_c``."""
 
 
 @dataclass(frozen=True)
@@ -138,6 +163,7 @@ class Plan:
     alignment: Alignment
     characteristics: tuple[Characteristic, ...]
     rps: tuple[RpsPoint, ...] = ()
+    measurement: Measurement = Measurement()
 
     def region(self, name: str) -> Region:
         return next(r for r in self.regions if r.name == name)

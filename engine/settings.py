@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from .tolerance import Tolerance
+from .uncertainty import Instrument
 
 
 @dataclass(frozen=True)
@@ -28,13 +29,21 @@ class InspectionSettings:
     fit: str = "lsq"
     """"lsq" (least squares) or "minimax" (smallest largest excursion from the zone's centre)."""
     decision_rule: str = "simple"
-    """"simple" or "guarded" (limits guarded by each point's nominal-sampling margin)."""
+    """"simple" or "guarded" (limits guarded by each point's expanded uncertainty, ISO 14253-1)."""
     plan: str | None = None
     """An inspection plan (TOML, engine.io.plan): datums, alignment, characteristics."""
     zone_in_verdict: bool = True
     """Whether the zone [tol_lower, tol_upper] over all points is part of the verdict. Without
     a plan it is the verdict; with one it is one more profile characteristic when the user gave
     it (--tol), and only the zone of the per-point statistics when the plan chose it."""
+    instrument: Instrument | None = None
+    """What the user states about the measuring instrument (``--uncertainty``, the app's
+    session): the guarded rule decides with each point's expanded uncertainty
+    (engine.uncertainty). None: the plan's ``[measurement]`` when it states one, else none."""
+    guard: str = "uncertainty"
+    """The guarded rule's guard band: "uncertainty", each point's expanded uncertainty U; or
+    "sampling", its nominal-sampling margin alone (how certificates made before uncertainty
+    budgets were judged: ``verify`` re-runs them so)."""
 
     @property
     def tolerance(self) -> Tolerance:
@@ -43,6 +52,8 @@ class InspectionSettings:
     def to_json(self) -> dict:
         d = asdict(self)
         d["layers"] = None if self.layers is None else list(self.layers)
+        if self.guard == "uncertainty":
+            del d["guard"]  # the default; an "instrument" key (null or not) says so
         return d
 
     @classmethod
@@ -52,4 +63,8 @@ class InspectionSettings:
                    None if layers is None else tuple(str(x) for x in layers),
                    d.get("units"), None if d.get("scale") is None else float(d["scale"]),
                    d.get("fit", "lsq"), d.get("decision_rule", "simple"), d.get("plan"),
-                   bool(d.get("zone_in_verdict", True)))
+                   bool(d.get("zone_in_verdict", True)),
+                   Instrument.from_json(d.get("instrument")),
+                   # Settings without "instrument" are older than uncertainty budgets: their
+                   # guarded rule guarded by the sampling margin alone.
+                   d.get("guard") or ("uncertainty" if "instrument" in d else "sampling"))

@@ -262,17 +262,8 @@ def uncertainty_poses(X: np.ndarray, normals: np.ndarray, residual_rms: float, T
     if n <= dof or not np.isfinite(residual_rms) or not cond.length or not cond.centre:
         return []
     c = np.asarray(cond.centre, float)
-    J = pose_jacobian(X, normals, c)
-    J[:, :nrot] /= cond.length  # the twists' units (rotation x length, mm)
-    A = J.T @ J
-    free = [np.asarray(w.twist, float) for w in cond.weak if w.sigma_mm is None and w.twist]
-    if free:
-        F = np.linalg.qr(np.array(free).T)[0]
-        Pc = np.eye(dof) - F @ F.T
-        A = Pc @ A @ Pc
-    lam, V = np.linalg.eigh(A)
-    keep = lam > DEGENERATE_STRENGTH * max(float(lam[-1]), 1e-300)
-    cov = (residual_rms ** 2 * n / (n - dof)) * (V[:, keep] / lam[keep]) @ V[:, keep].T
+    J = deviation_jacobian(X, normals, cond)
+    cov = pose_covariance(J, residual_rms, cond)
     JS = J @ cov
     sd = np.sqrt(np.maximum(np.einsum("ij,ij->i", JS, J), 0.0))
     m = np.zeros(n) if margin is None else np.asarray(margin, float)
@@ -288,6 +279,44 @@ def uncertainty_poses(X: np.ndarray, normals: np.ndarray, residual_rms: float, T
         p = UNCERTAINTY_SIGMAS * (np.sign(toward[i]) or 1.0) * JS[i] / sd[i]
         poses.append(_twist_matrix(p, 1.0, c, cond.length) @ np.asarray(T, float))
     return poses
+
+
+def deviation_jacobian(X: np.ndarray, normals: np.ndarray, cond: Conditioning) -> np.ndarray:
+    """(n, 6) in 3D, (n, 3) in 2D: how each point's deviation changes with the pose twist
+    (rotations x ``cond.length``, then translations, mm; about ``cond.centre``) at points X
+    (nominal frame) with the nominal's ``normals`` there."""
+    X = np.asarray(X, float)
+    J = pose_jacobian(X, np.asarray(normals, float), np.asarray(cond.centre, float))
+    J[:, :(3 if X.shape[1] == 3 else 1)] /= cond.length  # the twists' units (mm)
+    return J
+
+
+def pose_covariance(J: np.ndarray, residual_rms: float, cond: Conditioning) -> np.ndarray:
+    """Covariance (dof, dof) of the pose twist fitted by least squares to the points whose
+    :func:`deviation_jacobian` is ``J`` (n, dof): s^2 (J^T J)^+ with s^2 = n / (n - dof) x
+    rms^2 (the residuals' variance; dof the directions fitted), over the directions that are
+    not free (a free one has no finite variance: :func:`pose_sensitivity` scans it instead;
+    its variance here is 0)."""
+    n = J.shape[0]
+    dof = J.shape[1]
+    A = J.T @ J
+    free = [np.asarray(w.twist, float) for w in cond.weak if w.sigma_mm is None and w.twist]
+    if free:
+        F = np.linalg.qr(np.array(free).T)[0]
+        Pc = np.eye(dof) - F @ F.T
+        A = Pc @ A @ Pc
+    lam, V = np.linalg.eigh(A)
+    keep = lam > DEGENERATE_STRENGTH * max(float(lam[-1]), 1e-300)
+    fitted = int(keep.sum())
+    if n <= fitted:
+        return np.zeros((dof, dof))
+    return (residual_rms ** 2 * n / (n - fitted)) * (V[:, keep] / lam[keep]) @ V[:, keep].T
+
+
+def deviation_sigma(J: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """(n,) the standard deviation (mm) of each point's deviation from the pose alone:
+    sqrt(J_i cov J_i^T), J (n, dof) the points' :func:`deviation_jacobian`."""
+    return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
 
 
 @dataclass(frozen=True)

@@ -5,10 +5,11 @@ Decision rules (the paper's L-infinity argument: one point out is a reject):
 
 * ``simple``: ACCEPT only when every measured point lies inside the tolerance zone
   [lower, upper]; REJECT when any point, outliers of the fit included, lies outside.
-* ``guarded`` (ISO 14253-1 style): each point's nominal-sampling margin m (facets through sampled
-  nominal points can miss the true surface by about curvature x spacing^2 / 8) guards the limits:
-  ACCEPT only when every point lies inside the zone shrunk by its m, REJECT only when a point
-  lies outside the zone grown by its m, INCONCLUSIVE otherwise.
+* ``guarded`` (ISO 14253-1): each point's expanded measurement uncertainty U (k = 2; the
+  instrument as stated, the registration's pose uncertainty at the point and the nominal-sampling
+  margin, combined by engine.uncertainty) guards the limits: ACCEPT only when every point lies
+  inside the zone shrunk by its U (the conformance zone), REJECT only when a point lies outside
+  the zone grown by its U (the non-conformance zone), INCONCLUSIVE otherwise.
 
 Whatever the deviations say, the verdict is INCONCLUSIVE when the pose cannot be trusted: the fit
 did not converge, fewer than half of the points lie within 1% of the nominal's size of its
@@ -161,8 +162,8 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
     """Verdict, reasons and per-point in-tolerance mask for deviations ``d`` at pose ``reg``.
 
     weak : unconstrained directions (engine.trust.WeakDirection); ambiguous : another pose fits
-    about as well with deviations up to ``spread`` mm apart; margin : per-point sampling margin,
-    mm, for the guarded decision rule (None: the simple rule).
+    about as well with deviations up to ``spread`` mm apart; margin : per-point guard band, mm,
+    for the guarded decision rule: the expanded uncertainty U (None: the simple rule).
     sensitivity : whether the pointwise verdict holds over the poses the measurement allows
     (engine.trust.pose_sensitivity), with ``statements`` saying so in plain words. Given, a weak
     direction or a runner-up makes the verdict INCONCLUSIVE only when the verdict differs at
@@ -204,7 +205,8 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
 def pointwise_verdict(d: np.ndarray, tol: Tolerance,
                       margin: np.ndarray | None = None) -> tuple[str, str]:
     """(verdict, reason) of the decision rule on deviations ``d`` (n,) alone, the pose taken as
-    right: the simple rule (margin None) or the guarded one with per-point ``margin`` (n,) mm."""
+    right: the simple rule (margin None) or the guarded one with per-point ``margin`` (n,) mm,
+    each point's expanded uncertainty U (engine.uncertainty)."""
     if margin is None:
         n_out = int(((d < tol.lower) | (d > tol.upper)).sum())
         if n_out:
@@ -214,10 +216,11 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
     in_shrunk = (d >= tol.lower + margin) & (d <= tol.upper - margin)
     if out_grown.any():
         return REJECT, (f"{int(out_grown.sum())} of {d.size} points lie outside the tolerance "
-                        "zone by more than their nominal-sampling margin")
+                        "zone by more than their measurement uncertainty U")
     if in_shrunk.all():
         return ACCEPT, (f"all {d.size} points lie inside the tolerance zone by more than their "
-                        "nominal-sampling margin")
+                        "measurement uncertainty U")
     k = int((~in_shrunk).sum())
-    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their nominal-sampling margin of "
-                          "a tolerance limit (guarded decision rule)")
+    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their measurement uncertainty U "
+                          "of a tolerance limit (guarded decision rule, ISO 14253-1): neither "
+                          "conformance nor non-conformance is proven")

@@ -52,9 +52,32 @@ def _finite_float(text: str) -> float:
     return v
 
 
+EXAMPLES = """examples:
+  qa-inspect inspect nominal.csv measured.csv --tol 0.25 --json r.json --csv r.csv
+  qa-inspect inspect nominal.xyz measured.csv --plan plan.toml --report cert.pdf \\
+      --sign inspector.p12 --part-number SB-1020 --serial S-17
+  qa-inspect inspect part.stp scan.ply --tol 0.1 --uncertainty 0.012
+  qa-inspect inspect frame.dxf points.csv --tol-lower -0.1 --tol-upper 0.3
+  qa-inspect keygen --name "Ann Inspector" --out identity/
+  qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv"""
+EXIT_CODES = """exit codes:
+  0   ACCEPT: every point inside the tolerance zone (verify: the certificate is valid)
+  1   REJECT: a point outside it (verify: the certificate is not valid)
+  2   INCONCLUSIVE: the pose cannot be trusted, or the verdict differs at a pose the
+      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit
+  64  usage error: missing or contradictory options, an output that is an input
+  65  bad input data (the message names the file, the line and the problem)
+  66  an input file does not exist
+  70  internal error (no result is written)
+  73  an output could not be written (none is)
+  130 interrupted"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="qa-inspect", description="Dimensional inspection of measured points "
-                "against a nominal, from any pose (soft registration).")
+                "against a nominal, from any pose (soft registration).",
+                epilog=EXAMPLES + "\n\n" + EXIT_CODES,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     _add_inspect(sub)
@@ -77,7 +100,9 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i = sub.add_parser("inspect", help="register measured points to a nominal and judge them",
                        description="Register MEASURED to NOMINAL from any pose, measure every "
                        "point's signed deviation (positive = excess material, mm) and judge it "
-                       "against the tolerance zone. Exit code 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE.")
+                       "against the tolerance zone. Exit code 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE.",
+                       epilog=EXAMPLES + "\n\n" + EXIT_CODES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     i.add_argument("nominal", metavar="NOMINAL",
                    help=NOMINAL_HELP)
     i.add_argument("measured", metavar="MEASURED", help="measured points (same formats)")
@@ -115,9 +140,16 @@ def _add_fit_options(i: argparse.ArgumentParser) -> None:
                    help="lsq: least-squares best fit (default); minimax: the pose minimising the "
                         "largest excursion from the zone's centre ('can the part be placed "
                         "inside its zone?')")
-    i.add_argument("--decision-rule", choices=["simple", "guarded"], default="simple",
-                   help="simple: every point inside the zone (default); guarded: limits guarded "
-                        "by each point's nominal-sampling margin, INCONCLUSIVE between")
+    i.add_argument("--decision-rule", choices=["simple", "guarded"], default=None,
+                   help="simple: every point inside the zone (the default without an "
+                        "instrument); guarded (ISO 14253-1, the default with --uncertainty or a "
+                        "plan's [measurement] instrument): accept inside the zone shrunk by each "
+                        "point's expanded uncertainty U, reject outside the zone grown by it, "
+                        "INCONCLUSIVE between")
+    i.add_argument("--uncertainty", type=_finite_float, metavar="U",
+                   help="the instrument's expanded measurement uncertainty, mm (k = 2); "
+                        "combined per point with the registration's pose uncertainty and the "
+                        "nominal-sampling margin (replaces a plan's [measurement] instrument)")
 
 
 def _add_certificate_options(i: argparse.ArgumentParser) -> None:
@@ -133,6 +165,7 @@ def _add_certificate_options(i: argparse.ArgumentParser) -> None:
                    help="read the PKCS#12 passphrase from environment variable VAR (default: "
                         "ask without echo)")
     _add_part_fields(c, PART_FIELDS)
+    _add_traceability_options(c)
 
 
 PART_FIELDS = (("part-number", "part number"), ("part-name", "part name"),
@@ -179,6 +212,7 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
                    help="read the PKCS#12 passphrase from environment variable VAR (default: "
                         "ask without echo)")
     _add_part_fields(c, [f for f in PART_FIELDS if f[0] != "serial"])
+    _add_traceability_options(c)
     d = b.add_argument_group("cluster")
     d.add_argument("--scheduler", metavar="ADDRESS",
                    help="the Dask scheduler of an existing cluster (tcp://HOST:PORT); its "
@@ -186,6 +220,30 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--workers", type=int, metavar="N",
                    help="worker processes of the local cluster (default: the cores)")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_traceability_options(c) -> None:
+    """The certificate's traceability fields (also the plan's [measurement] and [part] keys,
+    which fill in what is not given here)."""
+    for name, text in (("device-serial", "the measuring device's serial number"),
+                       ("probe", "probe and stylus (e.g. 'TP20, M2 ruby 2 x 20 mm')"),
+                       ("program", "measurement program (name or file)"),
+                       ("drawing", "drawing number (its revision: --revision)"),
+                       ("cad-revision", "revision of the CAD model (the nominal)")):
+        c.add_argument(f"--{name}", metavar="TEXT", help=text)
+    c.add_argument("--calibration-date", metavar="YYYY-MM-DD", type=_iso_date,
+                   help="the measuring device's last calibration")
+    c.add_argument("--temperature", metavar="C", type=_finite_float, dest="temperature_c",
+                   help="the part's temperature during the measurement, °C")
+
+
+def _iso_date(text: str) -> str:
+    import datetime as dt
+
+    try:
+        return dt.date.fromisoformat(text.strip()).isoformat()
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a date YYYY-MM-DD") from None
 
 
 def _add_keygen(sub: argparse._SubParsersAction) -> None:
@@ -301,6 +359,18 @@ def _tolerance(args, command: str = "inspect"):
                      "L --tol-upper U, or an inspection plan --plan PLAN.toml)")
 
 
+def _instrument(args, command: str):
+    """The instrument the command line states (``--uncertainty``), or None."""
+    if args.uncertainty is None:
+        return None
+    from engine.uncertainty import Instrument
+
+    if not args.uncertainty > 0:
+        raise UsageError(f"qa-inspect {command}: --uncertainty must be positive (an expanded "
+                         f"uncertainty, mm), got {args.uncertainty:g}")
+    return Instrument(uncertainty_mm=args.uncertainty)
+
+
 def _guarded(command, args) -> int:
     """Run a command; user mistakes become one-line messages and exit codes, never tracebacks."""
     from engine.errors import InputError, InputNotFoundError
@@ -380,7 +450,8 @@ def _cmd_batch(args) -> int:
                                + [p.path for p in parts])
         # Absolute paths: the workers may run elsewhere (the same files at the same paths).
         settings = inspection_settings(tol, args.plan and os.path.abspath(args.plan),
-                                       fit=args.fit, decision_rule=args.decision_rule)
+                                       fit=args.fit, decision_rule=args.decision_rule,
+                                       instrument=_instrument(args, "batch"))
         loaded = load_nominal(os.path.abspath(args.nominal), settings)  # once, before the cluster
         qb.check_certifiable(job, loaded)
     except SettingsError as e:
@@ -570,12 +641,14 @@ def _changed_characteristics(certified: list[dict], rerun: list[dict]) -> list[s
 def _certificate_identity(args, command: str):
     """(CertificateInfo or None without --report, the signing Identity or None without
     --sign), the identity loaded and checked against --inspector before any work."""
+    import dataclasses
+
     info = identity = None
     if args.report:
         from reports.certificate import CertificateInfo
 
-        info = CertificateInfo(**{k.replace("-", "_"): getattr(args, k.replace("-", "_"), None)
-                                  for k, _ in PART_FIELDS})
+        info = CertificateInfo(**{f.name: getattr(args, f.name, None)
+                                  for f in dataclasses.fields(CertificateInfo)})
     if args.sign:
         from reports.certificate import CertificationError, check_inspector
         from reports.signing import load_identity
@@ -604,7 +677,8 @@ def _run_inspect(args, tol, renderer) -> int:
         settings = inspection_settings(tol, args.plan, layers=None if args.layer is None
                                        else tuple(args.layer), units=args.units,
                                        scale=args.scale, fit=args.fit,
-                                       decision_rule=args.decision_rule)
+                                       decision_rule=args.decision_rule,
+                                       instrument=_instrument(args, "inspect"))
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e

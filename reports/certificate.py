@@ -40,6 +40,10 @@ WORST_ROWS = 25
 """In-tolerance points listed after every out-of-tolerance point, worst first."""
 MAX_OUT_ROWS = 1000
 """Out-of-tolerance rows printed; the attached CSV always holds every point."""
+APPENDIX_POINTS = 250
+"""Up to this many measured points, section 9 lists every one (about five pages); beyond, it
+lists the out-of-tolerance points and those nearest a limit and says that the complete list is
+the attached points.csv."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,26 @@ class CertificateInfo:
     organisation: str | None = None
     device: str | None = None
     notes: str | None = None
+    device_serial: str | None = None
+    calibration_date: str | None = None
+    """The device's last calibration, YYYY-MM-DD."""
+    probe: str | None = None
+    """The probe and stylus."""
+    temperature_c: float | None = None
+    """The part's temperature during the measurement, °C."""
+    program: str | None = None
+    """The measurement program (its name or file)."""
+    drawing: str | None = None
+    """The drawing number (its revision is ``revision``)."""
+    cad_revision: str | None = None
+    """The revision of the CAD model (the nominal)."""
+
+
+TRACEABILITY = (("device", "Device"), ("device_serial", "Device serial"),
+                ("calibration_date", "Calibrated on"), ("probe", "Probe / stylus"),
+                ("temperature_c", "Temperature"), ("program", "Program"),
+                ("drawing", "Drawing"), ("cad_revision", "CAD revision"))
+"""The certificate's traceability fields (CertificateInfo) and their labels, in print order."""
 
 
 class CertificationError(SettingsError):
@@ -112,21 +136,38 @@ def certified_info(info: CertificateInfo, identity: Identity | None,
 
 
 def plan_info(info: CertificateInfo, run: Run) -> CertificateInfo:
-    """``info`` with the part number, name and revision of the run's inspection plan
-    (``[part]``) where the inspector gave none.
+    """``info`` with the part number, name, revision, drawing and CAD revision of the run's
+    inspection plan (``[part]``) and its traceability fields (``[measurement]``: device, serial,
+    calibration date, probe, program, temperature) where the inspector gave none.
 
     Given ones win: the inspector states which part is on the table (one plan may serve several
     dash numbers, or a revision whose change does not touch the characteristics). An auditor
     must still see a plan written for another part or revision, so section 1 prints the plan's
     value beside any that differs, and results.json keeps it (``certificate.plan_part``).
+    A temperature given that differs from the plan's, when the plan's instrument uses it for
+    the thermal term of the uncertainty budget, raises CertificationError.
     """
     if run.plan is None:
         return info
-    part = run.plan.part
-    return replace(info, **{k: v for k, v in (("part_number", part.number),
-                                              ("part_name", part.name),
-                                              ("revision", part.revision))
-                            if v.strip() and not (getattr(info, k) or "").strip()})
+    part, how = run.plan.part, run.plan.measurement
+    ins = how.instrument
+    if (info.temperature_c is not None and ins is not None and ins.expansion_per_k is not None
+            and run.settings.instrument is None and info.temperature_c != how.temperature_c):
+        raise CertificationError(
+            f"the part temperature given, {info.temperature_c:g} °C, is not the inspection "
+            f"plan's [measurement] temperature_c = {how.temperature_c:g} °C that its "
+            "uncertainty budget uses (thermal expansion): correct one of them")
+    planned = {"part_number": part.number, "part_name": part.name, "revision": part.revision,
+               "drawing": part.drawing, "cad_revision": part.cad_revision,
+               "device": how.device, "device_serial": how.device_serial,
+               "calibration_date": how.calibration_date, "probe": how.probe,
+               "program": how.program, "temperature_c": how.temperature_c}
+    return replace(info, **{k: v for k, v in planned.items()
+                            if _given(v) and not _given(getattr(info, k))})
+
+
+def _given(v) -> bool:
+    return v is not None and (not isinstance(v, str) or bool(v.strip()))
 
 
 def certificate_number(run: Run, issued: dt.datetime) -> str:
@@ -178,7 +219,9 @@ def check_trustworthy(run: Run) -> None:
     trusted = (_registration_trusted(res) and res.conditioning is not None and sens is not None
                and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
-    m = 0.0 if res.margin is None else res.margin
+    m = 0.0  # the guarded rule's guard band: U, or the sampling margin alone (older sessions)
+    if res.decision_rule == "guarded":
+        m = res.margin if res.uncertainty is None else res.uncertainty.expanded
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):
         raise CertificateError("refusing to certify ACCEPTED: the registration is not "
@@ -242,7 +285,9 @@ def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None
     cert_doc.update(number=number, issued=issued.isoformat().replace("+00:00", "Z"),
                     signed_by=None if identity is None else identity.common_name)
     if run.plan is not None:
-        cert_doc["plan_part"] = asdict(run.plan.part)
+        # What the plan's [part] states (its drawing and CAD revision when it gives them).
+        cert_doc["plan_part"] = {k: v for k, v in asdict(run.plan.part).items()
+                                 if v or k in ("number", "name", "revision")}
     doc = dict(run_document(run), certificate=cert_doc)
     attachments = [
         Attachment("points.csv", points_csv(res, run.measured.points,
@@ -538,26 +583,54 @@ def _identification(c: _Layout) -> list:
     """1  Identification: the part (left) and the inspection (right)."""
     from reportlab.lib.units import mm
     from reportlab.platypus import Paragraph as P
-    from reportlab.platypus import Table
 
-    info, identity, W = c.info, c.identity, c.width
+    info, identity = c.info, c.identity
     left = c.kv([("Organisation", info.organisation),
                  ("Part number", _stated(c, info.part_number, "number")),
                  ("Part name", _stated(c, info.part_name, "name")),
                  ("Revision", _stated(c, info.revision, "revision")),
                  ("Serial number", info.serial), ("Order", info.order)], [28 * mm, 58 * mm])
     right = c.kv([("Inspector", identity.common_name if identity else info.inspector),
-                  ("Device", info.device),
                   ("Date and time", f"{c.issued:%Y-%m-%d %H:%M:%S} UTC"),
                   ("Software", f"{SOFTWARE_NAME} {software_version()}"),
                   ("Certificate No.", c.number),
                   ("Status", "signed (PAdES)" if identity else "UNSIGNED DRAFT")],
                  [28 * mm, 56 * mm])
-    return [P("1  Identification", c.styles["h"]),
-            Table([[left, right]], colWidths=[W / 2, W / 2],
-                  style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
-                         ("LEFTPADDING", (0, 0), (-1, -1), 0),
-                         ("RIGHTPADDING", (0, 0), (-1, -1), 0)])]
+    return [P("1  Identification", c.styles["h"]), _two_columns(c, left, right),
+            *_traceability(c)]
+
+
+def _two_columns(c: _Layout, left, right):
+    """Two flowables side by side, each half the text width."""
+    from reportlab.platypus import Table
+
+    return Table([[left, right]], colWidths=[c.width / 2, c.width / 2],
+                 style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
+                        ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                        ("RIGHTPADDING", (0, 0), (-1, -1), 0)])
+
+
+def _traceability(c: _Layout) -> list:
+    """The traceability block of section 1: how the part was measured (device, serial,
+    calibration, probe, temperature, program) and against which drawing and CAD revision;
+    a field not stated reads "—" (an auditor sees what is missing)."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Spacer
+
+    info = c.info
+    pairs = [(label, _traceability_value(info, key)) for key, label in TRACEABILITY]
+    half = (len(pairs) + 1) // 2
+    return [Spacer(1, 2 * mm), P("Traceability", c.styles["cellb"]), Spacer(1, 1 * mm),
+            _two_columns(c, c.kv(pairs[:half], [28 * mm, 58 * mm]),
+                         c.kv(pairs[half:], [28 * mm, 56 * mm]))]
+
+
+def _traceability_value(info: CertificateInfo, key: str) -> str | None:
+    value = getattr(info, key)
+    if key == "temperature_c" and value is not None:
+        return f"{value:g} °C"
+    return value
 
 
 def _stated(c: _Layout, value: str | None, field: str) -> str | None:
@@ -597,7 +670,9 @@ def _result(c: _Layout) -> list:
             c.table(stats_rows, [W / 8] * 8,
                     styles=[("ALIGN", (0, 0), (-1, -1), "CENTER"),
                             ("FONT", (0, 1), (-1, 1), "Vera-Bold", 8.5)]),
-            P("Deviations in mm; statistics over every measured point, points excluded "
+            P("Deviations in mm, positive where the measured surface lies outside the nominal "
+              "(excess material), negative inside it (material missing); statistics over every "
+              "measured point, points excluded "
               "from the alignment included" + ("." if c.plan is None else
                                                f", at the plan's alignment, against the zone "
                                                f"{c.zone} of the statistics (section 3)."),
@@ -711,7 +786,8 @@ def _requirement(c: _Layout) -> list:
     tol = res.tolerance
     if c.plan is not None:
         return [P("3  Requirement", c.styles["h"]), c.kv(_plan_requirement(c),
-                                                          [28 * mm, W - 28 * mm])]
+                                                          [28 * mm, W - 28 * mm]),
+                *_uncertainty_budget(c)]
     return [P("3  Requirement", c.styles["h"]), c.kv([
         ("Tolerance zone", f"{'Line' if c.is_2d else 'Surface'} profile, deviation from the "
                            f"nominal {zone} (lower limit {tol.lower:+.3f}, upper limit "
@@ -722,21 +798,80 @@ def _requirement(c: _Layout) -> list:
         ("Decision rule", ("Pointwise, simple acceptance: the part is accepted only if every "
                            "measured point lies inside the zone, rejected if any point lies "
                            "outside" if res.decision_rule == "simple" else
-                           "Pointwise, guarded (ISO 14253-1 style): the part is accepted only "
-                           "if every point lies inside the zone shrunk by its nominal-sampling "
-                           "margin (curvature x spacing² / 8 of the sampled nominal; largest "
-                           f"{float(res.margin.max()) if res.margin is not None and res.margin.size else 0.0:.4f} mm), "
-                           "rejected only if a point lies outside the zone grown by it, "
-                           "inconclusive in between")
+                           "Pointwise, guarded " + _guarded_words(res))
                           + "; the result is inconclusive when the registration cannot be "
                             "trusted (not converged, or the points do not match the nominal), "
                             "or when the verdict could differ within what the measurement "
                             "leaves open: along a direction the points do not fix, within ±3 "
                             "sigma of one they fix only weakly, or at another pose that fits "
-                            "nearly as well. Measurement uncertainty is not deducted from the "
-                            "zone."),
+                            "nearly as well. " + _uncertainty_sentence(res)),
         ("Units", "millimetres"),
-    ], [28 * mm, W - 28 * mm])]
+    ], [28 * mm, W - 28 * mm]), *_uncertainty_budget(c)]
+
+
+def _guarded_words(res) -> str:
+    """The guarded rule in words: with each point's expanded uncertainty U (or, in a session
+    older than uncertainty budgets, its nominal-sampling margin)."""
+    if res.uncertainty is None:
+        return ("(ISO 14253-1 style): the part is accepted only if every point lies inside the "
+                "zone shrunk by its nominal-sampling margin, rejected only if a point lies "
+                "outside the zone grown by it, inconclusive in between")
+    return ("(ISO 14253-1): each point's deviation is uncertain by its expanded measurement "
+            "uncertainty U (the budget below); the part is accepted only if every point lies "
+            "inside the zone shrunk by its U (conformance proven), rejected only if a point "
+            "lies outside the zone grown by its U (non-conformance proven), inconclusive when "
+            "a point lies between")
+
+
+def _uncertainty_sentence(res) -> str:
+    """Whether measurement uncertainty entered the decision, in a sentence."""
+    if res.decision_rule == "guarded":
+        return ("Measurement uncertainty is deducted from the zone as stated." if
+                res.uncertainty is not None else "Measurement uncertainty is not deducted "
+                "from the zone.")
+    if res.uncertainty is not None:
+        return (f"Measurement uncertainty (U up to {float(res.uncertainty.expanded.max()):.4f} "
+                "mm, below) is stated but not deducted from the zone (simple acceptance).")
+    return "Measurement uncertainty is not deducted from the zone (simple acceptance)."
+
+
+def _uncertainty_budget(c: _Layout) -> list:
+    """The uncertainty budget (engine.uncertainty): per term its basis, distribution, divisor
+    and standard uncertainty (largest and mean over the points), then the expanded U; nothing
+    when no budget was made (simple rule, no instrument stated)."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether, Spacer
+    from reportlab.platypus import Paragraph as P
+
+    b = c.res.uncertainty
+    if b is None:
+        return []
+    S = c.styles
+    rows = [["Term", "Basis and assumption", "Distribution", "Divisor", "u max", "u mean"]]
+    for t in b.terms:
+        rows.append([P(_esc(t.name[:1].upper() + t.name[1:]), S["cell"]),
+                     P(_esc(t.basis), S["cell"]), t.distribution,
+                     "√3" if abs(t.divisor - 3 ** 0.5) < 1e-12 else f"{t.divisor:g}",
+                     f"{float(t.u.max()):.4f}", f"{float(t.u.mean()):.4f}"])
+    rows.append([P("<b>Expanded U</b>", S["cell"]),
+                 P(f"k = {b.k:g} x root-sum-of-squares of the terms, per point", S["cell"]),
+                 "", "", f"{float(b.expanded.max()):.4f}", f"{float(b.expanded.mean()):.4f}"])
+    n = len(rows) - 1
+    ins = b.instrument
+    note = ("No instrument stated: the instrument's own error is not in this budget; state it "
+            "with --uncertainty or the plan's [measurement]." if ins is None or
+            not ins.states_anything else "")
+    return [KeepTogether([
+        Spacer(1, 2 * mm), P("Measurement uncertainty budget (mm, per point)", S["cellb"]),
+        Spacer(1, 1 * mm),
+        c.table(rows, [34 * mm, c.width - 112 * mm, 20 * mm, 14 * mm, 22 * mm, 22 * mm],
+                styles=[("ALIGN", (2, 0), (-1, -1), "CENTER"),
+                        ("FONT", (4, n), (-1, n), "Vera-Bold", 7.5)]),
+        P("Standard uncertainties u combined by root-sum-of-squares (GUM); a bound taken as a "
+          "rectangular distribution gives u = bound / √3, a stated expanded uncertainty "
+          "u = U / 2. L: a point's distance from the centroid of the fitted points (largest "
+          f"{float(b.length_mm.max()):.1f} mm). Each point's U is in the attached points.csv "
+          "(column 'uncertainty'). " + note, S["small"])])]
 
 
 def _plan_requirement(c: _Layout) -> list[tuple[str, str]]:
@@ -745,7 +880,6 @@ def _plan_requirement(c: _Layout) -> list[tuple[str, str]]:
     res, zone, plan = c.res, c.zone, c.run.plan
     rec = next(r for r in c.run.inputs if r.role == "plan")
     guarded = res.decision_rule == "guarded"
-    margin = float(res.margin.max()) if res.margin is not None and res.margin.size else 0.0
     return [
         ("Requirement", f"The {len(plan.characteristics)} characteristics of the inspection "
                         f"plan {os.path.basename(rec.path)} (SHA-256 {rec.sha256[:16]}…, "
@@ -761,13 +895,14 @@ def _plan_requirement(c: _Layout) -> list[tuple[str, str]]:
                           "cannot place the part) or when the registration cannot be trusted. "
                           "A profile lies within its tolerance when every point of its region "
                           "lies inside the zone" + (
-                              " shrunk by its nominal-sampling margin (largest "
-                              f"{margin:.4f} mm), outside when a point lies outside the zone "
-                              "grown by it (ISO 14253-1 style; inconclusive in between)"
+                              " shrunk by its expanded measurement uncertainty U (the budget "
+                              "below), outside when a point lies outside the zone grown by it "
+                              "(ISO 14253-1; inconclusive in between)"
                               if guarded else "") +
                           "; flatness, position and size when the measured value lies within "
-                          "their limits (limits are in tolerance). Measurement uncertainty is "
-                          "not deducted from the tolerances."),
+                          "their limits (limits are in tolerance). " + (
+                              "Measurement uncertainty is not deducted from flatness, position "
+                              "and size." if guarded else _uncertainty_sentence(res))),
         ("Zone of the statistics",
          f"{zone}: {_type_word(c, 'profile')} of every measured point, judged at the best fit "
          "over all "
@@ -854,6 +989,7 @@ def _registration(c: _Layout) -> list:
     mat = _matrix(c, res.registration.T_nominal_measured)
     out = [CondPageBreak(75 * mm),  # the heading stays with its table
            P("6  Registration" + ("" if c.plan is None else " and alignment"), S["h"]),
+           P(_esc(alignment_statement(c.run)), S["base"]), Spacer(1, 1.5 * mm),
            Table([[[P("T_nominal_measured (maps measured coordinates into the nominal "
                       "frame, mm)", S["small"]), Spacer(1, 1 * mm), mat],
                    c.kv(_registration_rows(c), [26 * mm, W - 26 * mm - 86 * mm])]],
@@ -868,6 +1004,40 @@ def _registration(c: _Layout) -> list:
         for sentence in res.trust_statements:
             out.append(P("• " + _esc(sentence[:1].upper() + sentence[1:]) + ".", S["small"]))
     return out + _plan_alignment(c)
+
+
+def alignment_statement(run: Run) -> str:
+    """How the part was aligned and how sure that is, in plain words: what a best fit over all
+    points checks, the starting poses tried, how the second-best pose compares and whether the
+    points are of this part."""
+    res = run.result
+    reg = res.registration
+    if res.plan is None or res.plan.alignment is None:
+        what = ("Best fit over all points: it checks form only, not location (no datums place "
+                "the part, so a part made in the right shape but in the wrong place passes)")
+    else:
+        what = ("The part is found by a best fit over all points, then placed by the plan's "
+                "datums (below): the characteristics relative to datums check location too")
+    tried = f"{reg.hypotheses:,} starting poses were tried"
+    if reg.runner_up_score is None:
+        second = "no second, distinct pose was found"
+    elif reg.symmetric:
+        second = ("the second-best pose is a symmetry of the template: it gives the same "
+                  "deviations")
+    else:
+        ratio = reg.runner_up_score / reg.score if reg.score > 0 else math.inf
+        second = ("the second-best distinct pose fits " + (
+            f"{ratio:.1f} times worse" if math.isfinite(ratio) else "worse") +
+            f" (fit score {reg.runner_up_score:.4f} mm against {reg.score:.4f} mm)")
+        if res.ambiguous:
+            second += f" and moves deviations by up to {res.ambiguity_spread:.4f} mm"
+    n = res.deviations.signed.size
+    near = round(100 * reg.near_fraction)
+    fits = ("so the points are of this part" if reg.near_fraction >= 0.5 else
+            "so the points may not be of this part")
+    return (f"{what}. {tried}; {second}. {'All' if near == 100 else f'{near}% of the'} {n:,} "
+            f"points lie within {reg.near_distance:.3g} mm (1% of the nominal's size) of the "
+            f"nominal at this pose, {fits}.")
 
 
 def _matrix(c: _Layout, T: np.ndarray):
@@ -1009,11 +1179,7 @@ def _registration_rows(c: _Layout) -> list[tuple[str, str]]:
             ("Excluded from the alignment",
              f"{int(res.outlier.sum())} point(s) (gross outliers), judged like every other "
              "point" if res.outlier.any() else "none: every point was fitted"),
-            ("RMS", f"{reg.rms:.4f} mm over the {reg.n_inliers} fitted points"),
-            ("Pose score", f"{reg.score:.4f} mm (runner-up pose "
-                           f"{'—' if reg.runner_up_score is None else f'{reg.runner_up_score:.4f} mm'})"),
-            ("Near the nominal", f"{100 * reg.near_fraction:.1f}% of points within "
-                                 f"{reg.near_distance:.3g} mm")]
+            ("RMS", f"{reg.rms:.4f} mm over the {reg.n_inliers} fitted points")]
     if "flatness" in c.doc:
         f = c.doc["flatness"]
         rows.append(("Flatness", f"{f['peak_to_valley']:.4f} mm peak to valley "
@@ -1026,11 +1192,13 @@ def _deviation_map(c: _Layout) -> list:
     registration's page when they fit there, with section 8)."""
     from reportlab.lib import colors
     from reportlab.lib.units import mm
-    from reportlab.platypus import CondPageBreak, Image, Table
+    from reportlab.platypus import Image, KeepTogether, Table
     from reportlab.platypus import Paragraph as P
 
     S, W, res, run, views = c.styles, c.width, c.res, c.run, c.views
-    out = [CondPageBreak(175 * mm), P("7  Deviation map", S["h"])]
+    # The heading, the map and its caption together, on this page when they fit (a page
+    # break before a fixed height would leave the page above half empty).
+    out = [P("7  Deviation map", S["h"])]
     if c.is_2d:
         drawing, factor = figures.contour_map(run.template.template, res.deviations.foot,
                                               res.deviations.normal, res.deviations.signed,
@@ -1039,7 +1207,7 @@ def _deviation_map(c: _Layout) -> list:
         out.append(P(f"Template (dark lines) and every measured point at its foot on the "
                      f"contour, with its deviation drawn as a whisker magnified {factor:g} "
                      "times; labels on the five worst points.", S["small"]))
-        return out
+        return [KeepTogether(out)]
     grid = colors.Color(*_GRID_RGB)
     iw = (W - 4 * mm) / 2
     ih = iw * figures.RENDER_SIZE[1] / figures.RENDER_SIZE[0]
@@ -1056,25 +1224,25 @@ def _deviation_map(c: _Layout) -> list:
                  "points." + ("" if c.plan is None else " The part at the plan's alignment "
                               "(section 6), coloured against the zone of the statistics "
                               "(section 3)."), S["small"]))
-    return out
+    return [KeepTogether(out)]
 
 
 def _histogram(c: _Layout) -> list:
     """8  Colour scale and histogram of deviations."""
     from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether, Table
     from reportlab.platypus import Paragraph as P
-    from reportlab.platypus import Table
 
     W, tol, d = c.width, c.res.tolerance, c.res.deviations.signed
     legend = figures.legend(tol, d, 50 * mm, 62 * mm)
     hist = figures.histogram(d, tol, W - 56 * mm, 62 * mm)
-    return [P("8  Colour scale and histogram of deviations", c.styles["h"]),
+    return [KeepTogether([P("8  Colour scale and histogram of deviations", c.styles["h"]),
             Table([[legend, hist]], colWidths=[54 * mm, W - 54 * mm],
                   style=[("VALIGN", (0, 0), (-1, -1), "TOP"),
                          ("LEFTPADDING", (0, 0), (-1, -1), 0)]),
             P("Green bands: inside the tolerance zone; blue: below the lower limit "
               "(missing material); red: above the upper limit (excess material). Dashed "
-              "lines: the tolerance limits (LTL, UTL).", c.styles["small"])]
+              "lines: the tolerance limits (LTL, UTL).", c.styles["small"])])]
 
 
 def _characteristics(c: _Layout) -> list:
@@ -1084,17 +1252,18 @@ def _characteristics(c: _Layout) -> list:
     points against the zone of the statistics, with their regions."""
     from reportlab.lib import colors
     from reportlab.lib.units import mm
-    from reportlab.platypus import PageBreak, Spacer
+    from reportlab.platypus import CondPageBreak, Spacer
     from reportlab.platypus import Paragraph as P
 
     S, W, res, run = c.styles, c.width, c.res, c.run
     st, order, d = res.statistics, run.worst_order, res.deviations.signed
     out_idx = order[: min(st.n_out, MAX_OUT_ROWS)]
-    rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + WORST_ROWS]]
+    near = order.size - st.n_out if order.size <= APPENDIX_POINTS else WORST_ROWS
+    rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + near]]
     judged = res.verdict != INCONCLUSIVE if c.plan is None else _registration_trusted(res)
     if not judged:  # no pose to trust: the points are listed, not judged
         out_idx = []
-        rows_idx = list(order[:WORST_ROWS])
+        rows_idx = list(order[:max(near, WORST_ROWS)])
     title, header, words, intro = _point_list_words(c, len(out_idx),
                                                     len(rows_idx) - len(out_idx), judged)
     rows = [header]
@@ -1112,7 +1281,8 @@ def _characteristics(c: _Layout) -> list:
         if judged and not ok:
             res_styles.append(("TEXTCOLOR", (7, k + 1), (7, k + 1), colors.Color(0.72, 0.1, 0.1)))
             res_styles.append(("FONT", (7, k + 1), (7, k + 1), "Vera-Bold", 7.5))
-    return [PageBreak(), P(title, S["h"]), P(_esc(intro), S["small"]), Spacer(1, 2 * mm),
+    return [CondPageBreak(60 * mm), P(title, S["h"]), P(_esc(intro), S["small"]),
+            P(_esc(_every_point_words(c, len(rows_idx))), S["cellb"]), Spacer(1, 2 * mm),
             c.table(rows, [15 * mm, 24 * mm, 30 * mm, 22 * mm, 22 * mm, 22 * mm, 22 * mm,
                            W - 157 * mm], zebra=True,
                     styles=[("ALIGN", (3, 1), (6, -1), "RIGHT"),
@@ -1125,12 +1295,23 @@ def _registration_trusted(res) -> bool:
     return pose_trusted(res.registration)
 
 
+def _every_point_words(c: _Layout, listed: int) -> str:
+    """Where every measured point is: this table, or the attached CSV."""
+    n = c.res.statistics.count
+    if listed == n:
+        return (f"This table lists all {n} measured points (they are also in the attached "
+                "points.csv, section 10).")
+    return (f"This table lists {listed} of the {n:,} measured points. The complete list of "
+            f"all {n:,} points, each with its input and registered coordinates, deviation and "
+            "result, is the attached file points.csv (section 10), covered by the signature.")
+
+
 def _point_list_words(c: _Layout, n_out: int, n_near: int, judged: bool):
     """Section 9's title, header row, result words (by in-tolerance) and introduction."""
     n_all = c.res.statistics.n_out
     listed = f"; the worst {MAX_OUT_ROWS} are listed" if n_all > MAX_OUT_ROWS else ""
     tail = (" A point excluded from the alignment (a gross outlier: see section 4) is judged "
-            "like every other. Every point is in the attached points.csv.")
+            "like every other.")
     if not judged:
         head = (f"The registration cannot be trusted, so no point is judged; the {n_near} "
                 "largest deviations at the best pose found are listed for diagnosis.")
@@ -1192,8 +1373,7 @@ def _statement_and_signatures(c: _Layout) -> list:
     elif res.verdict == REJECT:
         statement = (f"The part identified above does not conform to the stated requirement: "
                      f"{st.n_out} of {st.count} measured points lie outside the tolerance zone "
-                     f"{zone} (largest excursion {figures.fmt_mm(_worst_excess(res))} mm beyond "
-                     "a limit).")
+                     f"{zone}; {excursion_words(c.run)}.")
     else:
         statement = ("No statement of conformity can be made: " + c.reasons +
                      ". The part is neither accepted nor rejected by this certificate.")
@@ -1262,5 +1442,16 @@ def _vec(v) -> str:
     return "(" + ", ".join(f"{x:+.2f}" for x in v) + ")"
 
 
-def _worst_excess(res) -> float:
-    return float(res.tolerance.excess(res.deviations.signed).max())
+def excursion_words(run: Run) -> str:
+    """The worst point's excursion with its sign explained: which limit it passes, by how much,
+    and what its deviation means for the material."""
+    res = run.result
+    d, tol = res.deviations.signed, res.tolerance
+    i = int(run.worst_order[0])
+    below = d[i] < tol.lower
+    limit = tol.lower if below else tol.upper
+    return (f"the worst, point {_point_name(run, i)}, lies {abs(d[i] - limit):.4f} mm "
+            f"{'below the lower' if below else 'above the upper'} limit: its deviation "
+            f"{d[i]:+.4f} mm is {'negative, material missing' if d[i] < 0 else 'positive, excess material'} "
+            f"(the measured surface lies {'inside' if d[i] < 0 else 'outside'} the nominal, "
+            f"{'into' if d[i] < 0 else 'away from'} the material)")

@@ -13,10 +13,14 @@ What carries what:
 - ``Header/Application/Name``: "qa-inspect <version>"; ``Header/Author``: inspector and
   organisation when the certificate names them.
 - ``FileUnits``: mm. ``MeasurementResources/MeasurementDevices/MeasurementDevice``: only when the
-  certificate names a device; the point set and the characteristic measurement refer to it.
+  certificate names a device (or its serial, calibration date or probe): ``Name``,
+  ``SerialNumber``, and ``AttributeStr`` "qa-inspect:probe" (probe and stylus) and
+  "qa-inspect:calibration-date" (YYYY-MM-DD; a QIF ``Calibration`` needs an expiry date the
+  certificate does not state); the point set and the characteristic measurement refer to it.
 - ``Product/PartSet/Part``: ``Header/Name`` = part name, ``ModelNumber`` = part number,
-  ``Version`` = revision; ``DefinitionExternal/DigitalModel`` = the nominal file (name, format,
-  sha256 in its ``Description``).
+  ``Version`` = revision, ``AttributeStr`` "qa-inspect:drawing" = the drawing number;
+  ``DefinitionExternal/DigitalModel`` = the nominal file (name, format, the CAD revision as its
+  ``File/Version``, sha256 in its ``Description``).
 - ``Features``: one freeform feature for the nominal, ``OtherSurfaceFeature*`` for a 3D nominal,
   ``OtherCurveFeature*`` for a 2D template (QIF has no analytic type for either).
 - ``Characteristics``: one profile characteristic on that feature, ``SurfaceProfile*`` (3D) or
@@ -26,7 +30,9 @@ What carries what:
   lower = OuterDisposition - ToleranceValue).
 - ``Results/MeasurementResultsSet/MeasurementResults``:
   ``InspectionTraceability`` (organisation, order, certificate number as ``ReportNumber``,
-  inspector as ``InspectionOperator``, issue time as ``ReportPreparationDate``);
+  inspector as ``InspectionOperator``, issue time as ``ReportPreparationDate``, the part's
+  temperature (°C) as ``AttributeD1`` "qa-inspect:temperature-c" and the measurement program as
+  ``AttributeStr`` "qa-inspect:measurement-program");
   ``ExternalFileReferences``: the measured points file and its sha256;
   ``MeasuredFeatures``: the feature measurement, pointing at the point set and at the
   registration transform;
@@ -327,7 +333,8 @@ class _Qif:
         T = np.asarray(alignment.get("T_nominal_measured", doc["transform"]) if planned
                        else doc["transform"], dtype=float)
         ids = _Ids()
-        refs = _Refs.take(ids, device="device" in cert, points=pts.shape[0] != 0,
+        refs = _Refs.take(ids, device=any(k in cert for k in DEVICE_KEYS),
+                          points=pts.shape[0] != 0,
                           transform=T.shape == (4, 4) and bool(np.isfinite(T).all()),
                           component="serial" in cert, profile=not planned)
         is_2d = doc.get("template") is not None
@@ -563,19 +570,47 @@ def _datums(w, q: _Qif) -> None:
         w("  </DatumReferenceFrames>\n")
 
 
+DEVICE_KEYS = ("device", "device_serial", "calibration_date", "probe")
+"""The certificate's fields that describe the measuring device (any of them: a
+MeasurementDevice)."""
+
+
 def _resources(w, q: _Qif) -> None:
-    """MeasurementResources, when the certificate names a device."""
+    """MeasurementResources, when the certificate names a device, its serial number, its
+    calibration date or its probe: the device's Name (or "measuring device") and SerialNumber;
+    the probe and stylus and the calibration date as attributes (a QIF Calibration needs an
+    expiry date the certificate does not state)."""
+    cert = q.cert
     if q.ids.device:
         w('  <MeasurementResources>\n    <MeasurementDevices n="1">\n')
         w(f'      <MeasurementDevice id="{q.ids.device}">\n'
-          f"        <Name>{_text(q.cert['device'])}</Name>\n      </MeasurementDevice>\n")
+          f"        <Name>{_text(cert.get('device', 'measuring device'))}</Name>\n")
+        if "device_serial" in cert:
+            w(f"        <SerialNumber>{_text(cert['device_serial'])}</SerialNumber>\n")
+        w(_attributes([("Str", "qa-inspect:probe", cert.get("probe")),
+                       ("Str", "qa-inspect:calibration-date", cert.get("calibration_date"))], 8))
+        w("      </MeasurementDevice>\n")
         w("    </MeasurementDevices>\n  </MeasurementResources>\n")
+
+
+def _attributes(items, indent: int) -> str:
+    """QIF Attributes of (kind, name, value) items whose value is given ("" when none):
+    kind "Str" (AttributeStr) or "D1" (AttributeD1, a number)."""
+    items = [(k, n, v) for k, n, v in items if v not in (None, "")]
+    if not items:
+        return ""
+    pad = " " * indent
+    body = "".join(f'{pad}  <Attribute{k} name="{n}" value="'
+                   f'{_attr(v) if k == "Str" else _f(float(v))}"/>\n' for k, n, v in items)
+    return f'{pad}<Attributes n="{len(items)}">\n{body}{pad}</Attributes>\n'
+
 
 
 def _product(w, q: _Qif) -> None:
     """Product/PartSet/Part: name, part number, revision and the nominal file."""
     ids, cert, nominal_path = q.ids, q.cert, q.nominal_path
     w(f'  <Product>\n    <PartSet n="1">\n      <Part id="{ids.part}">\n')
+    w(_attributes([("Str", "qa-inspect:drawing", cert.get("drawing"))], 8))
     if "part_name" in cert:
         w(f"        <Header>\n          <Name>{_text(cert['part_name'])}</Name>\n"
           "        </Header>\n")
@@ -589,6 +624,8 @@ def _product(w, q: _Qif) -> None:
       f'          <DigitalModel id="{ids.model}">\n'
       f"            <Name>{_text(q.nominal_name)}</Name>\n"
       f"            <File>\n              <Name>{_text(nominal_path)}</Name>\n"
+      + (f"              <Version>{_text(cert['cad_revision'])}</Version>\n"
+         if "cad_revision" in cert else "") +
       f"              <Format>\n                <OtherDigitalModelFormat>"
       f"{_text(_format_name(nominal_path, q.is_2d))}</OtherDigitalModelFormat>\n"
       "              </Format>\n            </File>\n"
@@ -832,7 +869,10 @@ def _traceability(w, cert: dict, issued: str | None) -> None:
                      "          </InspectionOperator>\n")
     if issued:
         parts.append(f"          <ReportPreparationDate>{issued}</ReportPreparationDate>\n")
-    if parts:
+    parts.append(_attributes([("D1", "qa-inspect:temperature-c", cert.get("temperature_c")),
+                              ("Str", "qa-inspect:measurement-program", cert.get("program"))],
+                             10))
+    if any(parts):
         w("        <InspectionTraceability>\n" + "".join(parts)
           + "        </InspectionTraceability>\n")
 

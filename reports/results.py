@@ -1,6 +1,10 @@
 """Machine-readable results: the JSON document and the per-point CSV, written atomically.
 
-The JSON names and the CSV columns are a contract scripts depend on (see the README).
+The JSON names and the CSV columns are a contract scripts depend on (see the README). Points
+are numbered from 1 in input order, as the desktop app numbers them: the CSV's ``point``
+column, and ``point`` (with the point's ``label`` from the measured file, or null) wherever the
+JSON names one (``deviations.worst``, ``registration.gross_outliers.excluded``, a
+characteristic's ``worst``).
 """
 
 from __future__ import annotations
@@ -16,9 +20,11 @@ from engine.inspection import InspectionResult
 from engine.pipeline import InputRecord, Run
 
 SOFTWARE_NAME = "qa-inspect"
-CSV_COLUMNS = ("index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
+CSV_COLUMNS = ("point", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
                "in_tolerance", "excluded_from_alignment")
-"""Columns of every per-point CSV; with the guarded decision rule a ``margin`` column follows.
+"""Columns of every per-point CSV; with the guarded decision rule (or an instrument stated) a
+``margin`` column (the nominal-sampling margin) and an ``uncertainty`` column (the point's
+expanded uncertainty U, k = 2) follow.
 ``excluded_from_alignment`` is true only on the gross outliers the final fit excluded from the
 alignment (engine.outliers); they are judged like every other point."""
 
@@ -35,14 +41,15 @@ def software_version() -> str:
 def run_document(run: Run) -> dict:
     """The JSON document of one run of the pipeline: :func:`result_document` and the settings
     needed to re-run it (``settings``)."""
-    doc = result_document(run.result, run.inputs, run.timings_s)
+    doc = result_document(run.result, run.inputs, run.timings_s, run.measured.labels)
     doc["settings"] = run.settings.to_json()
     return doc
 
 
 def result_document(result: InspectionResult, inputs: list[InputRecord],
-                    timings_s: dict) -> dict:
-    """The JSON document of one inspection (plain dict of JSON types)."""
+                    timings_s: dict, labels: np.ndarray | None = None) -> dict:
+    """The JSON document of one inspection (plain dict of JSON types); labels : (n,) the
+    measured points' labels (None: the file has none)."""
     reg = result.registration
     st = result.statistics
     dev = result.deviations.signed
@@ -59,7 +66,7 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "rms_definition": reg.rms_definition,
             "n_inliers": int(reg.n_inliers),
             "outlier_cut": _num(reg.outlier_cut),
-            "gross_outliers": _gross_outliers(reg, dev),
+            "gross_outliers": _gross_outliers(reg, dev, labels),
             "score": _num(reg.score),
             "hypotheses": int(reg.hypotheses),
             "runner_up_score": None if reg.runner_up_score is None else _num(reg.runner_up_score),
@@ -81,7 +88,7 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
             "count": st.count, "min": st.min, "max": st.max, "mean": st.mean, "std": st.std,
             "rms": st.rms, "max_abs": st.max_abs, "n_out": st.n_out,
             "fraction_in": st.fraction_in,
-            "worst": [{"index": i, "deviation": float(dev[i])} for i in st.worst],
+            "worst": [{**point_ref(i, labels), "deviation": float(dev[i])} for i in st.worst],
             "sign": "positive along the nominal's outward normal (excess material)",
             "normals_source": result.normals_source,
             "method": DEVIATION_METHODS.get(result.normals_source, DEVIATION_METHODS["facets"]),
@@ -99,6 +106,8 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
                           "directions of curvature x (sample spacing along it)^2 / 8, mm (how far "
                           "a chord between samples sags below the surface); 0 for a 2D "
                           "template's exact lines and arcs"}}),
+        **({} if result.uncertainty is None else {
+            "uncertainty": uncertainty_json(result.uncertainty, result.decision_rule)}),
         "inputs": [{"role": r.role, "path": r.path, "sha256": r.sha256, "n_points": r.n_points,
                     **({} if r.n_primitives is None else {"n_primitives": r.n_primitives}),
                     **({} if r.n_faces is None else {"n_faces": r.n_faces})}
@@ -107,11 +116,18 @@ def result_document(result: InspectionResult, inputs: list[InputRecord],
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},
         **_json_safe(result.extra),
         "pose_sensitivity": pose_sensitivity_json(result),
-        **({} if result.plan is None else plan_json(result.plan, inputs)),
+        **({} if result.plan is None else plan_json(result.plan, inputs, labels)),
     }
 
 
-def plan_json(planned, inputs: list[InputRecord]) -> dict:
+def point_ref(i: int, labels: np.ndarray | None) -> dict:
+    """A measured point as the JSON names it: ``point`` its number from 1 in input order (as
+    the app and the CSV number it) and ``label`` its label in the measured file (None: none)."""
+    label = None if labels is None else str(labels[int(i)])
+    return {"point": int(i) + 1, "label": label or None}
+
+
+def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = None) -> dict:
     """The plan's part of the results: ``plan`` (the file), ``alignment`` and
     ``characteristics`` (each with its value in the drawing's convention and its verdict)."""
     rec = next((r for r in inputs if r.role == "plan"), None)
@@ -140,7 +156,7 @@ def plan_json(planned, inputs: list[InputRecord]) -> dict:
                                 "are at the plan's alignment; the tolerance is a characteristic "
                                 "over all points ('tol') when given, else only the zone of the "
                                 "per-point statistics (the plan's widest profile zone)",
-        "characteristics": [_characteristic_json(r) for r in planned.characteristics],
+        "characteristics": [_characteristic_json(r, labels) for r in planned.characteristics],
         "features": [_json_safe({"region": f.region, "feature": f.feature,
                                  "datums": [{"label": a, "fit": b} for a, b in f.datums],
                                  "nominal": f.nominal, "measured": f.measured})
@@ -161,19 +177,45 @@ def plan_json(planned, inputs: list[InputRecord]) -> dict:
     }
 
 
-def _characteristic_json(r) -> dict:
+def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
     c = r.characteristic
     out = {"id": c.id, "type": c.type, "region": c.region, "datums": list(c.datums),
            "zone": _num(c.width), "lower": _num(c.lower), "upper": _num(c.upper),
            "value": None if r.value is None else _num(r.value),
            "n_points": int(r.indices.size), "verdict": r.verdict, "reason": r.reason,
-           "worst": [int(i) for i in r.worst]}
+           "worst": [point_ref(i, labels) for i in r.worst]}
     if c.type == "size":
         out["nominal"] = _num(c.nominal)
     if c.type == "profile" and not c.datums:
         out["fit"] = c.fit
     out.update(_json_safe({k: v for k, v in r.facts.items() if k != "T_nominal_measured"}))
     return out
+
+
+def uncertainty_json(b, rule: str) -> dict:
+    """The uncertainty budget (engine.uncertainty): each term's largest and mean standard
+    uncertainty, the expanded U, the instrument stated and how U enters the decision."""
+    U = b.expanded
+    return {
+        "k": b.k,
+        "expanded_max_mm": _num(float(U.max())) if U.size else 0.0,
+        "expanded_mean_mm": _num(float(U.mean())) if U.size else 0.0,
+        "length_max_mm": _num(float(b.length_mm.max())) if U.size else 0.0,
+        "terms": [{"term": t.key, "name": t.name, "distribution": t.distribution,
+                   "divisor": _num(t.divisor),
+                   "u_max_mm": _num(float(t.u.max())) if t.u.size else 0.0,
+                   "u_mean_mm": _num(float(t.u.mean())) if t.u.size else 0.0,
+                   "basis": t.basis} for t in b.terms],
+        "instrument": None if b.instrument is None else b.instrument.to_json(),
+        "used_by_decision_rule": rule == "guarded",
+        "definition": "per point: U = k x sqrt(sum of the terms' standard uncertainties u^2), "
+                      "k = 2 (GUM); a bound taken as rectangular gives u = bound / sqrt(3), a "
+                      "stated expanded uncertainty u = U / 2, the pose's covariance its own "
+                      "standard deviation; L is the point's distance from the centroid of the "
+                      "fitted points. The guarded rule (ISO 14253-1) accepts inside the zone "
+                      "shrunk by each point's U, rejects outside the zone grown by it, and is "
+                      "inconclusive in between; the per-point U is the CSV's 'uncertainty'",
+    }
 
 
 def pose_sensitivity_json(result: InspectionResult) -> dict | None:
@@ -242,12 +284,13 @@ FIT_DEFINITIONS = {
                "the part be placed inside its zone?'"}
 RULE_DEFINITIONS = {
     "simple": "accept only if every point lies inside the zone; reject if any lies outside",
-    "guarded": "accept only if every point lies inside the zone shrunk by its nominal-sampling "
-               "margin; reject only if a point lies outside the zone grown by it; otherwise "
-               "inconclusive (ISO 14253-1 style)"}
+    "guarded": "ISO 14253-1: accept only if every point lies inside the zone shrunk by its "
+               "expanded measurement uncertainty U (k = 2: instrument, pose of the registration, "
+               "nominal sampling; see 'uncertainty'); reject only if a point lies outside the "
+               "zone grown by its U; otherwise inconclusive"}
 
 
-def _gross_outliers(reg, dev: np.ndarray) -> dict:
+def _gross_outliers(reg, dev: np.ndarray, labels: np.ndarray | None = None) -> dict:
     """The points excluded from the alignment, and the rule that excluded them."""
     rule = reg.gross_rule
     excluded = np.flatnonzero(~np.asarray(reg.inlier, bool))
@@ -259,12 +302,12 @@ def _gross_outliers(reg, dev: np.ndarray) -> dict:
         "robust_sigma_mm": _num(rule.robust_sigma_mm),
         "floor_mm": _num(rule.floor_mm),
         "n_excluded": int(excluded.size),
-        "excluded": [{"index": int(i), "deviation": _num(float(dev[i]))}
+        "excluded": [{**point_ref(i, labels), "deviation": _num(float(dev[i]))}
                      for i in excluded[:GROSS_LISTED]],
         "definition": "points excluded from the alignment (the final least-squares fit) as gross "
                       "outliers by the rule above; every other point is fitted, and every point, "
                       "excluded or not, is judged; 'excluded' lists the first "
-                      f"{GROSS_LISTED} by index",
+                      f"{GROSS_LISTED} by point number (from 1, input order)",
     }
 
 
@@ -316,14 +359,16 @@ def result_json(doc: dict) -> str:
 
 def points_csv(result: InspectionResult, measured: np.ndarray,
                labels: np.ndarray | None) -> str:
-    """One row per measured point in input order (columns: CSV_COLUMNS, plus ``margin`` with the
-    guarded decision rule, and ``region`` with an inspection plan: the point's regions joined by
+    """One row per measured point in input order (columns: CSV_COLUMNS, plus ``margin`` and
+    ``uncertainty`` with the guarded decision rule or an instrument, and ``region`` with an inspection plan: the point's regions joined by
     '+'; the coordinates and deviation are then at the plan's alignment)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     margin = result.margin
+    U = None if result.uncertainty is None else result.uncertainty.expanded
     regions = None if result.plan is None else result.plan.regions
     w.writerow(CSV_COLUMNS + (() if margin is None else ("margin",))
+               + (() if U is None else ("uncertainty",))
                + (() if regions is None else ("region",)))
     reg = result.registered
     d = result.deviations.signed
@@ -331,11 +376,13 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
     excluded = result.outlier
     for i in range(measured.shape[0]):
         label = str(labels[i]) if labels is not None else ""
-        row = [i, label, *(f"{v:.6f}" for v in measured[i]), *(f"{v:.6f}" for v in reg[i]),
+        row = [i + 1, label, *(f"{v:.6f}" for v in measured[i]), *(f"{v:.6f}" for v in reg[i]),
                f"{d[i]:.6f}", "true" if inside[i] else "false",
                "true" if excluded[i] else "false"]
         if margin is not None:
             row.append(f"{margin[i]:.6f}")
+        if U is not None:
+            row.append(f"{U[i]:.6f}")
         if regions is not None:
             row.append(regions[i])
         w.writerow(row)

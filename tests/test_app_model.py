@@ -98,7 +98,7 @@ def test_template_run_and_exports(tmp_path):
     c.export_csv(str(tmp_path / "p.csv"))
     c.export_qif(str(tmp_path / "r.qif"))
     rows = (tmp_path / "p.csv").read_text().splitlines()
-    assert len(rows) == 501 and rows[0].startswith("index,label,x,y,z")
+    assert len(rows) == 501 and rows[0].startswith("point,label,x,y,z")
     assert b"QIFDocument" in (tmp_path / "r.qif").read_bytes()[:400]
 
 

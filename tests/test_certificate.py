@@ -43,7 +43,7 @@ ORGANISATION = "ACME Aero QA"
 INFO = {"--part-number": "D52-1100-7", "--serial": "SN-0815-X", "--inspector": INSPECTOR,
         "--organisation": ORGANISATION, "--device": "Laser tracker LT-3"}
 INFO_ARGS = [a for kv in INFO.items() for a in kv]
-CSV_COLUMNS = ["index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
+CSV_COLUMNS = ["point", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
                "in_tolerance", "excluded_from_alignment"]
 
 
@@ -419,7 +419,9 @@ def test_attachments_are_the_evidence(signed, evidence, number, tmp_path):
                        ("rms", np.sqrt(np.mean(dev ** 2)))):
         assert st[key] == pytest.approx(value, abs=1e-6), key
     for w in st["worst"]:
-        assert float(rows[w["index"]]["deviation"]) == pytest.approx(w["deviation"], abs=5e-7)
+        row = rows[w["point"] - 1]  # numbered from 1, with the file's label
+        assert row["point"] == str(w["point"]) and row["label"] == w["label"]
+        assert float(row["deviation"]) == pytest.approx(w["deviation"], abs=5e-7)
     for key in ("count", "min", "max", "mean", "rms", "max_abs", "n_out"):
         assert st[key] == pytest.approx(separate["deviations"][key], abs=1e-9), key
     assert {r["role"]: r["sha256"] for r in doc["inputs"]} == {

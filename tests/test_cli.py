@@ -4,6 +4,8 @@ import csv
 import hashlib
 import json
 import os
+import re
+import shlex
 import stat
 import subprocess
 import sys
@@ -69,7 +71,7 @@ def test_accept_json_and_csv(files, capsys):
                                 "n_points": 300}
     with open(d / "r.csv") as f:
         rows = list(csv.DictReader(f))
-    assert list(rows[0]) == ["index", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg",
+    assert list(rows[0]) == ["point", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg",
                              "deviation", "in_tolerance", "excluded_from_alignment"]
     assert [r["label"] for r in rows[:2]] == ["P000", "P001"] and len(rows) == 300
     got = np.array([float(r["deviation"]) for r in rows])
@@ -82,7 +84,9 @@ def test_reject_and_stdout_json(files, capsys):
     code = run("inspect", d / "nominal.csv", d / "bad.csv", "--tol", "0.05", "--json", "-")
     doc = json.loads(capsys.readouterr().out)
     assert code == 1 and doc["verdict"] == "REJECT" and doc["deviations"]["n_out"] == 1
-    assert doc["deviations"]["worst"][0]["index"] == 7
+    # Numbered from 1 like the app and the CSV, with the point's label from the file.
+    assert doc["deviations"]["worst"][0]["point"] == 8
+    assert doc["deviations"]["worst"][0]["label"] == "P007"
     assert doc["deviations"]["worst"][0]["deviation"] == pytest.approx(0.2, abs=0.01)
 
 
@@ -252,7 +256,7 @@ def test_outputs_replace_their_previous_versions(work, capsys):
     assert run("inspect", work / "nominal.csv", work / "good.csv", "--tol", "0.05",
                "--csv", work / "c.csv", "--json", work / "r.json") == 0
     assert json.loads((work / "r.json").read_text())["verdict"] == "ACCEPT"
-    assert (work / "c.csv").read_text().startswith("index,label,")
+    assert (work / "c.csv").read_text().startswith("point,label,")
     assert sorted(p.name for p in work.iterdir()) == ["c.csv", "good.csv", "nominal.csv",
                                                       "r.json"]
 
@@ -454,3 +458,21 @@ def test_keygen_refuses_to_overwrite_an_identity(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert err == f"qa-inspect: error: {tmp_path / 'ca.pem'} already exists; not overwritten\n"
     assert {n: (tmp_path / n).read_bytes() for n in before} == before
+
+
+def test_help_shows_examples_that_parse_and_every_exit_code(capsys):
+    from qa_app.cli import build_parser
+
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    examples = out.split("examples:\n", 1)[1].split("\n\n", 1)[0].replace("\\\n", " ")
+    lines = [shlex.split(line) for line in examples.splitlines() if line.strip()]
+    assert len(lines) >= 5
+    for words in lines:  # each example is a command line the parser takes
+        assert words[0] == "qa-inspect"
+        build_parser().parse_args(words[1:])
+    codes = dict(re.findall(r"^  (\d+) +(\S+)", out.split("exit codes:\n", 1)[1], re.M))
+    assert codes == {"0": "ACCEPT:", "1": "REJECT:", "2": "INCONCLUSIVE:", "64": "usage",
+                     "65": "bad", "66": "an", "70": "internal", "73": "an", "130": "interrupted"}

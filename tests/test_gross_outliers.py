@@ -208,7 +208,7 @@ def test_outputs_state_the_rule_and_mark_only_the_excluded_points(fairing):
     doc = json.loads(result_json(result_document(res, [], {})))
     gross = doc["registration"]["gross_outliers"]
     assert gross["n_excluded"] == idx.size == 12
-    assert [e["index"] for e in gross["excluded"]] == idx.tolist()
+    assert [e["point"] for e in gross["excluded"]] == (idx + 1).tolist()  # from 1
     assert gross["threshold_mm"] == pytest.approx(2.5) and gross["zone_width_mm"] == 0.5
     assert gross["rule"].startswith("a point is excluded from the alignment only as a gross "
                                     "outlier") and "2.5 mm" in gross["rule"]

@@ -196,6 +196,32 @@ def test_certificate_traceability(runs):
     assert not parse_valid(run.qif(bare)).xpath("//q:MeasurementResources", namespaces=NS)
 
 
+def test_certificate_traceability_fields(runs):
+    """The device's serial, calibration date and probe on the MeasurementDevice; the part's
+    temperature and the measurement program on the results' traceability; the drawing on the
+    part and the CAD revision as the nominal model's file version; valid QIF 3.0."""
+    run = runs["accept"]
+    cert = dict(CERTIFICATE, device_serial="C-4711", calibration_date="2025-03-01",
+                probe="VAST XT, 3 mm ruby", temperature_c=21.5, program="BF-1100.mpp",
+                drawing="D52-1100", cad_revision="7.2")
+    root = parse_valid(run.qif(dict(run.doc, certificate=cert)))
+    device = one(root, "//q:MeasurementResources//q:MeasurementDevice")
+    assert one(device, "q:SerialNumber").text == "C-4711"
+    assert attribute(device, "qa-inspect:probe") == "VAST XT, 3 mm ruby"
+    assert attribute(device, "qa-inspect:calibration-date") == "2025-03-01"
+    trace = one(root, "//q:MeasurementResults/q:InspectionTraceability")
+    assert float(one(trace, "q:Attributes/q:AttributeD1[@name='qa-inspect:temperature-c']")
+                 .get("value")) == 21.5
+    assert attribute(trace, "qa-inspect:measurement-program") == "BF-1100.mpp"
+    part = one(root, "//q:Product/q:PartSet/q:Part")
+    assert attribute(part, "qa-inspect:drawing") == "D52-1100"
+    assert one(part, "q:DefinitionExternal/q:DigitalModel/q:File/q:Version").text == "7.2"
+    # A serial number alone still names a device (its name then says only that).
+    bare = dict(run.doc, certificate={"number": "X-1", "device_serial": "C-4711"})
+    device = one(parse_valid(run.qif(bare)), "//q:MeasurementResources//q:MeasurementDevice")
+    assert one(device, "q:Name").text == "measuring device"
+
+
 def test_deterministic(runs):
     run = runs["template"]
     doc = dict(run.doc, certificate=CERTIFICATE)

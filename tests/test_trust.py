@@ -300,8 +300,11 @@ def test_command_line_outputs_of_the_fit_and_rule(tmp_path, capsys):
     assert doc["minimax"]["excursion"] <= 1.0 < doc["minimax"]["least_squares_excursion"]
     with open(c) as f:
         rows = list(csv.DictReader(f))
-    assert list(rows[0])[-2:] == ["excluded_from_alignment", "margin"]
+    assert list(rows[0])[-3:] == ["excluded_from_alignment", "margin", "uncertainty"]
     assert all(float(r["margin"]) >= 0 for r in rows)
+    # Without an instrument, U holds the sampling margin (rectangular, k = 2) at least.
+    assert all(float(r["uncertainty"]) >= 2 * float(r["margin"]) / 3 ** 0.5 - 1e-6
+               for r in rows)
     assert max(float(r["margin"]) for r in rows) == pytest.approx(doc["margin"]["max"],
                                                                   abs=1e-6)
     # The same part at the least-squares pose is rejected.

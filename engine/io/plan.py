@@ -2,7 +2,13 @@
 
 The format (units mm, coordinates in the nominal frame; issue 12 is its contract)::
 
-    [part]                 number, name, revision                          (all optional)
+    [part]                 number, name, revision, drawing, cad_revision   (all optional)
+    [measurement]          how the part was measured (all optional): device, device_serial,
+                           calibration_date (YYYY-MM-DD), probe, program, temperature_c (°C);
+                           the instrument for the uncertainty budget (engine.uncertainty):
+                           uncertainty_mm (a stated expanded U, k = 2, mm) or mpe_a_um and
+                           mpe_l_per_um (MPE_E = A + L/K µm, K in mm per µm), probing_um (µm),
+                           expansion_per_k (the part's CTE, 1/K, with temperature_c)
     [[region]]             name; exactly one of box = [[x, y, z], [x, y, z]], labels = "glob",
                            group = "name"; optional measured_labels = "glob"
     [[datum]]              label, region, feature (plane | cylinder | sphere | line | circle),
@@ -30,6 +36,7 @@ its feature, depend on the nominal and measured files and are checked by the ins
 
 from __future__ import annotations
 
+import datetime as dt
 import difflib
 import hashlib
 import json
@@ -40,20 +47,25 @@ import re
 import tomllib
 
 from engine.errors import InputError
+from engine.errors import SettingsError
 from engine.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D, FEATURES_3D,
-                         MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Part, Plan,
-                         Region, RpsPoint)
+                         MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Measurement,
+                         Part, Plan, Region, RpsPoint)
+from engine.uncertainty import Instrument
 
 from . import formats
 from .points import read_bytes
 
 ARRAY_TABLES = {"region": "name", "datum": "label", "characteristic": "id", "rps": "label"}
 """The plan's arrays of tables ([[name]]) and the key that identifies each entry."""
-TABLES = ("part", "alignment")
+TABLES = ("part", "alignment", "measurement")
 """The plan's single tables ([name])."""
-ORDER = ("part", "region", "datum", "alignment", "characteristic", "rps")
+ORDER = ("part", "measurement", "region", "datum", "alignment", "characteristic", "rps")
 KEYS = {
-    "part": ("number", "name", "revision"),
+    "part": ("number", "name", "revision", "drawing", "cad_revision"),
+    "measurement": ("device", "device_serial", "calibration_date", "probe", "program",
+                    "temperature_c", "uncertainty_mm", "mpe_a_um", "mpe_l_per_um", "probing_um",
+                    "expansion_per_k"),
     "region": ("name", "box", "labels", "group", "measured_labels"),
     "datum": ("label", "region", "feature", "fit"),
     "alignment": ("method", "reference", "best_fit_regions"),
@@ -90,10 +102,11 @@ def read_plan(path: str | os.PathLike) -> Plan:
     characteristics = tuple(_characteristic(t, region_names, datums)
                             for t in tables["characteristic"])
     _unique(tables["characteristic"], "id")
-    part = tables["part"]
+    part, measurement = tables["part"], tables["measurement"]
     return Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
-                alignment=alignment, characteristics=characteristics, rps=rps)
+                alignment=alignment, characteristics=characteristics, rps=rps,
+                measurement=_measurement(measurement[0]) if measurement else Measurement())
 
 
 def _parse(raw: bytes, path: str) -> dict:
@@ -231,6 +244,53 @@ def _tables(doc: dict, path: str) -> dict[str, list[_Table]]:
 
 def _part(t: _Table) -> Part:
     return Part(**{key: t.text(key, default="") for key in KEYS["part"]})
+
+
+INSTRUMENT_KEYS = ("uncertainty_mm", "mpe_a_um", "mpe_l_per_um", "probing_um",
+                   "expansion_per_k")
+"""The [measurement] keys of the instrument's performance (engine.uncertainty.Instrument)."""
+
+
+def _measurement(t: _Table) -> Measurement:
+    """[measurement]: the traceability fields and the instrument (None when it states no
+    term; a stated uncertainty and MPE terms together are refused)."""
+    numbers = {k: t.number(k) for k in INSTRUMENT_KEYS}
+    temperature = t.number("temperature_c")
+    if temperature is not None and not -100.0 < temperature < 200.0:
+        raise t.fail("temperature_c", f"must be a temperature in °C, got {temperature:g}")
+    if numbers["uncertainty_mm"] is not None:
+        for k in INSTRUMENT_KEYS[1:]:
+            if numbers[k] is not None:
+                raise t.fail(k, "and 'uncertainty_mm' are both given: a stated expanded "
+                             "uncertainty replaces the MPE, probing and temperature terms")
+    instrument = None
+    if any(v is not None for v in numbers.values()):
+        try:
+            instrument = Instrument(temperature_c=temperature, **numbers)
+        except SettingsError as e:
+            key = next((k for k in (*INSTRUMENT_KEYS, "temperature_c") if str(e).startswith(k)),
+                       "expansion_per_k")
+            raise t.fail(key, str(e).split(" ", 1)[1]) from None
+    return Measurement(**{k: t.text(k, default="") for k in
+                          ("device", "device_serial", "probe", "program")},
+                       calibration_date=_date(t, "calibration_date"), temperature_c=temperature,
+                       instrument=instrument)
+
+
+def _date(t: _Table, key: str) -> str:
+    """A date (TOML's own, 2024-05-01, or a string "2024-05-01") as YYYY-MM-DD; "" absent."""
+    value = t.data.get(key)
+    if value is None:
+        return ""
+    if isinstance(value, dt.datetime):
+        value = value.date()
+    if isinstance(value, dt.date):
+        return value.isoformat()
+    text = t.text(key) or ""
+    try:
+        return dt.date.fromisoformat(text.strip()).isoformat()
+    except ValueError:
+        raise t.fail(key, f"must be a date YYYY-MM-DD, got {_show(value)}") from None
 
 
 def _region(t: _Table) -> Region:

@@ -17,6 +17,7 @@ from PySide6.QtWidgets import (
     QDialogButtonBox,
     QFileDialog,
     QFormLayout,
+    QGroupBox,
     QHBoxLayout,
     QLabel,
     QLineEdit,
@@ -26,12 +27,16 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from reports.certificate import CertificateInfo
+from reports.certificate import TRACEABILITY, CertificateInfo
 from reports.messages import user_message
 
 FIELDS = (("part_number", "Part number"), ("part_name", "Part name"), ("revision", "Revision"),
           ("serial", "Serial number"), ("order", "Order"), ("inspector", "Inspector"),
-          ("organisation", "Organisation"), ("device", "Measuring device"))
+          ("organisation", "Organisation"))
+TRACEABILITY_HINTS = {"calibration_date": "YYYY-MM-DD", "temperature_c": "°C, e.g. 20.5",
+                      "probe": "probe and stylus", "program": "measurement program",
+                      "cad_revision": "revision of the CAD model"}
+"""Placeholders of the traceability fields (the certificate's section 1)."""
 
 
 class CertificateDialog(QDialog):
@@ -55,6 +60,7 @@ class CertificateDialog(QDialog):
             e.setObjectName(key)
             form.addRow(label, e)
             self.edits[key] = e
+        trace = self._traceability_box(defaults)
         self.inspector = self.edits["inspector"]
         self._draft_inspector = self.inspector.text()  # what an unsigned draft names
         self.notes = QPlainTextEdit(defaults.get("notes") or "")
@@ -85,7 +91,10 @@ class CertificateDialog(QDialog):
         self.buttons.accepted.connect(self.accept)
         self.buttons.rejected.connect(self.reject)
         lay = QVBoxLayout(self)
-        lay.addLayout(form)
+        columns = QHBoxLayout()
+        columns.addLayout(form, 1)
+        columns.addWidget(trace, 1)
+        lay.addLayout(columns)
         lay.addWidget(note)
         lay.addWidget(self.problem)
         lay.addWidget(self.buttons)
@@ -95,6 +104,21 @@ class CertificateDialog(QDialog):
         self.passphrase.returnPressed.connect(self.load_identity)
         self.passphrase.editingFinished.connect(self._load_quietly)
         self._identity_changed()
+
+    def _traceability_box(self, defaults: dict) -> QGroupBox:
+        """The traceability fields (device, serial, calibration date, probe, temperature,
+        program, drawing, CAD revision) beside the part's, into ``self.edits``."""
+        box = QGroupBox("Traceability")
+        form = QFormLayout(box)
+        for key, label in TRACEABILITY:
+            value = defaults.get(key)
+            e = QLineEdit("" if value is None else f"{value:g}" if isinstance(value, float)
+                          else str(value))
+            e.setObjectName(key)
+            e.setPlaceholderText(TRACEABILITY_HINTS.get(key, ""))
+            form.addRow(label, e)
+            self.edits[key] = e
+        return box
 
     # ------------------------------------------------------------------ the signer
     def _inspector_edited(self, text: str) -> None:
@@ -158,6 +182,9 @@ class CertificateDialog(QDialog):
                           dict(self.inputs, **{"signing identity": self.identity_path()}))
         except OutputConflictError as e:
             return user_message(e)
+        problem = self._traceability_problem()
+        if problem:
+            return problem
         if not self.load_identity():
             return self.problem.text()
         if self.verdict is not None:
@@ -165,6 +192,28 @@ class CertificateDialog(QDialog):
                 certified_info(self.info(), self.identity, self.verdict)
             except CertificationError as e:
                 return user_message(e)
+        return None
+
+    def _traceability_problem(self) -> str | None:
+        """A calibration date that is no date or a temperature that is no number, as the
+        command line says it."""
+        import datetime as dt
+        import math
+
+        date = self.edits["calibration_date"].text().strip()
+        if date:
+            try:
+                dt.date.fromisoformat(date)
+            except ValueError:
+                return f"calibration date: '{date}' is not a date YYYY-MM-DD"
+        t = self.edits["temperature_c"].text().strip()
+        if t:
+            try:
+                ok = math.isfinite(float(t.replace(",", ".")))
+            except ValueError:
+                ok = False
+            if not ok:
+                return f"temperature: '{t}' is not a number (°C)"
         return None
 
     def _say(self, text: str | None) -> None:
@@ -202,7 +251,19 @@ class CertificateDialog(QDialog):
             self.output.setText(path if path.lower().endswith(".pdf") else path + ".pdf")
 
     def info(self) -> CertificateInfo:
+        """What the certificate states (a temperature that is no number is left out:
+        :meth:`problems` says so before any export)."""
         values = {k: (e.text().strip() or None) for k, e in self.edits.items()}
+        t = values["temperature_c"]
+        try:
+            values["temperature_c"] = None if t is None else float(t.replace(",", "."))
+        except ValueError:
+            values["temperature_c"] = None
+        if values["calibration_date"] and self._traceability_problem() is None:
+            import datetime as dt
+
+            values["calibration_date"] = dt.date.fromisoformat(
+                values["calibration_date"]).isoformat()
         return CertificateInfo(**values, notes=self.notes.toPlainText().strip() or None)
 
     def take_passphrase(self) -> bytes | None:

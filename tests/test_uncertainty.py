@@ -1,0 +1,241 @@
+"""Measurement uncertainty in the decision (ISO 14253-1): the budget against a hand computation
+(a plane's least-squares pose uncertainty is the textbook regression prediction variance; the
+instrument terms are the GUM's rectangular and normal divisors), the guarded decision at each
+side of a limit, the command line's --uncertainty and the plan's [measurement] instrument."""
+
+import csv
+import json
+import os
+
+import numpy as np
+import pytest
+
+from engine.errors import InputError
+from engine.inspection import Tolerance, inspect
+from engine.io.plan import read_plan
+from engine.nominal import Nominal
+from engine.trust import conditioning
+from engine.uncertainty import Instrument, budget
+from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
+from engine.geometry import apply_transform, make_transform
+from qa_app.cli import main
+from surfaces import height, height_grid, height_normal, point_set, random_rotation
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BELLY = [os.path.join(ROOT, "samples", "belly_fairing", f) for f in ("nominal.csv",
+                                                                     "measured.csv")]
+
+
+def _plane_fit(rng, n=400):
+    """Points scattered about a plane, at the least-squares plane's pose (that plane is z = 0):
+    (points (n, 3), normals, the in-plane design matrix [1, x, y], residual RMS)."""
+    x, y = rng.uniform(-200, 200, n), rng.uniform(-100, 100, n)
+    z = rng.normal(0, 0.01, n) + 0.002 * x - 0.001 * y
+    A = np.column_stack([np.ones(n), x, y])
+    residual = z - A @ np.linalg.lstsq(A, z, rcond=None)[0]
+    X = np.column_stack([x, y, residual])
+    return X, np.tile([0.0, 0.0, 1.0], (n, 1)), A, float(np.sqrt(np.mean(residual ** 2)))
+
+
+def test_budget_against_a_hand_computation():
+    rng = np.random.default_rng(11)
+    X, normals, A, rms = _plane_fit(rng)
+    n = len(X)
+    margin = rng.uniform(0.0, 0.004, n)
+    ins = Instrument(mpe_a_um=1.8, mpe_l_per_um=300.0, probing_um=2.2, temperature_c=22.5,
+                     expansion_per_k=23e-6)
+    b = budget(X, normals, np.ones(n, bool), rms, conditioning(X, normals, rms), margin, ins)
+    # By hand. A plane fitted by least squares moves along its normal by a + b x + c y (the
+    # shifts within it and the turn about its normal are free: no variance): the prediction
+    # variance of a linear regression, s^2 a_i (A^T A)^-1 a_i^T, s^2 = RSS / (n - 3).
+    s2 = n * rms ** 2 / (n - 3)
+    pose = np.sqrt(s2 * np.einsum("ij,jk,ik->i", A, np.linalg.inv(A.T @ A), A))
+    L = np.linalg.norm(X - X.mean(axis=0), axis=1)
+    by_hand = {"length": (1.8 + L / 300.0) / 1000.0 / np.sqrt(3.0),  # MPE_E, rectangular
+               "probing": np.full(n, 2.2 / 1000.0 / np.sqrt(3.0)),  # MPE_P, rectangular
+               "temperature": L * 23e-6 * 2.5 / np.sqrt(3.0),  # 2.5 K from 20 °C, rectangular
+               "pose": pose, "sampling": margin / np.sqrt(3.0)}
+    got = {t.key: t.u for t in b.terms}
+    assert list(got) == list(by_hand)
+    for key, u in by_hand.items():
+        np.testing.assert_allclose(got[key], u, rtol=1e-9, atol=1e-15, err_msg=key)
+    U = 2.0 * np.sqrt(sum(u * u for u in by_hand.values()))
+    np.testing.assert_allclose(b.expanded, U, rtol=1e-9)
+    np.testing.assert_allclose(b.length_mm, L, rtol=1e-12)
+    # A stated expanded uncertainty (k = 2) replaces the instrument's three terms.
+    stated = budget(X, normals, np.ones(n, bool), rms, conditioning(X, normals, rms), None,
+                    Instrument(uncertainty_mm=0.01))
+    assert [t.key for t in stated.terms] == ["stated", "pose", "sampling"]
+    np.testing.assert_allclose(stated.expanded, 2.0 * np.sqrt(0.005 ** 2 + pose ** 2),
+                               rtol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def fairing():
+    pts, nrm, grid = height_grid(150, 100)
+    return Nominal.from_point_set(point_set(pts, nrm, grid))
+
+
+def _two_high_points(seed=7, m=800):
+    """A clean fairing measured in a random pose, point 0 standing 0.1 mm proud, point 1 sunk
+    0.1 mm."""
+    rng = np.random.default_rng(seed)
+    dev = rng.normal(0, 0.002, m)
+    dev[:2] = 0.1, -0.1
+    x, y = rng.uniform(-240, 240, m), rng.uniform(-115, 115, m)
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    return apply_transform(make_transform(random_rotation(rng), rng.uniform(-1e3, 1e3, 3)), q)
+
+
+EPS = 0.005
+"""How far each side of limit +- U the point is put (U ~ 0.021 mm here)."""
+
+
+@pytest.mark.parametrize("side", ["upper", "lower"])
+def test_guarded_decision_at_each_side_of_a_limit(fairing, side):
+    """ISO 14253-1: conformance is proven inside the zone shrunk by U, non-conformance outside
+    the zone grown by U; between, neither (whichever side of the limit the point is)."""
+    measured = _two_high_points()
+    ins = Instrument(uncertainty_mm=0.02)
+    first = inspect(fairing, measured, Tolerance.symmetric(0.2), decision_rule="guarded",
+                    instrument=ins)
+    k = 0 if side == "upper" else 1
+    d, U = first.deviations.signed[k], first.uncertainty.expanded[k]
+    assert 0.02 <= U < 0.025  # the stated U dominates; the pose and sampling add a little
+    for outside, want in ((-U - EPS, ACCEPT), (-U + EPS, INCONCLUSIVE), (U - EPS, INCONCLUSIVE),
+                          (U + EPS, REJECT)):
+        # The limit placed so that point k lies ``outside`` beyond it (negative: inside).
+        tol = Tolerance(-0.2, d - outside) if side == "upper" else Tolerance(d + outside, 0.2)
+        res = inspect(fairing, measured, tol, decision_rule="guarded", instrument=ins)
+        assert res.deviations.signed[k] == pytest.approx(d, abs=1e-4)
+        assert res.verdict == want, (outside, res.reasons)
+        # The simple rule sees only the limit itself.
+        simple = inspect(fairing, measured, tol)
+        assert simple.verdict == (ACCEPT if outside < 0 else REJECT)
+
+
+def test_command_line_uncertainty_decides_and_reports_the_budget(tmp_path):
+    j, c = tmp_path / "r.json", tmp_path / "r.csv"
+    # The belly fairing's worst point lies 0.132 mm deep: inside +-0.14 by 0.008 mm.
+    assert main(["inspect", *BELLY, "--tol", "0.14"]) == 0
+    code = main(["inspect", *BELLY, "--tol", "0.14", "--uncertainty", "0.02", "--json", str(j),
+                 "--csv", str(c)])
+    assert code == 2  # within U of the limit: neither conformance nor non-conformance proven
+    doc = json.loads(j.read_text())
+    assert doc["decision_rule"] == "guarded" and doc["verdict"] == INCONCLUSIVE
+    unc = doc["uncertainty"]
+    assert unc["k"] == 2 and unc["used_by_decision_rule"] is True
+    assert [t["term"] for t in unc["terms"]] == ["stated", "pose", "sampling"]
+    assert unc["terms"][0]["u_max_mm"] == pytest.approx(0.01)
+    assert doc["settings"]["instrument"]["uncertainty_mm"] == 0.02
+    with open(c) as f:
+        rows = list(csv.DictReader(f))
+    U = np.array([float(r["uncertainty"]) for r in rows])
+    m = np.array([float(r["margin"]) for r in rows])
+    assert U.max() == pytest.approx(unc["expanded_max_mm"], abs=1e-6)
+    # Each U holds the stated 0.02 and its sampling margin (rectangular) at least.
+    assert np.all(U ** 2 >= 0.02 ** 2 + 4 * m ** 2 / 3 - 1e-9)
+    # The simple rule, asked for, keeps its verdict; the budget is still reported.
+    assert main(["inspect", *BELLY, "--tol", "0.14", "--uncertainty", "0.02",
+                 "--decision-rule", "simple", "--json", str(j)]) == 0
+    doc = json.loads(j.read_text())
+    assert doc["uncertainty"]["used_by_decision_rule"] is False
+
+
+def test_command_line_refuses_a_uncertainty_that_is_not_positive(capsys):
+    assert main(["inspect", *BELLY, "--tol", "0.14", "--uncertainty", "0"]) == 64
+    assert "--uncertainty must be positive" in capsys.readouterr().err
+
+
+MEASUREMENT = """\
+[measurement]
+device = "CMM Contura G2"
+device_serial = "C-4711"
+calibration_date = 2025-03-01
+probe = "VAST XT gold, stylus 3 mm ruby x 40 mm"
+program = "BF-1100_rev7.mpp"
+temperature_c = 22.0
+mpe_a_um = 1.8
+mpe_l_per_um = 300
+probing_um = 1.9
+expansion_per_k = 23e-6
+"""
+CHARACTERISTIC = """
+[[region]]
+name = "skin"
+box = [[-300, -200, -100], [300, 200, 100]]
+
+[[characteristic]]
+id = "1"
+type = "profile"
+region = "skin"
+zone = 0.5
+"""
+
+
+def test_plan_measurement_states_the_instrument(tmp_path):
+    plan = tmp_path / "plan.toml"
+    plan.write_text(MEASUREMENT + CHARACTERISTIC)
+    read = read_plan(str(plan)).measurement
+    assert (read.device, read.device_serial, read.calibration_date, read.temperature_c) == \
+        ("CMM Contura G2", "C-4711", "2025-03-01", 22.0)
+    assert read.instrument == Instrument(mpe_a_um=1.8, mpe_l_per_um=300.0, probing_um=1.9,
+                                         temperature_c=22.0, expansion_per_k=23e-6)
+    j = tmp_path / "r.json"
+    assert main(["inspect", *BELLY, "--plan", str(plan), "--json", str(j)]) == 0
+    doc = json.loads(j.read_text())
+    assert doc["decision_rule"] == "guarded"  # an instrument stated: the guarded rule
+    terms = {t["term"]: t for t in doc["uncertainty"]["terms"]}
+    assert list(terms) == ["length", "probing", "temperature", "pose", "sampling"]
+    L = doc["uncertainty"]["length_max_mm"]
+    assert terms["temperature"]["u_max_mm"] == pytest.approx(L * 23e-6 * 2 / np.sqrt(3),
+                                                             rel=1e-9)
+    assert terms["length"]["u_max_mm"] == pytest.approx((1.8 + L / 300) / 1000 / np.sqrt(3),
+                                                        rel=1e-9)
+    # --uncertainty replaces the plan's instrument.
+    assert main(["inspect", *BELLY, "--plan", str(plan), "--uncertainty", "0.01",
+                 "--json", str(j)]) == 0
+    assert [t["term"] for t in json.loads(j.read_text())["uncertainty"]["terms"]] == \
+        ["stated", "pose", "sampling"]
+
+
+@pytest.mark.parametrize("change, message", [
+    (("calibration_date = 2025-03-01", 'calibration_date = "1 March 2025"'),
+     "[measurement]: 'calibration_date' must be a date YYYY-MM-DD"),
+    (("probing_um = 1.9", "probing_um = 1.9\nuncertainty_mm = 0.003"),
+     "[measurement]: 'mpe_a_um' and 'uncertainty_mm' are both given"),
+    (("probing_um = 1.9", "probing_um = -1.9"),
+     "[measurement]: 'probing_um' must not be negative"),
+    (("mpe_l_per_um = 300", "mpe_l_per_um = 0"), "[measurement]: 'mpe_l_per_um'"),
+    (("temperature_c = 22.0\n", ""), "[measurement]: 'expansion_per_k' needs temperature_c"),
+    (("probe = ", "stylus = "), "'stylus' is not a key of [measurement]"),
+    (("temperature_c = 22.0", 'temperature_c = "warm"'), "'temperature_c' must be a number"),
+])
+def test_plan_measurement_errors_name_the_table_and_key(tmp_path, change, message):
+    plan = tmp_path / "plan.toml"
+    plan.write_text(MEASUREMENT.replace(*change) + CHARACTERISTIC)
+    with pytest.raises(InputError) as e:
+        read_plan(str(plan))
+    assert message in str(e.value) and str(plan) in str(e.value)
+
+
+def test_verify_re_runs_a_certificate_older_than_uncertainty_budgets():
+    """tests/data/results_before_uncertainty.json is the results document qa-inspect wrote
+    before this change (the belly fairing at +-0.137 mm, guarded rule: then guarded by each
+    point's nominal-sampling margin alone, ACCEPT). Its settings carry no instrument: verify
+    re-runs it with that rule and confirms it; the same part judged today with U (pose and
+    sampling) is INCONCLUSIVE, which a re-run with today's rule would have reported as a
+    changed verdict."""
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from qa_app.cli import _recheck
+
+    with open(os.path.join(ROOT, "tests", "data", "results_before_uncertainty.json")) as f:
+        old = json.load(f)
+    assert "instrument" not in old["settings"] and old["verdict"] == ACCEPT
+    notes = []
+    assert _recheck(old, {"nominal": BELLY[0], "measured": BELLY[1], "plan": None}, notes) == []
+    assert notes[-1].startswith("re-run: ACCEPT")
+    today = InspectionSettings.from_json(dict(old["settings"], instrument=None))
+    assert today.guard == "uncertainty"
+    assert run_files(*BELLY, today).result.verdict == INCONCLUSIVE
