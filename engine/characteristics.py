@@ -37,7 +37,7 @@ import numpy as np
 from .datums import Alignment, align, align_rps
 from .errors import InputError
 from .fits import minimax_pose
-from .plan import FEATURES_2D, FEATURES_3D, MIN_POINTS, Characteristic, Plan
+from .plan import FEATURES_2D, FEATURES_3D, MIN_POINTS, RESERVED_ID, Characteristic, Plan
 from .tolerance import Tolerance
 from .verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, pointwise_verdict
 
@@ -724,7 +724,7 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
     if zone_in_verdict:
         tol = result.tolerance
         d = result.deviations.signed
-        whole = Characteristic("tol", "profile", "(all points)", tol.lower, tol.upper)
+        whole = Characteristic(RESERVED_ID, "profile", "(all points)", tol.lower, tol.upper)
         results.insert(0, CharacteristicResult(
             whole, float(2.0 * np.max(np.abs(d - 0.5 * (tol.lower + tol.upper)))),
             result.verdict, result.reasons[0], np.arange(d.size), d, result.statistics.worst))

@@ -42,6 +42,10 @@ MIN_POINTS = {"plane": 3, "cylinder": 5, "sphere": 4, "line": 2, "circle": 3}
 are INCONCLUSIVE, never guessed)."""
 
 
+RESERVED_ID = "tol"
+"""The characteristic id of the zone over all points that --tol adds to a plan: no plan may use
+it."""
+
 @dataclass(frozen=True)
 class Part:
     """What the certificate names: part number, name, drawing revision, drawing number and the

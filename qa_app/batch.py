@@ -96,11 +96,14 @@ def find_parts(patterns: list[str]) -> list[Part]:
 # ---------------------------------------------------------------------------- on the workers
 @dataclass(frozen=True)
 class NominalRef:
-    """A nominal each worker reads itself, once (a STEP model cannot be pickled)."""
+    """A nominal each worker reads itself, once (a STEP model cannot be pickled), with the
+    SHA-256 of the nominal and of the plan (None without one) the client read: a worker that
+    served an earlier batch reads them again when either file changed since."""
 
     path: str
     sha256: str
     settings: InspectionSettings
+    plan_sha256: str | None = None
 
 
 @dataclass(frozen=True)
@@ -130,14 +133,19 @@ def _resolve(nominal) -> LoadedNominal:
     """The loaded nominal: as scattered, or (NominalRef) read once by this worker process."""
     if isinstance(nominal, LoadedNominal):
         return nominal
-    key = (nominal.path, nominal.sha256, json.dumps(nominal.settings.to_json(), sort_keys=True))
+    key = (nominal.path, nominal.sha256, nominal.plan_sha256,
+           json.dumps(nominal.settings.to_json(), sort_keys=True))
     if key not in _LOADED:
         loaded = load_nominal(nominal.path, nominal.settings)
-        if loaded.source.record.sha256 != nominal.sha256:
-            raise InputError(f"the nominal this worker reads is not the client's (SHA-256 "
-                             f"{loaded.source.record.sha256[:16]}… ≠ {nominal.sha256[:16]}…): "
-                             "the workers must see the same files at the same paths",
-                             nominal.path)
+        plan_sha = None if loaded.plan is None else loaded.plan.sha256
+        for what, path, got, want in (("nominal", nominal.path, loaded.source.record.sha256,
+                                       nominal.sha256),
+                                      ("plan", nominal.settings.plan, plan_sha,
+                                       nominal.plan_sha256)):
+            if got != want:
+                raise InputError(f"the {what} this worker reads is not the client's (SHA-256 "
+                                 f"{str(got)[:16]}… ≠ {str(want)[:16]}…): the workers must "
+                                 "see the same files at the same paths", path)
         _LOADED.clear()  # one nominal at a time: a worker may serve many batches
         _LOADED[key] = loaded
     return _LOADED[key]
@@ -205,11 +213,11 @@ def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
                 Tracked("fraction_in", "fraction in tolerance", "1", 1.0, None,
                         "points inside the zone / all points; lower: 1 (every point inside, "
                         "as the simple decision rule requires)", capability=False)]
-    from engine.plan import Characteristic
+    from engine.plan import RESERVED_ID, Characteristic
 
     chars = list(loaded.plan.characteristics)
     if settings.zone_in_verdict:
-        chars.insert(0, Characteristic("tol", "profile", "(all points)", lo, hi))
+        chars.insert(0, Characteristic(RESERVED_ID, "profile", "(all points)", lo, hi))
     out = []
     for c in chars:
         name = f"{c.type} {c.region}" + (f" |{'|'.join(c.datums)}" if c.datums else "")
@@ -371,6 +379,16 @@ def _write_part(batch: Batch, loaded: LoadedNominal, part: Part,
     return sha, doc
 
 
+def _remove_part(batch: Batch, part: Part) -> None:
+    """Remove the files an earlier run wrote for a part that is now an ERROR (its key first:
+    a resume never trusts what is left), so that no result or certificate contradicts the
+    summary."""
+    files = batch.files(part.serial)
+    for name in ["key"] + [k for k in files if k != "key"]:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(files[name])
+
+
 def run_batch(batch: Batch, loaded: LoadedNominal, client, on_row=None) -> list[dict]:
     """Inspect every part of ``batch`` against ``loaded`` on the Dask ``client``'s cluster;
     return the summary rows in measurement order (:func:`summary_row`), each part once.
@@ -398,6 +416,7 @@ def run_batch(batch: Batch, loaded: LoadedNominal, client, on_row=None) -> list[
             if res.error is None:
                 rows[i] = summary_row(part, *_write_part(batch, loaded, part, res), tracked)
             else:
+                _remove_part(batch, part)
                 rows[i] = summary_row(part, _sha_or_none(part.path), None, tracked, res.error,
                                       res.seconds)
             if on_row is not None:
@@ -419,7 +438,8 @@ def _compute(batch: Batch, loaded: LoadedNominal, client, todo: list[int]):
     if loaded.picklable:  # the nominal goes to every worker once, not with every part
         nominal = client.scatter(loaded, broadcast=True, hash=False)
     else:
-        nominal = NominalRef(loaded.path, loaded.source.record.sha256, loaded.settings)
+        nominal = NominalRef(loaded.path, loaded.source.record.sha256, loaded.settings,
+                             None if loaded.plan is None else loaded.plan.sha256)
     futures = {client.submit(inspect_part, nominal, os.path.abspath(batch.parts[i].path),
                              batch.parts[i].serial, request, pure=False, retries=RETRIES,
                              key=f"qa-part-{batch.parts[i].serial}-{os.urandom(4).hex()}"): i

@@ -198,6 +198,16 @@ def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys)
     assert [r["skipped"] for r in rows] == [False] * 4
     assert [r["verdict"] for r in rows] == ["ACCEPT", "ACCEPT", "ACCEPT", "ERROR"]
 
+    # A part whose file is now damaged: its ERROR row, and nothing left of its earlier result.
+    changed = tmp_path / "s01.csv"
+    changed.write_text((d / "parts" / "s01.csv").read_text())
+    args[2] = changed  # the same serial and content: its result is kept (skipped)
+    assert run(*args) == 65 and _summary(out)["parts"][0]["skipped"]
+    changed.write_text("id,x,y,z\nP1,1,2,x\n")
+    assert run(*args) == 65
+    assert _summary(out)["parts"][0]["verdict"] == "ERROR"
+    assert _complete_parts(out) == {"s02", "s03"}
+
 
 def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
     """Twelve parts, all ACCEPT at +-0.06 mm, with a bump that grows 4 um a part: summary.json's
@@ -244,6 +254,33 @@ def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
          np.random.default_rng(4).normal(0.02, 0.002, 12)])
     from engine.spc import analyse
     assert not analyse(stable[0]).drift.warning
+
+
+def test_a_worker_never_judges_by_a_plan_edited_since_it_read_it(lot, tmp_path):
+    """A worker reads a nominal it cannot be sent (a STEP model) once and keeps it for later
+    batches: after the plan file is edited, the client's new reference (the new plan's SHA-256)
+    makes it read the plan again, and a reference to the old plan is refused, not judged by
+    whichever plan the worker holds."""
+    from engine.io import sha256_of
+
+    d, _ = lot
+    plan = tmp_path / "plan.toml"
+
+    def write(zone):
+        plan.write_text('[[region]]\nname = "all"\nbox = [[-1e3, -1e3, -1e3], [1e3, 1e3, 1e3]]'
+                        f'\n[[characteristic]]\nid = "p"\ntype = "profile"\nregion = "all"\n'
+                        f'zone = {zone}\n')
+        return qb.NominalRef(str(d / "nominal.csv"), sha256_of(str(d / "nominal.csv")),
+                             inspection_settings(None, str(plan)), sha256_of(str(plan)))
+
+    part = str(d / "parts" / "s03.csv")  # a point 0.2 mm out
+    old = write(1.0)
+    assert json.loads(qb.inspect_part(old, part, "s03", None).json)["verdict"] == "ACCEPT"
+    new = write(0.1)
+    assert json.loads(qb.inspect_part(new, part, "s03", None).json)["verdict"] == "REJECT"
+    refused = qb.inspect_part(old, part, "s03", None)
+    assert refused.json is None and "plan this worker reads is not the client's" in \
+        refused.error
 
 
 def test_a_step_nominal_reaches_the_workers_by_path(tmp_path):

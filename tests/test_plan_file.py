@@ -302,6 +302,8 @@ BAD = [
      '[[region]] #6 (name "D")', "box", "must be below the upper corner"),
     ("region without name", BASE + '\n[[region]]\nlabels = "D*"\n', "[[region]] #6", "name",
      "is missing"),
+    ("reserved characteristic id", BASE + char("TOL", FLAT + "zone = 0.1"),
+     '[[characteristic]] #1 (id "TOL")', "id", "is reserved for the zone over all points"),
     # duplicates
     ("duplicate region", BASE + region("skin", 'labels = "S*"'), '[[region]] #6 (name "skin")',
      "name", 'is also the name of [[region]] #4'),

@@ -50,7 +50,7 @@ from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D, FEATURES_3D,
                          MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Measurement,
-                         Part, Plan, Region, RpsPoint)
+                         RESERVED_ID, Part, Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
@@ -364,6 +364,9 @@ def _alignment(t: _Table, datums: tuple[Datum, ...], regions: list[str],
 
 def _characteristic(t: _Table, regions: list[str], datums: tuple[Datum, ...]) -> Characteristic:
     ident = t.text("id", required=True)
+    if ident.strip().lower() == RESERVED_ID:
+        raise t.fail("id", f"'{ident}' is reserved for the zone over all points that --tol "
+                     "adds to a plan (characteristic 'tol'); choose another id")
     kind = t.text("type", required=True, choices=CHARACTERISTICS)
     region = _reference(t, "region", regions, "region", "name")
     lower, upper, nominal = _limits(t, kind)
