@@ -60,12 +60,10 @@ def test_banner_table_and_selection(window, qtbot):
     assert "REJECTED" in w.banner.word.text() and "20 out of tolerance" in w.banner.detail.text()
     model = w.table.model()
     assert model.rowCount() == 1100
-    # Sorted by deviation, most negative first; every row's result agrees with the zone.
-    devs = [float(model.data(model.index(r, 5))) for r in range(model.rowCount())]
-    assert devs == sorted(devs) and devs[0] == pytest.approx(run.result.statistics.min, abs=1e-4)
-    w.table.sortByColumn(5, Qt.DescendingOrder)
-    assert float(model.data(model.index(0, 5))) == pytest.approx(run.result.statistics.max,
-                                                                 abs=1e-4)
+    # Sorted by the size of the deviation, the worst point first.
+    devs = [abs(float(model.data(model.index(r, 5)))) for r in range(model.rowCount())]
+    assert devs == sorted(devs, reverse=True)
+    assert devs[0] == pytest.approx(run.result.statistics.max_abs, abs=1e-4)
     fails = [r for r in range(model.rowCount()) if model.data(model.index(r, 6)) == "FAIL"]
     assert len(fails) == 20
     # Row → selection → viewport readout, and selection → row.
@@ -76,6 +74,33 @@ def test_banner_table_and_selection(window, qtbot):
     assert label in w.viewport.readout.text() and "OUT OF TOLERANCE" in w.viewport.readout.text()
     w.session.select(7)
     assert model.point(w.table.currentIndex().row()) == 7
+
+
+@pytest.mark.parametrize("files", [("belly_fairing", "nominal.csv"),
+                                   ("fuselage_frame", "template.dxf")])
+def test_the_table_puts_the_worst_point_on_top_and_numbers_from_1(window, files):
+    """In 3D and 2D alike, the rows run from the largest |deviation| down, and the # column
+    is the point's place in the measured file counting from 1 (as JSON and CSV count)."""
+    folder, nominal = files
+    w = window
+    w.controller.open_files([os.path.join(ROOT, "samples", folder, nominal),
+                             os.path.join(ROOT, "samples", folder, "measured.csv")])
+    w.tolerance.set_zone(-0.05, 0.05)
+    w.act_inspect.trigger()
+    run = w.session.run
+    d = run.result.deviations.signed
+    model = w.table.model()
+    rows = [model.point(r) for r in range(model.rowCount())]
+    # The naive twin: every point by |d|, largest first.
+    assert rows == sorted(range(d.size), key=lambda i: (-abs(d[i]), i))
+    assert abs(float(model.data(model.index(0, 5)))) == pytest.approx(np.abs(d).max(),
+                                                                       abs=1e-4)
+    with open(os.path.join(ROOT, "samples", folder, "measured.csv")) as f:
+        lines = [ln for ln in f if ln.strip() and not ln.startswith("#")][1:]  # header row
+    for r in (0, 1, model.rowCount() - 1):
+        number = int(model.data(model.index(r, 0)))
+        assert lines[number - 1].split(",")[0].strip() == model.data(model.index(r, 1))
+    assert w.table.horizontalHeader().sortIndicatorSection() == 5
 
 
 def test_contour_view_whiskers_and_click_selects(window, qtbot):

@@ -422,6 +422,9 @@ class PointTableModel(QAbstractTableModel):
                     "deviate alike. A dent or bump is never excluded. An excluded point is "
                     "judged like every other point; an empty cell: the point was fitted.")
 
+    DEVIATION_TIP = ("Signed deviation, mm (+ excess material, − material missing). Sorted by "
+                     "its size |deviation|: descending puts the worst point on top.")
+
     def __init__(self, session: Session):
         super().__init__()
         self.session = session
@@ -447,6 +450,8 @@ class PointTableModel(QAbstractTableModel):
                 return self.COLUMNS[section]
             if role == Qt.ToolTipRole and section == 7:
                 return self.EXCLUDED_TIP
+            if role == Qt.ToolTipRole and section == 5:
+                return self.DEVIATION_TIP
         return None
 
     def point(self, row: int) -> int:
@@ -485,12 +490,15 @@ class PointTableModel(QAbstractTableModel):
         return None
 
     def sort(self, column, order=Qt.AscendingOrder):
+        """Sort the rows by ``column``; the deviation column sorts by its size |deviation|
+        (descending: the worst point on top, in 3D and 2D alike). Equal keys keep the points'
+        order."""
         if self.run is None:
             return
         res = self.run.result
         n = res.deviations.signed.size
         keys = {0: np.arange(n), 2: res.registered[:, 0], 3: res.registered[:, 1],
-                4: res.registered[:, 2], 5: res.deviations.signed,
+                4: res.registered[:, 2], 5: np.abs(res.deviations.signed),
                 6: res.in_tolerance.astype(int), 7: res.outlier.astype(int)}
         if column == 1:
             labels = self.run.measured.labels
@@ -498,13 +506,21 @@ class PointTableModel(QAbstractTableModel):
         else:
             key = keys.get(column, np.arange(n))
         self.layoutAboutToBeChanged.emit()
-        o = np.argsort(key, kind="stable")
-        self.order = o[::-1] if order == Qt.DescendingOrder else o
+        if order != Qt.DescendingOrder:
+            self.order = np.argsort(key, kind="stable")
+        elif key.dtype.kind in "iuf":
+            self.order = np.argsort(-key, kind="stable")
+        else:
+            self.order = np.argsort(key, kind="stable")[::-1]
         self.layoutChanged.emit()
 
 
 class PointTable(QTableView):
-    """The point table; selecting a row selects the point in the views, and back."""
+    """The point table, the worst point on top; selecting a row selects the point in the views,
+    and back; double-clicking a row asks the 3D view to zoom to it (``point_activated``)."""
+
+    point_activated = Signal(int)
+    """The point (index) of a row double-clicked."""
 
     def __init__(self, session: Session):
         super().__init__()
@@ -516,17 +532,41 @@ class PointTable(QTableView):
         self.setSelectionMode(QAbstractItemView.SingleSelection)
         self.setAlternatingRowColors(True)
         self.verticalHeader().setVisible(False)
+        # Rows as tall as a line of text: a short screen shows a dozen points or more.
+        rows = self.verticalHeader()
+        rows.setMinimumSectionSize(self.fontMetrics().height() + 4)
+        rows.setDefaultSectionSize(self.fontMetrics().height() + 6)
         self.horizontalHeader().setSectionResizeMode(QHeaderView.Interactive)
         self.horizontalHeader().setStretchLastSection(True)
         self.selectionModel().currentRowChanged.connect(self._row_changed)
+        self.doubleClicked.connect(lambda index: self.point_activated.emit(
+            self.model_.point(index.row())))
         session.selection_changed.connect(self._select)
-        session.result_changed.connect(lambda run: run is not None and self.sortByColumn(
-            5, Qt.AscendingOrder))
+        session.result_changed.connect(self._result)
         session.characteristic_changed.connect(lambda row: self.select_points(
             session.highlighted))
         # Sorting moves the rows: the characteristic's points are selected again where they are.
         self.model_.layoutChanged.connect(lambda *_: self.session.highlighted is not None
                                           and self.select_points(self.session.highlighted))
+
+    def _result(self, run) -> None:
+        """A new result: the worst point on top, every header readable in full."""
+        if run is None:
+            return
+        self.sortByColumn(5, Qt.DescendingOrder)
+        self.fit_columns()
+
+    def fit_columns(self) -> None:
+        """Each column as wide as its header (with the sort arrow) and its widest value."""
+        header = self.horizontalHeader()
+        fm = header.fontMetrics()
+        samples = {0: "0000000", 1: "P00000", 2: "-0000.000", 3: "-0000.000", 4: "-0000.000",
+                   5: "■ -00.0000", 6: "FAIL"}
+        for c, title in enumerate(self.model_.COLUMNS[:-1]):
+            need = max(fm.horizontalAdvance(title) + 3 * fm.height(),
+                       self.fontMetrics().horizontalAdvance(samples.get(c, "")) + 16,
+                       self.sizeHintForColumn(c))
+            header.resizeSection(c, need)
 
     def select_points(self, indices) -> None:
         """Select the rows of the points ``indices`` ((k,) int; None: none), as contiguous
