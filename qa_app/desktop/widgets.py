@@ -1,7 +1,7 @@
-"""The window's 2D widgets: message bar, verdict banner, colour legend, histogram, 2D contour view,
-point table, characteristics table, tolerance form. Each takes the session and subscribes to its
-events; colours and bands come from reports.figures, so the window and the certificate show the
-same scale.
+"""The window's 2D widgets: message bar, verdict banner, colour bar, histogram, point table,
+characteristics table, tolerance form (the 2D contour view is contour_view.py's). Each takes the
+session and subscribes to its events; colours and bands come from reports.figures, so the window
+and the certificate show the same scale.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import os
 import numpy as np
 from PySide6.QtCore import (
     QAbstractTableModel,
+    QEvent,
     QItemSelection,
     QItemSelectionModel,
     QModelIndex,
@@ -35,6 +36,7 @@ from PySide6.QtWidgets import (
     QRadioButton,
     QTableView,
     QToolButton,
+    QToolTip,
     QVBoxLayout,
     QWidget,
 )
@@ -217,7 +219,13 @@ def pose_trust(res) -> tuple[str, tuple[str, ...]]:
 
 
 class Legend(QWidget):
-    """The tolerance-banded colour scale with the number of points in each band."""
+    """The colour bar beside the views: the bands of reports.figures.bands(tol), most negative
+    at the bottom, each as tall as the others, the zone's limits drawn across it and labelled
+    in bold, band edges labelled where there is room; a band's tooltip gives its range and its
+    number of points. While the points show their plan regions, the regions' legend instead."""
+
+    BAR = 16
+    """The bar's width, px."""
 
     def __init__(self, session: Session):
         super().__init__()
@@ -225,8 +233,9 @@ class Legend(QWidget):
         self.regions = None
         """The regions' legend (reports.figures.region_colours) while the view shows regions,
         else None: the deviation scale."""
-        self.setMinimumWidth(170)
-        self.setMinimumHeight(200)
+        self.setMinimumWidth(104)
+        self.setMinimumHeight(120)
+        self.setMouseTracking(True)
         session.result_changed.connect(lambda run: self.update())
 
     def show_regions(self, legend) -> None:
@@ -240,38 +249,78 @@ class Legend(QWidget):
         for k, (name, rgb, count) in enumerate(self.regions):
             y = 22 + k * h
             p.fillRect(QRectF(4, y + 2, 18, h - 4), qcolor(rgb))
-            p.drawText(QRectF(28, y, self.width() - 80, h), Qt.AlignVCenter, name)
-            p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
+            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter,
+                       p.fontMetrics().elidedText(name, Qt.ElideRight, self.width() - 60))
+            p.drawText(QRectF(self.width() - 34, y, 32, h), Qt.AlignVCenter | Qt.AlignRight,
                        str(count))
         p.end()
 
-    def paintEvent(self, event):
+    def band_boxes(self) -> list[tuple[QRectF, "figures.Band"]]:
+        """Each band of the scale with its box in the widget, bottom to top (the most negative
+        deviation at the bottom); empty without a result."""
         run = self.session.run
         if run is None:
+            return []
+        table = figures.bands(run.result.tolerance)
+        top, bottom = 24.0, self.height() - 10.0
+        h = (bottom - top) / len(table)
+        return [(QRectF(6, bottom - (k + 1) * h, self.BAR, h), b) for k, b in enumerate(table)]
+
+    def paintEvent(self, event):
+        if self.session.run is None:
             return
         if self.regions is not None:
             self._paint_regions()
             return
-        tol = run.result.tolerance
-        table = figures.bands(tol)
-        counts = np.bincount(figures.band_index(run.result.deviations.signed, tol),
-                             minlength=len(table))
+        boxes = self.band_boxes()
         p = QPainter(self)
-        p.setRenderHint(QPainter.Antialiasing)
-        p.drawText(4, 14, "Deviation (mm)")
-        h = (self.height() - 26) / len(table)
-        for k, b in enumerate(reversed(table)):
-            kk = len(table) - 1 - k
-            y = 22 + k * h
-            p.fillRect(QRectF(4, y, 18, h - 1), qcolor(b.rgb))
-            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter,
-                       figures.band_label(b))
-            p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
-                       str(int(counts[kk])))
-        p.setPen(QPen(Qt.black, 1.5))
-        for y in (22 + 3 * h, 22 + 7 * h):  # the limits of the zone
-            p.drawLine(QPointF(2, y), QPointF(self.width() - 2, y))
+        p.drawText(QRectF(0, 0, self.width(), 18), Qt.AlignHCenter | Qt.AlignVCenter,
+                   "Deviation, mm")
+        for box, b in boxes:
+            p.fillRect(box, qcolor(b.rgb))
+        fm = p.fontMetrics()
+        h = boxes[0][0].height()
+        every = max(1, math.ceil(1.15 * fm.height() / h))  # label every n-th edge
+        x = 6 + self.BAR
+        bold = p.font()
+        bold.setBold(True)
+        plain = p.font()
+        for k in range(1, len(boxes)):
+            box, b = boxes[k]
+            y = box.bottom()
+            limit = b.in_tolerance != boxes[k - 1][1].in_tolerance
+            if limit:
+                p.setPen(QPen(Qt.black, 2))
+                p.drawLine(QPointF(2, y), QPointF(x + 4, y))
+            if limit or k % every == 0 and all(
+                    abs(k - j) >= every for j in self._limit_edges(boxes)):
+                p.setPen(Qt.black)
+                p.setFont(bold if limit else plain)
+                p.drawText(QRectF(x + 6, y - fm.height() / 2, self.width() - x - 6,
+                                  fm.height()), Qt.AlignVCenter, f"{b.lower:+.3f}")
         p.end()
+
+    @staticmethod
+    def _limit_edges(boxes) -> list[int]:
+        """The edges (index of the band above) where the zone's limits lie."""
+        return [k for k in range(1, len(boxes))
+                if boxes[k][1].in_tolerance != boxes[k - 1][1].in_tolerance]
+
+    def event(self, e):
+        if e.type() == QEvent.ToolTip and self.regions is None and self.session.run is not None:
+            res = self.session.run.result
+            table = figures.bands(res.tolerance)
+            counts = np.bincount(figures.band_index(res.deviations.signed, res.tolerance),
+                                 minlength=len(table))
+            for k, (box, b) in enumerate(self.band_boxes()):
+                if box.top() <= e.pos().y() < box.bottom():
+                    QToolTip.showText(e.globalPos(),
+                                      f"{figures.band_label(b)} mm: {int(counts[k])} points"
+                                      + ("" if b.in_tolerance else " (out of tolerance)"), self)
+                    return True
+            QToolTip.hideText()
+            return True
+        return super().event(e)
 
 
 class Histogram(QWidget):
@@ -325,89 +374,6 @@ class Histogram(QWidget):
             p.drawLine(QPointF(X(val), mt), QPointF(X(val), mt + ph))
             p.drawText(QRectF(X(val) - 50, 0, 100, 14), Qt.AlignHCenter, f"{name} {val:+.3f}")
         p.end()
-
-
-class ContourView(QWidget):
-    """A 2D template with every point's deviation as a magnified whisker; click a point to select
-    it."""
-
-    def __init__(self, session: Session):
-        super().__init__()
-        self.session = session
-        self.setMinimumSize(300, 160)
-        self._cache = None
-        session.result_changed.connect(self._result)
-        session.selection_changed.connect(lambda i: self.update())
-
-    def _result(self, run) -> None:
-        self._cache = None
-        if run is not None and run.template is not None:
-            res = run.result
-            polylines = figures.template_polylines(run.template.template)
-            feet = res.deviations.foot[:, :2]
-            allp = np.vstack(polylines + [feet])
-            d = res.deviations.signed
-            extent = float(np.ptp(allp, axis=0).max())
-            factor = figures.whisker_factor(extent, float(np.abs(d).max()))
-            tips = feet + factor * d[:, None] * res.deviations.normal[:, :2]
-            self._cache = (polylines, feet, tips, figures.band_rgb(d, res.tolerance), factor,
-                           allp.min(axis=0) - 0.1 * extent, allp.max(axis=0) + 0.1 * extent)
-        self.update()
-
-    def _transform(self):
-        polylines, feet, tips, rgb, factor, lo, hi = self._cache
-        k = min((self.width() - 20) / (hi[0] - lo[0]), (self.height() - 40) / (hi[1] - lo[1]))
-        ox = (self.width() - k * (hi[0] - lo[0])) / 2
-        oy = (self.height() - 20 + k * (hi[1] - lo[1])) / 2
-
-        def P(xy):
-            return ox + k * (xy[..., 0] - lo[0]), oy - k * (xy[..., 1] - lo[1])
-
-        return P
-
-    def paintEvent(self, event):
-        p = QPainter(self)
-        p.fillRect(self.rect(), Qt.white)
-        if self._cache is None:
-            p.drawText(self.rect(), Qt.AlignCenter, "The 2D view shows contour templates (DXF)")
-            p.end()
-            return
-        p.setRenderHint(QPainter.Antialiasing)
-        polylines, feet, tips, rgb, factor, lo, hi = self._cache
-        P = self._transform()
-        p.setPen(QPen(QColor("#3a3a44"), 1.3))
-        for pl in polylines:
-            x, y = P(pl)
-            path = QPainterPath(QPointF(x[0], y[0]))
-            for xi, yi in zip(x[1:], y[1:]):
-                path.lineTo(xi, yi)
-            p.drawPath(path)
-        fx, fy = P(feet)
-        tx, ty = P(tips)
-        for i in range(len(fx)):
-            c = QColor(int(rgb[i, 0]), int(rgb[i, 1]), int(rgb[i, 2]))
-            p.setPen(QPen(c, 1.2))
-            p.drawLine(QPointF(fx[i], fy[i]), QPointF(tx[i], ty[i]))
-        sel = self.session.selected
-        if sel is not None:
-            p.setPen(QPen(QColor("#ff00ff"), 2.5))
-            p.drawEllipse(QPointF(tx[sel], ty[sel]), 6, 6)
-        p.setPen(Qt.black)
-        p.drawText(QRectF(6, self.height() - 18, self.width() - 12, 16), Qt.AlignLeft,
-                   f"Whiskers: deviation × {factor:g} along the contour normal (outward = excess "
-                   "material)")
-        p.end()
-
-    def mousePressEvent(self, event):
-        if self._cache is None:
-            return
-        P = self._transform()
-        tx, ty = P(self._cache[2])
-        pos = event.position()
-        d2 = (tx - pos.x()) ** 2 + (ty - pos.y()) ** 2
-        i = int(np.argmin(d2))
-        if d2[i] <= 12 ** 2:
-            self.session.select(i)
 
 
 class PointTableModel(QAbstractTableModel):
