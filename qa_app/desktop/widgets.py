@@ -32,6 +32,7 @@ from PySide6.QtWidgets import (
     QHeaderView,
     QInputDialog,
     QLabel,
+    QLineEdit,
     QPushButton,
     QRadioButton,
     QTableView,
@@ -46,6 +47,10 @@ from reports import figures
 from reports.messages import VERDICT_RGB, VERDICT_WORD, alignment_text
 
 from .model import Session, characteristic_rows
+
+
+DXF_UNITS = ("mm", "cm", "m", "in")
+"""The units a DXF drawing may be read in (qa-inspect --units)."""
 
 
 def qcolor(rgb) -> QColor:
@@ -724,14 +729,16 @@ class ToleranceForm(QWidget):
             combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
             combo.setMinimumContentsLength(12)
         self._mode()
+        self._applicable()
         session.settings_changed.connect(self.load)
         self.load()
         for spin in (self.tol, self.lower, self.upper, self.chord):
             spin.valueChanged.connect(self.push)
         for w in (self.sym, self.by_plan):
             w.toggled.connect(self.push)
-        for combo in (self.fit, self.rule):
+        for combo in (self.fit, self.rule, self.units):
             combo.currentIndexChanged.connect(self.push)
+        self.layers.editingFinished.connect(self.push)
         # The plan's zone is a choice with a plan only; the airfoil chord applies to .dat
         # nominals only (see settings_fields).
         session.inputs_changed.connect(self._inputs)
@@ -764,8 +771,17 @@ class ToleranceForm(QWidget):
         self.chord.setRange(0.0, 1e6)
         self.chord.setDecimals(3)
         self.chord.setSuffix(" mm")
-        self.chord.setSpecialValueText("(airfoil .dat only)")
+        self.chord.setSpecialValueText("(from the file)")
         self.chord.setToolTip("Chord length of an airfoil ordinate template (.dat)")
+        self.units = QComboBox()
+        self.units.addItem("(the drawing's)", None)
+        for u in DXF_UNITS:
+            self.units.addItem(u, u)
+        self.units.setToolTip("The DXF drawing's units, when its $INSUNITS is missing or wrong")
+        self.layers = QLineEdit()
+        self.layers.setPlaceholderText("every layer")
+        self.layers.setToolTip("The DXF layers to take, separated by commas (empty: every "
+                               "layer)")
 
     def _make_buttons(self) -> QPushButton:
         """The preset chooser, the Inspect and Cancel buttons, and the "Save preset…" button,
@@ -803,6 +819,9 @@ class ToleranceForm(QWidget):
         form.addRow("Fit", self.fit)
         form.addRow("Decision rule", self.rule)
         form.addRow("Airfoil chord", self.chord)
+        form.addRow("DXF units", self.units)
+        form.addRow("DXF layers", self.layers)
+        self.form = form
         buttons = QHBoxLayout()
         buttons.addWidget(self.inspect_button, 1)
         buttons.addWidget(self.cancel_button)
@@ -822,13 +841,23 @@ class ToleranceForm(QWidget):
 
     def _mode(self):
         self.tol.setEnabled(self.sym.isChecked())
-        self.lower.setEnabled(self.asym.isChecked())
-        self.upper.setEnabled(self.asym.isChecked())
+        for w in (self.lower, self.upper):
+            w.setEnabled(self.asym.isChecked())
+            self.form.setRowVisible(w, self.asym.isChecked())
+
+    def _applicable(self) -> None:
+        """Show the fields of the nominal's kind only: the chord for airfoil ordinates (.dat),
+        units and layers for DXF drawings."""
+        kind = formats.kind_of(self.session.nominal_path or "")
+        self.form.setRowVisible(self.chord, kind == formats.AIRFOIL)
+        self.form.setRowVisible(self.units, kind == formats.DXF)
+        self.form.setRowVisible(self.layers, kind == formats.DXF)
 
     def _inputs(self) -> None:
         """A plan opened or closed: the plan's zone is offered with a plan only; the form shows
         the session's settings again, then sends the chord's applicability."""
         self.by_plan.setVisible(self.session.plan_path is not None)
+        self._applicable()
         self.load()
         self.push()
 
@@ -864,21 +893,29 @@ class ToleranceForm(QWidget):
             self.fit.setCurrentIndex(max(0, self.fit.findData(st.fit)))
             self.rule.setCurrentIndex(max(0, self.rule.findData(st.decision_rule)))
             self.chord.setValue(st.scale or 0.0)
+            self.units.setCurrentIndex(max(0, self.units.findData(st.units)))
+            self.layers.setText(", ".join(st.layers or ()))
         finally:
             self._loading = False
 
     def options(self) -> dict:
-        """Fit, decision rule and airfoil chord as Settings fields."""
+        """Fit, decision rule, airfoil chord and DXF units and layers as Settings fields."""
+        layers = tuple(x.strip() for x in self.layers.text().split(",") if x.strip())
         return {"fit": self.fit.currentData(), "decision_rule": self.rule.currentData(),
-                "scale": self.chord.value() or None}
+                "scale": self.chord.value() or None, "units": self.units.currentData(),
+                "layers": layers or None}
 
     def settings_fields(self) -> dict:
         """The form as Settings fields: the zone (not checked here: the controller refuses an
-        empty one at Inspect), fit, decision rule, and the chord for a .dat nominal only."""
+        empty one at Inspect), fit, decision rule, the chord for a .dat nominal only, units
+        and layers for a DXF nominal only."""
         lo, hi = self.zone()
         options = self.options()
-        if formats.kind_of(self.session.nominal_path or "") != formats.AIRFOIL:
+        kind = formats.kind_of(self.session.nominal_path or "")
+        if kind != formats.AIRFOIL:
             options["scale"] = None  # the chord applies to airfoil ordinates only
+        if kind != formats.DXF:
+            options["units"] = options["layers"] = None
         return {"tol_lower": float(lo), "tol_upper": float(hi),
                 "zone_in_verdict": not self.plans_zone(), **options}
 
