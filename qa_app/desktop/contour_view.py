@@ -8,11 +8,11 @@ whole part again, a click selects the nearest point.
 from __future__ import annotations
 
 import numpy as np
-from PySide6.QtCore import QPointF, QRectF, Qt
-from PySide6.QtGui import QColor, QPainter, QPainterPath, QPen
+from PySide6.QtCore import QLineF, QPointF, QRectF, Qt
+from PySide6.QtGui import QColor, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import QWidget
 
-from engine.contour import ContourIndex, deviations_2d
+from engine.contour import SEGMENT, point_to_primitives
 from reports import figures
 
 from .model import Session
@@ -28,22 +28,29 @@ PICK_PX = 12
 """A click selects the nearest whisker tip within this distance (px)."""
 
 
-def envelope_polylines(template, polylines: list[np.ndarray], offset: float
-                       ) -> list[np.ndarray]:
+def envelope_polylines(template, offset: float, step_deg: float = 3.0) -> list[np.ndarray]:
     """The template's contours offset by ``offset`` (mm, signed as deviations are: + toward
-    excess material) along their normals.
+    excess material) along their normals: the tolerance envelope's side at that limit.
 
-    polylines : each contour as (k, 2) points on it (figures.template_polylines). Returns one
-    (k, 2) polyline for each: every point moved along the contour's unit normal toward the
-    positive side there (engine.contour's convention; at a joint of two primitives, their
-    bisector), so that the engine's signed deviation of a point of the result is ``offset``
-    away from corners.
+    Returns one (k, 2) polyline for each contour: each primitive (a segment by its ends, an arc
+    in steps of at most ``step_deg``) moved along its own unit normal toward the contour's
+    positive side (engine.contour's sign convention), in drawing order; where two primitives
+    meet at an angle, a straight piece joins their offsets.
     """
-    index = ContourIndex(template)
+    t = template
     out = []
-    for pl in polylines:
-        normal = deviations_2d(index, pl).normal
-        out.append(pl + offset * normal)
+    for c in range(t.closed.size):
+        pieces = []
+        for i in np.flatnonzero(t.contour == c):
+            if t.kind[i] == SEGMENT:
+                pts = np.array([t.start[i], t.end[i]])
+            else:
+                k = max(2, int(np.ceil(abs(t.sweep[i]) / np.radians(step_deg))) + 1)
+                ang = t.angle0[i] + np.linspace(0.0, t.sweep[i], k)
+                pts = t.centre[i] + t.radius[i] * np.column_stack([np.cos(ang), np.sin(ang)])
+            left = point_to_primitives(pts, t, np.full(len(pts), i))[2]
+            pieces.append(pts + (offset * t.side[c]) * left)
+        out.append(np.vstack(pieces))
     return out
 
 
@@ -82,8 +89,7 @@ class ContourView(QWidget):
                                                         abs(tol.lower), abs(tol.upper)),
                                             share=ZONE_SHARE)
             tips = feet + factor * d[:, None] * res.deviations.normal[:, :2]
-            band = [envelope_polylines(template, polylines, factor * v)
-                    for v in (tol.lower, tol.upper)]
+            band = [envelope_polylines(template, factor * v) for v in (tol.lower, tol.upper)]
             self._cache = (polylines, feet, tips, figures.band_rgb(d, tol), factor,
                            allp.min(axis=0) - 0.1 * extent, allp.max(axis=0) + 0.1 * extent,
                            band)
@@ -124,29 +130,26 @@ class ContourView(QWidget):
         self.update()
 
     @staticmethod
-    def _path(x: np.ndarray, y: np.ndarray, path: QPainterPath | None = None) -> QPainterPath:
-        """The polyline (x, y) px, appended to ``path`` (a new path when None)."""
-        if path is None:
-            path = QPainterPath(QPointF(x[0], y[0]))
-        else:
-            path.lineTo(x[0], y[0])
-        for xi, yi in zip(x[1:], y[1:]):
-            path.lineTo(xi, yi)
-        return path
+    def _polygon(x: np.ndarray, y: np.ndarray) -> QPolygonF:
+        """The points (x, y) px as one polygon: drawn by one call each, not a call a point
+        (PySide6 6.12 loses a reference to None in each call of a method without a result:
+        the fewer the calls, the longer a session runs)."""
+        return QPolygonF([QPointF(a, b) for a, b in zip(x.tolist(), y.tolist())])
 
     def _paint_envelope(self, p: QPainter, P) -> None:
         """The zone between the offset contours, shaded, with both offsets drawn thin."""
         lower, upper = self._cache[7]
         for lo_pl, hi_pl in zip(lower, upper):
             (lx, ly), (hx, hy) = P(lo_pl), P(hi_pl)
-            band = self._path(hx, hy)
-            band = self._path(lx[::-1], ly[::-1], band)
-            band.closeSubpath()
-            band.setFillRule(Qt.WindingFill)  # where a tight corner folds the band over
-            p.fillPath(band, QColor(120, 190, 120, 60))
+            p.setPen(Qt.NoPen)
+            p.setBrush(QColor(120, 190, 120, 60))
+            # Winding fill: where a tight bend folds the band over itself, it stays shaded.
+            p.drawPolygon(self._polygon(np.r_[hx, lx[::-1]], np.r_[hy, ly[::-1]]),
+                          Qt.WindingFill)
             p.setPen(QPen(QColor(60, 140, 60), 0.8, Qt.DashLine))
-            p.drawPath(self._path(lx, ly))
-            p.drawPath(self._path(hx, hy))
+            p.drawPolyline(self._polygon(lx, ly))
+            p.drawPolyline(self._polygon(hx, hy))
+        p.setBrush(Qt.NoBrush)
 
     def paintEvent(self, event):
         p = QPainter(self)
@@ -161,13 +164,15 @@ class ContourView(QWidget):
         self._paint_envelope(p, P)
         p.setPen(QPen(QColor("#3a3a44"), 1.3))
         for pl in polylines:
-            p.drawPath(self._path(*P(pl)))
+            p.drawPolyline(self._polygon(*P(pl)))
         fx, fy = P(feet)
         tx, ty = P(tips)
-        for i in range(len(fx)):
-            c = QColor(int(rgb[i, 0]), int(rgb[i, 1]), int(rgb[i, 2]))
-            p.setPen(QPen(c, 1.2))
-            p.drawLine(QPointF(fx[i], fy[i]), QPointF(tx[i], ty[i]))
+        colours, which = np.unique(rgb, axis=0, return_inverse=True)
+        for k, c in enumerate(colours.tolist()):  # the whiskers, one call per colour
+            i = np.flatnonzero(which.reshape(-1) == k)
+            p.setPen(QPen(QColor(*c), 1.2))
+            p.drawLines([QLineF(*v) for v in np.column_stack(
+                [fx[i], fy[i], tx[i], ty[i]]).tolist()])
         sel = self.session.selected
         if sel is not None:
             p.setPen(QPen(QColor("#ff00ff"), 2.5))
