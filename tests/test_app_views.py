@@ -5,14 +5,14 @@ import os
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QPoint, QPointF, QSettings, Qt
+from PySide6.QtCore import QPoint, QPointF, Qt
 from PySide6.QtGui import QWheelEvent
 from PySide6.QtWidgets import QApplication
 
 from engine.contour import ContourIndex, arc, build_template, deviations_2d, segment
 from qa_app.desktop.contour_view import envelope_polylines
-from qa_app.desktop.window import MainWindow
 from reports import figures
+from test_app_window import window  # noqa: F401  (the window fixture)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FRAME = os.path.join(ROOT, "samples", "fuselage_frame")
@@ -48,11 +48,8 @@ def test_the_envelope_is_the_contour_offset_toward_excess_material(offset):
 
 
 @pytest.fixture
-def frame_view(qtbot, tmp_path):
-    w = MainWindow(synchronous=True, settings=QSettings(str(tmp_path / "qa-app.ini"),
-                                                        QSettings.IniFormat))
-    qtbot.addWidget(w)
-    w.show()
+def frame_view(window):
+    w = window
     w.controller.open_files([os.path.join(FRAME, "template.dxf"),
                              os.path.join(FRAME, "measured.csv")])
     w.tolerance.set_zone(-0.02, 0.02)

@@ -35,6 +35,16 @@ def window(qtbot, tmp_path):
         w.close()
 
 
+def inspected_belly(w, qtbot, tol=0.25):
+    """The window ``w`` with the belly fairing inspected at ±tol mm, drawn."""
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
+                             os.path.join(BELLY, "measured.csv")])
+    w.tolerance.set_zone(-tol, tol)
+    w.act_inspect.trigger()
+    qtbot.wait(100)
+    return w
+
+
 def _screen_of(plotter, xyz):
     r = plotter.renderer
     r.SetWorldPoint(*xyz, 1.0)
@@ -71,12 +81,7 @@ def test_viewport_shows_the_deviation_colours(window, qtbot):
 
 
 def test_pick_a_point_in_the_view(window, qtbot):
-    w = window()
-    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
-                             os.path.join(BELLY, "measured.csv")])
-    w.tolerance.set_zone(-0.25, 0.25)
-    w.act_inspect.trigger()
-    qtbot.wait(100)
+    w = inspected_belly(window(), qtbot)
     pl = w.viewport.plotter
     target = int(np.argmin(np.linalg.norm(w.viewport._shown - w.viewport._shown.mean(0),
                                           axis=1)))
@@ -227,12 +232,7 @@ def test_flags_on_the_worst_point_of_each_cluster_and_zoom_to_a_row(window, qtbo
 
     from reports.callouts import worst_of_clusters
 
-    w = window()
-    w.controller.open_files([os.path.join(BELLY, "nominal.csv"),
-                             os.path.join(BELLY, "measured.csv")])
-    w.tolerance.set_zone(-0.25, 0.25)
-    w.act_inspect.trigger()
-    qtbot.wait(100)
+    w = inspected_belly(window(), qtbot)
     run = w.session.run
     d = run.result.deviations.signed
     pl = w.viewport.plotter
