@@ -60,12 +60,10 @@ def test_banner_table_and_selection(window, qtbot):
     assert "REJECTED" in w.banner.word.text() and "20 out of tolerance" in w.banner.detail.text()
     model = w.table.model()
     assert model.rowCount() == 1100
-    # Sorted by deviation, most negative first; every row's result agrees with the zone.
-    devs = [float(model.data(model.index(r, 5))) for r in range(model.rowCount())]
-    assert devs == sorted(devs) and devs[0] == pytest.approx(run.result.statistics.min, abs=1e-4)
-    w.table.sortByColumn(5, Qt.DescendingOrder)
-    assert float(model.data(model.index(0, 5))) == pytest.approx(run.result.statistics.max,
-                                                                 abs=1e-4)
+    # Sorted by the size of the deviation, the worst point first.
+    devs = [abs(float(model.data(model.index(r, 5)))) for r in range(model.rowCount())]
+    assert devs == sorted(devs, reverse=True)
+    assert devs[0] == pytest.approx(run.result.statistics.max_abs, abs=1e-4)
     fails = [r for r in range(model.rowCount()) if model.data(model.index(r, 6)) == "FAIL"]
     assert len(fails) == 20
     # Row → selection → viewport readout, and selection → row.
@@ -76,6 +74,33 @@ def test_banner_table_and_selection(window, qtbot):
     assert label in w.viewport.readout.text() and "OUT OF TOLERANCE" in w.viewport.readout.text()
     w.session.select(7)
     assert model.point(w.table.currentIndex().row()) == 7
+
+
+@pytest.mark.parametrize("files", [("belly_fairing", "nominal.csv"),
+                                   ("fuselage_frame", "template.dxf")])
+def test_the_table_puts_the_worst_point_on_top_and_numbers_from_1(window, files):
+    """In 3D and 2D alike, the rows run from the largest |deviation| down, and the # column
+    is the point's place in the measured file counting from 1 (as JSON and CSV count)."""
+    folder, nominal = files
+    w = window
+    w.controller.open_files([os.path.join(ROOT, "samples", folder, nominal),
+                             os.path.join(ROOT, "samples", folder, "measured.csv")])
+    w.tolerance.set_zone(-0.05, 0.05)
+    w.act_inspect.trigger()
+    run = w.session.run
+    d = run.result.deviations.signed
+    model = w.table.model()
+    rows = [model.point(r) for r in range(model.rowCount())]
+    # The naive twin: every point by |d|, largest first.
+    assert rows == sorted(range(d.size), key=lambda i: (-abs(d[i]), i))
+    assert abs(float(model.data(model.index(0, 5)))) == pytest.approx(np.abs(d).max(),
+                                                                       abs=1e-4)
+    with open(os.path.join(ROOT, "samples", folder, "measured.csv")) as f:
+        lines = [ln for ln in f if ln.strip() and not ln.startswith("#")][1:]  # header row
+    for r in (0, 1, model.rowCount() - 1):
+        number = int(model.data(model.index(r, 0)))
+        assert lines[number - 1].split(",")[0].strip() == model.data(model.index(r, 1))
+    assert w.table.horizontalHeader().sortIndicatorSection() == 5
 
 
 def test_contour_view_whiskers_and_click_selects(window, qtbot):
@@ -637,3 +662,102 @@ def test_qa_app_command_with_a_plan_inspects_by_it(qtbot, monkeypatch, tmp_path)
     assert w.banner.verdict == "REJECT" and w.session.run.settings.plan is not None
     assert not w.session.run.settings.zone_in_verdict
     assert w.characteristics.model_.rowCount() == 5
+
+
+def test_fields_show_only_for_the_nominals_they_apply_to(window, tmp_path):
+    """The airfoil chord for .dat ordinates only, DXF units and layers for DXF drawings only,
+    the lower and upper limits for an asymmetric zone only; what is typed reaches the
+    settings, and nothing hidden does."""
+    w = window
+    form = w.tolerance
+    dat = tmp_path / "wing.dat"
+    dat.write_text("WING\n1.0 0.0\n0.5 0.05\n0.0 0.0\n0.5 -0.05\n1.0 0.0\n")
+
+    def shown():
+        return {name for name, field in (("chord", form.chord), ("units", form.units),
+                                         ("layers", form.layers), ("lower", form.lower),
+                                         ("upper", form.upper)) if field.isVisibleTo(w)}
+
+    assert shown() == set()  # no nominal yet, a symmetric zone
+    w.controller.open_nominal(os.path.join(BELLY, "nominal.csv"))
+    assert shown() == set()
+    form.asym.setChecked(True)
+    assert shown() == {"lower", "upper"}
+    form.sym.setChecked(True)
+    w.controller.open_nominal(str(dat))
+    assert shown() == {"chord"}
+    form.chord.setValue(250.0)
+    assert w.session.settings.scale == 250.0
+    w.controller.open_nominal(os.path.join(FRAME, "template.dxf"))
+    assert shown() == {"units", "layers"}
+    assert w.session.settings.scale is None  # the chord is not the drawing's
+    form.units.setCurrentIndex(form.units.findData("in"))
+    form.layers.setText("PROFILE, NOTES")
+    form.layers.editingFinished.emit()
+    assert w.session.settings.units == "in"
+    assert w.session.settings.layers == ("PROFILE", "NOTES")
+    w.controller.open_nominal(os.path.join(BELLY, "nominal.csv"))
+    assert shown() == set()
+    assert w.session.settings.units is None and w.session.settings.layers is None
+
+
+def test_a_dxf_layer_chosen_in_the_form_is_the_one_inspected(window):
+    """Only the profile layer taken: the run is made with it, and a layer that is not in the
+    drawing is refused in the message bar."""
+    w = window
+    w.controller.open_files([os.path.join(FRAME, "template.dxf"),
+                             os.path.join(FRAME, "measured.csv")])
+    w.tolerance.set_zone(-0.05, 0.05)
+    w.tolerance.layers.setText("PROFILE")
+    w.tolerance.layers.editingFinished.emit()
+    w.act_inspect.trigger()
+    assert w.session.run.settings.layers == ("PROFILE",)
+    assert w.session.run.result.verdict == "ACCEPT"
+    w.tolerance.layers.setText("NO_SUCH_LAYER")
+    w.tolerance.layers.editingFinished.emit()
+    w.act_inspect.trigger()
+    assert w.message_bar.level == "error" and "no_such_layer" in w.message_bar.text.lower()
+
+
+def test_the_colour_bar_follows_the_bands_of_the_scale(window, monkeypatch):
+    """The bar beside the views shows reports.figures.bands(tol), most negative at the bottom,
+    whatever that table is (a finer scale shows without a change here)."""
+    from reports import figures
+
+    w = window
+    load_belly(w, 0.25)
+    w.act_inspect.trigger()
+
+    def colours_shown():
+        w.legend.resize(120, 420)
+        img = w.legend.grab().toImage()
+        out = []
+        for box, _ in w.legend.band_boxes():
+            c = img.pixelColor(int(box.center().x()), int(box.center().y()))
+            out.append((c.red(), c.green(), c.blue()))
+        return out
+
+    def expected():
+        return [tuple(int(round(255 * v)) for v in b.rgb)
+                for b in figures.bands(w.session.run.result.tolerance)]
+
+    def close(a, b):
+        return len(a) == len(b) and all(max(abs(x - y) for x, y in zip(p, q)) <= 1
+                                        for p, q in zip(a, b))
+
+    assert close(colours_shown(), expected())
+    boxes = w.legend.band_boxes()
+    assert all(boxes[k][0].top() >= boxes[k + 1][0].bottom() - 1e-9
+               for k in range(len(boxes) - 1))  # bottom to top
+    real = figures.bands
+
+    def finer(tol):  # twenty bands across the zone, two beyond each limit
+        lo, hi = tol.lower, tol.upper
+        edges = [-np.inf, lo - 0.1, *np.linspace(lo, hi, 21), hi + 0.1, np.inf]
+        rgb = [((k * 37) % 256 / 255, (k * 91) % 256 / 255, (k * 53) % 256 / 255)
+               for k in range(24)]
+        return [figures.Band(edges[k], edges[k + 1], rgb[k], 2 <= k <= 21) for k in range(24)]
+
+    monkeypatch.setattr(figures, "bands", finer)
+    assert len(w.legend.band_boxes()) == 24 and close(colours_shown(), expected())
+    monkeypatch.setattr(figures, "bands", real)

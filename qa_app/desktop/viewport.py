@@ -12,11 +12,18 @@ from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from reports import figures
+from reports.callouts import worst_of_clusters
 from reports.messages import VERDICT_WORD
 
 from .model import Session, characteristic_rows
 
 STANDARD_VIEWS = ("Face-on", "Iso", "Top", "Front", "Side")
+FLAGS = 5
+"""At most this many flags: the worst point of each separate cluster (reports.callouts)."""
+FRAME_MARGIN = 1.1
+"""The whole part framed, with this much room around it."""
+ZOOM_SHARE = 0.12
+"""Zoomed to a point, the view spans this share of the part's size."""
 
 
 def can_render_3d() -> bool:
@@ -116,6 +123,8 @@ class Viewport3D(QWidget):
             face = figures.face_on_direction(res.deviations.foot, res.deviations.normal)
             out["home"] = (tuple(face), tuple(figures.any_perpendicular(face)))
         out["tree"] = cKDTree(out["shown"])
+        out["flags"] = worst_of_clusters(out["shown"], d, res.tolerance.lower,
+                                         res.tolerance.upper, n=FLAGS)
         return out
 
     def show_run(self, run) -> None:
@@ -155,7 +164,48 @@ class Viewport3D(QWidget):
             pl.add_points(run.nominal.points[::step], color=(0.72, 0.73, 0.75), point_size=2,
                           pickable=False, name="qa-nominal", render=False)
         self._draw_points()
+        self._draw_flags()
         self.home_view()
+
+    def flag_texts(self) -> list[tuple[int, str]]:
+        """The flags of the run shown: (point index, text: its label and deviation, mm)."""
+        run = self.session.run
+        if run is None or self._colours is None:
+            return []
+        d = run.result.deviations.signed
+        return [(int(i), f"{self.point_name(int(i))} {d[i]:+.3f}")
+                for i in self._colours["flags"]]
+
+    def point_name(self, index: int) -> str:
+        """The point's label, else its number counting from 1 (as the table shows it)."""
+        labels = self.session.run.measured.labels
+        return str(labels[index]) if labels is not None else f"#{index + 1}"
+
+    def _draw_flags(self) -> None:
+        """A flag on the worst point of each separate cluster of notable points."""
+        flags = self.flag_texts()
+        if not flags:
+            return
+        self.plotter.add_point_labels(
+            self._shown[[i for i, _ in flags]], [t for _, t in flags], font_size=13,
+            bold=True, text_color="black", shape_color="white", shape_opacity=0.85,
+            margin=3, point_color="magenta", point_size=6, render_points_as_spheres=True,
+            always_visible=True, name="qa-flags", render=False, reset_camera=False)
+
+    def zoom_to(self, index: int) -> None:
+        """Centre the view on point ``index`` and come close, keeping the direction of view."""
+        if self.plotter is None or self._shown is None:
+            return
+        cam = self.plotter.camera
+        p = self._shown[index]
+        back = np.subtract(cam.position, cam.focal_point)
+        back /= np.linalg.norm(back) or 1.0
+        size = float(np.linalg.norm(np.ptp(self._shown, axis=0))) or 1.0
+        dist = 0.5 * ZOOM_SHARE * size / np.tan(np.radians(0.5 * cam.view_angle))
+        cam.focal_point = tuple(p)
+        cam.position = tuple(p + dist * back)
+        self.plotter.renderer.reset_camera_clipping_range()
+        self._redraw()
 
     def regions_legend(self):
         """The regions' legend while the points show their regions, else None."""
@@ -219,9 +269,30 @@ class Viewport3D(QWidget):
         # One render at the end: each costs ~0.3 s for 200,000 points in software OpenGL.
         # The renderer's own methods: the Plotter's reset_camera always renders.
         self.plotter.renderer.view_vector(*self._home, render=False)
-        self.plotter.renderer.reset_camera(render=False)
-        self.plotter.camera.zoom(1.4)
+        self.frame_part()
         self._redraw()
+
+    def frame_part(self) -> None:
+        """Keep the direction of view and come as close as the whole part allows: its points'
+        extent across the view fills the viewport's width or height, less a margin."""
+        cam = self.plotter.camera
+        back = np.subtract(cam.position, cam.focal_point)
+        back /= np.linalg.norm(back)
+        up = np.asarray(cam.up, float) - np.dot(cam.up, back) * back
+        up /= np.linalg.norm(up)
+        right = np.cross(up, back)
+        pts = self._shown
+        across = np.column_stack([pts @ right, pts @ up, pts @ back])
+        lo, hi = across.min(axis=0), across.max(axis=0)
+        mid = 0.5 * (lo + hi)
+        w, h = self.plotter.window_size
+        half = FRAME_MARGIN * max(0.5 * (hi[1] - lo[1]),
+                                  0.5 * (hi[0] - lo[0]) * h / max(w, 1), 1e-9)
+        dist = half / np.tan(np.radians(0.5 * cam.view_angle)) + 0.5 * (hi[2] - lo[2])
+        centre = mid[0] * right + mid[1] * up + mid[2] * back
+        cam.focal_point = tuple(centre)
+        cam.position = tuple(centre + dist * back)
+        self.plotter.renderer.reset_camera_clipping_range()
 
     def _redraw(self) -> None:
         """Ask Qt for a repaint (which renders once) instead of rendering now and again when Qt
@@ -235,8 +306,10 @@ class Viewport3D(QWidget):
             self.home_view()
             return
         {"Iso": self.plotter.view_isometric, "Top": self.plotter.view_xy,
-         "Front": self.plotter.view_xz, "Side": self.plotter.view_yz}[name]()
-        self.plotter.render()
+         "Front": self.plotter.view_xz, "Side": self.plotter.view_yz}[name](render=False)
+        if self._shown is not None:
+            self.frame_part()
+        self._redraw()
 
     def _picked(self, point, *args) -> None:
         if self._tree is None or point is None:
@@ -248,8 +321,7 @@ class Viewport3D(QWidget):
         run = self.session.run
         if index is None or run is None or self._shown is None:
             return
-        labels = run.measured.labels
-        name = str(labels[index]) if labels is not None else f"#{index + 1}"
+        name = self.point_name(index)
         d = run.result.deviations.signed[index]
         ok = "in tolerance" if run.result.in_tolerance[index] else "OUT OF TOLERANCE"
         if run.result.outlier[index]:

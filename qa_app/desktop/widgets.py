@@ -1,7 +1,7 @@
-"""The window's 2D widgets: message bar, verdict banner, colour legend, histogram, 2D contour view,
-point table, characteristics table, tolerance form. Each takes the session and subscribes to its
-events; colours and bands come from reports.figures, so the window and the certificate show the
-same scale.
+"""The window's 2D widgets: message bar, verdict banner, colour bar, histogram, point table,
+characteristics table, tolerance form (the 2D contour view is contour_view.py's). Each takes the
+session and subscribes to its events; colours and bands come from reports.figures, so the window
+and the certificate show the same scale.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import os
 import numpy as np
 from PySide6.QtCore import (
     QAbstractTableModel,
+    QEvent,
     QItemSelection,
     QItemSelectionModel,
     QModelIndex,
@@ -31,10 +32,12 @@ from PySide6.QtWidgets import (
     QHeaderView,
     QInputDialog,
     QLabel,
+    QLineEdit,
     QPushButton,
     QRadioButton,
     QTableView,
     QToolButton,
+    QToolTip,
     QVBoxLayout,
     QWidget,
 )
@@ -44,6 +47,10 @@ from reports import figures
 from reports.messages import VERDICT_RGB, VERDICT_WORD, alignment_text
 
 from .model import Session, characteristic_rows
+
+
+DXF_UNITS = ("mm", "cm", "m", "in")
+"""The units a DXF drawing may be read in (qa-inspect --units)."""
 
 
 def qcolor(rgb) -> QColor:
@@ -217,7 +224,13 @@ def pose_trust(res) -> tuple[str, tuple[str, ...]]:
 
 
 class Legend(QWidget):
-    """The tolerance-banded colour scale with the number of points in each band."""
+    """The colour bar beside the views: the bands of reports.figures.bands(tol), most negative
+    at the bottom, each as tall as the others, the zone's limits drawn across it and labelled
+    in bold, band edges labelled where there is room; a band's tooltip gives its range and its
+    number of points. While the points show their plan regions, the regions' legend instead."""
+
+    BAR = 16
+    """The bar's width, px."""
 
     def __init__(self, session: Session):
         super().__init__()
@@ -225,8 +238,9 @@ class Legend(QWidget):
         self.regions = None
         """The regions' legend (reports.figures.region_colours) while the view shows regions,
         else None: the deviation scale."""
-        self.setMinimumWidth(170)
-        self.setMinimumHeight(200)
+        self.setMinimumWidth(104)
+        self.setMinimumHeight(120)
+        self.setMouseTracking(True)
         session.result_changed.connect(lambda run: self.update())
 
     def show_regions(self, legend) -> None:
@@ -240,38 +254,78 @@ class Legend(QWidget):
         for k, (name, rgb, count) in enumerate(self.regions):
             y = 22 + k * h
             p.fillRect(QRectF(4, y + 2, 18, h - 4), qcolor(rgb))
-            p.drawText(QRectF(28, y, self.width() - 80, h), Qt.AlignVCenter, name)
-            p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
+            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter,
+                       p.fontMetrics().elidedText(name, Qt.ElideRight, self.width() - 60))
+            p.drawText(QRectF(self.width() - 34, y, 32, h), Qt.AlignVCenter | Qt.AlignRight,
                        str(count))
         p.end()
 
-    def paintEvent(self, event):
+    def band_boxes(self) -> list[tuple[QRectF, "figures.Band"]]:
+        """Each band of the scale with its box in the widget, bottom to top (the most negative
+        deviation at the bottom); empty without a result."""
         run = self.session.run
         if run is None:
+            return []
+        table = figures.bands(run.result.tolerance)
+        top, bottom = 24.0, self.height() - 10.0
+        h = (bottom - top) / len(table)
+        return [(QRectF(6, bottom - (k + 1) * h, self.BAR, h), b) for k, b in enumerate(table)]
+
+    def paintEvent(self, event):
+        if self.session.run is None:
             return
         if self.regions is not None:
             self._paint_regions()
             return
-        tol = run.result.tolerance
-        table = figures.bands(tol)
-        counts = np.bincount(figures.band_index(run.result.deviations.signed, tol),
-                             minlength=len(table))
+        boxes = self.band_boxes()
         p = QPainter(self)
-        p.setRenderHint(QPainter.Antialiasing)
-        p.drawText(4, 14, "Deviation (mm)")
-        h = (self.height() - 26) / len(table)
-        for k, b in enumerate(reversed(table)):
-            kk = len(table) - 1 - k
-            y = 22 + k * h
-            p.fillRect(QRectF(4, y, 18, h - 1), qcolor(b.rgb))
-            p.drawText(QRectF(28, y, self.width() - 60, h), Qt.AlignVCenter,
-                       figures.band_label(b))
-            p.drawText(QRectF(self.width() - 48, y, 44, h), Qt.AlignVCenter | Qt.AlignRight,
-                       str(int(counts[kk])))
-        p.setPen(QPen(Qt.black, 1.5))
-        for y in (22 + 3 * h, 22 + 7 * h):  # the limits of the zone
-            p.drawLine(QPointF(2, y), QPointF(self.width() - 2, y))
+        p.drawText(QRectF(0, 0, self.width(), 18), Qt.AlignHCenter | Qt.AlignVCenter,
+                   "Deviation, mm")
+        for box, b in boxes:
+            p.fillRect(box, qcolor(b.rgb))
+        fm = p.fontMetrics()
+        h = boxes[0][0].height()
+        every = max(1, math.ceil(1.15 * fm.height() / h))  # label every n-th edge
+        x = 6 + self.BAR
+        bold = p.font()
+        bold.setBold(True)
+        plain = p.font()
+        for k in range(1, len(boxes)):
+            box, b = boxes[k]
+            y = box.bottom()
+            limit = b.in_tolerance != boxes[k - 1][1].in_tolerance
+            if limit:
+                p.setPen(QPen(Qt.black, 2))
+                p.drawLine(QPointF(2, y), QPointF(x + 4, y))
+            if limit or k % every == 0 and all(
+                    abs(k - j) >= every for j in self._limit_edges(boxes)):
+                p.setPen(Qt.black)
+                p.setFont(bold if limit else plain)
+                p.drawText(QRectF(x + 6, y - fm.height() / 2, self.width() - x - 6,
+                                  fm.height()), Qt.AlignVCenter, f"{b.lower:+.3f}")
         p.end()
+
+    @staticmethod
+    def _limit_edges(boxes) -> list[int]:
+        """The edges (index of the band above) where the zone's limits lie."""
+        return [k for k in range(1, len(boxes))
+                if boxes[k][1].in_tolerance != boxes[k - 1][1].in_tolerance]
+
+    def event(self, e):
+        if e.type() == QEvent.ToolTip and self.regions is None and self.session.run is not None:
+            res = self.session.run.result
+            table = figures.bands(res.tolerance)
+            counts = np.bincount(figures.band_index(res.deviations.signed, res.tolerance),
+                                 minlength=len(table))
+            for k, (box, b) in enumerate(self.band_boxes()):
+                if box.top() <= e.pos().y() < box.bottom():
+                    QToolTip.showText(e.globalPos(),
+                                      f"{figures.band_label(b)} mm: {int(counts[k])} points"
+                                      + ("" if b.in_tolerance else " (out of tolerance)"), self)
+                    return True
+            QToolTip.hideText()
+            return True
+        return super().event(e)
 
 
 class Histogram(QWidget):
@@ -327,89 +381,6 @@ class Histogram(QWidget):
         p.end()
 
 
-class ContourView(QWidget):
-    """A 2D template with every point's deviation as a magnified whisker; click a point to select
-    it."""
-
-    def __init__(self, session: Session):
-        super().__init__()
-        self.session = session
-        self.setMinimumSize(300, 160)
-        self._cache = None
-        session.result_changed.connect(self._result)
-        session.selection_changed.connect(lambda i: self.update())
-
-    def _result(self, run) -> None:
-        self._cache = None
-        if run is not None and run.template is not None:
-            res = run.result
-            polylines = figures.template_polylines(run.template.template)
-            feet = res.deviations.foot[:, :2]
-            allp = np.vstack(polylines + [feet])
-            d = res.deviations.signed
-            extent = float(np.ptp(allp, axis=0).max())
-            factor = figures.whisker_factor(extent, float(np.abs(d).max()))
-            tips = feet + factor * d[:, None] * res.deviations.normal[:, :2]
-            self._cache = (polylines, feet, tips, figures.band_rgb(d, res.tolerance), factor,
-                           allp.min(axis=0) - 0.1 * extent, allp.max(axis=0) + 0.1 * extent)
-        self.update()
-
-    def _transform(self):
-        polylines, feet, tips, rgb, factor, lo, hi = self._cache
-        k = min((self.width() - 20) / (hi[0] - lo[0]), (self.height() - 40) / (hi[1] - lo[1]))
-        ox = (self.width() - k * (hi[0] - lo[0])) / 2
-        oy = (self.height() - 20 + k * (hi[1] - lo[1])) / 2
-
-        def P(xy):
-            return ox + k * (xy[..., 0] - lo[0]), oy - k * (xy[..., 1] - lo[1])
-
-        return P
-
-    def paintEvent(self, event):
-        p = QPainter(self)
-        p.fillRect(self.rect(), Qt.white)
-        if self._cache is None:
-            p.drawText(self.rect(), Qt.AlignCenter, "The 2D view shows contour templates (DXF)")
-            p.end()
-            return
-        p.setRenderHint(QPainter.Antialiasing)
-        polylines, feet, tips, rgb, factor, lo, hi = self._cache
-        P = self._transform()
-        p.setPen(QPen(QColor("#3a3a44"), 1.3))
-        for pl in polylines:
-            x, y = P(pl)
-            path = QPainterPath(QPointF(x[0], y[0]))
-            for xi, yi in zip(x[1:], y[1:]):
-                path.lineTo(xi, yi)
-            p.drawPath(path)
-        fx, fy = P(feet)
-        tx, ty = P(tips)
-        for i in range(len(fx)):
-            c = QColor(int(rgb[i, 0]), int(rgb[i, 1]), int(rgb[i, 2]))
-            p.setPen(QPen(c, 1.2))
-            p.drawLine(QPointF(fx[i], fy[i]), QPointF(tx[i], ty[i]))
-        sel = self.session.selected
-        if sel is not None:
-            p.setPen(QPen(QColor("#ff00ff"), 2.5))
-            p.drawEllipse(QPointF(tx[sel], ty[sel]), 6, 6)
-        p.setPen(Qt.black)
-        p.drawText(QRectF(6, self.height() - 18, self.width() - 12, 16), Qt.AlignLeft,
-                   f"Whiskers: deviation × {factor:g} along the contour normal (outward = excess "
-                   "material)")
-        p.end()
-
-    def mousePressEvent(self, event):
-        if self._cache is None:
-            return
-        P = self._transform()
-        tx, ty = P(self._cache[2])
-        pos = event.position()
-        d2 = (tx - pos.x()) ** 2 + (ty - pos.y()) ** 2
-        i = int(np.argmin(d2))
-        if d2[i] <= 12 ** 2:
-            self.session.select(i)
-
-
 class PointTableModel(QAbstractTableModel):
     """Every measured point; sorting is done with numpy (200,000 rows sort at once)."""
 
@@ -421,6 +392,9 @@ class PointTableModel(QAbstractTableModel):
                     "from the median deviation, and its nearest measured neighbours do not "
                     "deviate alike. A dent or bump is never excluded. An excluded point is "
                     "judged like every other point; an empty cell: the point was fitted.")
+
+    DEVIATION_TIP = ("Signed deviation, mm (+ excess material, − material missing). Sorted by "
+                     "its size |deviation|: descending puts the worst point on top.")
 
     def __init__(self, session: Session):
         super().__init__()
@@ -447,6 +421,8 @@ class PointTableModel(QAbstractTableModel):
                 return self.COLUMNS[section]
             if role == Qt.ToolTipRole and section == 7:
                 return self.EXCLUDED_TIP
+            if role == Qt.ToolTipRole and section == 5:
+                return self.DEVIATION_TIP
         return None
 
     def point(self, row: int) -> int:
@@ -485,12 +461,15 @@ class PointTableModel(QAbstractTableModel):
         return None
 
     def sort(self, column, order=Qt.AscendingOrder):
+        """Sort the rows by ``column``; the deviation column sorts by its size |deviation|
+        (descending: the worst point on top, in 3D and 2D alike). Equal keys keep the points'
+        order."""
         if self.run is None:
             return
         res = self.run.result
         n = res.deviations.signed.size
         keys = {0: np.arange(n), 2: res.registered[:, 0], 3: res.registered[:, 1],
-                4: res.registered[:, 2], 5: res.deviations.signed,
+                4: res.registered[:, 2], 5: np.abs(res.deviations.signed),
                 6: res.in_tolerance.astype(int), 7: res.outlier.astype(int)}
         if column == 1:
             labels = self.run.measured.labels
@@ -498,13 +477,21 @@ class PointTableModel(QAbstractTableModel):
         else:
             key = keys.get(column, np.arange(n))
         self.layoutAboutToBeChanged.emit()
-        o = np.argsort(key, kind="stable")
-        self.order = o[::-1] if order == Qt.DescendingOrder else o
+        if order != Qt.DescendingOrder:
+            self.order = np.argsort(key, kind="stable")
+        elif key.dtype.kind in "iuf":
+            self.order = np.argsort(-key, kind="stable")
+        else:
+            self.order = np.argsort(key, kind="stable")[::-1]
         self.layoutChanged.emit()
 
 
 class PointTable(QTableView):
-    """The point table; selecting a row selects the point in the views, and back."""
+    """The point table, the worst point on top; selecting a row selects the point in the views,
+    and back; double-clicking a row asks the 3D view to zoom to it (``point_activated``)."""
+
+    point_activated = Signal(int)
+    """The point (index) of a row double-clicked."""
 
     def __init__(self, session: Session):
         super().__init__()
@@ -516,17 +503,41 @@ class PointTable(QTableView):
         self.setSelectionMode(QAbstractItemView.SingleSelection)
         self.setAlternatingRowColors(True)
         self.verticalHeader().setVisible(False)
+        # Rows as tall as a line of text: a short screen shows a dozen points or more.
+        rows = self.verticalHeader()
+        rows.setMinimumSectionSize(self.fontMetrics().height() + 4)
+        rows.setDefaultSectionSize(self.fontMetrics().height() + 6)
         self.horizontalHeader().setSectionResizeMode(QHeaderView.Interactive)
         self.horizontalHeader().setStretchLastSection(True)
         self.selectionModel().currentRowChanged.connect(self._row_changed)
+        self.doubleClicked.connect(lambda index: self.point_activated.emit(
+            self.model_.point(index.row())))
         session.selection_changed.connect(self._select)
-        session.result_changed.connect(lambda run: run is not None and self.sortByColumn(
-            5, Qt.AscendingOrder))
+        session.result_changed.connect(self._result)
         session.characteristic_changed.connect(lambda row: self.select_points(
             session.highlighted))
         # Sorting moves the rows: the characteristic's points are selected again where they are.
         self.model_.layoutChanged.connect(lambda *_: self.session.highlighted is not None
                                           and self.select_points(self.session.highlighted))
+
+    def _result(self, run) -> None:
+        """A new result: the worst point on top, every header readable in full."""
+        if run is None:
+            return
+        self.sortByColumn(5, Qt.DescendingOrder)
+        self.fit_columns()
+
+    def fit_columns(self) -> None:
+        """Each column as wide as its header (with the sort arrow) and its widest value."""
+        header = self.horizontalHeader()
+        fm = header.fontMetrics()
+        samples = {0: "0000000", 1: "P00000", 2: "-0000.000", 3: "-0000.000", 4: "-0000.000",
+                   5: "■ -00.0000", 6: "FAIL"}
+        for c, title in enumerate(self.model_.COLUMNS[:-1]):
+            need = max(fm.horizontalAdvance(title) + 3 * fm.height(),
+                       self.fontMetrics().horizontalAdvance(samples.get(c, "")) + 16,
+                       self.sizeHintForColumn(c))
+            header.resizeSection(c, need)
 
     def select_points(self, indices) -> None:
         """Select the rows of the points ``indices`` ((k,) int; None: none), as contiguous
@@ -718,14 +729,16 @@ class ToleranceForm(QWidget):
             combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
             combo.setMinimumContentsLength(12)
         self._mode()
+        self._applicable()
         session.settings_changed.connect(self.load)
         self.load()
         for spin in (self.tol, self.lower, self.upper, self.chord):
             spin.valueChanged.connect(self.push)
         for w in (self.sym, self.by_plan):
             w.toggled.connect(self.push)
-        for combo in (self.fit, self.rule):
+        for combo in (self.fit, self.rule, self.units):
             combo.currentIndexChanged.connect(self.push)
+        self.layers.editingFinished.connect(self.push)
         # The plan's zone is a choice with a plan only; the airfoil chord applies to .dat
         # nominals only (see settings_fields).
         session.inputs_changed.connect(self._inputs)
@@ -758,8 +771,17 @@ class ToleranceForm(QWidget):
         self.chord.setRange(0.0, 1e6)
         self.chord.setDecimals(3)
         self.chord.setSuffix(" mm")
-        self.chord.setSpecialValueText("(airfoil .dat only)")
+        self.chord.setSpecialValueText("(from the file)")
         self.chord.setToolTip("Chord length of an airfoil ordinate template (.dat)")
+        self.units = QComboBox()
+        self.units.addItem("(the drawing's)", None)
+        for u in DXF_UNITS:
+            self.units.addItem(u, u)
+        self.units.setToolTip("The DXF drawing's units, when its $INSUNITS is missing or wrong")
+        self.layers = QLineEdit()
+        self.layers.setPlaceholderText("every layer")
+        self.layers.setToolTip("The DXF layers to take, separated by commas (empty: every "
+                               "layer)")
 
     def _make_buttons(self) -> QPushButton:
         """The preset chooser, the Inspect and Cancel buttons, and the "Save preset…" button,
@@ -797,6 +819,9 @@ class ToleranceForm(QWidget):
         form.addRow("Fit", self.fit)
         form.addRow("Decision rule", self.rule)
         form.addRow("Airfoil chord", self.chord)
+        form.addRow("DXF units", self.units)
+        form.addRow("DXF layers", self.layers)
+        self.form = form
         buttons = QHBoxLayout()
         buttons.addWidget(self.inspect_button, 1)
         buttons.addWidget(self.cancel_button)
@@ -816,13 +841,23 @@ class ToleranceForm(QWidget):
 
     def _mode(self):
         self.tol.setEnabled(self.sym.isChecked())
-        self.lower.setEnabled(self.asym.isChecked())
-        self.upper.setEnabled(self.asym.isChecked())
+        for w in (self.lower, self.upper):
+            w.setEnabled(self.asym.isChecked())
+            self.form.setRowVisible(w, self.asym.isChecked())
+
+    def _applicable(self) -> None:
+        """Show the fields of the nominal's kind only: the chord for airfoil ordinates (.dat),
+        units and layers for DXF drawings."""
+        kind = formats.kind_of(self.session.nominal_path or "")
+        self.form.setRowVisible(self.chord, kind == formats.AIRFOIL)
+        self.form.setRowVisible(self.units, kind == formats.DXF)
+        self.form.setRowVisible(self.layers, kind == formats.DXF)
 
     def _inputs(self) -> None:
         """A plan opened or closed: the plan's zone is offered with a plan only; the form shows
         the session's settings again, then sends the chord's applicability."""
         self.by_plan.setVisible(self.session.plan_path is not None)
+        self._applicable()
         self.load()
         self.push()
 
@@ -858,21 +893,29 @@ class ToleranceForm(QWidget):
             self.fit.setCurrentIndex(max(0, self.fit.findData(st.fit)))
             self.rule.setCurrentIndex(max(0, self.rule.findData(st.decision_rule)))
             self.chord.setValue(st.scale or 0.0)
+            self.units.setCurrentIndex(max(0, self.units.findData(st.units)))
+            self.layers.setText(", ".join(st.layers or ()))
         finally:
             self._loading = False
 
     def options(self) -> dict:
-        """Fit, decision rule and airfoil chord as Settings fields."""
+        """Fit, decision rule, airfoil chord and DXF units and layers as Settings fields."""
+        layers = tuple(x.strip() for x in self.layers.text().split(",") if x.strip())
         return {"fit": self.fit.currentData(), "decision_rule": self.rule.currentData(),
-                "scale": self.chord.value() or None}
+                "scale": self.chord.value() or None, "units": self.units.currentData(),
+                "layers": layers or None}
 
     def settings_fields(self) -> dict:
         """The form as Settings fields: the zone (not checked here: the controller refuses an
-        empty one at Inspect), fit, decision rule, and the chord for a .dat nominal only."""
+        empty one at Inspect), fit, decision rule, the chord for a .dat nominal only, units
+        and layers for a DXF nominal only."""
         lo, hi = self.zone()
         options = self.options()
-        if formats.kind_of(self.session.nominal_path or "") != formats.AIRFOIL:
+        kind = formats.kind_of(self.session.nominal_path or "")
+        if kind != formats.AIRFOIL:
             options["scale"] = None  # the chord applies to airfoil ordinates only
+        if kind != formats.DXF:
+            options["units"] = options["layers"] = None
         return {"tol_lower": float(lo), "tol_upper": float(hi),
                 "zone_in_verdict": not self.plans_zone(), **options}
 

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from PySide6.QtCore import QEvent, QObject, QSettings, Qt, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import (
+    QDockWidget,
     QFileDialog,
     QFrame,
     QFormLayout,
@@ -28,13 +29,13 @@ from PySide6.QtWidgets import (
 
 from engine.io.formats import MEASURED_SUFFIXES, NOMINAL_SUFFIXES, PLAN_SUFFIXES
 
+from .contour_view import ContourView
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
 from .model import Session, Step
 from .viewport import Viewport3D
 from .widgets import (
     CharacteristicTable,
-    ContourView,
     Histogram,
     Legend,
     MessageBar,
@@ -97,17 +98,21 @@ class MainWindow(QMainWindow):
         self.tolerance.cancel_clicked.connect(self.controller.cancel)
         self.tolerance.preset_saved.connect(self._save_presets)
 
-        left = self._steps_panel()
-        right = self._views_panel()
-        main = QSplitter(Qt.Horizontal)
-        main.addWidget(left)
-        main.addWidget(right)
-        main.setStretchFactor(1, 1)
+        # The steps in a dock at the left (it may be moved, floated or hidden: View menu), the
+        # verdict, views and table in the middle.
+        self.steps_dock = QDockWidget("Inspection", self)
+        self.steps_dock.setObjectName("stepsDock")
+        self.steps_dock.setFeatures(QDockWidget.DockWidgetMovable
+                                    | QDockWidget.DockWidgetFloatable
+                                    | QDockWidget.DockWidgetClosable)
+        self.steps_dock.setWidget(self._steps_panel())
+        self.addDockWidget(Qt.LeftDockWidgetArea, self.steps_dock)
         central = QWidget()
         cl = QVBoxLayout(central)
+        cl.setContentsMargins(4, 4, 4, 0)
         cl.addWidget(self.message_bar)
         cl.addWidget(self.banner)
-        cl.addWidget(main, 1)
+        cl.addWidget(self._views_panel(), 1)
         self.setCentralWidget(central)
         self._make_actions()
         self.statusBar()
@@ -193,8 +198,9 @@ class MainWindow(QMainWindow):
         return left
 
     def _views_panel(self) -> QSplitter:
-        """The right panel: the 3D and 2D views with the colour scale beside them, above the
-        point table and the histogram."""
+        """The middle: the 3D and 2D views with the colour bar beside them, above the point
+        table (with the characteristics and the histogram), which gets the larger share of
+        the height: at 1366×768 it shows a dozen points and more."""
         self.views = QTabWidget()
         self.views.addTab(self.viewport, "3D view")
         self.views.addTab(self.contour, "2D contour")
@@ -202,21 +208,28 @@ class MainWindow(QMainWindow):
         self.bottom.addTab(self.table, "Points")
         self.bottom.addTab(self.characteristics, "Characteristics")
         self.bottom.addTab(self.histogram, "Histogram")
-        right = QSplitter(Qt.Vertical)
-        # The colour scale beside the colours it explains (and not below the steps, where a
-        # short screen would scroll it away).
-        legend_box = QGroupBox("Colour scale")
-        QVBoxLayout(legend_box).addWidget(self.legend)
-        legend_box.setMaximumWidth(240)
+        self.table.point_activated.connect(self._zoom_to)
         shown = QWidget()
         hl = QHBoxLayout(shown)
         hl.setContentsMargins(0, 0, 0, 0)
+        hl.setSpacing(2)
         hl.addWidget(self.views, 1)
-        hl.addWidget(legend_box)
-        right.addWidget(shown)
-        right.addWidget(self.bottom)
-        right.setSizes([560, 260])
-        return right
+        # The colour bar beside the colours it explains, in the 3D and the 2D view alike.
+        hl.addWidget(self.legend)
+        self.split = QSplitter(Qt.Vertical)
+        self.split.addWidget(shown)
+        self.split.addWidget(self.bottom)
+        self.split.setStretchFactor(0, 2)
+        self.split.setStretchFactor(1, 3)
+        self.split.setSizes([400, 600])
+        return self.split
+
+    def _zoom_to(self, index: int) -> None:
+        """A table row double-clicked: the 3D view zooms to its point."""
+        run = self.session.run
+        if run is not None and run.template is None:
+            self.views.setCurrentWidget(self.viewport)
+            self.viewport.zoom_to(index)
 
     def _subscribe(self, s: Session) -> None:
         """The window's reactions to the session: file names, enabled actions, progress, the
@@ -272,6 +285,8 @@ class MainWindow(QMainWindow):
         run_menu.addAction(self.act_inspect)
         run_menu.addAction(self.act_cancel)
         view_menu = self.menuBar().addMenu("&View")
+        view_menu.addAction(self.steps_dock.toggleViewAction())
+        view_menu.addSeparator()
         for name in self.viewport.view_buttons:
             view_menu.addAction(act(f"{name} view", lambda _=False, n=name: (
                 self.views.setCurrentWidget(self.viewport), self.viewport.standard_view(n))))

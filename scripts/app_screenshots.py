@@ -1,0 +1,88 @@
+"""Screenshots of the desktop app with the belly-fairing sample inspected at ±0.25 mm, at
+1366×768 and 1920×1080, each on its own virtual X display (Xvfb).
+
+    PYTHONPATH=. .venv/bin/python scripts/app_screenshots.py docs/screenshots
+
+writes ``app_1366x768.png`` and ``app_1920x1080.png`` (and ``app_2d_1366x768.png``: the
+fuselage frame's DXF template in the 2D view). The lead's screenshot script calls
+:func:`app_screenshots`. Needs ``xvfb-run`` (package xvfb).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SIZES = ((1366, 768), (1920, 1080))
+BELLY = os.path.join(ROOT, "samples", "belly_fairing")
+FRAME = os.path.join(ROOT, "samples", "fuselage_frame")
+CASES = {
+    "app": ([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")], 0.25),
+    "app_2d": ([os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")], 0.05),
+}
+"""Each screenshot's files and symmetric zone (±mm)."""
+
+
+def app_screenshots(out_dir: str, sizes=SIZES, cases=("app",)) -> list[str]:
+    """Write the screenshots into ``out_dir`` (created if need be); returns their paths.
+
+    sizes : the screens, (width, height) pixels; cases : keys of CASES. Each screen is a fresh
+    ``xvfb-run`` with this file run in it (``--one``), so that the window meets that screen's
+    size as on a laptop; the window fills the screen, as maximised.
+    """
+    os.makedirs(out_dir, exist_ok=True)
+    env = dict(os.environ, QT_QPA_PLATFORM="xcb",
+               PYTHONPATH=os.pathsep.join(p for p in (ROOT, os.environ.get("PYTHONPATH")) if p))
+    paths = []
+    for case in cases:
+        for w, h in sizes:
+            path = os.path.join(os.path.abspath(out_dir), f"{case}_{w}x{h}.png")
+            subprocess.run(["xvfb-run", "-a", "-s", f"-screen 0 {w}x{h}x24", sys.executable,
+                            os.path.abspath(__file__), "--one", case, path], env=env, check=True)
+            paths.append(path)
+    return paths
+
+
+def shoot(case: str, path: str) -> None:
+    """On the current X display: the window with ``case`` inspected, filling the screen, its
+    worst point chosen in the table; the screen saved as PNG to ``path`` (written whole, then
+    renamed)."""
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication
+
+    from qa_app.desktop.window import MainWindow
+
+    app = QApplication.instance() or QApplication([])
+    with tempfile.TemporaryDirectory() as tmp:
+        w = MainWindow(synchronous=True,
+                       settings=QSettings(os.path.join(tmp, "qa-app.ini"), QSettings.IniFormat))
+        files, tol = CASES[case]
+        w.controller.open_files(files)
+        w.tolerance.set_zone(-tol, tol)
+        w.setGeometry(w.screen().availableGeometry())
+        w.show()
+        w.inspect()
+        for _ in range(20):
+            app.processEvents()
+        w.table.selectRow(0)
+        for _ in range(20):
+            app.processEvents()
+        img = w.screen().grabWindow(0)
+        tmp_png = path + ".tmp.png"
+        if not img.save(tmp_png, "PNG"):
+            raise OSError(f"{tmp_png}: could not write the screenshot")
+        os.replace(tmp_png, path)
+        w.close()
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "--one":
+        shoot(sys.argv[2], sys.argv[3])
+    elif len(sys.argv) == 2:
+        for p in app_screenshots(sys.argv[1], cases=tuple(CASES)):
+            print(p)
+    else:
+        sys.exit(__doc__)
