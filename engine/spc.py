@@ -60,6 +60,9 @@ D2 = 1.128
 D4 = 3.267
 """UCL factor of the moving-range chart, subgroups of two (D3 = 0: its LCL is 0)."""
 CONFIDENCE = 0.95
+MIN_CAPABILITY_VALUES = 3
+"""Capability needs at least this many values (two give one moving range: a sigma, and indices
+with intervals wider than any conclusion)."""
 DRIFT_ALPHA = 0.01
 RULE_RUN = {2: 9, 3: 6, 4: 14}
 """Points in a row that break Nelson's rules 2, 3 and 4."""
@@ -249,8 +252,9 @@ def cpk_interval(cpk: float, n: int, confidence: float = CONFIDENCE) -> tuple[fl
 def capability(chart: ControlChart, lower: float | None, upper: float | None,
                confidence: float = CONFIDENCE) -> Capability:
     """Cp, Cpk, Cpu, Cpl of the chart's centre and sigma_within against the limits."""
-    if chart.sigma_within is None:
-        why = f"no sigma: {chart.reason}"
+    if chart.sigma_within is None or chart.n < MIN_CAPABILITY_VALUES:
+        why = f"no sigma: {chart.reason}" if chart.sigma_within is None else \
+            f"{chart.n} values: capability needs at least {MIN_CAPABILITY_VALUES}"
         none = Index(None, None, why)
         return Capability(none, none, none, none, confidence)
     n, m, s = chart.n, chart.centre, chart.sigma_within

@@ -197,7 +197,7 @@ def _individuals_chart(ax, a: Analysis) -> None:
     ax.set_title("Individuals" + ("" if c.reason is None else f" — {c.reason}"), loc="left")
     ax.set_ylabel(s.unit)
     ax.grid(True, color=(0.9, 0.9, 0.9), lw=0.5)
-    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.06), ncol=7, frameon=False, fontsize=7,
+    _legend(ax, loc="lower left", bbox_to_anchor=(0.0, 1.06), ncol=7, frameon=False, fontsize=7,
               borderaxespad=0.0, handlelength=2.2)
 
 
@@ -234,8 +234,15 @@ def _moving_range_chart(ax, a: Analysis) -> None:
     ax.set_xlabel("part (measurement order)")
     ax.set_ylabel(a.series.unit)
     ax.grid(True, color=(0.9, 0.9, 0.9), lw=0.5)
-    ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.02), ncol=2, frameon=False, fontsize=7,
+    _legend(ax, loc="lower right", bbox_to_anchor=(1.0, 1.02), ncol=2, frameon=False, fontsize=7,
               borderaxespad=0.0)
+
+
+def _legend(ax, **kwargs) -> None:
+    """The axes' legend, when anything on them has a label (a lot of one part has no limits
+    to label: matplotlib would warn)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kwargs)
 
 
 def _histogram(ax, a: Analysis) -> None:
@@ -264,7 +271,7 @@ def _histogram(ax, a: Analysis) -> None:
     ax.set_ylabel("parts")
     ax.ticklabel_format(axis="x", useOffset=False)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper right", fontsize=7, frameon=False)
+        _legend(ax, loc="upper right", fontsize=7, frameon=False)
 
 
 def _numbers(fig: Figure, a: Analysis, top: float) -> None:

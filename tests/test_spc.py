@@ -272,3 +272,21 @@ def test_long_lots_continue_the_table(tmp_path, monkeypatch):
     path.write_bytes(report.spc_pdf(lot(), "Lot 7", {"parts": 30}))
     assert pages(path) == 2 + 3
     assert "flatness B" in pdf_text(path).split("\f")[1]
+
+
+def test_lots_too_small_for_capability_say_so_and_draw_without_warnings():
+    """Two values give one moving range: no capability index (its interval would span
+    thousands), with the reason; a lot of one part, or of parts without values, draws its
+    pages without a warning (pytest turns warnings into errors)."""
+    from engine.spc import Series, analyse
+    from reports.spc import spc_pdf
+
+    two = analyse(Series("d", "mm", np.array([0.01, 0.02]), ["a", "b"], -0.05, 0.05))
+    assert two.capability.cpk.value is None and "at least 3" in two.capability.cpk.reason
+    three = analyse(Series("d", "mm", np.array([0.01, 0.02, 0.012]), ["a", "b", "c"], -0.05,
+                           0.05))
+    assert three.capability.cpk.value is not None
+    for values in ([0.01], [np.nan, np.nan]):
+        serials = [f"p{i}" for i in range(len(values))]
+        assert spc_pdf([Series("d", "mm", np.array(values), serials, None, 0.05)], "t",
+                       {"parts": len(values)}).startswith(b"%PDF")
