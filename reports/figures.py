@@ -2,14 +2,18 @@
 rendered off-screen), the 2D contour with magnified deviation whiskers and the histogram
 (reportlab vector drawings). No Qt: the desktop app reuses the colour scale.
 
-Colour scale: the tolerance zone [lower, upper] is split into four green bands (teal towards the
-lower limit, yellow-green towards the upper); beyond the zone, three bands of a quarter zone width
-each: blues below the lower limit (material missing), reds above the upper limit (excess
-material), darkest for the farthest. A deviation exactly on a limit is in tolerance.
+Colour scale: a diverging scale across the tolerance zone [lower, upper] in 12-16 equal-looking
+steps: blue at the lower limit, through cyan to green at the nominal (deviation 0, the middle
+of a green band) and through yellow to red at the upper limit, interpolated in CIELAB so that
+neighbouring steps differ by about the same perceived amount on each side. Beyond the zone,
+two darker colours on each side, a quarter zone wide and farther: navy then violet below
+the lower limit (material missing), maroon then magenta above the upper limit (excess
+material). A deviation exactly on a limit is in tolerance.
 """
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import os
@@ -23,49 +27,142 @@ from engine.errors import QAError
 if TYPE_CHECKING:  # the render process should not pay for importing the engine
     from engine.inspection import Tolerance
 
-BELOW = ((0.03, 0.19, 0.42), (0.13, 0.40, 0.67), (0.26, 0.57, 0.78))
-INSIDE = ((0.17, 0.63, 0.55), (0.24, 0.70, 0.29), (0.42, 0.75, 0.29), (0.71, 0.83, 0.20))
-ABOVE = ((0.94, 0.40, 0.28), (0.84, 0.19, 0.12), (0.50, 0.0, 0.0))
+ZONE_STEPS = 15
+"""Steps of the scale inside the zone (odd: the nominal sits in the middle of a green one);
+an asymmetric zone gets 14-16, as its sides divide."""
+RAMP = ((0.16, 0.27, 0.80), (0.08, 0.62, 0.86), (0.22, 0.68, 0.24), (0.96, 0.84, 0.16),
+        (0.84, 0.13, 0.11))
+"""sRGB anchors of the in-zone ramp at the lower limit, half way down, the nominal, half way up
+and the upper limit: blue, cyan, green, yellow, red."""
+BELOW = ((0.35, 0.06, 0.45), (0.04, 0.09, 0.42))
+"""Beyond the lower limit, farthest first: violet (more than a quarter zone), navy."""
+ABOVE = ((0.50, 0.0, 0.06), (0.86, 0.0, 0.62))
+"""Beyond the upper limit, nearest first: maroon, magenta (more than a quarter zone)."""
 
 
 @dataclass(frozen=True)
 class Band:
-    """One colour band: deviations in [lower, upper) (in-zone bands include the limits)."""
+    """One colour band of deviations (mm): [lower, upper) below and inside the zone, (lower,
+    upper] above it; the zone's bands include both limits."""
 
     lower: float
     upper: float
     rgb: tuple[float, float, float]
     in_tolerance: bool
+    digits: int = 3
+    """Decimals the labels print (finer for a narrow zone)."""
+
+
+def _zone_edges(lo: float, hi: float) -> np.ndarray:
+    """Edges of the in-zone bands, lo to hi: a green band 1/ZONE_STEPS of the zone wide
+    centred on the nominal (on the zone's middle when 0 lies outside), each side divided into
+    steps of that width, rounded to whole steps."""
+    w = (hi - lo) / ZONE_STEPS
+    m = min(max(0.0, lo + w / 2), hi - w / 2) if lo <= 0.0 <= hi else 0.5 * (lo + hi)
+    k_lo = int(round((m - w / 2 - lo) / w))
+    k_hi = int(round((hi - m - w / 2) / w))
+    lower = np.linspace(lo, m - w / 2, k_lo + 1) if k_lo else np.array([lo])
+    upper = np.linspace(m + w / 2, hi, k_hi + 1) if k_hi else np.array([hi])
+    return np.concatenate([lower, upper])
+
+
+def _srgb_to_lab(rgb: np.ndarray) -> np.ndarray:
+    """CIELAB (D65) of sRGB colours in 0..1, (n, 3)."""
+    c = np.asarray(rgb, dtype=float)
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    xyz = lin @ np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
+                          [0.0193, 0.1192, 0.9505]]).T / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.column_stack([116 * f[:, 1] - 16, 500 * (f[:, 0] - f[:, 1]),
+                            200 * (f[:, 1] - f[:, 2])])
+
+
+def _lab_to_srgb(lab: np.ndarray) -> np.ndarray:
+    fy = (lab[:, 0] + 16) / 116
+    f = np.column_stack([fy + lab[:, 1] / 500, fy, fy - lab[:, 2] / 200])
+    xyz = np.where(f > 6 / 29, f**3, 3 * (6 / 29) ** 2 * (f - 4 / 29))
+    xyz = xyz * np.array([0.95047, 1.0, 1.08883])
+    lin = xyz @ np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415],
+                          [0.0557, -0.2040, 1.0570]]).T
+    lin = np.clip(lin, 0.0, 1.0)
+    return np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+
+
+@functools.lru_cache(maxsize=1)
+def _ramp_table(samples: int = 401):
+    """The ramp sampled densely over t in [-1, 1] (t: -1 lower limit, 0 nominal, +1 upper)
+    in CIELAB, and each sample's share of its side's path length (so that equal steps of
+    that share are equal perceived steps)."""
+    anchors = _srgb_to_lab(np.array(RAMP))
+    t = np.linspace(-1.0, 1.0, samples)
+    lab = np.column_stack([np.interp(t, np.linspace(-1, 1, len(RAMP)), anchors[:, k])
+                           for k in range(3)])
+    step = np.r_[0.0, np.linalg.norm(np.diff(lab, axis=0), axis=1)]
+    mid = samples // 2
+    share = np.empty(samples)
+    for side in (slice(0, mid + 1), slice(mid, samples)):
+        arc = np.cumsum(step[side]) - step[side][0]
+        share[side] = arc / arc[-1]
+    share[: mid + 1] -= 1.0  # -1 at the lower limit, 0 at the nominal
+    return share, lab
+
+
+def ramp_rgb(t: np.ndarray) -> np.ndarray:
+    """(n, 3) sRGB in 0..1 of the in-zone ramp at ``t`` in [-1, 1] (the share of the way from
+    the nominal to a limit, -1 lower, +1 upper), perceptually even on each side."""
+    share, lab = _ramp_table()
+    t = np.clip(np.asarray(t, dtype=float).reshape(-1), -1.0, 1.0)
+    col = np.column_stack([np.interp(t, share, lab[:, k]) for k in range(3)])
+    return _lab_to_srgb(col)
+
+
+@functools.lru_cache(maxsize=64)
+def _bands(lo: float, hi: float) -> tuple[Band, ...]:
+    edges = _zone_edges(lo, hi)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    green = int(np.argmin(np.abs(centres - (0.0 if lo <= 0.0 <= hi else 0.5 * (lo + hi)))))
+    m = centres[green]
+    t = np.where(centres < m, (centres - m) / (m - lo if m > lo else 1.0),
+                 (centres - m) / (hi - m if hi > m else 1.0))
+    rgb = [tuple(round(float(v), 4) for v in c) for c in ramp_rgb(t)]
+    digits = max(3, int(math.ceil(-math.log10(float(np.min(np.diff(edges)))))) + 1)
+    s = (hi - lo) / 4.0
+    out = [Band(-math.inf, lo - s, BELOW[0], False, digits),
+           Band(lo - s, lo, BELOW[1], False, digits)]
+    out += [Band(float(edges[k]), float(edges[k + 1]), rgb[k], True, digits)
+            for k in range(len(centres))]
+    out += [Band(hi, hi + s, ABOVE[0], False, digits),
+            Band(hi + s, math.inf, ABOVE[1], False, digits)]
+    return tuple(out)
 
 
 def bands(tol: "Tolerance") -> list[Band]:
-    """The seven bands from the most negative to the most positive deviation."""
-    lo, hi = tol.lower, tol.upper
-    s = (hi - lo) / 4.0
-    edges = [-math.inf, lo - 2 * s, lo - s, lo, lo + s, lo + 2 * s, lo + 3 * s, hi, hi + s,
-             hi + 2 * s, math.inf]
-    colours = BELOW + INSIDE + ABOVE
-    return [Band(edges[k], edges[k + 1], colours[k], 3 <= k <= 6) for k in range(10)]
+    """The bands from the most negative to the most positive deviation: two below the zone,
+    12-16 inside it (:data:`ZONE_STEPS`), two above it."""
+    return list(_bands(float(tol.lower), float(tol.upper)))
 
 
 def band_label(b: Band) -> str:
     """The band's range as the legends print it, mm."""
+    n = b.digits
     if math.isinf(b.upper):
-        return f"> {b.lower:+.3f}"
+        return f"> {b.lower:+.{n}f}"
     if math.isinf(b.lower):
-        return f"< {b.upper:+.3f}"
-    return f"{b.lower:+.3f} … {b.upper:+.3f}"
+        return f"< {b.upper:+.{n}f}"
+    return f"{b.lower:+.{n}f} … {b.upper:+.{n}f}"
 
 
 def band_index(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
-    """Index into :func:`bands` of each deviation (mm)."""
+    """Index into :func:`bands` of each deviation (mm): a band holds [lower, upper), the zone
+    its limits, the first band beyond a limit the next quarter zone (its far end included)."""
     d = np.asarray(d, dtype=float)
-    lo, hi = tol.lower, tol.upper
+    lo, hi = float(tol.lower), float(tol.upper)
     s = (hi - lo) / 4.0
-    below = 2 - np.clip(np.floor((lo - d) / s), 0, 2).astype(int)
-    inside = 3 + np.clip(np.floor((d - lo) / s), 0, 3).astype(int)
-    above = 7 + np.clip(np.floor((d - hi) / s), 0, 2).astype(int)
-    return np.where(d < lo, below, np.where(d > hi, above, inside))
+    edges = _zone_edges(lo, hi)
+    inside = 2 + np.clip(np.searchsorted(edges, d, side="right") - 1, 0, len(edges) - 2)
+    last = len(edges) + 1  # the first band above the zone
+    return np.where(d < lo - s, 0, np.where(d < lo, 1, np.where(
+        d > hi + s, last + 1, np.where(d > hi, last, inside))))
 
 
 def band_rgb(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
@@ -474,8 +571,9 @@ def legend(tol: "Tolerance", d: np.ndarray, width: float, height: float):
         g.add(String(width - 2, y + h / 2 - 3, f"{int(counts[kk])}", fontName="Helvetica",
                      fontSize=7, textAnchor="end"))
     # Bracket the in-tolerance bands.
-    y_hi = top - 3 * h
-    y_lo = top - 7 * h
+    inside = [k for k, b in enumerate(table) if b.in_tolerance]
+    y_hi = top - (len(table) - 1 - inside[-1]) * h
+    y_lo = top - (len(table) - inside[0]) * h
     for y in (y_hi, y_lo):
         g.add(Line(0, y, width, y, strokeColor=colors.black, strokeWidth=1.0))
     g.add(String(width - 2, top + 1, "points", fontName="Helvetica", fontSize=6.5,
