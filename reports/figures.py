@@ -24,6 +24,8 @@ import numpy as np
 
 from engine.errors import QAError
 
+from .callouts import point_spacing
+
 if TYPE_CHECKING:  # the render process should not pay for importing the engine
     from engine.inspection import Tolerance
 
@@ -206,10 +208,20 @@ def fmt_mm(v: float, signed: bool = True) -> str:
 # ---------------------------------------------------------------------------- 3D maps
 @dataclass(frozen=True)
 class View:
+    """One rendered view of a 3D map."""
+
     name: str
+    """Named by the nominal's axes: "Top (+Z)", "Iso (+X -Y +Z)" … (reports.mapviews)."""
     direction: tuple[float, float, float]
     """Unit vector from the part towards the camera, nominal frame."""
     png: bytes
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    """The picture's up, nominal frame (with ``direction``: the axis triad)."""
+    anchors: tuple[tuple[int, float, float], ...] = ()
+    """(point index, x, y) of each callout point visible in this view, in pixels of the
+    picture (x from the left, y from the top)."""
+    avoid: tuple[tuple[float, float], ...] = ()
+    """Pixels of the other visible out-of-tolerance points, which labels should not hide."""
 
 
 @dataclass(frozen=True)
@@ -225,22 +237,29 @@ RENDER_SIZE = (960, 720)
 
 def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np.ndarray,
               normals: np.ndarray, d: np.ndarray, tol: "Tolerance | Zone",
-              worst: list[tuple[int, str]], size: tuple[int, int] = RENDER_SIZE) -> list[View]:
-    """Two views (face-on and oblique, parallel projection) of the nominal surface with each
+              worst: list[tuple[int, str]], size: tuple[int, int] = RENDER_SIZE,
+              nominal_normals: np.ndarray | None = None) -> list[View]:
+    """The views of reports.mapviews.choose_views (every measured point faces one of them,
+    parallel projection, the whole part framed) of the nominal surface, shaded, with each
     measured point drawn at its foot on the surface, coloured by band.
 
-    nominal_points : (m, 3), triangles : (k, 3) or None (bare points are drawn as a grey cloud);
-    feet, normals : (n, 3) foot points and outward unit normals, nominal frame; d : (n,) mm;
-    worst : (point index, label text) of the points to annotate.
+    nominal_points : (m, 3), triangles : (k, 3) or None; nominal_normals : (m, 3) outward unit
+    normals of bare points (their display mesh is built from them; without them they are drawn
+    as a grey cloud); feet, normals : (n, 3) foot points and outward unit normals, nominal
+    frame; d : (n,) mm; worst : (point index, label text) of the callout points, whose pixels
+    each view reports where the point is not hidden (the labels are drawn by the caller).
     """
+    from . import mapviews
+
     if not os.environ.get("DISPLAY"):
         # VTK's wheels try X first and fall back to EGL only after a slow failure.
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    face = face_on_direction(feet, normals)
-    surf, lift = display_surface(nominal_points, triangles)
+    surf, lift = display_surface(nominal_points, triangles, normals=nominal_normals)
     shown = feet + lift * normals  # just outside the surface, so the surface never hides them
+    extent = np.vstack([nominal_points[:: max(1, len(nominal_points) // 50_000)], shown])
+    out = (d < tol.lower) | (d > tol.upper)
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         pl.set_background("white")
@@ -248,33 +267,65 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
             pl.add_mesh(surf, color=(0.80, 0.81, 0.83), smooth_shading=True, specular=0.2,
                         ambient=0.25)
         else:
-            step = max(1, nominal_points.shape[0] // 200_000)
-            pl.add_points(nominal_points[::step], color=(0.72, 0.73, 0.75), point_size=2)
-        n = d.shape[0]
-        size_in = float(np.clip(300.0 / math.sqrt(max(n, 1)), 3, 12))
-        out = (d < tol.lower) | (d > tol.upper)
+            pl.add_points(extent[:-len(shown)], color=(0.72, 0.73, 0.75), point_size=2)
         rgb = band_rgb(d, tol)
-        for mask, px in ((~out, size_in), (out, 1.7 * size_in)):  # the rejects stand out
-            if mask.any():
-                pl.add_points(shown[mask], scalars=rgb[mask], rgb=True,
-                              render_points_as_spheres=True, point_size=px)
-        if worst:
-            idx = [i for i, _ in worst]
-            pl.add_point_labels(shown[idx], [t for _, t in worst], font_size=30, point_size=1,
-                                shape_color="white", shape_opacity=0.85, text_color="black",
-                                always_visible=True, margin=3)
+        actors = [(pl.add_points(shown[mask], scalars=rgb[mask], rgb=True,
+                                 render_points_as_spheres=True), grow)
+                  for mask, grow in ((~out, 1.0), (out, 1.4)) if mask.any()]  # rejects stand out
         pl.enable_parallel_projection()
-        up = any_perpendicular(face)
-        oblique = _rotate(face, np.cross(face, up), math.radians(50.0))
-        views = []
-        for name, direction in (("face-on", face), ("oblique", oblique)):
-            _frame(pl, shown, direction, up, size[0] / size[1])
-            pl.render()
-            views.append(View(name, tuple(float(v) for v in direction),
-                              _png(pl.screenshot(return_img=True))))
-        return views
+        idx = np.array([i for i, _ in worst] + list(np.flatnonzero(out)), dtype=int)
+        marks = (shown[idx], normals[idx])
+        spacing = point_spacing(feet)
+        return [_shoot(pl, spec, extent, marks, idx, len(worst), size, (actors, spacing))
+                for spec in mapviews.choose_views(normals)]
     finally:
         pl.close()
+
+
+MARKER_SHARE = (1.0, 4.0, 24.0)
+"""A measured point's sphere is this share of the typical spacing between points wide on
+screen, within these pixel limits: neighbours nearly touch, so a cluster reads as a patch."""
+
+
+def _shoot(pl, spec, extent, marks, idx, n_worst, size, markers) -> View:
+    """Render one view; report where the callout points (the first ``n_worst`` of ``marks``)
+    and the other out-of-tolerance points show, skipping those behind the part or facing
+    away from the camera. markers : (the point actors with their size factors, the points'
+    typical spacing in mm)."""
+    from . import mapviews
+
+    fr = mapviews.frame(extent, spec, size[0] / size[1])
+    px_per_mm = 0.5 * size[1] / fr.half_height
+    share, smallest, largest = MARKER_SHARE
+    marker_px = float(np.clip(share * markers[1] * px_per_mm, smallest, largest))
+    for actor, grow in markers[0]:
+        actor.prop.point_size = grow * marker_px
+    d = np.asarray(spec.direction)
+    marks, facing = marks[0], marks[1] @ d > -0.1
+    pl.camera_position = [tuple(np.asarray(fr.centre) + fr.depth * d), fr.centre, spec.up]
+    pl.camera.parallel_scale = fr.half_height
+    pl.renderer.reset_camera_clipping_range()
+    pl.render()
+    png = _png(pl.screenshot(return_img=True))
+    xy = mapviews.project(marks, spec, fr, size)
+    depth = pl.get_image_depth(fill_value=np.nan)  # minus the distance from the camera
+    # The farthest drawn depth around each point's pixel: its own sphere shows there unless
+    # the part is in front (a neighbour's sphere may cover its centre).
+    pad = np.pad(-depth, 2, constant_values=np.nan)
+    col = np.clip(xy[:, 0].astype(int), 0, size[0] - 1)
+    row = np.clip(xy[:, 1].astype(int), 0, size[1] - 1)
+    win = np.stack([pad[row + i, col + j] for i in range(5) for j in range(5)])
+    seen = np.where(np.isnan(win).all(axis=0), np.inf, np.nanmax(np.nan_to_num(
+        win, nan=-np.inf), axis=0))
+    expected = fr.depth - (marks - np.asarray(fr.centre)) @ d
+    slack = 0.005 * float(np.linalg.norm(np.ptp(extent, axis=0))) + \
+        1.4 * marker_px / px_per_mm  # a sphere's front is nearer than its centre
+    visible = facing & (seen >= expected - slack)  # nothing nearer to the camera all round
+    anchors = tuple((int(idx[k]), float(xy[k, 0]), float(xy[k, 1]))
+                    for k in range(n_worst) if visible[k])
+    avoid = tuple((float(x), float(y)) for (x, y), v in zip(xy[n_worst:], visible[n_worst:])
+                  if v)
+    return View(spec.name, tuple(float(v) for v in d), png, tuple(spec.up), anchors, avoid)
 
 
 DISPLAY_TRIANGLES = 40_000
@@ -284,16 +335,23 @@ CLUSTER_DIVISIONS = 150
 
 
 def display_surface(nominal_points: np.ndarray, triangles: np.ndarray | None,
-                    max_triangles: int = DISPLAY_TRIANGLES):
-    """The nominal as a pyvista surface for display (None for bare points), simplified above
-    ``max_triangles``, and how far (mm) to lift points off it along their normals so that the
-    surface never hides them."""
+                    max_triangles: int = DISPLAY_TRIANGLES, normals: np.ndarray | None = None):
+    """The nominal as a pyvista surface for display, simplified above ``max_triangles``, and
+    how far (mm) to lift points off it along their normals so that the surface never hides
+    them. Bare points with ``normals`` (m, 3) get a display mesh
+    (reports.mapviews.display_mesh); without: None."""
     import pyvista as pv
 
     diagonal = float(np.linalg.norm(np.ptp(nominal_points, axis=0)))
     lift = 1e-3 * diagonal
     if triangles is None:
-        return None, lift
+        if normals is None:
+            return None, lift
+        from .mapviews import MESH_CELLS, display_mesh
+
+        surf = display_mesh(nominal_points, normals)
+        voxel = float(np.max(np.ptp(nominal_points, axis=0))) / MESH_CELLS
+        return surf, max(lift, 0.3 * voxel)
     surf = pv.PolyData.from_regular_faces(nominal_points, triangles)
     if surf.n_cells > max_triangles:
         surf = _simplified(surf)
@@ -313,20 +371,6 @@ def _simplified(surf):
     q.AutoAdjustNumberOfDivisionsOn()
     q.Update()
     return pv.wrap(q.GetOutput())
-
-
-def _frame(pl, pts: np.ndarray, direction: np.ndarray, up: np.ndarray, aspect: float) -> None:
-    """Point the parallel-projection camera along -direction so ``pts`` fill the picture."""
-    up = up - (up @ direction) * direction
-    up /= np.linalg.norm(up)
-    right = np.cross(up, direction)
-    u, v = pts @ right, pts @ up
-    cu, cv = 0.5 * (u.max() + u.min()), 0.5 * (v.max() + v.min())
-    depth = float(np.ptp(pts @ direction)) + float(np.ptp(u)) + float(np.ptp(v))
-    centre = cu * right + cv * up + float(np.mean(pts @ direction)) * direction
-    pl.camera_position = [tuple(centre + depth * direction), tuple(centre), tuple(up)]
-    pl.camera.parallel_scale = 0.56 * max(float(np.ptp(v)), float(np.ptp(u)) / aspect)
-    pl.renderer.reset_camera_clipping_range()
 
 
 class RenderError(QAError, RuntimeError):
@@ -469,12 +513,6 @@ def any_perpendicular(v: np.ndarray) -> np.ndarray:
     return u / np.linalg.norm(u)
 
 
-def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    k = axis / np.linalg.norm(axis)
-    return v * math.cos(angle) + np.cross(k, v) * math.sin(angle) + k * (k @ v) * (
-        1 - math.cos(angle))
-
-
 def _png(img: np.ndarray) -> bytes:
     from PIL import Image
 
@@ -579,6 +617,129 @@ def legend(tol: "Tolerance", d: np.ndarray, width: float, height: float):
     g.add(String(width - 2, top + 1, "points", fontName="Helvetica", fontSize=6.5,
                  textAnchor="end"))
     return g
+
+
+# ---------------------------------------------------------------------------- map furniture
+def colour_bar(tol: "Tolerance", width: float, height: float, title: str = "mm"):
+    """The colour scale as a vertical bar to stand beside a map: the zone's steps to scale,
+    the two colours beyond each limit as blocks above and below, the limits and 0 labelled."""
+    from reportlab.graphics.shapes import Drawing, Line, Rect, String
+    from reportlab.lib import colors
+
+    table = bands(tol)
+    inside = [b for b in table if b.in_tolerance]
+    g = Drawing(width, height)
+    g.add(String(0, height - 8, title, fontName="Helvetica-Bold", fontSize=7.5))
+    bw, top, bottom = 11.0, height - 16, 4.0
+    block = 0.07 * (top - bottom)
+    z0, z1 = bottom + 2 * block, top - 2 * block  # the zone, to scale
+
+    def Y(v):
+        return z0 + (v - tol.lower) / (tol.upper - tol.lower) * (z1 - z0)
+
+    spans = [(bottom, bottom + block), (bottom + block, z0)]
+    spans += [(Y(b.lower), Y(b.upper)) for b in inside]
+    spans += [(z1, z1 + block), (z1 + block, top)]
+    for b, (y0, y1) in zip(table, spans):
+        g.add(Rect(0, y0, bw, y1 - y0, fillColor=colors.Color(*b.rgb), strokeColor=None))
+    g.add(Rect(0, bottom, bw, top - bottom, fillColor=None, strokeColor=colors.black,
+               strokeWidth=0.4))
+    s = (tol.upper - tol.lower) / 4
+    n = inside[0].digits
+    ticks = [(z0, tol.lower, "LTL ", True), (z1, tol.upper, "UTL ", True),
+             (bottom + block, tol.lower - s, "", False), (z1 + block, tol.upper + s, "", False)]
+    if tol.lower < 0 < tol.upper and min(Y(0) - z0, z1 - Y(0)) > 9:
+        ticks.append((Y(0.0), 0.0, "", True))
+    for y, v, name, strong in ticks:
+        g.add(Line(0 if strong else bw - 3, y, bw + 3, y, strokeColor=colors.black,
+                   strokeWidth=0.9 if strong else 0.4))
+        text = "0" if v == 0 else f"{name}{v:+.{n}f}"
+        g.add(String(bw + 5, y - 2.5, text, fontName="Helvetica-Bold" if strong else "Helvetica",
+                     fontSize=6.5))
+    return g
+
+
+TRIAD_RGB = ((0.80, 0.10, 0.10), (0.10, 0.55, 0.10), (0.10, 0.25, 0.85))
+"""X, Y, Z arrows of the axis triad."""
+
+
+def _triad(g, view: View, x: float, y: float, length: float) -> None:
+    """The nominal's axes as seen in ``view``, drawn from (x, y)."""
+    from reportlab.graphics.shapes import Circle, Line, String
+    from reportlab.lib import colors
+
+    from .mapviews import ViewSpec, camera_basis
+
+    _, right, up = camera_basis(ViewSpec(view.name, view.direction, view.up))
+    for k, name in enumerate("XYZ"):
+        u, v = right[k], up[k]
+        c = colors.Color(*TRIAD_RGB[k])
+        if math.hypot(u, v) < 0.2:  # along the line of sight: a dot, the label beside it
+            g.add(Circle(x, y, 1.6, fillColor=c, strokeColor=None))
+            g.add(String(x + 3 + 6 * k, y - 9, name, fontName="Helvetica-Bold", fontSize=6.5,
+                         fillColor=c))
+            continue
+        g.add(Line(x, y, x + length * u, y + length * v, strokeColor=c, strokeWidth=1.2))
+        g.add(String(x + (length + 4) * u - 2, y + (length + 4) * v - 2.5, name,
+                     fontName="Helvetica-Bold", fontSize=6.5, fillColor=c))
+
+
+def map_overlay(view: View, labels: dict[int, str], width: float, height: float):
+    """What the certificate draws over a rendered view of ``width`` x ``height`` points: its
+    name, the axis triad and the callouts (label boxes with leader lines placed by
+    reports.callouts.place_labels, never overlapping). labels : point index -> text (lines
+    split by newlines)."""
+    from reportlab.graphics.shapes import Circle, Drawing, Line, Rect, String
+    from reportlab.lib import colors
+    from reportlab.pdfbase.pdfmetrics import stringWidth
+
+    from .callouts import leader_end, place_labels
+
+    g = Drawing(width, height)
+    g.add(String(4, height - 10, view.name, fontName="Helvetica-Bold", fontSize=8))
+    _triad(g, view, 16, 16, 11)
+    kx, ky = width / RENDER_SIZE[0], height / RENDER_SIZE[1]
+    shown = [(i, x * kx, height - y * ky) for i, x, y in view.anchors if i in labels]
+    texts = [labels[i].split("\n") for i, _, _ in shown]
+    sizes = [(max(stringWidth(t, "Helvetica", 6.5) for t in lines) + 5, 8 * len(lines) + 2)
+             for lines in texts]
+    avoid = [(x * kx, height - y * ky) for x, y in view.avoid]
+    title = (0, height - 14, 4 + stringWidth(view.name, "Helvetica-Bold", 8) + 4, height)
+    places = place_labels(np.array([(x, y) for _, x, y in shown]).reshape(-1, 2), sizes,
+                          width, height, np.array(avoid).reshape(-1, 2),
+                          blocked=(title, (0, 0, 34, 34)))
+    for (i, x, y), lines, (w, h), at in zip(shown, texts, sizes, places):
+        if at is None:
+            continue
+        box = (at[0], at[1], at[0] + w, at[1] + h)
+        ex, ey = leader_end((x, y), box)
+        g.add(Line(x, y, ex, ey, strokeColor=colors.black, strokeWidth=0.6))
+        g.add(Circle(x, y, 1.3, fillColor=colors.black, strokeColor=None))
+        g.add(Rect(*at, w, h, fillColor=colors.Color(1, 1, 1, alpha=0.9),
+                   strokeColor=colors.black, strokeWidth=0.5))
+        for k, t in enumerate(lines):
+            g.add(String(at[0] + 2.5, at[1] + h - 8 * (k + 1), t, fontName="Helvetica",
+                         fontSize=6.5))
+    return g
+
+
+def map_flowable(view: View, labels: dict[int, str], width: float, height: float):
+    """A platypus flowable: the view's picture with :func:`map_overlay` drawn over it."""
+    from reportlab.graphics import renderPDF
+    from reportlab.lib.utils import ImageReader
+    from reportlab.platypus import Flowable
+
+    overlay = map_overlay(view, labels, width, height)
+
+    class MapView(Flowable):
+        def wrap(self, aw, ah):
+            return width, height
+
+        def draw(self):
+            self.canv.drawImage(ImageReader(io.BytesIO(view.png)), 0, 0, width, height)
+            renderPDF.draw(overlay, self.canv, 0, 0)
+
+    return MapView()
 
 
 def template_polylines(template) -> list[np.ndarray]:
