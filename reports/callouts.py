@@ -14,12 +14,15 @@ import math
 import numpy as np
 
 MAX_CALLOUTS = 8
-LINK_SPACINGS = 2.5
+LINK_SPACINGS = 4.0
 """Two flagged-worthy points belong to one cluster when they lie within this many typical point
 spacings of each other (the median distance from a measured point to its nearest neighbour)."""
-PASSING_SHARE = 0.5
+PASSING_SHARE = 0.7
 """On a part with every point in tolerance, points deviating by at least this share of the
-largest |deviation| are the candidates."""
+largest |deviation| are the candidates,"""
+PASSING_CALLOUTS = 4
+"""and at most this many of their clusters are flagged (a passing part's map is read for its
+largest departures, not its noise)."""
 
 
 def callout_points(feet: np.ndarray, d: np.ndarray, lower: float, upper: float,
@@ -27,7 +30,7 @@ def callout_points(feet: np.ndarray, d: np.ndarray, lower: float, upper: float,
     """Indices of the points to flag, most severe first: the worst point of each separate
     cluster of out-of-tolerance points (points of one sign within LINK_SPACINGS point spacings
     of each other, chained), or, when every point is in tolerance, of the points deviating by
-    at least PASSING_SHARE of the largest |deviation|.
+    at least PASSING_SHARE of the largest |deviation| (at most PASSING_CALLOUTS of them).
 
     feet : (n, 3) the points' feet on the nominal, mm; d : (n,) signed deviations, mm; lower,
     upper : the tolerance zone, mm.
@@ -47,6 +50,7 @@ def callout_points(feet: np.ndarray, d: np.ndarray, lower: float, upper: float,
         if not severity.max() > 0:
             return []
         cand = np.flatnonzero(severity >= PASSING_SHARE * severity.max())
+        max_callouts = min(max_callouts, PASSING_CALLOUTS)
     link = LINK_SPACINGS * point_spacing(feet)
     pairs = cKDTree(feet[cand]).query_pairs(link, output_type="ndarray")
     pairs = pairs[np.sign(d[cand[pairs[:, 0]]]) == np.sign(d[cand[pairs[:, 1]]])]

@@ -995,21 +995,27 @@ def _registration_rows(c: _Layout) -> list[tuple[str, str]]:
 def _deviation_map(c: _Layout) -> list:
     """7  Deviation map: the 2D contour map drawn here, or the two 3D renders (on the
     registration's page when they fit there, with section 8)."""
-    from reportlab.lib import colors
     from reportlab.lib.units import mm
-    from reportlab.platypus import CondPageBreak, Image, Table
+    from reportlab.platypus import CondPageBreak, Table
     from reportlab.platypus import Paragraph as P
 
     S, W, res, run, views = c.styles, c.width, c.res, c.run, c.views
     out = [CondPageBreak(175 * mm), P("7  Deviation map", S["h"])]
     if c.is_2d:
+        bar_w = 24 * mm
         drawing, factor = figures.contour_map(run.template.template, res.deviations.foot,
                                               res.deviations.normal, res.deviations.signed,
-                                              res.tolerance, _worst_labels(run), W, 128 * mm)
-        out.append(drawing)
+                                              res.tolerance, _worst_labels(run),
+                                              W - bar_w, 128 * mm)
+        bar = figures.colour_bar(res.tolerance, bar_w - 2 * mm,
+                                 min(drawing.height, 95 * mm), "Deviation (mm)")
+        out.append(Table([[drawing, bar]], colWidths=[W - bar_w, bar_w],
+                         style=[("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+                                ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                                ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
         out.append(P(f"Template (dark lines) and every measured point at its foot on the "
                      f"contour, with its deviation drawn as a whisker magnified {factor:g} "
-                     "times; labels on the five worst points.", S["small"]))
+                     "times, coloured on the scale at the right; " + _FLAGS_WORDS, S["small"]))
         return out
     out.append(_map_grid(c, views, W))
     out.append(P(_views_caption(views) + " Parallel projection, nominal frame; every measured "

@@ -689,30 +689,39 @@ def map_overlay(view: View, labels: dict[int, str], width: float, height: float)
     name, the axis triad and the callouts (label boxes with leader lines placed by
     reports.callouts.place_labels, never overlapping). labels : point index -> text (lines
     split by newlines)."""
-    from reportlab.graphics.shapes import Circle, Drawing, Line, Rect, String
-    from reportlab.lib import colors
+    from reportlab.graphics.shapes import Drawing, String
     from reportlab.pdfbase.pdfmetrics import stringWidth
-
-    from .callouts import leader_end, place_labels
 
     g = Drawing(width, height)
     g.add(String(4, height - 10, view.name, fontName="Helvetica-Bold", fontSize=8))
     _triad(g, view, 16, 16, 11)
     kx, ky = width / RENDER_SIZE[0], height / RENDER_SIZE[1]
-    shown = [(i, x * kx, height - y * ky) for i, x, y in view.anchors if i in labels]
+    title = (0, height - 14, 4 + stringWidth(view.name, "Helvetica-Bold", 8) + 4, height)
+    _callouts(g, [(i, x * kx, height - y * ky) for i, x, y in view.anchors], labels,
+              np.array([(x * kx, height - y * ky) for x, y in view.avoid]).reshape(-1, 2),
+              blocked=(title, (0, 0, 34, 34)))
+    return g
+
+
+def _callouts(g, anchors, labels: dict[int, str], avoid: np.ndarray, blocked) -> None:
+    """Flags on drawing ``g``: for each (point index, x, y) of ``anchors`` with a label, a box
+    with its text and a leader line to the point, placed by reports.callouts.place_labels."""
+    from reportlab.graphics.shapes import Circle, Line, Rect, String
+    from reportlab.lib import colors
+    from reportlab.pdfbase.pdfmetrics import stringWidth
+
+    from .callouts import leader_end, place_labels
+
+    shown = [(i, x, y) for i, x, y in anchors if i in labels]
     texts = [labels[i].split("\n") for i, _, _ in shown]
     sizes = [(max(stringWidth(t, "Helvetica", 6.5) for t in lines) + 5, 8 * len(lines) + 2)
              for lines in texts]
-    avoid = [(x * kx, height - y * ky) for x, y in view.avoid]
-    title = (0, height - 14, 4 + stringWidth(view.name, "Helvetica-Bold", 8) + 4, height)
     places = place_labels(np.array([(x, y) for _, x, y in shown]).reshape(-1, 2), sizes,
-                          width, height, np.array(avoid).reshape(-1, 2),
-                          blocked=(title, (0, 0, 34, 34)))
+                          g.width, g.height, avoid, blocked=blocked)
     for (i, x, y), lines, (w, h), at in zip(shown, texts, sizes, places):
         if at is None:
             continue
-        box = (at[0], at[1], at[0] + w, at[1] + h)
-        ex, ey = leader_end((x, y), box)
+        ex, ey = leader_end((x, y), (at[0], at[1], at[0] + w, at[1] + h))
         g.add(Line(x, y, ex, ey, strokeColor=colors.black, strokeWidth=0.6))
         g.add(Circle(x, y, 1.3, fillColor=colors.black, strokeColor=None))
         g.add(Rect(*at, w, h, fillColor=colors.Color(1, 1, 1, alpha=0.9),
@@ -720,7 +729,6 @@ def map_overlay(view: View, labels: dict[int, str], width: float, height: float)
         for k, t in enumerate(lines):
             g.add(String(at[0] + 2.5, at[1] + h - 8 * (k + 1), t, fontName="Helvetica",
                          fontSize=6.5))
-    return g
 
 
 def map_flowable(view: View, labels: dict[int, str], width: float, height: float):
@@ -811,12 +819,9 @@ def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
         c = colors.Color(*rgb[i])
         g.add(Line(fx[i], fy[i], tx[i], ty[i], strokeColor=c, strokeWidth=0.8))
         g.add(Circle(tx[i], ty[i], 1.1, fillColor=c, strokeColor=None))
-    placed = []
-    for i, text in worst:  # worst first; a label that would overlap an earlier one is left out
-        if all(abs(tx[i] - x) > 60 or abs(ty[i] - y) > 9 for x, y in placed):
-            placed.append((tx[i], ty[i]))
-            g.add(String(tx[i] + 3, ty[i] + 2, text.replace("\n", " "), fontName="Helvetica",
-                         fontSize=6.5))
+    _callouts(g, [(i, tx[i], ty[i]) for i, _ in worst], dict(worst),
+              np.column_stack([tx, ty])[(d < tol.lower) | (d > tol.upper)],
+              blocked=((0, 0, width, 12),))
     g.add(String(2, 2, f"Whiskers: deviation × {factor:g} along the contour normal "
                        "(outward = excess material)", fontName="Helvetica-Oblique",
                  fontSize=7.5))

@@ -167,14 +167,21 @@ def display_mesh(points: np.ndarray, normals: np.ndarray, cells: int = MESH_CELL
     grid = pv.ImageData(dimensions=tuple(int(x) for x in dims), spacing=(h, h, h),
                         origin=tuple(lo))
     corners = np.asarray(grid.points)
-    # Only corners near a point need its plane; the others only a sign, and any one does: the
-    # level they make lies beyond ``reach`` and is dropped below.
+    # Only corners near a point need its plane; the others only a sign, that of the nearest
+    # corner that has one (so no level runs between the two).
     near = _near_corners(p, np.asarray(lo), h, dims)
     dist, j = tree.query(corners[near], distance_upper_bound=3.0 * h)
     found = np.isfinite(dist)
     near, j = near[found], j[found]
-    sdf = np.full(len(corners), 3.0 * h)
-    sdf[near] = np.einsum("ij,ij->i", corners[near] - p[j], n[j])
+    level = np.einsum("ij,ij->i", corners[near] - p[j], n[j])
+    # A corner whose foot on the plane lies far from the point that gave it (Hoppe's test) is
+    # past an edge or a border, where that plane does not hold.
+    foot = corners[near] - level[:, None] * n[j]
+    held = np.linalg.norm(foot - p[j], axis=1) <= reach
+    near = near[held]
+    sdf = np.zeros(len(corners))
+    sdf[near] = level[held]
+    sdf = _signed_beyond(sdf, near, dims, 3.0 * h)
     grid.point_data["sdf"] = sdf
     surf = grid.contour([0.0], scalars="sdf", method="flying_edges")
     if surf.n_cells == 0:
@@ -194,3 +201,19 @@ def _near_corners(p: np.ndarray, origin: np.ndarray, h: float, dims: np.ndarray)
     off = np.stack(np.meshgrid(*[np.arange(-1, 3)] * 3, indexing="ij"), -1).reshape(-1, 3)
     ijk = np.clip((cell[:, None, :] + off[None]).reshape(-1, 3), 0, dims - 1)
     return np.unique(ijk[:, 0] + dims[0] * (ijk[:, 1] + dims[1] * ijk[:, 2]))
+
+
+def _signed_beyond(sdf: np.ndarray, near: np.ndarray, dims: np.ndarray, far: float) -> np.ndarray:
+    """``sdf`` with each corner outside ``near`` set to +-far, the sign of the nearest corner
+    in ``near`` (a Euclidean distance transform over the grid)."""
+    from scipy.ndimage import distance_transform_edt
+
+    shape = (int(dims[2]), int(dims[1]), int(dims[0]))  # VTK order: x fastest
+    unknown = np.ones(len(sdf), dtype=bool)
+    unknown[near] = False
+    nearest = distance_transform_edt(unknown.reshape(shape), return_distances=False,
+                                     return_indices=True)
+    flat = np.ravel_multi_index(tuple(nearest), shape).reshape(-1)
+    out = np.where(sdf[flat] < 0, -far, far)
+    out[near] = sdf[near]
+    return out
