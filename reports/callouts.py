@@ -15,8 +15,11 @@ import numpy as np
 
 MAX_CALLOUTS = 8
 LINK_SPACINGS = 4.0
-"""Two flagged-worthy points belong to one cluster when they lie within this many typical point
-spacings of each other (the median distance from a measured point to its nearest neighbour)."""
+"""Two flag-worthy points belong to one cluster when they lie within this many typical point
+spacings of each other (the median distance from a measured point to its nearest neighbour),
+or within LINK_SHARE of the measured points' diagonal (closer than that, two flags would crowd
+each other on the map anyway)."""
+LINK_SHARE = 0.04
 PASSING_SHARE = 0.7
 """On a part with every point in tolerance, points deviating by at least this share of the
 largest |deviation| are the candidates,"""
@@ -29,7 +32,7 @@ def callout_points(feet: np.ndarray, d: np.ndarray, lower: float, upper: float,
                    max_callouts: int = MAX_CALLOUTS) -> list[int]:
     """Indices of the points to flag, most severe first: the worst point of each separate
     cluster of out-of-tolerance points (points of one sign within LINK_SPACINGS point spacings
-    of each other, chained), or, when every point is in tolerance, of the points deviating by
+    or LINK_SHARE of the diagonal of each other, chained), or, when every point is in tolerance, of the points deviating by
     at least PASSING_SHARE of the largest |deviation| (at most PASSING_CALLOUTS of them).
 
     feet : (n, 3) the points' feet on the nominal, mm; d : (n,) signed deviations, mm; lower,
@@ -51,7 +54,8 @@ def callout_points(feet: np.ndarray, d: np.ndarray, lower: float, upper: float,
             return []
         cand = np.flatnonzero(severity >= PASSING_SHARE * severity.max())
         max_callouts = min(max_callouts, PASSING_CALLOUTS)
-    link = LINK_SPACINGS * point_spacing(feet)
+    link = max(LINK_SPACINGS * point_spacing(feet),
+               LINK_SHARE * float(np.linalg.norm(np.ptp(feet, axis=0))))
     pairs = cKDTree(feet[cand]).query_pairs(link, output_type="ndarray")
     pairs = pairs[np.sign(d[cand[pairs[:, 0]]]) == np.sign(d[cand[pairs[:, 1]]])]
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),

@@ -276,6 +276,7 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
         idx = np.array([i for i, _ in worst] + list(np.flatnonzero(out)), dtype=int)
         marks = (shown[idx], normals[idx])
         spacing = point_spacing(feet)
+        pl.show(auto_close=False)  # the first render sets the window up; each view renders once
         return [_shoot(pl, spec, extent, marks, idx, len(worst), size, (actors, spacing))
                 for spec in mapviews.choose_views(normals)]
     finally:
@@ -306,12 +307,14 @@ def _shoot(pl, spec, extent, marks, idx, n_worst, size, markers) -> View:
     pl.camera.parallel_scale = fr.half_height
     pl.renderer.reset_camera_clipping_range()
     pl.render()
-    png = _png(pl.screenshot(return_img=True))
+    png = _png(_grab(pl, zbuffer=False))
     xy = mapviews.project(marks, spec, fr, size)
-    depth = pl.get_image_depth(fill_value=np.nan)  # minus the distance from the camera
+    near, far = pl.camera.clipping_range
+    z = _grab(pl, zbuffer=True)[:, :, 0]
+    dist = np.where(z < 1.0, near + z * (far - near), np.nan)  # from the camera, mm
     # The farthest drawn depth around each point's pixel: its own sphere shows there unless
     # the part is in front (a neighbour's sphere may cover its centre).
-    pad = np.pad(-depth, 2, constant_values=np.nan)
+    pad = np.pad(dist, 2, constant_values=np.nan)
     col = np.clip(xy[:, 0].astype(int), 0, size[0] - 1)
     row = np.clip(xy[:, 1].astype(int), 0, size[1] - 1)
     win = np.stack([pad[row + i, col + j] for i in range(5) for j in range(5)])
@@ -326,6 +329,26 @@ def _shoot(pl, spec, extent, marks, idx, n_worst, size, markers) -> View:
     avoid = tuple((float(x), float(y)) for (x, y), v in zip(xy[n_worst:], visible[n_worst:])
                   if v)
     return View(spec.name, tuple(float(v) for v in d), png, tuple(spec.up), anchors, avoid)
+
+
+def _grab(pl, zbuffer: bool) -> np.ndarray:
+    """The picture just rendered (rows from the top), colours or the z-buffer (0 near, 1
+    far), read once without rendering again (pyvista's screenshot and depth each render)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
+
+    f = vtkWindowToImageFilter()
+    f.SetInput(pl.render_window)
+    f.ShouldRerenderOff()
+    f.ReadFrontBufferOff()
+    if zbuffer:
+        f.SetInputBufferTypeToZBuffer()
+    else:
+        f.SetInputBufferTypeToRGB()
+    f.Update()
+    img = f.GetOutput()
+    w, h, _ = img.GetDimensions()
+    return vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h, w, -1)[::-1]
 
 
 DISPLAY_TRIANGLES = 40_000

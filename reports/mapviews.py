@@ -133,9 +133,9 @@ def project(points: np.ndarray, view: ViewSpec, framing: Framing,
 
 
 # ---------------------------------------------------------------------------- display mesh
-MESH_CELLS = 110
+MESH_CELLS = 90
 """Voxels along the part's longest side for the display mesh of a point nominal."""
-MESH_POINTS = 300_000
+MESH_POINTS = 60_000
 """At most this many nominal points build it (every k-th point above)."""
 
 
@@ -196,11 +196,16 @@ def display_mesh(points: np.ndarray, normals: np.ndarray, cells: int = MESH_CELL
 
 def _near_corners(p: np.ndarray, origin: np.ndarray, h: float, dims: np.ndarray) -> np.ndarray:
     """Flat indices (VTK order: x fastest) of the grid corners within about one voxel of a
-    point: the corners of each occupied voxel and of its neighbours."""
-    cell = np.unique(np.floor((p - origin) / h).astype(np.int64), axis=0)
-    off = np.stack(np.meshgrid(*[np.arange(-1, 3)] * 3, indexing="ij"), -1).reshape(-1, 3)
-    ijk = np.clip((cell[:, None, :] + off[None]).reshape(-1, 3), 0, dims - 1)
-    return np.unique(ijk[:, 0] + dims[0] * (ijk[:, 1] + dims[1] * ijk[:, 2]))
+    point: the corners of each occupied voxel, grown by one corner every way."""
+    from scipy.ndimage import binary_dilation
+
+    shape = (int(dims[2]), int(dims[1]), int(dims[0]))
+    ijk = np.clip(np.floor((p - origin) / h).astype(np.int64), 0, dims - 2)
+    occupied = np.zeros(shape, dtype=bool)
+    occupied[ijk[:, 2], ijk[:, 1], ijk[:, 0]] = True
+    near = binary_dilation(occupied, structure=np.ones((3, 3, 3), dtype=bool), iterations=1)
+    near[1:, 1:, 1:] |= near[:-1, :-1, :-1]  # the far corners of each voxel
+    return np.flatnonzero(near.reshape(-1))
 
 
 def _signed_beyond(sdf: np.ndarray, near: np.ndarray, dims: np.ndarray, far: float) -> np.ndarray:
