@@ -22,7 +22,7 @@ from engine.errors import QAError, SettingsError
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pipeline import Run
 
-from . import figures
+from . import callouts, figures
 from .messages import VERDICT_RGB, VERDICT_WORD, limits_text
 from .qif import qif_results_document
 from .results import SOFTWARE_NAME, points_csv, result_json, run_document, software_version
@@ -278,7 +278,8 @@ def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None
         nom = run.nominal
         pending = (renderer or figures.InProcessRenderer()).submit(
             nom.points, nom.triangles, res.deviations.foot, res.deviations.normal,
-            res.deviations.signed, res.tolerance, _worst_labels(run))
+            res.deviations.signed, res.tolerance, _worst_labels(run),
+            nominal_normals=None if nom.triangles is not None else nom.normals(np.arange(nom.n)))
     issued = (issued or dt.datetime.now(dt.timezone.utc)).replace(microsecond=0)
     number = certificate_number(run, issued)
     cert_doc = {k: v for k, v in asdict(info).items()}
@@ -1190,9 +1191,8 @@ def _registration_rows(c: _Layout) -> list[tuple[str, str]]:
 def _deviation_map(c: _Layout) -> list:
     """7  Deviation map: the 2D contour map drawn here, or the two 3D renders (on the
     registration's page when they fit there, with section 8)."""
-    from reportlab.lib import colors
     from reportlab.lib.units import mm
-    from reportlab.platypus import Image, KeepTogether, Table
+    from reportlab.platypus import KeepTogether, Table
     from reportlab.platypus import Paragraph as P
 
     S, W, res, run, views = c.styles, c.width, c.res, c.run, c.views
@@ -1200,31 +1200,68 @@ def _deviation_map(c: _Layout) -> list:
     # break before a fixed height would leave the page above half empty).
     out = [P("7  Deviation map", S["h"])]
     if c.is_2d:
+        bar_w = 24 * mm
         drawing, factor = figures.contour_map(run.template.template, res.deviations.foot,
                                               res.deviations.normal, res.deviations.signed,
-                                              res.tolerance, _worst_labels(run), W, 128 * mm)
-        out.append(drawing)
+                                              res.tolerance, _worst_labels(run),
+                                              W - bar_w, 128 * mm)
+        bar = figures.colour_bar(res.tolerance, bar_w - 2 * mm,
+                                 min(drawing.height, 95 * mm), "Deviation (mm)")
+        out.append(Table([[drawing, bar]], colWidths=[W - bar_w, bar_w],
+                         style=[("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+                                ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                                ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
         out.append(P(f"Template (dark lines) and every measured point at its foot on the "
                      f"contour, with its deviation drawn as a whisker magnified {factor:g} "
-                     "times; labels on the five worst points.", S["small"]))
+                     "times, coloured on the scale at the right; " + _FLAGS_WORDS, S["small"]))
         return [KeepTogether(out)]
-    grid = colors.Color(*_GRID_RGB)
-    iw = (W - 4 * mm) / 2
-    ih = iw * figures.RENDER_SIZE[1] / figures.RENDER_SIZE[0]
-    cells = [Image(io.BytesIO(v.png), width=iw, height=ih) for v in views]
-    out.append(Table([cells], colWidths=[W / 2, W / 2],
-                     style=[("BOX", (0, 0), (0, 0), 0.4, grid),
-                            ("BOX", (1, 0), (1, 0), 0.4, grid),
-                            ("LEFTPADDING", (0, 0), (-1, -1), 0),
-                            ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
-    out.append(P(f"Left: face-on, camera along {_vec(views[0].direction)}; right: "
-                 f"oblique, camera along {_vec(views[1].direction)} (nominal frame, "
-                 "parallel projection). Every measured point drawn at its foot on the "
-                 "nominal surface, coloured by deviation; labels on the five worst "
-                 "points." + ("" if c.plan is None else " The part at the plan's alignment "
-                              "(section 6), coloured against the zone of the statistics "
-                              "(section 3)."), S["small"]))
+    out.append(_map_grid(c, views, W))
+    out.append(P(_views_caption(views) + " Parallel projection, nominal frame; every measured "
+                 "point drawn at its foot on the nominal surface (shaded), coloured by "
+                 "deviation on the scale at the right; " + _FLAGS_WORDS +
+                 ("" if c.plan is None else " The part at the plan's alignment "
+                  "(section 6), coloured against the zone of the statistics "
+                  "(section 3)."), S["small"]))
     return [KeepTogether(out)]
+
+
+_FLAGS_WORDS = ("flags on the worst point of each separate cluster of out-of-tolerance points "
+                "(of the largest deviations when every point is in tolerance).")
+
+
+def _views_caption(views) -> str:
+    names = [v.name for v in views]
+    where = (["Left", "right"] if len(views) == 2 else
+             ["Top left", "top right", "bottom left", "bottom right"][:len(views)])
+    if len(views) == 1:
+        return f"{names[0]}."
+    return "; ".join(f"{w}: {n}" for w, n in zip(where, names)) + "."
+
+
+def _map_grid(c: _Layout, views, W: float):
+    """The views two to a row with the colour bar beside them."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Table
+
+    bar_w = 24 * mm
+    iw = (W - bar_w - 2 * mm) / 2
+    ih = iw * figures.RENDER_SIZE[1] / figures.RENDER_SIZE[0]
+    labels = dict(_worst_labels(c.run))
+    cells = [figures.map_flowable(v, labels, iw, ih) for v in views]
+    rows = [cells[k:k + 2] + [""] * (k + 2 - len(cells)) for k in range(0, len(cells), 2)]
+    bar = figures.colour_bar(c.res.tolerance, bar_w - 2 * mm, min(len(rows) * ih, 95 * mm),
+                             "Deviation (mm)")
+    grid = Table([r + [bar if k == 0 else ""] for k, r in enumerate(rows)],
+                 colWidths=[iw, iw, bar_w + 2 * mm], rowHeights=[ih] * len(rows),
+                 style=[("GRID", (0, 0), (1, -1), 0.4, colors.Color(*_GRID_RGB)),
+                        ("SPAN", (2, 0), (2, -1)), ("VALIGN", (2, 0), (2, -1), "MIDDLE"),
+                        ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                        ("RIGHTPADDING", (0, 0), (-1, -1), 0),
+                        ("TOPPADDING", (0, 0), (-1, -1), 0),
+                        ("BOTTOMPADDING", (0, 0), (-1, -1), 0),
+                        ("LEFTPADDING", (2, 0), (2, -1), 3 * mm)])
+    return grid
 
 
 def _histogram(c: _Layout) -> list:
@@ -1433,9 +1470,12 @@ def _point_name(run: Run, i: int) -> str:
     return str(labels[i]) if labels is not None and str(labels[i]) else f"#{i + 1}"
 
 
-def _worst_labels(run: Run, n: int = 5) -> list[tuple[int, str]]:
-    d = run.result.deviations.signed
-    return [(int(i), f"{_point_name(run, i)}\n{d[i]:+.3f}") for i in run.worst_order[:n]]
+def _worst_labels(run: Run) -> list[tuple[int, str]]:
+    """The flagged points (reports.callouts.callout_points) and their labels."""
+    res = run.result
+    d, tol = res.deviations.signed, res.tolerance
+    idx = callouts.callout_points(res.deviations.foot, d, tol.lower, tol.upper)
+    return [(i, f"{_point_name(run, i)}\n{d[i]:+.3f}") for i in idx]
 
 
 def _vec(v) -> str:

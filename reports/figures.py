@@ -2,14 +2,18 @@
 rendered off-screen), the 2D contour with magnified deviation whiskers and the histogram
 (reportlab vector drawings). No Qt: the desktop app reuses the colour scale.
 
-Colour scale: the tolerance zone [lower, upper] is split into four green bands (teal towards the
-lower limit, yellow-green towards the upper); beyond the zone, three bands of a quarter zone width
-each: blues below the lower limit (material missing), reds above the upper limit (excess
-material), darkest for the farthest. A deviation exactly on a limit is in tolerance.
+Colour scale: a diverging scale across the tolerance zone [lower, upper] in 12-16 equal-looking
+steps: blue at the lower limit, through cyan to green at the nominal (deviation 0, the middle
+of a green band) and through yellow to red at the upper limit, interpolated in CIELAB so that
+neighbouring steps differ by about the same perceived amount on each side. Beyond the zone,
+two darker colours on each side, a quarter zone wide and farther: navy then violet below
+the lower limit (material missing), maroon then magenta above the upper limit (excess
+material). A deviation exactly on a limit is in tolerance.
 """
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import os
@@ -20,52 +24,147 @@ import numpy as np
 
 from engine.errors import QAError
 
+from .callouts import point_spacing
+
 if TYPE_CHECKING:  # the render process should not pay for importing the engine
     from engine.inspection import Tolerance
 
-BELOW = ((0.03, 0.19, 0.42), (0.13, 0.40, 0.67), (0.26, 0.57, 0.78))
-INSIDE = ((0.17, 0.63, 0.55), (0.24, 0.70, 0.29), (0.42, 0.75, 0.29), (0.71, 0.83, 0.20))
-ABOVE = ((0.94, 0.40, 0.28), (0.84, 0.19, 0.12), (0.50, 0.0, 0.0))
+ZONE_STEPS = 15
+"""Steps of the scale inside the zone (odd: the nominal sits in the middle of a green one);
+an asymmetric zone gets 14-16, as its sides divide."""
+RAMP = ((0.16, 0.27, 0.80), (0.08, 0.62, 0.86), (0.22, 0.68, 0.24), (0.96, 0.84, 0.16),
+        (0.84, 0.13, 0.11))
+"""sRGB anchors of the in-zone ramp at the lower limit, half way down, the nominal, half way up
+and the upper limit: blue, cyan, green, yellow, red."""
+BELOW = ((0.35, 0.06, 0.45), (0.04, 0.09, 0.42))
+"""Beyond the lower limit, farthest first: violet (more than a quarter zone), navy."""
+ABOVE = ((0.50, 0.0, 0.06), (0.86, 0.0, 0.62))
+"""Beyond the upper limit, nearest first: maroon, magenta (more than a quarter zone)."""
 
 
 @dataclass(frozen=True)
 class Band:
-    """One colour band: deviations in [lower, upper) (in-zone bands include the limits)."""
+    """One colour band of deviations (mm): [lower, upper) below and inside the zone, (lower,
+    upper] above it; the zone's bands include both limits."""
 
     lower: float
     upper: float
     rgb: tuple[float, float, float]
     in_tolerance: bool
+    digits: int = 3
+    """Decimals the labels print (finer for a narrow zone)."""
+
+
+def _zone_edges(lo: float, hi: float) -> np.ndarray:
+    """Edges of the in-zone bands, lo to hi: a green band 1/ZONE_STEPS of the zone wide
+    centred on the nominal (on the zone's middle when 0 lies outside), each side divided into
+    steps of that width, rounded to whole steps."""
+    w = (hi - lo) / ZONE_STEPS
+    m = min(max(0.0, lo + w / 2), hi - w / 2) if lo <= 0.0 <= hi else 0.5 * (lo + hi)
+    k_lo = int(round((m - w / 2 - lo) / w))
+    k_hi = int(round((hi - m - w / 2) / w))
+    lower = np.linspace(lo, m - w / 2, k_lo + 1) if k_lo else np.array([lo])
+    upper = np.linspace(m + w / 2, hi, k_hi + 1) if k_hi else np.array([hi])
+    return np.concatenate([lower, upper])
+
+
+def _srgb_to_lab(rgb: np.ndarray) -> np.ndarray:
+    """CIELAB (D65) of sRGB colours in 0..1, (n, 3)."""
+    c = np.asarray(rgb, dtype=float)
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    xyz = lin @ np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
+                          [0.0193, 0.1192, 0.9505]]).T / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.column_stack([116 * f[:, 1] - 16, 500 * (f[:, 0] - f[:, 1]),
+                            200 * (f[:, 1] - f[:, 2])])
+
+
+def _lab_to_srgb(lab: np.ndarray) -> np.ndarray:
+    fy = (lab[:, 0] + 16) / 116
+    f = np.column_stack([fy + lab[:, 1] / 500, fy, fy - lab[:, 2] / 200])
+    xyz = np.where(f > 6 / 29, f**3, 3 * (6 / 29) ** 2 * (f - 4 / 29))
+    xyz = xyz * np.array([0.95047, 1.0, 1.08883])
+    lin = xyz @ np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415],
+                          [0.0557, -0.2040, 1.0570]]).T
+    lin = np.clip(lin, 0.0, 1.0)
+    return np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+
+
+@functools.lru_cache(maxsize=1)
+def _ramp_table(samples: int = 401):
+    """The ramp sampled densely over t in [-1, 1] (t: -1 lower limit, 0 nominal, +1 upper)
+    in CIELAB, and each sample's share of its side's path length (so that equal steps of
+    that share are equal perceived steps)."""
+    anchors = _srgb_to_lab(np.array(RAMP))
+    t = np.linspace(-1.0, 1.0, samples)
+    lab = np.column_stack([np.interp(t, np.linspace(-1, 1, len(RAMP)), anchors[:, k])
+                           for k in range(3)])
+    step = np.r_[0.0, np.linalg.norm(np.diff(lab, axis=0), axis=1)]
+    mid = samples // 2
+    share = np.empty(samples)
+    for side in (slice(0, mid + 1), slice(mid, samples)):
+        arc = np.cumsum(step[side]) - step[side][0]
+        share[side] = arc / arc[-1]
+    share[: mid + 1] -= 1.0  # -1 at the lower limit, 0 at the nominal
+    return share, lab
+
+
+def ramp_rgb(t: np.ndarray) -> np.ndarray:
+    """(n, 3) sRGB in 0..1 of the in-zone ramp at ``t`` in [-1, 1] (the share of the way from
+    the nominal to a limit, -1 lower, +1 upper), perceptually even on each side."""
+    share, lab = _ramp_table()
+    t = np.clip(np.asarray(t, dtype=float).reshape(-1), -1.0, 1.0)
+    col = np.column_stack([np.interp(t, share, lab[:, k]) for k in range(3)])
+    return _lab_to_srgb(col)
+
+
+@functools.lru_cache(maxsize=64)
+def _bands(lo: float, hi: float) -> tuple[Band, ...]:
+    edges = _zone_edges(lo, hi)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    green = int(np.argmin(np.abs(centres - (0.0 if lo <= 0.0 <= hi else 0.5 * (lo + hi)))))
+    m = centres[green]
+    t = np.where(centres < m, (centres - m) / (m - lo if m > lo else 1.0),
+                 (centres - m) / (hi - m if hi > m else 1.0))
+    rgb = [tuple(round(float(v), 4) for v in c) for c in ramp_rgb(t)]
+    digits = max(3, int(math.ceil(-math.log10(float(np.min(np.diff(edges)))))) + 1)
+    s = (hi - lo) / 4.0
+    out = [Band(-math.inf, lo - s, BELOW[0], False, digits),
+           Band(lo - s, lo, BELOW[1], False, digits)]
+    out += [Band(float(edges[k]), float(edges[k + 1]), rgb[k], True, digits)
+            for k in range(len(centres))]
+    out += [Band(hi, hi + s, ABOVE[0], False, digits),
+            Band(hi + s, math.inf, ABOVE[1], False, digits)]
+    return tuple(out)
 
 
 def bands(tol: "Tolerance") -> list[Band]:
-    """The seven bands from the most negative to the most positive deviation."""
-    lo, hi = tol.lower, tol.upper
-    s = (hi - lo) / 4.0
-    edges = [-math.inf, lo - 2 * s, lo - s, lo, lo + s, lo + 2 * s, lo + 3 * s, hi, hi + s,
-             hi + 2 * s, math.inf]
-    colours = BELOW + INSIDE + ABOVE
-    return [Band(edges[k], edges[k + 1], colours[k], 3 <= k <= 6) for k in range(10)]
+    """The bands from the most negative to the most positive deviation: two below the zone,
+    12-16 inside it (:data:`ZONE_STEPS`), two above it."""
+    return list(_bands(float(tol.lower), float(tol.upper)))
 
 
 def band_label(b: Band) -> str:
     """The band's range as the legends print it, mm."""
+    n = b.digits
     if math.isinf(b.upper):
-        return f"> {b.lower:+.3f}"
+        return f"> {b.lower:+.{n}f}"
     if math.isinf(b.lower):
-        return f"< {b.upper:+.3f}"
-    return f"{b.lower:+.3f} … {b.upper:+.3f}"
+        return f"< {b.upper:+.{n}f}"
+    return f"{b.lower:+.{n}f} … {b.upper:+.{n}f}"
 
 
 def band_index(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
-    """Index into :func:`bands` of each deviation (mm)."""
+    """Index into :func:`bands` of each deviation (mm): a band holds [lower, upper), the zone
+    its limits, the first band beyond a limit the next quarter zone (its far end included)."""
     d = np.asarray(d, dtype=float)
-    lo, hi = tol.lower, tol.upper
+    lo, hi = float(tol.lower), float(tol.upper)
     s = (hi - lo) / 4.0
-    below = 2 - np.clip(np.floor((lo - d) / s), 0, 2).astype(int)
-    inside = 3 + np.clip(np.floor((d - lo) / s), 0, 3).astype(int)
-    above = 7 + np.clip(np.floor((d - hi) / s), 0, 2).astype(int)
-    return np.where(d < lo, below, np.where(d > hi, above, inside))
+    edges = _zone_edges(lo, hi)
+    inside = 2 + np.clip(np.searchsorted(edges, d, side="right") - 1, 0, len(edges) - 2)
+    last = len(edges) + 1  # the first band above the zone
+    return np.where(d < lo - s, 0, np.where(d < lo, 1, np.where(
+        d > hi + s, last + 1, np.where(d > hi, last, inside))))
 
 
 def band_rgb(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
@@ -109,10 +208,20 @@ def fmt_mm(v: float, signed: bool = True) -> str:
 # ---------------------------------------------------------------------------- 3D maps
 @dataclass(frozen=True)
 class View:
+    """One rendered view of a 3D map."""
+
     name: str
+    """Named by the nominal's axes: "Top (+Z)", "Iso (+X -Y +Z)" … (reports.mapviews)."""
     direction: tuple[float, float, float]
     """Unit vector from the part towards the camera, nominal frame."""
     png: bytes
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    """The picture's up, nominal frame (with ``direction``: the axis triad)."""
+    anchors: tuple[tuple[int, float, float], ...] = ()
+    """(point index, x, y) of each callout point visible in this view, in pixels of the
+    picture (x from the left, y from the top)."""
+    avoid: tuple[tuple[float, float], ...] = ()
+    """Pixels of the other visible out-of-tolerance points, which labels should not hide."""
 
 
 @dataclass(frozen=True)
@@ -128,22 +237,29 @@ RENDER_SIZE = (960, 720)
 
 def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np.ndarray,
               normals: np.ndarray, d: np.ndarray, tol: "Tolerance | Zone",
-              worst: list[tuple[int, str]], size: tuple[int, int] = RENDER_SIZE) -> list[View]:
-    """Two views (face-on and oblique, parallel projection) of the nominal surface with each
+              worst: list[tuple[int, str]], size: tuple[int, int] = RENDER_SIZE,
+              nominal_normals: np.ndarray | None = None) -> list[View]:
+    """The views of reports.mapviews.choose_views (every measured point faces one of them,
+    parallel projection, the whole part framed) of the nominal surface, shaded, with each
     measured point drawn at its foot on the surface, coloured by band.
 
-    nominal_points : (m, 3), triangles : (k, 3) or None (bare points are drawn as a grey cloud);
-    feet, normals : (n, 3) foot points and outward unit normals, nominal frame; d : (n,) mm;
-    worst : (point index, label text) of the points to annotate.
+    nominal_points : (m, 3), triangles : (k, 3) or None; nominal_normals : (m, 3) outward unit
+    normals of bare points (their display mesh is built from them; without them they are drawn
+    as a grey cloud); feet, normals : (n, 3) foot points and outward unit normals, nominal
+    frame; d : (n,) mm; worst : (point index, label text) of the callout points, whose pixels
+    each view reports where the point is not hidden (the labels are drawn by the caller).
     """
+    from . import mapviews
+
     if not os.environ.get("DISPLAY"):
         # VTK's wheels try X first and fall back to EGL only after a slow failure.
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    face = face_on_direction(feet, normals)
-    surf, lift = display_surface(nominal_points, triangles)
+    surf, lift = display_surface(nominal_points, triangles, normals=nominal_normals)
     shown = feet + lift * normals  # just outside the surface, so the surface never hides them
+    extent = np.vstack([nominal_points[:: max(1, len(nominal_points) // 50_000)], shown])
+    out = (d < tol.lower) | (d > tol.upper)
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         pl.set_background("white")
@@ -151,33 +267,88 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
             pl.add_mesh(surf, color=(0.80, 0.81, 0.83), smooth_shading=True, specular=0.2,
                         ambient=0.25)
         else:
-            step = max(1, nominal_points.shape[0] // 200_000)
-            pl.add_points(nominal_points[::step], color=(0.72, 0.73, 0.75), point_size=2)
-        n = d.shape[0]
-        size_in = float(np.clip(300.0 / math.sqrt(max(n, 1)), 3, 12))
-        out = (d < tol.lower) | (d > tol.upper)
+            pl.add_points(extent[:-len(shown)], color=(0.72, 0.73, 0.75), point_size=2)
         rgb = band_rgb(d, tol)
-        for mask, px in ((~out, size_in), (out, 1.7 * size_in)):  # the rejects stand out
-            if mask.any():
-                pl.add_points(shown[mask], scalars=rgb[mask], rgb=True,
-                              render_points_as_spheres=True, point_size=px)
-        if worst:
-            idx = [i for i, _ in worst]
-            pl.add_point_labels(shown[idx], [t for _, t in worst], font_size=30, point_size=1,
-                                shape_color="white", shape_opacity=0.85, text_color="black",
-                                always_visible=True, margin=3)
+        actors = [(pl.add_points(shown[mask], scalars=rgb[mask], rgb=True,
+                                 render_points_as_spheres=True), grow)
+                  for mask, grow in ((~out, 1.0), (out, 1.4)) if mask.any()]  # rejects stand out
         pl.enable_parallel_projection()
-        up = any_perpendicular(face)
-        oblique = _rotate(face, np.cross(face, up), math.radians(50.0))
-        views = []
-        for name, direction in (("face-on", face), ("oblique", oblique)):
-            _frame(pl, shown, direction, up, size[0] / size[1])
-            pl.render()
-            views.append(View(name, tuple(float(v) for v in direction),
-                              _png(pl.screenshot(return_img=True))))
-        return views
+        idx = np.array([i for i, _ in worst] + list(np.flatnonzero(out)), dtype=int)
+        marks = (shown[idx], normals[idx])
+        spacing = point_spacing(feet)
+        pl.show(auto_close=False)  # the first render sets the window up; each view renders once
+        return [_shoot(pl, spec, extent, marks, idx, len(worst), size, (actors, spacing))
+                for spec in mapviews.choose_views(normals)]
     finally:
         pl.close()
+
+
+MARKER_SHARE = (1.0, 4.0, 24.0)
+"""A measured point's sphere is this share of the typical spacing between points wide on
+screen, within these pixel limits: neighbours nearly touch, so a cluster reads as a patch."""
+
+
+def _shoot(pl, spec, extent, marks, idx, n_worst, size, markers) -> View:
+    """Render one view; report where the callout points (the first ``n_worst`` of ``marks``)
+    and the other out-of-tolerance points show, skipping those behind the part or facing
+    away from the camera. markers : (the point actors with their size factors, the points'
+    typical spacing in mm)."""
+    from . import mapviews
+
+    fr = mapviews.frame(extent, spec, size[0] / size[1])
+    px_per_mm = 0.5 * size[1] / fr.half_height
+    share, smallest, largest = MARKER_SHARE
+    marker_px = float(np.clip(share * markers[1] * px_per_mm, smallest, largest))
+    for actor, grow in markers[0]:
+        actor.prop.point_size = grow * marker_px
+    d = np.asarray(spec.direction)
+    marks, facing = marks[0], marks[1] @ d > -0.1
+    pl.camera_position = [tuple(np.asarray(fr.centre) + fr.depth * d), fr.centre, spec.up]
+    pl.camera.parallel_scale = fr.half_height
+    pl.renderer.reset_camera_clipping_range()
+    pl.render()
+    png = _png(_grab(pl, zbuffer=False))
+    xy = mapviews.project(marks, spec, fr, size)
+    near, far = pl.camera.clipping_range
+    z = _grab(pl, zbuffer=True)[:, :, 0]
+    dist = np.where(z < 1.0, near + z * (far - near), np.nan)  # from the camera, mm
+    # The farthest drawn depth around each point's pixel: its own sphere shows there unless
+    # the part is in front (a neighbour's sphere may cover its centre).
+    pad = np.pad(dist, 2, constant_values=np.nan)
+    col = np.clip(xy[:, 0].astype(int), 0, size[0] - 1)
+    row = np.clip(xy[:, 1].astype(int), 0, size[1] - 1)
+    win = np.stack([pad[row + i, col + j] for i in range(5) for j in range(5)])
+    seen = np.where(np.isnan(win).all(axis=0), np.inf, np.nanmax(np.nan_to_num(
+        win, nan=-np.inf), axis=0))
+    expected = fr.depth - (marks - np.asarray(fr.centre)) @ d
+    slack = 0.005 * float(np.linalg.norm(np.ptp(extent, axis=0))) + \
+        1.4 * marker_px / px_per_mm  # a sphere's front is nearer than its centre
+    visible = facing & (seen >= expected - slack)  # nothing nearer to the camera all round
+    anchors = tuple((int(idx[k]), float(xy[k, 0]), float(xy[k, 1]))
+                    for k in range(n_worst) if visible[k])
+    avoid = tuple((float(x), float(y)) for (x, y), v in zip(xy[n_worst:], visible[n_worst:])
+                  if v)
+    return View(spec.name, tuple(float(v) for v in d), png, tuple(spec.up), anchors, avoid)
+
+
+def _grab(pl, zbuffer: bool) -> np.ndarray:
+    """The picture just rendered (rows from the top), colours or the z-buffer (0 near, 1
+    far), read once without rendering again (pyvista's screenshot and depth each render)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
+
+    f = vtkWindowToImageFilter()
+    f.SetInput(pl.render_window)
+    f.ShouldRerenderOff()
+    f.ReadFrontBufferOff()
+    if zbuffer:
+        f.SetInputBufferTypeToZBuffer()
+    else:
+        f.SetInputBufferTypeToRGB()
+    f.Update()
+    img = f.GetOutput()
+    w, h, _ = img.GetDimensions()
+    return vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h, w, -1)[::-1]
 
 
 DISPLAY_TRIANGLES = 40_000
@@ -187,16 +358,23 @@ CLUSTER_DIVISIONS = 150
 
 
 def display_surface(nominal_points: np.ndarray, triangles: np.ndarray | None,
-                    max_triangles: int = DISPLAY_TRIANGLES):
-    """The nominal as a pyvista surface for display (None for bare points), simplified above
-    ``max_triangles``, and how far (mm) to lift points off it along their normals so that the
-    surface never hides them."""
+                    max_triangles: int = DISPLAY_TRIANGLES, normals: np.ndarray | None = None):
+    """The nominal as a pyvista surface for display, simplified above ``max_triangles``, and
+    how far (mm) to lift points off it along their normals so that the surface never hides
+    them. Bare points with ``normals`` (m, 3) get a display mesh
+    (reports.mapviews.display_mesh); without: None."""
     import pyvista as pv
 
     diagonal = float(np.linalg.norm(np.ptp(nominal_points, axis=0)))
     lift = 1e-3 * diagonal
     if triangles is None:
-        return None, lift
+        if normals is None:
+            return None, lift
+        from .mapviews import MESH_CELLS, display_mesh
+
+        surf = display_mesh(nominal_points, normals)
+        voxel = float(np.max(np.ptp(nominal_points, axis=0))) / MESH_CELLS
+        return surf, max(lift, 0.3 * voxel)
     surf = pv.PolyData.from_regular_faces(nominal_points, triangles)
     if surf.n_cells > max_triangles:
         surf = _simplified(surf)
@@ -216,20 +394,6 @@ def _simplified(surf):
     q.AutoAdjustNumberOfDivisionsOn()
     q.Update()
     return pv.wrap(q.GetOutput())
-
-
-def _frame(pl, pts: np.ndarray, direction: np.ndarray, up: np.ndarray, aspect: float) -> None:
-    """Point the parallel-projection camera along -direction so ``pts`` fill the picture."""
-    up = up - (up @ direction) * direction
-    up /= np.linalg.norm(up)
-    right = np.cross(up, direction)
-    u, v = pts @ right, pts @ up
-    cu, cv = 0.5 * (u.max() + u.min()), 0.5 * (v.max() + v.min())
-    depth = float(np.ptp(pts @ direction)) + float(np.ptp(u)) + float(np.ptp(v))
-    centre = cu * right + cv * up + float(np.mean(pts @ direction)) * direction
-    pl.camera_position = [tuple(centre + depth * direction), tuple(centre), tuple(up)]
-    pl.camera.parallel_scale = 0.56 * max(float(np.ptp(v)), float(np.ptp(u)) / aspect)
-    pl.renderer.reset_camera_clipping_range()
 
 
 class RenderError(QAError, RuntimeError):
@@ -372,12 +536,6 @@ def any_perpendicular(v: np.ndarray) -> np.ndarray:
     return u / np.linalg.norm(u)
 
 
-def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    k = axis / np.linalg.norm(axis)
-    return v * math.cos(angle) + np.cross(k, v) * math.sin(angle) + k * (k @ v) * (
-        1 - math.cos(angle))
-
-
 def _png(img: np.ndarray) -> bytes:
     from PIL import Image
 
@@ -474,13 +632,145 @@ def legend(tol: "Tolerance", d: np.ndarray, width: float, height: float):
         g.add(String(width - 2, y + h / 2 - 3, f"{int(counts[kk])}", fontName="Helvetica",
                      fontSize=7, textAnchor="end"))
     # Bracket the in-tolerance bands.
-    y_hi = top - 3 * h
-    y_lo = top - 7 * h
+    inside = [k for k, b in enumerate(table) if b.in_tolerance]
+    y_hi = top - (len(table) - 1 - inside[-1]) * h
+    y_lo = top - (len(table) - inside[0]) * h
     for y in (y_hi, y_lo):
         g.add(Line(0, y, width, y, strokeColor=colors.black, strokeWidth=1.0))
     g.add(String(width - 2, top + 1, "points", fontName="Helvetica", fontSize=6.5,
                  textAnchor="end"))
     return g
+
+
+# ---------------------------------------------------------------------------- map furniture
+def colour_bar(tol: "Tolerance", width: float, height: float, title: str = "mm"):
+    """The colour scale as a vertical bar to stand beside a map: the zone's steps to scale,
+    the two colours beyond each limit as blocks above and below, the limits and 0 labelled."""
+    from reportlab.graphics.shapes import Drawing, Line, Rect, String
+    from reportlab.lib import colors
+
+    table = bands(tol)
+    inside = [b for b in table if b.in_tolerance]
+    g = Drawing(width, height)
+    g.add(String(0, height - 8, title, fontName="Helvetica-Bold", fontSize=7.5))
+    bw, top, bottom = 11.0, height - 16, 4.0
+    block = 0.07 * (top - bottom)
+    z0, z1 = bottom + 2 * block, top - 2 * block  # the zone, to scale
+
+    def Y(v):
+        return z0 + (v - tol.lower) / (tol.upper - tol.lower) * (z1 - z0)
+
+    spans = [(bottom, bottom + block), (bottom + block, z0)]
+    spans += [(Y(b.lower), Y(b.upper)) for b in inside]
+    spans += [(z1, z1 + block), (z1 + block, top)]
+    for b, (y0, y1) in zip(table, spans):
+        g.add(Rect(0, y0, bw, y1 - y0, fillColor=colors.Color(*b.rgb), strokeColor=None))
+    g.add(Rect(0, bottom, bw, top - bottom, fillColor=None, strokeColor=colors.black,
+               strokeWidth=0.4))
+    s = (tol.upper - tol.lower) / 4
+    n = inside[0].digits
+    ticks = [(z0, tol.lower, "LTL ", True), (z1, tol.upper, "UTL ", True),
+             (bottom + block, tol.lower - s, "", False), (z1 + block, tol.upper + s, "", False)]
+    if tol.lower < 0 < tol.upper and min(Y(0) - z0, z1 - Y(0)) > 9:
+        ticks.append((Y(0.0), 0.0, "", True))
+    for y, v, name, strong in ticks:
+        g.add(Line(0 if strong else bw - 3, y, bw + 3, y, strokeColor=colors.black,
+                   strokeWidth=0.9 if strong else 0.4))
+        text = "0" if v == 0 else f"{name}{v:+.{n}f}"
+        g.add(String(bw + 5, y - 2.5, text, fontName="Helvetica-Bold" if strong else "Helvetica",
+                     fontSize=6.5))
+    return g
+
+
+TRIAD_RGB = ((0.80, 0.10, 0.10), (0.10, 0.55, 0.10), (0.10, 0.25, 0.85))
+"""X, Y, Z arrows of the axis triad."""
+
+
+def _triad(g, view: View, x: float, y: float, length: float) -> None:
+    """The nominal's axes as seen in ``view``, drawn from (x, y)."""
+    from reportlab.graphics.shapes import Circle, Line, String
+    from reportlab.lib import colors
+
+    from .mapviews import ViewSpec, camera_basis
+
+    _, right, up = camera_basis(ViewSpec(view.name, view.direction, view.up))
+    for k, name in enumerate("XYZ"):
+        u, v = right[k], up[k]
+        c = colors.Color(*TRIAD_RGB[k])
+        if math.hypot(u, v) < 0.2:  # along the line of sight: a dot, the label beside it
+            g.add(Circle(x, y, 1.6, fillColor=c, strokeColor=None))
+            g.add(String(x + 3 + 6 * k, y - 9, name, fontName="Helvetica-Bold", fontSize=6.5,
+                         fillColor=c))
+            continue
+        g.add(Line(x, y, x + length * u, y + length * v, strokeColor=c, strokeWidth=1.2))
+        g.add(String(x + (length + 4) * u - 2, y + (length + 4) * v - 2.5, name,
+                     fontName="Helvetica-Bold", fontSize=6.5, fillColor=c))
+
+
+def map_overlay(view: View, labels: dict[int, str], width: float, height: float):
+    """What the certificate draws over a rendered view of ``width`` x ``height`` points: its
+    name, the axis triad and the callouts (label boxes with leader lines placed by
+    reports.callouts.place_labels, never overlapping). labels : point index -> text (lines
+    split by newlines)."""
+    from reportlab.graphics.shapes import Drawing, String
+    from reportlab.pdfbase.pdfmetrics import stringWidth
+
+    g = Drawing(width, height)
+    g.add(String(4, height - 10, view.name, fontName="Helvetica-Bold", fontSize=8))
+    _triad(g, view, 16, 16, 11)
+    kx, ky = width / RENDER_SIZE[0], height / RENDER_SIZE[1]
+    title = (0, height - 14, 4 + stringWidth(view.name, "Helvetica-Bold", 8) + 4, height)
+    _callouts(g, [(i, x * kx, height - y * ky) for i, x, y in view.anchors], labels,
+              np.array([(x * kx, height - y * ky) for x, y in view.avoid]).reshape(-1, 2),
+              blocked=(title, (0, 0, 34, 34)))
+    return g
+
+
+def _callouts(g, anchors, labels: dict[int, str], avoid: np.ndarray, blocked) -> None:
+    """Flags on drawing ``g``: for each (point index, x, y) of ``anchors`` with a label, a box
+    with its text and a leader line to the point, placed by reports.callouts.place_labels."""
+    from reportlab.graphics.shapes import Circle, Line, Rect, String
+    from reportlab.lib import colors
+    from reportlab.pdfbase.pdfmetrics import stringWidth
+
+    from .callouts import leader_end, place_labels
+
+    shown = [(i, x, y) for i, x, y in anchors if i in labels]
+    texts = [labels[i].split("\n") for i, _, _ in shown]
+    sizes = [(max(stringWidth(t, "Helvetica", 6.5) for t in lines) + 5, 8 * len(lines) + 2)
+             for lines in texts]
+    places = place_labels(np.array([(x, y) for _, x, y in shown]).reshape(-1, 2), sizes,
+                          g.width, g.height, avoid, blocked=blocked)
+    for (i, x, y), lines, (w, h), at in zip(shown, texts, sizes, places):
+        if at is None:
+            continue
+        ex, ey = leader_end((x, y), (at[0], at[1], at[0] + w, at[1] + h))
+        g.add(Line(x, y, ex, ey, strokeColor=colors.black, strokeWidth=0.6))
+        g.add(Circle(x, y, 1.3, fillColor=colors.black, strokeColor=None))
+        g.add(Rect(*at, w, h, fillColor=colors.Color(1, 1, 1, alpha=0.9),
+                   strokeColor=colors.black, strokeWidth=0.5))
+        for k, t in enumerate(lines):
+            g.add(String(at[0] + 2.5, at[1] + h - 8 * (k + 1), t, fontName="Helvetica",
+                         fontSize=6.5))
+
+
+def map_flowable(view: View, labels: dict[int, str], width: float, height: float):
+    """A platypus flowable: the view's picture with :func:`map_overlay` drawn over it."""
+    from reportlab.graphics import renderPDF
+    from reportlab.lib.utils import ImageReader
+    from reportlab.platypus import Flowable
+
+    overlay = map_overlay(view, labels, width, height)
+
+    class MapView(Flowable):
+        def wrap(self, aw, ah):
+            return width, height
+
+        def draw(self):
+            self.canv.drawImage(ImageReader(io.BytesIO(view.png)), 0, 0, width, height)
+            renderPDF.draw(overlay, self.canv, 0, 0)
+
+    return MapView()
 
 
 def template_polylines(template) -> list[np.ndarray]:
@@ -552,12 +842,9 @@ def contour_map(template, feet: np.ndarray, normals: np.ndarray, d: np.ndarray,
         c = colors.Color(*rgb[i])
         g.add(Line(fx[i], fy[i], tx[i], ty[i], strokeColor=c, strokeWidth=0.8))
         g.add(Circle(tx[i], ty[i], 1.1, fillColor=c, strokeColor=None))
-    placed = []
-    for i, text in worst:  # worst first; a label that would overlap an earlier one is left out
-        if all(abs(tx[i] - x) > 60 or abs(ty[i] - y) > 9 for x, y in placed):
-            placed.append((tx[i], ty[i]))
-            g.add(String(tx[i] + 3, ty[i] + 2, text.replace("\n", " "), fontName="Helvetica",
-                         fontSize=6.5))
+    _callouts(g, [(i, tx[i], ty[i]) for i, _ in worst], dict(worst),
+              np.column_stack([tx, ty])[(d < tol.lower) | (d > tol.upper)],
+              blocked=((0, 0, width, 12),))
     g.add(String(2, 2, f"Whiskers: deviation × {factor:g} along the contour normal "
                        "(outward = excess material)", fontName="Helvetica-Oblique",
                  fontSize=7.5))

@@ -1,9 +1,9 @@
-"""Which points a map calls out (reports.callouts): the worst point of each separate cluster."""
+"""Which points a map calls out (reports.callouts.callout_points, the certificate's and the app's):
+the worst point of each separate cluster."""
 
 import numpy as np
-import pytest
 
-from reports.callouts import notable_points, worst_of_clusters
+from reports.callouts import PASSING_SHARE, callout_points
 
 
 def grid_with_defects():
@@ -23,39 +23,35 @@ def grid_with_defects():
 
 def test_one_callout_per_defect_at_its_worst_point_worst_first():
     pts, d, spike = grid_with_defects()
-    flags = worst_of_clusters(pts, d, -0.1, 0.1)
+    flags = callout_points(pts, d, -0.1, 0.1)
     dent = int(np.argmin(d))
     bump = int(np.argmax(np.where(np.hypot(pts[:, 0] - 90, pts[:, 1] - 50) < 20, d, -1)))
-    assert flags.tolist() == [dent, bump, spike]
+    assert flags == [dent, bump, spike]
     assert np.hypot(*(pts[dent, :2] - (30, 30))) < 2.1  # the planted dent's deepest point
     # The five worst points all lie in the dent: a "five worst" rule would flag it five times.
     assert np.all(np.hypot(pts[np.argsort(d)[:5], 0] - 30, pts[np.argsort(d)[:5], 1] - 30) < 5)
-    assert worst_of_clusters(pts, d, -0.1, 0.1, n=2).tolist() == [dent, bump]
+    assert callout_points(pts, d, -0.1, 0.1, max_callouts=2) == [dent, bump]
 
 
 def test_a_dent_beside_a_bump_gets_two_callouts():
     """Adjacent points of opposite sign are separate clusters (a dent and its raised rim)."""
     pts = np.column_stack([np.arange(8.0), np.zeros(8)])
     d = np.array([0, -0.3, -0.6, -0.3, 0.3, 0.5, 0, 0])
-    assert worst_of_clusters(pts, d, -0.2, 0.2).tolist() == [2, 5]
+    assert callout_points(pts, d, -0.2, 0.2) == [2, 5]
 
 
-def test_an_accepted_part_calls_out_what_lies_nearest_the_limits():
-    """No point outside the zone: the points at least half as far from the zone's centre as
-    the farthest are the notable ones, so the dent of an accepted part still gets its flag."""
+def test_an_accepted_part_calls_out_its_largest_departures():
+    """No point outside the zone: the points deviating by at least PASSING_SHARE of the largest
+    |deviation| are the candidates, so the dent of an accepted part still gets its flag."""
     pts, d, spike = grid_with_defects()
     inside = d * 0.2  # dent −0.08, bump +0.07, spike +0.06: all inside ±0.1
-    notable = notable_points(inside, -0.1, 0.1)
-    assert np.array_equal(notable, np.abs(inside) >= 0.5 * np.abs(inside).max())
-    flags = worst_of_clusters(pts, inside, -0.1, 0.1)
-    assert flags.tolist() == [int(np.argmin(inside)), int(np.argmax(np.where(
+    assert 0.06 >= PASSING_SHARE * 0.08
+    flags = callout_points(pts, inside, -0.1, 0.1)
+    assert flags == [int(np.argmin(inside)), int(np.argmax(np.where(
         np.hypot(pts[:, 0] - 90, pts[:, 1] - 50) < 20, inside, -1))), spike]
-    # An asymmetric zone: "worst" is nearest a limit, not largest |d|.
-    assert worst_of_clusters(pts, inside, -0.3, 0.1)[0] != int(np.argmin(inside))
 
 
-def test_nothing_to_call_out_and_bad_shapes():
+def test_nothing_to_call_out():
     pts = np.zeros((3, 3)) + np.arange(3.0)[:, None]
-    assert worst_of_clusters(pts, np.zeros(3), -0.1, 0.1).size == 0
-    with pytest.raises(ValueError, match="3 points but 2 deviations"):
-        worst_of_clusters(pts, np.zeros(2), -0.1, 0.1)
+    assert callout_points(pts, np.zeros(3), -0.1, 0.1) == []
+    assert callout_points(np.zeros((0, 3)), np.zeros(0), -0.1, 0.1) == []

@@ -12,7 +12,7 @@ from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from reports import figures
-from reports.callouts import worst_of_clusters
+from reports.callouts import callout_points
 from reports.messages import VERDICT_WORD
 
 from .model import Session, characteristic_rows
@@ -123,8 +123,8 @@ class Viewport3D(QWidget):
             face = figures.face_on_direction(res.deviations.foot, res.deviations.normal)
             out["home"] = (tuple(face), tuple(figures.any_perpendicular(face)))
         out["tree"] = cKDTree(out["shown"])
-        out["flags"] = worst_of_clusters(out["shown"], d, res.tolerance.lower,
-                                         res.tolerance.upper, n=FLAGS)
+        out["flags"] = np.array(callout_points(out["shown"], d, res.tolerance.lower,
+                                               res.tolerance.upper, max_callouts=FLAGS), int)
         return out
 
     def show_run(self, run) -> None:

@@ -1,0 +1,74 @@
+"""Regenerate the screenshots of docs/screenshots/ from the bundled samples.
+
+    .venv/bin/python scripts/screenshots.py [OUT_DIR]
+
+:func:`certificate_pages` writes PNGs of the certificate pages that show the deviation maps
+(the belly fairing at +-0.25 mm, the seat bracket judged by its plan, the fuselage frame's 2D
+contour) and of every page of the belly fairing's certificate. It runs ``qa-inspect inspect
+… --report`` as an inspector would and renders pages with poppler's ``pdftoppm``.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CERTIFICATES = [
+    ("belly_fairing", ["samples/belly_fairing/nominal.csv", "samples/belly_fairing/measured.csv",
+                       "--tol", "0.25"]),
+    ("seat_bracket", ["samples/seat_bracket/nominal.xyz", "samples/seat_bracket/measured.csv",
+                      "--plan", "samples/seat_bracket/plan.toml"]),
+    ("fuselage_frame", ["samples/fuselage_frame/template.dxf",
+                        "samples/fuselage_frame/measured.csv",
+                        "--plan", "samples/fuselage_frame/plan.toml"]),
+]
+PART = ["--part-number", "SAMPLE-1", "--serial", "SN-0001", "--inspector", "Screenshot script",
+        "--organisation", "qa-inspect samples"]
+
+
+def certificate_pages(out_dir: str, dpi: int = 80) -> list[str]:
+    """Write ``certificate_<sample>_map.png`` (the page with section 7, the deviation map) for
+    each sample and ``certificate_belly_fairing_p<k>.png`` for every page of the belly
+    fairing's certificate into ``out_dir``; return the paths written."""
+    os.makedirs(out_dir, exist_ok=True)
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    written = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, args in CERTIFICATES:
+            pdf = os.path.join(tmp, f"{name}.pdf")
+            r = subprocess.run([sys.executable, "-m", "qa_app.cli", "inspect", *args,
+                                "--report", pdf, *PART], cwd=ROOT, env=env,
+                               capture_output=True, text=True)
+            if r.returncode not in (0, 1, 2):
+                raise SystemExit(f"{name}: qa-inspect exit {r.returncode}: {r.stderr}")
+            pages = _page_count(pdf)
+            for page in range(1, pages + 1):
+                text = subprocess.run(["pdftotext", "-f", str(page), "-l", str(page), pdf, "-"],
+                                      capture_output=True, text=True, check=True).stdout
+                every = name == "belly_fairing"
+                if "Deviation map" in text or every:
+                    stem = f"certificate_{name}_" + ("map" if "Deviation map" in text and
+                                                     not every else f"p{page}")
+                    written.append(_render(pdf, page, dpi, os.path.join(out_dir, stem)))
+    return written
+
+
+def _page_count(pdf: str) -> int:
+    info = subprocess.run(["pdfinfo", pdf], capture_output=True, text=True, check=True).stdout
+    return int(next(line.split()[-1] for line in info.splitlines()
+                    if line.startswith("Pages:")))
+
+
+def _render(pdf: str, page: int, dpi: int, stem: str) -> str:
+    subprocess.run(["pdftoppm", "-f", str(page), "-l", str(page), "-r", str(dpi), "-png",
+                    "-singlefile", pdf, stem], check=True)
+    return stem + ".png"
+
+
+if __name__ == "__main__":
+    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "docs", "screenshots")
+    for path in certificate_pages(out):
+        print(path)
