@@ -1,6 +1,10 @@
-"""Regenerate the screenshots of docs/screenshots/ from the bundled samples.
+"""Regenerate every screenshot of docs/screenshots/ from the bundled samples.
 
     .venv/bin/python scripts/screenshots.py [OUT_DIR]
+
+The certificate pages (:func:`certificate_pages`), the desktop app at 1366x768 and 1920x1080
+(scripts/app_screenshots.py, on virtual X displays: needs xvfb-run) and the SPC page of a
+drifting lot (scripts/spc_screenshot.py).
 
 :func:`certificate_pages` writes PNGs of the certificate pages that show the deviation maps
 (the belly fairing at +-0.25 mm, the seat bracket judged by its plan, the fuselage frame's 2D
@@ -68,7 +72,18 @@ def _render(pdf: str, page: int, dpi: int, stem: str) -> str:
     return stem + ".png"
 
 
+def main(out: str) -> list[str]:
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    sys.path.insert(0, ROOT)
+    import app_screenshots
+    import spc_screenshot
+
+    return (certificate_pages(out)
+            + app_screenshots.app_screenshots(out, cases=tuple(app_screenshots.CASES))
+            + [spc_screenshot.main(out)])
+
+
 if __name__ == "__main__":
-    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "docs", "screenshots")
-    for path in certificate_pages(out):
+    for path in main(sys.argv[1] if len(sys.argv) > 1 else
+                     os.path.join(ROOT, "docs", "screenshots")):
         print(path)
