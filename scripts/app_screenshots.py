@@ -3,8 +3,9 @@
 
     PYTHONPATH=. .venv/bin/python scripts/app_screenshots.py docs/screenshots
 
-writes ``app_1366x768.png`` and ``app_1920x1080.png`` (and ``app_2d_1366x768.png``: the
-fuselage frame's DXF template in the 2D view). The lead's screenshot script calls
+writes ``app_1366x768.png`` and ``app_1920x1080.png`` (and ``app_2d_*.png``: the fuselage
+frame's DXF template in the 2D view; ``app_bracket_*.png``: the seat bracket, a bare-point
+nominal drawn as a shaded display mesh). The lead's screenshot script calls
 :func:`app_screenshots`. Needs ``xvfb-run`` (package xvfb).
 """
 
@@ -22,6 +23,8 @@ FRAME = os.path.join(ROOT, "samples", "fuselage_frame")
 CASES = {
     "app": ([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")], 0.25),
     "app_2d": ([os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")], 0.05),
+    "app_bracket": ([os.path.join(ROOT, "samples", "seat_bracket", "nominal.xyz"),
+                     os.path.join(ROOT, "samples", "seat_bracket", "measured.csv")], 0.1),
 }
 """Each screenshot's files and symmetric zone (±mm)."""
 

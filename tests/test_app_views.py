@@ -171,3 +171,28 @@ def _no_collection():
         yield
     finally:
         gc.enable()
+
+
+def test_a_bare_point_nominal_is_drawn_as_a_shaded_surface_in_the_3d_view():
+    """The seat bracket's nominal is 200,000 bare points with normals: the 3D view draws the
+    display mesh the certificate draws (reports.mapviews), not a grey cloud; its vertices lie
+    near the nominal (99 % within half a voxel of its points, all within two: marching cubes
+    rounds edges and corners) and cover it (every nominal point within a voxel of a vertex)."""
+    from scipy.spatial import cKDTree
+
+    from engine.pipeline import inspection_settings, run_files
+    from engine.tolerance import Tolerance
+    from qa_app.desktop.viewport import Viewport3D
+    from reports.mapviews import MESH_CELLS
+
+    bracket = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                           "samples", "seat_bracket")
+    run = run_files(os.path.join(bracket, "nominal.xyz"), os.path.join(bracket, "measured.csv"),
+                    inspection_settings(Tolerance.symmetric(0.1)))
+    assert run.nominal.triangles is None
+    surf = Viewport3D.prepare(run)["surface"]
+    assert surf is not None and surf.n_cells > 1000
+    voxel = float(np.max(np.ptp(run.nominal.points, axis=0))) / MESH_CELLS
+    gap = cKDTree(run.nominal.points).query(surf.points)[0]
+    assert np.quantile(gap, 0.99) < 0.5 * voxel and gap.max() < 2 * voxel
+    assert cKDTree(surf.points).query(run.nominal.points[::50])[0].max() < voxel

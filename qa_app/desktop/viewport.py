@@ -114,8 +114,11 @@ class Viewport3D(QWidget):
                                for p in figures.template_polylines(run.template.template)]
             out["home"] = ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0))
         else:
-            surf, lift = figures.display_surface(run.nominal.points, run.nominal.triangles,
-                                                 max_triangles=400_000)
+            nom = run.nominal
+            # Bare points get a display mesh as on the certificate (reports.mapviews).
+            surf, lift = figures.display_surface(
+                nom.points, nom.triangles, max_triangles=400_000,
+                normals=None if nom.triangles is not None else nom.normals(np.arange(nom.n)))
             if surf is not None:
                 surf = surf.compute_normals(split_vertices=False, auto_orient_normals=False)
             out["surface"] = surf
