@@ -773,21 +773,26 @@ def map_flowable(view: View, labels: dict[int, str], width: float, height: float
     return MapView()
 
 
-def template_polylines(template) -> list[np.ndarray]:
-    """Each contour of a 2D template as one (k, 2) polyline (arcs in steps of at most 3°)."""
+def primitive_points(template, i: int, step_deg: float = 3.0, min_points: int = 4
+                     ) -> np.ndarray:
+    """(k, 2) points along primitive ``i`` of a 2D template, in drawing order: a segment's two
+    ends, an arc in steps of at most ``step_deg`` degrees (at least ``min_points`` points)."""
     from engine.contour import SEGMENT
 
+    if template.kind[i] == SEGMENT:
+        return np.array([template.start[i], template.end[i]])
+    n = max(min_points, math.ceil(abs(template.sweep[i]) / math.radians(step_deg)) + 1)
+    a = template.angle0[i] + np.linspace(0, template.sweep[i], n)
+    return template.centre[i] + template.radius[i] * np.column_stack([np.cos(a), np.sin(a)])
+
+
+def template_polylines(template) -> list[np.ndarray]:
+    """Each contour of a 2D template as one (k, 2) polyline (arcs in steps of at most 3°)."""
     polylines = []
     for c in range(template.closed.size):
         pts = []
         for i in np.flatnonzero(template.contour == c):
-            if template.kind[i] == SEGMENT:
-                seg = np.array([template.start[i], template.end[i]])
-            else:
-                n = max(4, int(abs(template.sweep[i]) / math.radians(3)) + 1)
-                a = template.angle0[i] + np.linspace(0, template.sweep[i], n)
-                seg = template.centre[i] + template.radius[i] * np.column_stack(
-                    [np.cos(a), np.sin(a)])
+            seg = primitive_points(template, i)
             pts.append(seg if not pts else seg[1:])
         polylines.append(np.vstack(pts))
     return polylines

@@ -12,7 +12,7 @@ from PySide6.QtCore import QLineF, QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import QWidget
 
-from engine.contour import SEGMENT, point_to_primitives
+from engine.contour import point_to_primitives
 from reports import figures
 
 from .model import Session
@@ -42,12 +42,7 @@ def envelope_polylines(template, offset: float, step_deg: float = 3.0) -> list[n
     for c in range(t.closed.size):
         pieces = []
         for i in np.flatnonzero(t.contour == c):
-            if t.kind[i] == SEGMENT:
-                pts = np.array([t.start[i], t.end[i]])
-            else:
-                k = max(2, int(np.ceil(abs(t.sweep[i]) / np.radians(step_deg))) + 1)
-                ang = t.angle0[i] + np.linspace(0.0, t.sweep[i], k)
-                pts = t.centre[i] + t.radius[i] * np.column_stack([np.cos(ang), np.sin(ang)])
+            pts = figures.primitive_points(t, i, step_deg, min_points=2)
             left = point_to_primitives(pts, t, np.full(len(pts), i))[2]
             pieces.append(pts + (offset * t.side[c]) * left)
         out.append(np.vstack(pieces))
