@@ -58,6 +58,7 @@ EXAMPLES = """examples:
       --sign inspector.p12 --part-number SB-1020 --serial S-17
   qa-inspect inspect part.stp scan.ply --tol 0.1 --uncertainty 0.012
   qa-inspect inspect frame.dxf points.csv --tol-lower -0.1 --tol-upper 0.3
+  qa-inspect batch nominal.csv 'lot-0412/*.csv' --tol 0.15 --out results/lot-0412
   qa-inspect keygen --name "Ann Inspector" --out identity/
   qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv"""
 EXIT_CODES = """exit codes:
@@ -70,7 +71,9 @@ EXIT_CODES = """exit codes:
   66  an input file does not exist
   70  internal error (no result is written)
   73  an output could not be written (none is)
-  130 interrupted"""
+  69  batch: the Dask scheduler cannot be reached, or has no worker
+  130 interrupted
+  batch: 0 every part ACCEPT, else 1 any REJECT, else 2 any INCONCLUSIVE, else 65 (ERRORs)"""
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -475,4 +475,5 @@ def test_help_shows_examples_that_parse_and_every_exit_code(capsys):
         build_parser().parse_args(words[1:])
     codes = dict(re.findall(r"^  (\d+) +(\S+)", out.split("exit codes:\n", 1)[1], re.M))
     assert codes == {"0": "ACCEPT:", "1": "REJECT:", "2": "INCONCLUSIVE:", "64": "usage",
-                     "65": "bad", "66": "an", "70": "internal", "73": "an", "130": "interrupted"}
+                     "65": "bad", "66": "an", "69": "batch:", "70": "internal", "73": "an",
+                     "130": "interrupted"}
