@@ -306,11 +306,13 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
         from .uncertainty import budget
 
         margin = measure.margin(dev)
-        unc = budget(X, dev.normal, reg.inlier, reg.rms, cond, margin, instrument)
+        unc = budget(X, dev.normal, reg.inlier, robust_rms(dev.signed[reg.inlier], reg.rms),
+                     cond, margin, instrument)
         guard = unc.expanded if decision_rule == "guarded" else None
     ts = time.perf_counter()
     sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
-                                    tol, guard, fit, X, measure.beyond_at, dev.normal)
+                                    tol, guard, fit, X, measure.beyond_at, dev.normal,
+                                    pose_in_guard=unc is not None and guard is not None)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tol, reg, cond.weak, ambiguous, spread, guard,
                                      sens, statements)
@@ -358,9 +360,20 @@ def _with_pose(reg, T, dev):
     return replace(reg, T_nominal_measured=T, deviations=dev)
 
 
+def robust_rms(d: np.ndarray, rms: float) -> float:
+    """The residual scale the pose's uncertainty is taken from: the fitted points' RMS, or a
+    robust one (1.4826 x their median absolute deviation from the median) when smaller, so that
+    a defect among the points (a real deviation, no noise of the fit) does not widen every
+    other point's uncertainty."""
+    if d.size < 2:
+        return rms
+    mad = 1.4826 * float(np.median(np.abs(d - np.median(d))))
+    return min(rms, mad) if mad > 0 else rms
+
+
 def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
                  points: np.ndarray | None = None, beyond_at=None,
-                 normals: np.ndarray | None = None):
+                 normals: np.ndarray | None = None, pose_in_guard: bool = False):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
@@ -368,7 +381,10 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     points at pose T (nominal frame), for the bound on how far a probed pose moves each;
     beyond_at(T, idx): which lie past the nominal's border (None: a closed 2D contour);
     normals : the nominal's normals at the points (with ``points``: the pose's uncertainty
-    region, engine.trust.uncertainty_poses, is probed too)."""
+    region, engine.trust.uncertainty_poses, is probed too). pose_in_guard : the guard band
+    (``margin``) is each point's expanded uncertainty, which holds the pose's own uncertainty
+    already: neither the uncertainty region nor the weak directions' +-sigma are probed again
+    (that would widen the band twice); free directions and the runner-up still are."""
     from .trust import pose_sensitivity, trust_statements, uncertainty_poses
 
     if not pose_trusted(reg):
@@ -379,10 +395,12 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
         if fit == "minimax":
             Tr = minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
-    region = [] if points is None or normals is None else uncertainty_poses(
+    region = [] if points is None or normals is None or pose_in_guard else uncertainty_poses(
         points[reg.inlier], normals[reg.inlier], reg.rms, T, d[reg.inlier], tol.lower, tol.upper,
         cond, None if margin is None else margin[reg.inlier])
-    sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, cond,
+    probed = cond if not pose_in_guard else replace(
+        cond, weak=tuple(w for w in cond.weak if w.sigma_mm is None))
+    sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, probed,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
                             alternatives, points=points, beyond_at=beyond_at, region=region)
     return sens, trust_statements(sens, reg.score, reg.runner_up_score)

@@ -223,9 +223,8 @@ def test_verify_re_runs_a_certificate_older_than_uncertainty_budgets():
     """tests/data/results_before_uncertainty.json is the results document qa-inspect wrote
     before this change (the belly fairing at +-0.137 mm, guarded rule: then guarded by each
     point's nominal-sampling margin alone, ACCEPT). Its settings carry no instrument: verify
-    re-runs it with that rule and confirms it; the same part judged today with U (pose and
-    sampling) is INCONCLUSIVE, which a re-run with today's rule would have reported as a
-    changed verdict."""
+    re-runs it with that rule and confirms it; the same part judged today is guarded by U
+    (pose and sampling), as ISO 14253-1 applied to its reported deviations and U decides."""
     from engine.pipeline import run_files
     from engine.settings import InspectionSettings
     from qa_app.cli import _recheck
@@ -238,4 +237,59 @@ def test_verify_re_runs_a_certificate_older_than_uncertainty_budgets():
     assert notes[-1].startswith("re-run: ACCEPT")
     today = InspectionSettings.from_json(dict(old["settings"], instrument=None))
     assert today.guard == "uncertainty"
-    assert run_files(*BELLY, today).result.verdict == INCONCLUSIVE
+    res = run_files(*BELLY, today).result
+    assert res.verdict == _iso_14253(res.deviations.signed, res.uncertainty.expanded,
+                                     res.tolerance)
+
+
+def _iso_14253(d: np.ndarray, U: np.ndarray, tol: Tolerance) -> str:
+    """The decision of ISO 14253-1 applied to reported deviations and their expanded U (the
+    rule written out: the naive twin of the guarded decision)."""
+    if np.any((d > tol.upper + U) | (d < tol.lower - U)):
+        return REJECT
+    if np.all((d <= tol.upper - U) & (d >= tol.lower + U)):
+        return ACCEPT
+    return INCONCLUSIVE
+
+
+def _few_points(proud: float, m: int = 40, defect: float | None = None):
+    """40 points on the fairing, 5 um noise, in a random pose; point 0 stands ``proud`` mm."""
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(-240, 240, m), rng.uniform(-115, 115, m)
+    dev = rng.normal(0, 0.005, m)
+    dev[0] = proud
+    if defect is not None:
+        dev[1] = defect
+    q = np.column_stack([x, y, height(x, y)]) + dev[:, None] * height_normal(x, y)
+    return apply_transform(make_transform(random_rotation(rng), rng.uniform(-1e3, 1e3, 3)), q)
+
+
+def test_the_pose_counts_once_the_verdict_is_iso_14253_of_the_reported_d_and_u(fairing):
+    """The expanded U already holds the pose's uncertainty: the guarded verdict is ISO 14253-1
+    applied to the reported deviations and U, for a point swept across the upper limit on a
+    part measured at 40 points (where the pose's uncertainty is large), not the pose probed
+    again at +-3 sigma against limits already widened by U (which made INCONCLUSIVE what ISO
+    rejects or accepts)."""
+    tol, ins = Tolerance.symmetric(0.1), Instrument(uncertainty_mm=0.01)
+    seen = set()
+    for proud in np.linspace(0.05, 0.2, 16):
+        res = inspect(fairing, _few_points(proud), tol, decision_rule="guarded", instrument=ins)
+        want = _iso_14253(res.deviations.signed, res.uncertainty.expanded, tol)
+        assert res.verdict == want, (proud, res.reasons)
+        seen.add(want)
+    assert seen == {ACCEPT, INCONCLUSIVE, REJECT}
+
+
+def test_a_defect_does_not_widen_the_other_points_uncertainty(fairing):
+    """The pose's share of U comes from the fit's residual scale; a real 0.6 mm defect on one
+    of 40 points is no noise of the fit: the other points' U less than doubles (it grew
+    fivefold when the residual RMS, defect included, was taken as the noise; what is left is
+    the least-squares pose's real pull towards the defect)."""
+    ins = Instrument(uncertainty_mm=0.01)
+
+    def others(defect):
+        res = inspect(fairing, _few_points(0.0, defect=defect), Tolerance.symmetric(1.0),
+                      decision_rule="guarded", instrument=ins)
+        return float(np.median(res.uncertainty.expanded[2:]))
+
+    assert others(0.6) < 2.0 * others(0.0)
