@@ -119,9 +119,9 @@ class Geometry:
 
     evaluate(T, idx) -> (X, d, normals): measured points ``idx`` at pose T (nominal frame),
     signed deviations (mm) and the nominal's outward normals there. T0 : the registration's
-    pose. margin(idx, T) -> the guarded rule's per-point guard band at T, mm: the expanded
-    uncertainty U (engine.uncertainty) with the nominal-sampling margins there; None (simple
-    rule).
+    pose. margin(idx, T, form_only=False) -> the guarded rule's per-point guard band at T, mm:
+    the expanded uncertainty U (engine.uncertainty) with the nominal-sampling margins there
+    (``form_only``: without the registration's pose term); None (simple rule).
     nominal_points : (N, dim); nominal_normals(idx) -> their outward normals; nominal_masks :
     {region: (N,) bool}; centre, length: the measured points' centroid and RMS radius at T0
     (rotations are scaled by it); labels : (n,) the measured points' labels, or None.
@@ -296,16 +296,44 @@ def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry):
         return CharacteristicResult(c, None, INCONCLUSIVE, f"the points' minimum zone stands "
                                     f"at {turn:.0f}° to the nominal face: they do not "
                                     "determine its plane", idx)
-    return _by_value(c, idx, f.width, {"normal": f.normal}, "minimum-zone width")
+    return _by_value(c, idx, f.width, {"normal": f.normal}, "minimum-zone width",
+                     _value_guard(geo, idx, geo.T0, form_only=True))
 
 
-def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str):
+def _value_guard(geo: Geometry, idx: np.ndarray, T, form_only: bool) -> float | None:
+    """Under the guarded rule, how far the points' uncertainty can move a value computed from
+    them: twice the largest expanded U among the points ``idx`` at pose T (each point's error
+    within its U moves a minimum-zone width, a least-squares diameter or a position diameter by
+    at most that), without the registration's pose term for a value no rigid motion changes
+    (``form_only``: a flatness, a diameter); None under the simple rule."""
+    m = geo.margin(idx, T, form_only=form_only)
+    return None if m is None or len(m) == 0 else 2.0 * float(np.max(m))
+
+
+def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
+              guard: float | None = None):
+    """The characteristic judged by its value against its limits; with ``guard`` (the value's
+    uncertainty bound, :func:`_value_guard`) by ISO 14253-1: ACCEPT inside the limits shrunk
+    by it, REJECT outside them grown by it, else INCONCLUSIVE. Flatness and position have an
+    upper limit only (their value cannot be below 0): no guard on the lower side."""
     lo, hi = (c.nominal or 0.0) + c.lower, (c.nominal or 0.0) + c.upper
     inside = lo <= value <= hi
     reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
               f"[{lo:.4f}, {hi:.4f}] mm")
-    return CharacteristicResult(c, float(value), ACCEPT if inside else REJECT, reason, idx,
-                                facts=facts)
+    verdict = ACCEPT if inside else REJECT
+    if guard is not None:
+        g_lo = 0.0 if c.type in ("flatness", "position") else guard
+        facts = {**facts, "uncertainty_bound": guard}
+        if value > hi + guard or value < lo - g_lo:
+            verdict = REJECT
+            reason += f", by more than its uncertainty ±{guard:.4f} mm"
+        elif not lo + g_lo <= value <= hi - guard:
+            verdict = INCONCLUSIVE
+            reason += (f", within its uncertainty ±{guard:.4f} mm (twice the largest U of its "
+                       "points) of a limit: conformance is not proven either way (ISO 14253-1)")
+        else:
+            reason += f" by more than its uncertainty ±{guard:.4f} mm"
+    return CharacteristicResult(c, float(value), verdict, reason, idx, facts=facts)
 
 
 def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
@@ -329,7 +357,7 @@ def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
             return got
         return _by_value(c, idx, 2.0 * got.radius, {"fit": "least squares",
                                                     "form_error": got.form_error},
-                         "least-squares diameter")
+                         "least-squares diameter", _value_guard(geo, idx, geo.T0, True))
     al = placed(tuple(c.datums), (), T_part)
     if not al.complete:
         return _untrusted(c, idx, al)
@@ -345,7 +373,8 @@ def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
         facts = {"axis_ends": got.ends, "nominal_point": nom.point,
                  "nominal_direction": nom.direction}
     facts["free"] = [f.describe() for f in al.free]
-    return _by_value(c, idx, value, facts, "position (diameter)")
+    return _by_value(c, idx, value, facts, "position (diameter)",
+                     _value_guard(geo, idx, al.T_nominal_measured, form_only=False))
 
 
 def _check_located(c: Characteristic, al: Alignment, nom, geo: Geometry) -> None:
@@ -617,12 +646,13 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
         X = apply_transform(T, measured[idx])
         return margins_3d(nominal, point_to_surface(nominal, X).foot)
 
-    def margin(idx, T):
+    def margin(idx, T, form_only=False):
         if result.decision_rule != "guarded":
             return None
         if result.uncertainty is None:  # guarded by the sampling margin alone (older runs)
             return sampling(idx, T)
-        return expanded_at(result.uncertainty, idx, sampling(idx, T))
+        return expanded_at(result.uncertainty, idx, sampling(idx, T),
+                           ("pose",) if form_only else ())
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels,
@@ -669,12 +699,13 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     def normals(idx):
         return deviations_2d(index, samples[idx]).normal
 
-    def margin(idx, T):  # lines and arcs are exact: the budget's other terms
+    def margin(idx, T, form_only=False):  # lines and arcs are exact: the budget's other terms
         from .uncertainty import expanded_at
 
         if result.decision_rule != "guarded" or result.uncertainty is None:
             return None
-        return expanded_at(result.uncertainty, idx, np.zeros(len(idx)))
+        return expanded_at(result.uncertainty, idx, np.zeros(len(idx)),
+                           ("pose",) if form_only else ())
 
     geo = Geometry(evaluate, np.eye(3), margin, samples, normals, masks,
                    *_centre_and_length(P2), labels)

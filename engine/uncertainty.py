@@ -199,12 +199,15 @@ def _instrument_terms(ins: Instrument | None, L: np.ndarray):
 
 
 def expanded_at(b: UncertaintyBudget, idx: np.ndarray,
-                sampling: np.ndarray | None = None) -> np.ndarray:
+                sampling: np.ndarray | None = None, without: tuple[str, ...] = ()
+                ) -> np.ndarray:
     """(len(idx),) U of the points ``idx``, with their sampling term taken from the margins
     ``sampling`` (mm; another pose's, e.g. an inspection plan's alignment) instead of the
-    budget's (None: as budgeted)."""
+    budget's (None: as budgeted), and without the terms whose keys are in ``without`` (e.g.
+    "pose" for a value no rigid motion changes: a flatness, a diameter)."""
     idx = np.asarray(idx)
-    u2 = sum(t.u[idx] ** 2 for t in b.terms if t.key != "sampling" or sampling is None)
+    u2 = sum(t.u[idx] ** 2 for t in b.terms
+             if (t.key != "sampling" or sampling is None) and t.key not in without)
     if sampling is not None:
         u2 = u2 + (np.asarray(sampling, float) / SQRT3) ** 2
     return b.k * np.sqrt(u2)

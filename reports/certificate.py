@@ -901,9 +901,11 @@ def _plan_requirement(c: _Layout) -> list[tuple[str, str]]:
                               "(ISO 14253-1; inconclusive in between)"
                               if guarded else "") +
                           "; flatness, position and size when the measured value lies within "
-                          "their limits (limits are in tolerance). " + (
-                              "Measurement uncertainty is not deducted from flatness, position "
-                              "and size." if guarded else _uncertainty_sentence(res))),
+                          "their limits (limits are in tolerance)" + (
+                              ", shrunk by the value's uncertainty bound (twice the largest U "
+                              "of its points; flatness and position have an upper limit only), "
+                              "outside when it lies outside them grown by it, inconclusive in "
+                              "between." if guarded else ". " + _uncertainty_sentence(res))),
         ("Zone of the statistics",
          f"{zone}: {_type_word(c, 'profile')} of every measured point, judged at the best fit "
          "over all "

@@ -293,3 +293,38 @@ def test_a_defect_does_not_widen_the_other_points_uncertainty(fairing):
         return float(np.median(res.uncertainty.expanded[2:]))
 
     assert others(0.6) < 2.0 * others(0.0)
+
+
+def test_flatness_position_and_size_are_guarded_by_their_uncertainty_too(tmp_path):
+    """Under the guarded rule a value computed from points (flatness, position, size) is judged
+    against its limits shrunk and grown by its uncertainty bound, twice the largest U of its
+    points (ISO 14253-1), as each profile point is against its own U: with U larger than every
+    tolerance no such characteristic can be accepted or rejected; with a small U the seat
+    bracket's three accept as under the simple rule; the bound is the JSON's, and each verdict
+    is the rule applied to it."""
+    bracket = os.path.join(ROOT, "samples", "seat_bracket")
+    with open(os.path.join(bracket, "plan.toml")) as f:
+        text = f.read()
+    head = text[:text.index("[[characteristic]]")]
+    plan = tmp_path / "plan.toml"
+    plan.write_text(head + '[[characteristic]]\nid = "3"\ntype = "flatness"\nregion = "A"\n'
+                    'zone = 0.01\n[[characteristic]]\nid = "4"\ntype = "position"\n'
+                    'region = "hole1"\nzone = 0.1\ndatums = ["A", "B", "C"]\n'
+                    '[[characteristic]]\nid = "5"\ntype = "size"\nregion = "hole1"\n'
+                    'nominal = 8.0\nlower = -0.05\nupper = 0.05\n')
+    verdicts = {}
+    for u in (0.2, 0.0005):
+        out = tmp_path / f"r{u}.json"
+        main(["inspect", os.path.join(bracket, "nominal.xyz"),
+              os.path.join(bracket, "measured.csv"), "--plan", str(plan), "--uncertainty",
+              str(u), "--json", str(out)])
+        doc = json.loads(out.read_text())
+        for c in doc["characteristics"]:
+            g, v = c["uncertainty_bound"], c["value"]
+            lo, hi = (c.get("nominal") or 0.0) + c["lower"], (c.get("nominal") or 0.0) + c["upper"]
+            g_lo = 0.0 if c["type"] in ("flatness", "position") else g
+            want = (REJECT if v > hi + g or v < lo - g_lo else
+                    ACCEPT if lo + g_lo <= v <= hi - g else INCONCLUSIVE)
+            assert c["verdict"] == want and g >= 2 * u, (u, c)
+        verdicts[u] = [c["verdict"] for c in doc["characteristics"]]
+    assert verdicts == {0.2: [INCONCLUSIVE] * 3, 0.0005: [ACCEPT] * 3}
