@@ -624,3 +624,31 @@ def test_a_bad_plan_is_the_command_lines_error_and_changes_nothing(tmp_path, cap
     c.open_plan(nominal)
     assert messages[-1] == ("error", f"{nominal}: unsupported file type '.xyz'; supported: "
                                      ".toml")
+
+
+def test_a_plans_instrument_decides_in_the_app_as_on_the_command_line(tmp_path):
+    """A plan whose [measurement] states an instrument: the app's default (automatic) decision
+    rule is the guarded one, as `qa-inspect inspect --plan` without --decision-rule, and gives
+    its verdicts; an explicit Simple afterwards marks the result out of date and then gives the
+    command line's `--decision-rule simple` verdicts."""
+    from engine.pipeline import inspection_settings, run_files
+
+    text = Path(BRACKET, "plan.toml").read_text()
+    plan = tmp_path / "plan.toml"
+    plan.write_text(text.replace('[[region]]', '[measurement]\nuncertainty_mm = 0.02\n\n'
+                                 '[[region]]', 1))
+    files = [os.path.join(BRACKET, "nominal.xyz"), os.path.join(BRACKET, "measured.csv")]
+    s, c, _ = make()
+    c.open_files(files + [str(plan)])
+    c.inspect()
+    cli = run_files(*files, inspection_settings(None, str(plan))).result
+    assert s.run.result.decision_rule == cli.decision_rule == "guarded"
+    assert [r.verdict for r in s.run.result.plan.characteristics] == \
+        [r.verdict for r in cli.plan.characteristics]
+    assert s.run.result.verdict == cli.verdict
+    s.set_settings(decision_rule="simple")
+    assert s.step != Step.INSPECTED
+    c.inspect()
+    simple = run_files(*files, inspection_settings(None, str(plan), decision_rule="simple"))
+    assert s.run.result.decision_rule == "simple"
+    assert s.run.result.verdict == simple.result.verdict

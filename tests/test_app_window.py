@@ -279,7 +279,13 @@ def test_a_change_after_inspection_marks_the_result_out_of_date(window, qtbot, t
     assert w.banner.verdict == w.session.run.result.verdict
     assert "OUT OF DATE" not in w.banner.word.text()
     assert all(a.isEnabled() for a in export_actions(w))
-    assert w.session.run.settings == w.session.settings
+    # The session's automatic decision rule is the one the run resolved it to.
+    from dataclasses import replace
+
+    from qa_app.desktop.model import resolved_rule
+    st = w.session.settings
+    assert w.session.run.settings == replace(
+        st, decision_rule=resolved_rule(st.decision_rule, w.session.run))
 
 
 def test_an_edited_zone_stays_as_typed_and_back_to_the_results_zone_is_current(window):

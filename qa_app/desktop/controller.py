@@ -19,7 +19,7 @@ from dataclasses import replace
 from engine.errors import Cancelled, InputError, SettingsError
 from engine.settings import InspectionSettings
 
-from .model import Session
+from .model import Session, engine_rule
 
 SESSION_FORMAT = "qa-inspect session"
 SESSION_SUFFIX = ".qasession"
@@ -186,8 +186,10 @@ class Controller:
             # Imported here, in the worker: the engine's first import holds the interpreter.
             from engine.pipeline import inspection_settings, run_files
 
+            options = {k: getattr(st, k) for k in OPTIONS}
+            options["decision_rule"] = engine_rule(options["decision_rule"])
             settings = inspection_settings(None if plans_zone else st.tolerance, plan,
-                                           **{k: getattr(st, k) for k in OPTIONS})
+                                           **options)
             run = run_files(nominal, measured, settings, progress=self._progress)
             display = None
             if self._prepare is not None:

@@ -40,6 +40,27 @@ class Step(enum.Enum):
     STALE = "Out of date: settings or files changed since this inspection; press Inspect"
 
 
+AUTO_RULE = "auto"
+"""The session's decision rule when the user leaves it to the inspection, as the command line
+without --decision-rule: guarded when an instrument is stated (the plan's [measurement]), else
+simple (engine.pipeline.inspection_settings, given None)."""
+
+
+def engine_rule(rule: str) -> str | None:
+    """The decision rule to give engine.pipeline.inspection_settings (None: automatic)."""
+    return None if rule == AUTO_RULE else rule
+
+
+def resolved_rule(rule: str, run) -> str:
+    """The rule ``rule`` comes to for the inputs of ``run``: automatic is guarded when the
+    run's uncertainty budget holds an instrument's term, else simple."""
+    if rule != AUTO_RULE:
+        return rule
+    unc = getattr(run.result, "uncertainty", None)
+    stated = unc is not None and any(t.key not in ("pose", "sampling") for t in unc.terms)
+    return "guarded" if stated else "simple"
+
+
 class Session:
     """One inspection session.
 
@@ -65,7 +86,7 @@ class Session:
         self.nominal_path: str | None = None
         self.measured_path: str | None = None
         self.plan_path: str | None = None
-        self.settings = InspectionSettings(-0.1, 0.1)
+        self.settings = InspectionSettings(-0.1, 0.1, decision_rule=AUTO_RULE)
         self.run = None  # engine.pipeline.Run of the last inspection, or None
         self.display = None
         """What the views prepared for showing ``run`` in the worker (the controller's
@@ -116,7 +137,7 @@ class Session:
         out += self._zone_changes(was, now)
         if was.fit != now.fit:
             out.append(f"fit changed from {was.fit} to {now.fit}")
-        if was.decision_rule != now.decision_rule:
+        if was.decision_rule != resolved_rule(now.decision_rule, run):
             out.append(f"decision rule changed from {was.decision_rule} to "
                        f"{now.decision_rule}")
         if was.scale != now.scale:

@@ -46,7 +46,7 @@ from engine.io import formats
 from reports import figures
 from reports.messages import VERDICT_RGB, VERDICT_WORD, alignment_text
 
-from .model import Session, characteristic_rows
+from .model import AUTO_RULE, Session, characteristic_rows
 
 
 DXF_UNITS = ("mm", "cm", "m", "in")
@@ -763,10 +763,13 @@ class ToleranceForm(QWidget):
         self.fit.setToolTip("Least squares spreads the error; minimax finds the pose with the "
                             "smallest largest excursion: can the part be placed in its zone?")
         self.rule = QComboBox()
+        self.rule.addItem("Automatic (guarded when the plan states an instrument)", AUTO_RULE)
         self.rule.addItem("Simple (every point in the zone)", "simple")
-        self.rule.addItem("Guarded (sampling margin)", "guarded")
-        self.rule.setToolTip("Guarded: accept only inside the zone shrunk by each point's "
-                             "nominal-sampling margin, reject only outside the zone grown by it")
+        self.rule.addItem("Guarded (ISO 14253-1: each point's U)", "guarded")
+        self.rule.setToolTip("Guarded (ISO 14253-1): accept only inside the zone shrunk by each "
+                             "point's expanded uncertainty U, reject only outside the zone grown "
+                             "by it. Automatic: guarded when the plan's [measurement] states an "
+                             "instrument, as qa-inspect does without --decision-rule")
         self.chord = QDoubleSpinBox()
         self.chord.setRange(0.0, 1e6)
         self.chord.setDecimals(3)
