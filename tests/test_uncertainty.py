@@ -208,6 +208,8 @@ def test_plan_measurement_states_the_instrument(tmp_path):
      "[measurement]: 'probing_um' must not be negative"),
     (("mpe_l_per_um = 300", "mpe_l_per_um = 0"), "[measurement]: 'mpe_l_per_um'"),
     (("temperature_c = 22.0\n", ""), "[measurement]: 'expansion_per_k' needs temperature_c"),
+    (("mpe_a_um = 1.8\nmpe_l_per_um = 300\nprobing_um = 1.9\nexpansion_per_k = 23e-6\n",
+      "uncertainty_mm = 0\n"), "[measurement]: 'uncertainty_mm' must be > 0"),
     (("probe = ", "stylus = "), "'stylus' is not a key of [measurement]"),
     (("temperature_c = 22.0", 'temperature_c = "warm"'), "'temperature_c' must be a number"),
 ])

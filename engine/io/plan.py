@@ -259,6 +259,9 @@ def _measurement(t: _Table) -> Measurement:
     if temperature is not None and not -100.0 < temperature < 200.0:
         raise t.fail("temperature_c", f"must be a temperature in °C, got {temperature:g}")
     if numbers["uncertainty_mm"] is not None:
+        if not numbers["uncertainty_mm"] > 0:  # as --uncertainty: 0 would claim a perfect one
+            raise t.fail("uncertainty_mm", "must be > 0 (an expanded uncertainty, mm), got "
+                         f"{numbers['uncertainty_mm']:g}")
         for k in INSTRUMENT_KEYS[1:]:
             if numbers[k] is not None:
                 raise t.fail(k, "and 'uncertainty_mm' are both given: a stated expanded "
