@@ -475,7 +475,9 @@ def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0
             with _sigint_ignored():  # inherited by the worker processes: see _sigint_ignored
                 cluster = stack.enter_context(LocalCluster(
                     n_workers=workers or _cores(), threads_per_worker=1, processes=True,
-                    dashboard_address=None, silence_logs=logging.ERROR))
+                    # Any free port for its web server (None is Dask's fixed 8787): two
+                    # batches, or a batch beside another Dask user, run side by side.
+                    dashboard_address=":0", silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
         else:
             try:

@@ -2,10 +2,12 @@
 ``dask scheduler`` and two ``dask worker`` processes, one killed mid-batch); ERROR rows;
 resume; the single-part command as the truth of each part's numbers."""
 
+import contextlib
 import csv
 import json
 import os
 import re
+import socket
 import subprocess
 import sys
 import time
@@ -229,8 +231,15 @@ def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
         files.append(tmp_path / f"d{k:02d}.csv")
         write_labelled_points(files[-1], apply_transform(T, q))
     out = tmp_path / "out"
-    assert run("batch", d / "nominal.csv", *files, "--tol", "0.06", "--out", out,
-               "--workers", "1", "--quiet") == 0
+    # Dask's usual web port taken (another batch, another Dask user): the local cluster
+    # starts all the same (it failed: "Port 8787 is already in use").
+    with contextlib.closing(socket.socket()) as taken:
+        taken.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        with contextlib.suppress(OSError):  # already taken by someone else: as good
+            taken.bind(("0.0.0.0", 8787))
+            taken.listen()
+        assert run("batch", d / "nominal.csv", *files, "--tol", "0.06", "--out", out,
+                   "--workers", "1", "--quiet") == 0
     doc = _summary(out)
     spc = {c["id"]: c for c in doc["spc"]}
     values = np.array([r["values"]["max_abs"] for r in doc["parts"]])
