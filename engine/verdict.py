@@ -221,6 +221,13 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
         return ACCEPT, (f"all {d.size} points lie inside the tolerance zone by more than their "
                         "measurement uncertainty U")
     k = int((~in_shrunk).sum())
-    return INCONCLUSIVE, (f"{k} of {d.size} points lie within their measurement uncertainty U "
-                          "of a tolerance limit (guarded decision rule, ISO 14253-1): neither "
-                          "conformance nor non-conformance is proven")
+    reason = (f"{k} of {d.size} points lie within their measurement uncertainty U of a "
+              "tolerance limit (guarded decision rule, ISO 14253-1): neither conformance nor "
+              "non-conformance is proven")
+    width = tol.upper - tol.lower
+    no_room = int((2.0 * np.asarray(margin) >= width).sum())
+    if no_room:
+        reason += (f"; at {no_room} points 2U ≥ the zone's width {width:.4g} mm: there "
+                   "conformance cannot be proven for any part, the measurement is not capable "
+                   "of this tolerance")
+    return INCONCLUSIVE, reason

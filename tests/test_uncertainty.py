@@ -330,3 +330,18 @@ def test_flatness_position_and_size_are_guarded_by_their_uncertainty_too(tmp_pat
             assert c["verdict"] == want and g >= 2 * u, (u, c)
         verdicts[u] = [c["verdict"] for c in doc["characteristics"]]
     assert verdicts == {0.2: [INCONCLUSIVE] * 3, 0.0005: [ACCEPT] * 3}
+
+
+def test_a_zone_narrower_than_2u_says_no_part_can_be_accepted(fairing):
+    """With U larger than half the zone no point can be inside the conformance zone: the
+    verdict is INCONCLUSIVE and says the measurement is not capable of the tolerance, with the
+    number of points where 2U reaches the zone's width (counted here from the reported U)."""
+    measured = _two_high_points()
+    tol = Tolerance.symmetric(0.01)
+    res = inspect(fairing, measured[2:], tol, decision_rule="guarded",
+                  instrument=Instrument(uncertainty_mm=0.02))
+    assert res.verdict == INCONCLUSIVE
+    n = int(np.sum(2 * res.uncertainty.expanded >= 0.02))
+    assert n == res.deviations.signed.size
+    assert f"at {n} points 2U ≥ the zone's width 0.02 mm" in res.reasons[0]
+    assert "not capable of this tolerance" in res.reasons[0]
