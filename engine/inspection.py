@@ -360,12 +360,17 @@ def _with_pose(reg, T, dev):
     return replace(reg, T_nominal_measured=T, deviations=dev)
 
 
+ROBUST_MIN_POINTS = 20
+"""Fewer fitted points than this keep their RMS as the pose term's residual scale."""
+
+
 def robust_rms(d: np.ndarray, rms: float) -> float:
     """The residual scale the pose's uncertainty is taken from: the fitted points' RMS, or a
     robust one (1.4826 x their median absolute deviation from the median) when smaller, so that
     a defect among the points (a real deviation, no noise of the fit) does not widen every
-    other point's uncertainty."""
-    if d.size < 2:
+    other point's uncertainty. Below ROBUST_MIN_POINTS points the median is too unsteady to go
+    under the RMS."""
+    if d.size < ROBUST_MIN_POINTS:
         return rms
     mad = 1.4826 * float(np.median(np.abs(d - np.median(d))))
     return min(rms, mad) if mad > 0 else rms
