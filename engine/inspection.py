@@ -366,14 +366,16 @@ ROBUST_MIN_POINTS = 20
 
 def robust_rms(d: np.ndarray, rms: float) -> float:
     """The residual scale the pose's uncertainty is taken from: the fitted points' RMS, or a
-    robust one (1.4826 x their median absolute deviation from the median) when smaller, so that
+    robust one (engine.outliers.robust_centre_sigma, the gross rule's) when smaller, so that
     a defect among the points (a real deviation, no noise of the fit) does not widen every
     other point's uncertainty. Below ROBUST_MIN_POINTS points the median is too unsteady to go
     under the RMS."""
+    from .outliers import robust_centre_sigma
+
     if d.size < ROBUST_MIN_POINTS:
         return rms
-    mad = 1.4826 * float(np.median(np.abs(d - np.median(d))))
-    return min(rms, mad) if mad > 0 else rms
+    sigma = robust_centre_sigma(d)[1]
+    return min(rms, sigma) if sigma > 0 else rms
 
 
 def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,

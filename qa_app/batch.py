@@ -518,6 +518,11 @@ def _cores() -> int:
 
 
 # ---------------------------------------------------------------------------- the summary
+def verdict_counts(rows: list[dict]) -> dict[str, int]:
+    """How many rows have each verdict, in VERDICTS order (ERROR included)."""
+    return {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
+
+
 def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> dict:
     """summary.json: the inputs and settings, the tracked characteristics with their limits,
     one row per part in measurement order, the counts per verdict and the exit code."""
@@ -534,7 +539,7 @@ def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> d
         "order": "measurement order: the MEASURED arguments as given, each glob's matches "
                  "sorted by name",
         "parts": rows,
-        "counts": {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS},
+        "counts": verdict_counts(rows),
         "skipped": sum(r["skipped"] for r in rows),
         "exit_code": exit_code([r["verdict"] for r in rows]),
         "row_definition": "max_abs: largest |deviation| (mm); n_out: points outside the zone; "
@@ -594,7 +599,7 @@ def write_summary(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> list
 
     files = batch.summary_files()
     tracked = tracked_characteristics(loaded)
-    counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
+    counts = verdict_counts(rows)
     title = (f"{os.path.basename(loaded.path)}: {len(rows)} parts"
              + (f", plan {os.path.basename(loaded.plan.path)}" if loaded.plan else ""))
     write_all([Output(files["csv"], summary_csv(tracked, rows)),
@@ -668,7 +673,7 @@ def check_certifiable(batch: Batch, loaded: LoadedNominal) -> None:
 
 def summary_text(rows: list[dict], seconds: float, written: list[str]) -> str:
     """What the command prints at the end: the counts, each ERROR part, the files."""
-    counts = ", ".join(f"{sum(r['verdict'] == v for r in rows)} {v}" for v in VERDICTS)
+    counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
     skipped = sum(r["skipped"] for r in rows)
     lines = [f"{len(rows)} parts: {counts}"
              + (f"; {skipped} skipped (done by an earlier run)" if skipped else "")
