@@ -51,6 +51,7 @@ Exact deviations
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from dataclasses import dataclass, field
@@ -626,7 +627,6 @@ class _FaceTools:
         self.classifier = IntTools_FClass2d(face, max(BRep_Tool.Tolerance_s(face), 1e-7))
         self.props = GeomLProp_SLProps(self.surface, 1, 1e-12)
         self._distance = None
-        self._trim: tuple | None | bool = False  # not built yet; None: unusable
 
     def normal(self, u: float, v: float) -> np.ndarray | None:
         """The outward unit normal at (u, v), or None where the surface has none (a pole)."""
@@ -701,17 +701,20 @@ class _FaceTools:
         classifier near them (or for a face whose polylines could not be drawn)."""
         from engine.kernels import in_polygon
 
-        if self._trim is False:
-            self._trim = self._trim_polylines()
-        if self._trim is None or uv.shape[0] == 0:
+        if self.trim is None or uv.shape[0] == 0:
             return self._classify(uv)
-        segments, band = self._trim
+        segments, band = self.trim
         # A periodic parameter into the face's domain, as OpenCascade's classifier takes it.
         wrapped = np.column_stack([self._in_period(uv[:, 0], 0), self._in_period(uv[:, 1], 1)])
         inside, near = in_polygon(wrapped, segments, band)
         if near.any():
             inside[near] = self._classify(uv[near])
         return inside
+
+    @functools.cached_property
+    def trim(self) -> tuple[np.ndarray, float] | None:
+        """The face's trim polylines and band (:meth:`_trim_polylines`), drawn on first use."""
+        return self._trim_polylines()
 
     def _trim_polylines(self) -> tuple[np.ndarray, float] | None:
         """The face's boundary in its (u, v) domain: (segments (E, 4) u0 v0 u1 v1 of the
