@@ -323,3 +323,269 @@ def in_polygon(uv, segments, band):
                     near[i] = True
         inside[i] = odd
     return inside, near
+
+
+# ------------------------------------------------------------------ global search's ICP
+@njit(cache=True, nogil=True, inline="always")
+def _cell_index(x, lo, cell, n):
+    """The cell of coordinate x along an axis of n cells from lo, clamped (NaN: the first)."""
+    f = (x - lo) / cell
+    if not f > 0.0:
+        return 0
+    if f >= n - 1:
+        return n - 1
+    return int(f)
+
+
+@njit(cache=True, nogil=True)
+def nearest_sample(x, y, z, lo, cell, owner, graph, pts):
+    """(sample index, squared distance) paired with the point (x, y, z) by a
+    ``neighbours.SampleLookup`` (lo, cell, owner, graph over the samples pts): the owner of the
+    point's cell (clamped to the grid), then steps to a graph neighbour nearer the point while
+    there is one (the first such in the graph's order). Twin: tests/naive.py nearest_sample."""
+    j = owner[_cell_index(x, lo[0], cell, owner.shape[0]),
+              _cell_index(y, lo[1], cell, owner.shape[1]),
+              _cell_index(z, lo[2], cell, owner.shape[2])]
+    d = _dot(x - pts[j, 0], y - pts[j, 1], z - pts[j, 2],
+             x - pts[j, 0], y - pts[j, 1], z - pts[j, 2])
+    while True:
+        best, bd = j, d
+        for q in graph[j]:
+            dq = _dot(x - pts[q, 0], y - pts[q, 1], z - pts[q, 2],
+                      x - pts[q, 0], y - pts[q, 1], z - pts[q, 2])
+            if dq < bd:
+                best, bd = q, dq
+        if best == j:
+            return j, d
+        j, d = best, bd
+
+
+@njit(cache=True, nogil=True)
+def _rotation(wx, wy, wz, R):
+    """Rodrigues, as engine.geometry.rotation_from_rotvec, into R (3, 3)."""
+    theta = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if theta < 1e-8:
+        s, c = 1.0 - theta ** 2 / 6.0, 0.5 - theta ** 2 / 24.0
+    else:
+        s, c = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta ** 2
+    # K = skew(w); K @ K = w w^T - |w|^2 I
+    R[0, 0] = 1.0 + c * (wx * wx - theta * theta)
+    R[1, 1] = 1.0 + c * (wy * wy - theta * theta)
+    R[2, 2] = 1.0 + c * (wz * wz - theta * theta)
+    R[0, 1] = -s * wz + c * wx * wy
+    R[1, 0] = s * wz + c * wx * wy
+    R[0, 2] = s * wy + c * wx * wz
+    R[2, 0] = -s * wy + c * wx * wz
+    R[1, 2] = -s * wx + c * wy * wz
+    R[2, 1] = s * wx + c * wy * wz
+
+
+@njit(cache=True, nogil=True)
+def symmetric_eigen(A, w, V):
+    """Eigenvalues w (n,) (in no particular order) and unit eigenvectors, the columns of V (n, n),
+    of the symmetric A (n, n), which is overwritten: cyclic Jacobi rotations until the
+    off-diagonal is below 1e-15 of the diagonal (at most 50 sweeps). For the 6 x 6 pose systems
+    of the global search, solved some 10^4 times, where LAPACK's call costs several times the
+    work. Twin: numpy.linalg.eigh in tests/test_registration_kernels.py."""
+    n = A.shape[0]
+    V[:] = 0.0
+    for i in range(n):
+        V[i, i] = 1.0
+    for _ in range(50):
+        off = 0.0
+        diag = 0.0
+        for i in range(n):
+            diag += A[i, i] * A[i, i]
+            for j in range(i + 1, n):
+                off += A[i, j] * A[i, j]
+        if off <= 1e-30 * diag or off == 0.0:
+            break
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                apq = A[p, q]
+                if apq == 0.0:
+                    continue
+                theta = (A[q, q] - A[p, p]) / (2.0 * apq)
+                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                c = 1.0 / math.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(n):
+                    akp, akq = A[k, p], A[k, q]
+                    A[k, p] = c * akp - s * akq
+                    A[k, q] = s * akp + c * akq
+                for k in range(n):
+                    apk, aqk = A[p, k], A[q, k]
+                    A[p, k] = c * apk - s * aqk
+                    A[q, k] = s * apk + c * aqk
+                for k in range(n):
+                    vkp, vkq = V[k, p], V[k, q]
+                    V[k, p] = c * vkp - s * vkq
+                    V[k, q] = s * vkp + c * vkq
+    for i in range(n):
+        w[i] = A[i, i]
+
+
+@njit(cache=True, nogil=True)
+def _min_norm_step(A, b, length, As, w, V, out):
+    """out = -x, x = engine.registration.min_norm_solve(A (6, 6), b (6,), 3, length); As, w, V:
+    work arrays (6, 6), (6,), (6, 6)."""
+    inv_len = 1.0 / max(length, 1e-12)
+    for i in range(6):
+        si = inv_len if i < 3 else 1.0
+        for j in range(6):
+            As[i, j] = A[i, j] * si * (inv_len if j < 3 else 1.0)
+    symmetric_eigen(As, w, V)
+    top = max(np.max(w), 1e-300)
+    for i in range(6):
+        out[i] = 0.0
+    for e in range(6):
+        if w[e] > 1e-6 * top:
+            acc = 0.0
+            for j in range(6):
+                acc += V[j, e] * b[j] * (inv_len if j < 3 else 1.0)
+            acc /= w[e]
+            for i in range(6):
+                out[i] -= V[i, e] * acc
+    for i in range(3):
+        out[i] *= inv_len
+
+
+@njit(cache=True, nogil=True)
+def _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, N, r, rn,
+                 e2):
+    """icp_poses' pairing of the points src at pose P (4, 4): into X the moved points, N the
+    residual's direction (the sample's normal, curvature-corrected), r the residual to the
+    sample, rn the (second-order) distance along the normal, e2 the squared error."""
+    curved = shape.shape[0] > 0
+    for i in range(src.shape[0]):
+        for a in range(3):
+            X[i, a] = P[a, 0] * src[i, 0] + P[a, 1] * src[i, 1] + P[a, 2] * src[i, 2] + P[a, 3]
+        j, d2 = nearest_sample(X[i, 0], X[i, 1], X[i, 2], lo, cell, owner, graph, pts)
+        for a in range(3):
+            r[i, a] = X[i, a] - pts[j, a]
+            N[i, a] = nrm[j, a]
+        along = _dot(r[i, 0], r[i, 1], r[i, 2], N[i, 0], N[i, 1], N[i, 2])
+        lat2 = max(_dot(r[i, 0], r[i, 1], r[i, 2], r[i, 0], r[i, 1], r[i, 2]) - along * along,
+                   0.0)
+        if curved:
+            q = 0.0
+            for a in range(3):
+                Sr = shape[j, a, 0] * r[i, 0] + shape[j, a, 1] * r[i, 1] + shape[j, a, 2] * r[i, 2]
+                q += r[i, a] * Sr
+                N[i, a] -= Sr
+            along -= 0.5 * q
+        rn[i] = along
+        lat = max(math.sqrt(lat2) - 3.0 * spacing, 0.0)
+        e2[i] = math.inf if d2 > reach * reach else along * along + lat * lat
+
+
+@njit(cache=True, nogil=True)
+def _normal_equations(X, N, r, rn, e2, spacing, reach, lam2, srt, A, b, c, sxx):
+    """icp_poses' trimmed least squares of the pairs: A (6, 6), b (6,) about the kept pairs'
+    centroid c (3,); returns their RMS distance from it (the rotations' length scale)."""
+    m = X.shape[0]
+    srt[:] = e2
+    srt.sort()
+    med = srt[m // 2] if m % 2 else (srt[m // 2 - 1] + srt[m // 2]) / 2.0
+    tau = min(max(3.0 * spacing, 2.5 * math.sqrt(med)), reach)
+    sw = 0.0
+    c[:] = 0.0
+    for i in range(m):
+        if e2[i] <= tau * tau:
+            sw += 1.0
+            for a in range(3):
+                c[a] += X[i, a]
+    norm = max(sw, 1.0)
+    c /= norm
+    A[:] = 0.0
+    b[:] = 0.0
+    sxx[:] = 0.0
+    J = np.empty(6)
+    t = np.empty(3)
+    spread = 0.0
+    for i in range(m):
+        if not e2[i] <= tau * tau:
+            continue
+        for a in range(3):
+            t[a] = X[i, a] - c[a]
+        J[0] = t[1] * N[i, 2] - t[2] * N[i, 1]
+        J[1] = t[2] * N[i, 0] - t[0] * N[i, 2]
+        J[2] = t[0] * N[i, 1] - t[1] * N[i, 0]
+        J[3], J[4], J[5] = N[i, 0], N[i, 1], N[i, 2]
+        for a in range(6):
+            b[a] += J[a] * rn[i]
+            for k in range(6):
+                A[a, k] += J[a] * J[k]
+        spread += t[0] * t[0] + t[1] * t[1] + t[2] * t[2]
+        if lam2:
+            # Point-to-point term x' - m = r - [t]x w + u; the skew blocks of its normal
+            # equations hold sum(t), zero about the centroid.
+            for a in range(3):
+                for k in range(3):
+                    sxx[a, k] += t[a] * t[k]
+            b[0] += lam2 * (t[1] * r[i, 2] - t[2] * r[i, 1])
+            b[1] += lam2 * (t[2] * r[i, 0] - t[0] * r[i, 2])
+            b[2] += lam2 * (t[0] * r[i, 1] - t[1] * r[i, 0])
+            for a in range(3):
+                b[3 + a] += lam2 * r[i, a]
+    if lam2:
+        tr = sxx[0, 0] + sxx[1, 1] + sxx[2, 2]
+        for a in range(3):
+            for k in range(3):
+                A[a, k] += lam2 * ((tr if a == k else 0.0) - sxx[a, k])
+            A[a + 3, a + 3] += lam2 * sw
+    return math.sqrt(spread / norm)
+
+
+@njit(cache=True, nogil=True)
+def _apply_step(P, delta, c, R, Q):
+    """P (4, 4) <- [R(delta[:3]), c - R c + delta[3:]] @ P, as registration._compose_update."""
+    _rotation(delta[0], delta[1], delta[2], R)
+    for a in range(3):
+        ta = c[a] - (R[a, 0] * c[0] + R[a, 1] * c[1] + R[a, 2] * c[2]) + delta[3 + a]
+        for k in range(4):
+            Q[a, k] = R[a, 0] * P[0, k] + R[a, 1] * P[1, k] + R[a, 2] * P[2, k] \
+                + (ta if k == 3 else 0.0)
+    Q[3, :] = P[3, :]
+    P[:] = Q
+
+
+@njit(cache=True, nogil=True)
+def icp_poses(T, src, lo, cell, owner, graph, pts, nrm, shape, spacing, iterations, lam2,
+              reach, first, last, out_T, out_score):
+    """The global search's ICP for poses T[first:last] (H, 4, 4) of the points src (m, 3) against
+    samples pts (L, 3) with unit normals nrm (L, 3) and shape operators ``shape`` (L, 3, 3; or
+    (0, 3, 3): the tangent plane), paired by ``nearest_sample``: ``iterations`` updates, then
+    the poses into out_T and their truncated scores into out_score.
+
+    The same computation as engine.registration._icp_batch over _pairs and _icp_step (which pair
+    with scipy's kd-tree), one pose at a time: the squared error e2 of a point is its
+    (second-order) distance along the sample's normal squared plus its sideways distance beyond
+    3 spacings squared, infinite when the sample is farther than ``reach``; pairs with e2 above
+    max(3 spacings, 2.5 x the pose's median e2^1/2) (at most ``reach``) are left out of the
+    point-to-plane (-quadric) least squares, to which ``lam2`` > 0 adds a point-to-point term of
+    that weight; the minimum-norm step is applied about the pairs' centroid. The score is the
+    mean of min(e2, (3 spacings)^2) one pairing after the last update. Twin: registration's
+    numpy _icp_batch with tests/naive.py's pairing."""
+    m = src.shape[0]
+    X, N, r = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
+    rn, e2, srt = np.empty(m), np.empty(m), np.empty(m)
+    A, As, EV, sxx = np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((3, 3))
+    b, ev, delta, c = np.empty(6), np.empty(6), np.empty(6), np.empty(3)
+    R, Q = np.empty((3, 3)), np.empty((4, 4))
+    for h in range(first, last):
+        P = T[h].copy()
+        for k in range(iterations + 1):
+            _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, N,
+                         r, rn, e2)
+            if k == iterations:
+                break
+            length = _normal_equations(X, N, r, rn, e2, spacing, reach, lam2, srt, A, b, c,
+                                       sxx)
+            _min_norm_step(A, b, length, As, ev, EV, delta)
+            _apply_step(P, delta, c, R, Q)
+        total = 0.0
+        for i in range(m):
+            total += min(e2[i], (3.0 * spacing) ** 2)
+        out_score[h] = total / m
+        out_T[h] = P

@@ -1,6 +1,12 @@
-"""Nearest-neighbour queries (scipy's cKDTree): how many threads a query is worth."""
+"""Nearest-neighbour queries: how many threads a scipy cKDTree query is worth, and the constant-time
+nearest-sample lookup of the global search's coarse level (:class:`SampleLookup`)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
 
 PARALLEL_QUERIES = 20000
 """A kd-tree query of fewer points runs on one thread: starting the threads costs more than
@@ -11,3 +17,57 @@ def query_workers(n_queries: int) -> int:
     """The ``workers`` argument of cKDTree.query for ``n_queries`` points: all cores (-1) for
     large queries, one thread below PARALLEL_QUERIES. The answer does not depend on it."""
     return -1 if n_queries >= PARALLEL_QUERIES else 1
+
+
+LOOKUP_CELLS = 32768
+"""Cells of a :class:`SampleLookup` grid at most: its build (a Euclidean distance transform over
+the cells) then costs a few milliseconds."""
+LOOKUP_NEIGHBOURS = 8
+"""Neighbours per sample in a :class:`SampleLookup`'s graph (the walk's steps)."""
+
+
+@dataclass(frozen=True)
+class SampleLookup:
+    """Constant-time nearest-sample pairing for a small, fixed set of samples (a coarse level of
+    the nominal), for the compiled ICP of the global search (``kernels.icp_poses``), which pairs
+    some 10^5 points with a 10^3-sample level: scipy's kd-tree answers each in about 0.5 us, this
+    in a few tens of nanoseconds.
+
+    A point's cell (clamped to the grid) gives the sample whose voxel is nearest to the cell
+    (scipy.ndimage's exact Euclidean distance transform over the grid); from there the pairing
+    walks the samples' graph of ``LOOKUP_NEIGHBOURS`` nearest others (scipy's kd-tree) to a
+    neighbour nearer the point while there is one. The walk ends at a sample that no graph
+    neighbour beats: the nearest sample itself but for unusual layouts (a point far off the
+    samples, nearly as near to two separate parts of them), where it is a near one.
+
+    lo (3,) the grid's first corner, cell its edge (mm); owner (nx, ny, nz) int32 sample per
+    cell; graph (L, LOOKUP_NEIGHBOURS) int32 each sample's nearest others."""
+
+    lo: np.ndarray
+    cell: float
+    owner: np.ndarray
+    graph: np.ndarray
+
+    @classmethod
+    def build(cls, pts: np.ndarray, tree, spacing: float) -> "SampleLookup":
+        """The lookup of samples ``pts`` (L, 3) with their kd-tree and typical ``spacing`` (mm):
+        the grid covers their box and 4 spacings around it, in cells of half a spacing or, where
+        that would exceed ``LOOKUP_CELLS`` cells, larger ones."""
+        margin = 4.0 * spacing
+        lo = pts.min(axis=0) - margin
+        size = pts.max(axis=0) + margin - lo
+        cell = max(0.5 * spacing, float(np.cbrt(np.prod(size) / LOOKUP_CELLS)), 1e-9)
+        shape = np.maximum(np.ceil(size / cell).astype(np.int64), 1)
+        while np.prod(shape) > LOOKUP_CELLS:
+            cell *= 1.05
+            shape = np.maximum(np.ceil(size / cell).astype(np.int64), 1)
+        at = np.minimum(((pts - lo) / cell).astype(np.int64), shape - 1)
+        sample = np.full(tuple(shape), -1, np.int32)
+        sample[at[:, 0], at[:, 1], at[:, 2]] = np.arange(len(pts), dtype=np.int32)
+        near = ndimage.distance_transform_edt(sample < 0, return_distances=False,
+                                              return_indices=True)
+        owner = np.ascontiguousarray(sample[near[0], near[1], near[2]])
+        k = min(LOOKUP_NEIGHBOURS + 1, len(pts))
+        _, nb = tree.query(pts, k=k)
+        graph = np.ascontiguousarray(np.asarray(nb).reshape(len(pts), k)[:, 1:], np.int32)
+        return cls(lo.astype(np.float64), float(cell), owner, graph)

@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 from scipy.spatial import cKDTree
 
 from .errors import InputError
-from .neighbours import query_workers
+from .neighbours import SampleLookup, query_workers
 from .pointset import PointSet
 
 NORMAL_NEIGHBOURS = 12
@@ -95,6 +95,15 @@ class Nominal:
             self._levels[size] = (idx, cKDTree(self.points[idx], balanced_tree=False,
                                                compact_nodes=False))
         return self._levels[size]
+
+    def level_lookup(self, size: int, spacing: float) -> SampleLookup:
+        """The constant-time nearest-sample lookup of a coarse level (neighbours.SampleLookup),
+        whose samples lie ``spacing`` mm apart (typically)."""
+        key = ("lookup", int(min(size, self.n)))
+        if key not in self._levels:
+            idx, tree = self.level(size)
+            self._levels[key] = SampleLookup.build(self.points[idx], tree, spacing)
+        return self._levels[key]
 
     def level_shape(self, size: int) -> np.ndarray:
         """(m, 3, 3) shape operators of a coarse level's points (see :meth:`shape_operators`)."""

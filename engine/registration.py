@@ -42,6 +42,8 @@ the deviation table and the verdict.
 
 from __future__ import annotations
 
+import os
+import threading
 import time
 import dataclasses
 from dataclasses import dataclass
@@ -51,7 +53,8 @@ from scipy.spatial import cKDTree
 
 from .contour import Deviations2D
 from .deviation import Deviations, point_to_surface
-from .neighbours import query_workers
+from . import kernels
+from .neighbours import PARALLEL_QUERIES, SampleLookup, query_workers
 from .geometry import (
     make_transform,
     rotation_angle_deg,
@@ -266,13 +269,14 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
     # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
     # distinct ones go on.
     first = sub[_spread_subset(measured[sub], settings.coarse_measured // 2)]
-    T, score, _ = _icp_batch(T, measured[first], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=3,
-                             lam2=0.01, shape=lvl_shape,
-                             stage=(f"global search over {n_hyp} poses", 0.05, 0.25))
+    lookup = nominal.level_lookup(coarse, h0)
+    report(f"global search over {n_hyp} poses", 0.05)
+    T, score = _icp_poses(T, measured[first], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
+                          iterations=3, lam2=0.01)
     T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2)
-    T, score, _ = _icp_batch(T, measured[sub], lvl_tree, lvl_pts, lvl_nrm, h0, iterations=6,
-                             lam2=0.01, shape=lvl_shape,
-                             stage=(f"global search, best {T.shape[0]} poses", 0.25, 0.4))
+    report(f"global search, best {T.shape[0]} poses", 0.25)
+    T, score = _icp_poses(T, measured[sub], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
+                          iterations=6, lam2=0.01)
     return _best_distinct(T, score, measured[sub], settings.keep_per_level[0]), sub, n_hyp
 
 
@@ -554,6 +558,37 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
             X, r, rn, n, e2 = _pairs(T, src, tree, pts, nrm, spacing, reach, shape)
             break
     return T, np.mean(np.minimum(e2, (3 * spacing) ** 2), axis=1), done
+
+
+def _icp_poses(T: np.ndarray, src: np.ndarray, lookup: SampleLookup, pts: np.ndarray,
+               nrm: np.ndarray, shape: np.ndarray | None, spacing: float, iterations: int,
+               lam2: float = 0.0, reach: float = np.inf):
+    """_icp_batch's iterations (without early stop) compiled (kernels.icp_poses), the points
+    paired by the constant-time ``lookup`` of the samples ``pts`` instead of their kd-tree:
+    (poses (H, 4, 4), truncated scores (H,)). The poses are split over the cores' threads; each
+    is computed alone, so the answer does not depend on the split."""
+    H = T.shape[0]
+    out_T = np.empty((H, 4, 4))
+    out_s = np.empty(H)
+    args = (np.ascontiguousarray(T, np.float64), np.ascontiguousarray(src, np.float64),
+            lookup.lo, lookup.cell, lookup.owner, lookup.graph,
+            np.ascontiguousarray(pts, np.float64), np.ascontiguousarray(nrm, np.float64),
+            _NO_SHAPE if shape is None else np.ascontiguousarray(shape, np.float64),
+            float(spacing), int(iterations), float(lam2), float(reach))
+    chunks = max(1, min(os.cpu_count() or 1, H * src.shape[0] // PARALLEL_QUERIES))
+    bounds = np.linspace(0, H, chunks + 1).astype(int)
+    threads = [threading.Thread(target=kernels.icp_poses,
+                                args=args + (int(a), int(b), out_T, out_s))
+               for a, b in zip(bounds[1:-1], bounds[2:])]
+    for t in threads:
+        t.start()
+    kernels.icp_poses(*args, int(bounds[0]), int(bounds[1]), out_T, out_s)
+    for t in threads:
+        t.join()
+    return out_T, out_s
+
+
+_NO_SHAPE = np.zeros((0, 3, 3))
 
 
 def _pairs(T, src, tree, pts, nrm, spacing, reach, shape):

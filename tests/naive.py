@@ -54,3 +54,40 @@ def boxes_nearer(p, boxes, limit, done):
             if (gap[0] ** 2 + gap[1] ** 2 + gap[2] ** 2) ** 0.5 < limit[i]:
                 out.add((i, f + 1))
     return out - {tuple(d) for d in done}
+
+
+def nearest_sample(p, lookup, pts):
+    """Slow twin of engine.kernels.nearest_sample: (sample, squared distance) -- the owner of the
+    point's cell (clamped to the grid), then the first nearer graph neighbour while there is
+    one."""
+    cell = []
+    for a in range(3):
+        f = (p[a] - lookup.lo[a]) / lookup.cell
+        n = lookup.owner.shape[a]
+        cell.append(0 if not f > 0.0 else n - 1 if f >= n - 1 else int(f))
+    j = int(lookup.owner[tuple(cell)])
+    d = sum((p[a] - pts[j][a]) ** 2 for a in range(3))
+    while True:
+        best, bd = j, d
+        for q in lookup.graph[j]:
+            dq = sum((p[a] - pts[q][a]) ** 2 for a in range(3))
+            if dq < bd:
+                best, bd = int(q), dq
+        if best == j:
+            return j, d
+        j, d = best, bd
+
+
+class LookupAsTree:
+    """A kd-tree stand-in whose ``query`` pairs by ``nearest_sample`` above: run through the numpy
+    ICP of engine.registration (_icp_batch), it is the twin of the compiled one (_icp_poses)."""
+
+    def __init__(self, lookup, pts):
+        self.lookup, self.pts = lookup, np.asarray(pts)
+
+    def query(self, X, workers=1, distance_upper_bound=np.inf):
+        found = [nearest_sample(x, self.lookup, self.pts) for x in np.asarray(X)]
+        j = np.array([f[0] for f in found], np.int64)
+        d = np.sqrt(np.array([f[1] for f in found]))
+        far = d > distance_upper_bound
+        return np.where(far, np.inf, d), np.where(far, len(self.pts), j)

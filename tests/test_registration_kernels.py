@@ -1,0 +1,114 @@
+"""The compiled ICP of the global search (engine.kernels.icp_poses) and its constant-time pairing
+(engine.neighbours.SampleLookup), each against an independent twin: scipy's kd-tree, LAPACK's
+eigh, and the numpy ICP of engine.registration run with the same pairing."""
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from engine import kernels
+from engine.geometry import apply_transform, make_transform
+from engine.nominal import Nominal
+from engine.registration import (RegistrationSettings, _hypotheses, _icp_batch, _icp_poses,
+                                 _level_spacing, _spread_subset, min_norm_solve)
+from naive import LookupAsTree, nearest_sample
+from surfaces import height, height_grid, point_set, random_rotation
+
+
+@pytest.fixture(scope="module")
+def level():
+    pts, nrm, grid = height_grid(300, 200)
+    nominal = Nominal.from_point_set(point_set(pts, nrm, grid))
+    idx, tree = nominal.level(1000)
+    p = nominal.points[idx]
+    h = _level_spacing(tree, p)
+    return nominal, p, nominal.normals(idx), nominal.level_shape(1000), h, tree, \
+        nominal.level_lookup(1000, h)
+
+
+def _surface_points(rng, n, noise):
+    x, y = rng.uniform(-250, 250, n), rng.uniform(-125, 125, n)
+    return np.column_stack([x, y, height(x, y)]) + rng.normal(0.0, noise, (n, 3))
+
+
+def _pair(lookup, pts, X):
+    out = [kernels.nearest_sample(x[0], x[1], x[2], lookup.lo, lookup.cell, lookup.owner,
+                                  lookup.graph, pts) for x in X]
+    return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+
+
+def test_the_lookup_pairs_with_the_nearest_sample_or_one_within_its_bound(level):
+    """Near the surface almost every point gets its nearest sample (scipy's kd-tree); every point
+    in the grid gets one at most 2 sqrt(3) cells farther than the nearest (the cell's owner is the
+    sample of the occupied voxel nearest to it; the walk only comes nearer), and no graph
+    neighbour of the sample found is nearer; outside the grid, the walk still ends at a sample
+    no graph neighbour beats. The compiled pairing is its slow twin's."""
+    _, pts, _, _, h, tree, lookup = level
+    rng = np.random.default_rng(4)
+    near = _surface_points(rng, 4000, 0.5 * h)
+    box_lo, box_hi = lookup.lo, lookup.lo + lookup.cell * np.array(lookup.owner.shape)
+    inside = rng.uniform(box_lo, box_hi, (4000, 3))
+    outside = rng.uniform(box_lo - 2000, box_hi + 2000, (2000, 3))
+    for X, exact_share in ((near, 0.95), (inside, 0.8), (outside, None)):
+        j, d2 = _pair(lookup, pts, X)
+        d_true, j_true = tree.query(X)
+        assert np.allclose(d2, np.sum((X - pts[j]) ** 2, axis=1), rtol=1e-12, atol=0)
+        graph_d2 = np.sum((X[:, None, :] - pts[lookup.graph[j]]) ** 2, axis=2)
+        assert np.all(graph_d2 >= d2[:, None])
+        twin = [nearest_sample(x, lookup, pts) for x in X[:300]]
+        assert np.array_equal(j[:300], [t[0] for t in twin])
+        if exact_share is not None:
+            assert np.mean(j == j_true) >= exact_share
+            assert np.all(np.sqrt(d2) <= d_true + 2 * np.sqrt(3) * lookup.cell + 1e-9)
+
+
+def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
+    """Jacobi eigen-decomposition of 6 x 6 pose systems against numpy's eigh (LAPACK), including
+    rank-deficient ones (a plane's slides), and the minimum-norm step built on it against
+    engine.registration.min_norm_solve."""
+    rng = np.random.default_rng(11)
+    w, V, As, out = np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty(6)
+    for k in range(300):
+        scales = rng.choice([1e-9, 1e-3, 1.0, 1e3], 6)
+        B = rng.normal(size=(6, 4 + k % 3)) * scales[:, None]
+        A = B @ B.T
+        ref = np.linalg.eigh(A)[0]
+        work = A.copy()
+        kernels.symmetric_eigen(work, w, V)
+        assert np.allclose(np.sort(w), ref, rtol=0, atol=1e-13 * ref[-1])
+        assert np.allclose(A @ V, V * w, rtol=0, atol=1e-12 * ref[-1])
+        assert np.allclose(V.T @ V, np.eye(6), atol=1e-13)
+        b, length = rng.normal(size=6) * scales, 10.0 ** rng.uniform(-1, 3)
+        kernels._min_norm_step(A, b, length, As, w, V, out)
+        expect = min_norm_solve(A, b, 3, length)
+        assert np.allclose(-out, expect, rtol=1e-9, atol=1e-9 * np.max(np.abs(expect)))
+
+
+@pytest.mark.parametrize("shape, reach, lam2", [(True, np.inf, 0.01), (False, np.inf, 0.01),
+                                                (True, 60.0, 0.0)])
+def test_compiled_icp_is_the_numpy_icp_with_the_same_pairing(level, shape, reach, lam2):
+    """Poses from the global search's starts, three ICP iterations: the compiled kernel (split
+    over threads) and engine.registration's numpy ICP paired by the same lookup (its slow twin)
+    end at the same poses and scores, with the curvature term or without, with a reach or
+    without."""
+    nominal, pts, nrm, S, h, _, lookup = level
+    rng = np.random.default_rng(7)
+    q = _surface_points(rng, 600, 0.004)
+    measured = apply_transform(make_transform(random_rotation(rng), rng.uniform(-900, 900, 3)), q)
+    T = _hypotheses(nominal, measured, pts, nrm, RegistrationSettings())[::9]
+    src = measured[_spread_subset(measured, 16)]
+    S = S if shape else None
+    T_fast, s_fast = _icp_poses(T, src, lookup, pts, nrm, S, h, iterations=3, lam2=lam2,
+                                reach=reach)
+    T_slow, s_slow, done = _icp_batch(T, src, LookupAsTree(lookup, pts), pts, nrm, h,
+                                      iterations=3, lam2=lam2, reach=reach, shape=S)
+    assert done == 3
+    moved = np.linalg.norm(np.einsum("hij,mj->hmi", T_fast[:, :3, :3] - T_slow[:, :3, :3], src)
+                           + (T_fast[:, None, :3, 3] - T_slow[:, None, :3, 3]), axis=2)
+    assert np.max(moved) < 1e-6
+    assert np.allclose(s_fast, s_slow, rtol=1e-9, atol=1e-12)
+    # The split over threads does not change the answer.
+    one = np.empty_like(T_fast), np.empty(len(T))
+    kernels.icp_poses(T, src, lookup.lo, lookup.cell, lookup.owner, lookup.graph, pts, nrm,
+                      np.zeros((0, 3, 3)) if S is None else S, h, 3, lam2, reach, 0, len(T), *one)
+    assert np.array_equal(one[0], T_fast) and np.array_equal(one[1], s_fast)
