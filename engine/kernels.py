@@ -426,6 +426,57 @@ def symmetric_eigen(A, w, V):
 
 
 @njit(cache=True, nogil=True)
+def _well_conditioned_solve(As, b, inv_len, L, out):
+    """_min_norm_step's answer by Cholesky when that is provably the same: when
+    trace(As) x trace(As^-1) < 1e6, every eigenvalue of the positive definite As (6, 6) exceeds
+    1e-6 of the largest (the largest is below the trace, the smallest above 1 / trace of the
+    inverse), so that the minimum-norm solution is the plain one. Returns False (out untouched)
+    otherwise: the eigen-decomposition decides which directions to leave alone. L: work (6, 6)."""
+    n = 6
+    tr = 0.0
+    for i in range(n):
+        tr += As[i, i]
+    L[:] = 0.0
+    for j in range(n):
+        d = As[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 1e-12 * tr:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            v = As[i, j]
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v / L[j, j]
+    # trace(As^-1) = squared Frobenius norm of L^-1, column by column (forward substitution)
+    inv_tr = 0.0
+    y = np.empty(n)
+    for e in range(n):
+        for i in range(n):
+            v = 1.0 if i == e else 0.0
+            for k in range(i):
+                v -= L[i, k] * y[k]
+            y[i] = v / L[i, i]
+            inv_tr += y[i] * y[i]
+    if not tr * inv_tr < 1e6:
+        return False
+    for i in range(n):
+        v = b[i] * (inv_len if i < 3 else 1.0)
+        for k in range(i):
+            v -= L[i, k] * y[k]
+        y[i] = v / L[i, i]
+    for i in range(n - 1, -1, -1):
+        v = y[i]
+        for k in range(i + 1, n):
+            v -= L[k, i] * y[k]
+        y[i] = v / L[i, i]
+    for i in range(n):
+        out[i] = -y[i] * (inv_len if i < 3 else 1.0)
+    return True
+
+
+@njit(cache=True, nogil=True)
 def _min_norm_step(A, b, length, As, w, V, out):
     """out = -x, x = engine.registration.min_norm_solve(A (6, 6), b (6,), 3, length); As, w, V:
     work arrays (6, 6), (6,), (6, 6)."""
@@ -434,6 +485,8 @@ def _min_norm_step(A, b, length, As, w, V, out):
         si = inv_len if i < 3 else 1.0
         for j in range(6):
             As[i, j] = A[i, j] * si * (inv_len if j < 3 else 1.0)
+    if _well_conditioned_solve(As, b, inv_len, V, out):
+        return
     symmetric_eigen(As, w, V)
     top = max(np.max(w), 1e-300)
     for i in range(6):

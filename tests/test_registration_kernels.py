@@ -64,7 +64,8 @@ def test_the_lookup_pairs_with_the_nearest_sample_or_one_within_its_bound(level)
 
 def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
     """Jacobi eigen-decomposition of 6 x 6 pose systems against numpy's eigh (LAPACK), including
-    rank-deficient ones (a plane's slides), and the minimum-norm step built on it against
+    rank-deficient ones (a plane's slides), and the minimum-norm step built on it (or on
+    Cholesky, where the condition number provably keeps every direction) against
     engine.registration.min_norm_solve."""
     rng = np.random.default_rng(11)
     w, V, As, out = np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty(6)
@@ -82,6 +83,19 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
         kernels._min_norm_step(A, b, length, As, w, V, out)
         expect = min_norm_solve(A, b, 3, length)
         assert np.allclose(-out, expect, rtol=1e-9, atol=1e-9 * np.max(np.abs(expect)))
+    # Well-conditioned systems take the Cholesky path (checked to be taken), same answer.
+    taken = 0
+    for k in range(300):
+        B = rng.normal(size=(6, 6))
+        A = B @ B.T + 10.0 ** rng.uniform(-3, 1) * np.eye(6)
+        b, length = rng.normal(size=6), 10.0 ** rng.uniform(-1, 1)
+        s = np.r_[np.full(3, 1.0 / length), np.ones(3)]
+        taken += kernels._well_conditioned_solve(A * s[:, None] * s[None, :], b, 1.0 / length,
+                                                 V, out)
+        kernels._min_norm_step(A, b, length, As, w, V, out)
+        expect = min_norm_solve(A, b, 3, length)
+        assert np.allclose(-out, expect, rtol=1e-9, atol=1e-12 * np.max(np.abs(expect)))
+    assert taken > 200
 
 
 @pytest.mark.parametrize("shape, reach, lam2", [(True, np.inf, 0.01), (False, np.inf, 0.01),
