@@ -642,3 +642,113 @@ def icp_poses(T, src, lo, cell, owner, graph, pts, nrm, shape, spacing, iteratio
             total += min(e2[i], (3.0 * spacing) ** 2)
         out_score[h] = total / m
         out_T[h] = P
+
+
+@njit(cache=True, nogil=True)
+def farthest_points(P, centre, m):
+    """Farthest-point sampling of m indices of the points P (n, 3): first the point nearest to
+    ``centre`` (3,), then each time the point farthest from those chosen (the first of equals).
+    Twin: tests/naive.py farthest_points."""
+    n = P.shape[0]
+    chosen = np.empty(m, np.int64)
+    d = np.empty(n)
+    best, bd = 0, math.inf
+    for i in range(n):
+        e = math.sqrt(_dot(P[i, 0] - centre[0], P[i, 1] - centre[1], P[i, 2] - centre[2],
+                           P[i, 0] - centre[0], P[i, 1] - centre[1], P[i, 2] - centre[2]))
+        if e < bd:
+            best, bd = i, e
+    chosen[0] = best
+    for i in range(n):
+        d[i] = math.sqrt(_dot(P[i, 0] - P[best, 0], P[i, 1] - P[best, 1], P[i, 2] - P[best, 2],
+                              P[i, 0] - P[best, 0], P[i, 1] - P[best, 1], P[i, 2] - P[best, 2]))
+    for k in range(1, m):
+        far, fd = 0, -1.0
+        for i in range(n):
+            if d[i] > fd:
+                far, fd = i, d[i]
+        chosen[k] = far
+        for i in range(n):
+            e = math.sqrt(_dot(P[i, 0] - P[far, 0], P[i, 1] - P[far, 1], P[i, 2] - P[far, 2],
+                               P[i, 0] - P[far, 0], P[i, 1] - P[far, 1], P[i, 2] - P[far, 2]))
+            if e < d[i]:
+                d[i] = e
+    return chosen
+
+
+@njit(cache=True, nogil=True)
+def distinct_first(feat, tol, keep):
+    """Greedy pick over poses given best first by where they put a few points, feat (H, R, 3):
+    a pose is kept unless some kept one puts every point within ``tol`` of it; at most ``keep``.
+    Returns the kept positions (in feat's order). Twin: tests/naive.py distinct_first."""
+    H, R = feat.shape[0], feat.shape[1]
+    kept = np.empty(min(keep, H), np.int64)
+    nk = 0
+    for i in range(H):
+        if nk >= keep:
+            break
+        duplicate = False
+        for q in range(nk):
+            gap = 0.0
+            for k in range(R):
+                a, b = feat[kept[q], k], feat[i, k]
+                gap = max(gap, math.sqrt(_dot(a[0] - b[0], a[1] - b[1], a[2] - b[2],
+                                              a[0] - b[0], a[1] - b[1], a[2] - b[2])))
+            if gap <= tol:
+                duplicate = True
+                break
+        if not duplicate:
+            kept[nk] = i
+            nk += 1
+    return kept[:nk]
+
+
+@njit(cache=True, nogil=True)
+def shape_fit(N, dx, dn, S):
+    """Per point i, the shape operator S[i] (3, 3) of Nominal.shape_operators from its unit
+    normal N[i] and its k neighbours' offsets dx[i] (k, 3) and normal changes dn[i] (k, 3): the
+    symmetric tangent curvature fitted to -dn = S dx by least squares (lightly regularised),
+    zero where it bends by more than 0.3 over the neighbours' median tangent reach or a
+    neighbour's normal turns by more than 0.3. Twin: tests/naive.py shape_operators."""
+    m, k = dx.shape[0], dx.shape[1]
+    reach = np.empty(k)
+    for i in range(m):
+        nx, ny, nz = N[i, 0], N[i, 1], N[i, 2]
+        hx, hy, hz = (1.0, 0.0, 0.0) if abs(nx) < 0.9 else (0.0, 1.0, 0.0)
+        ax, ay, az = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx
+        length = math.sqrt(ax * ax + ay * ay + az * az)
+        ax, ay, az = ax / length, ay / length, az / length
+        bx, by, bz = ny * az - nz * ay, nz * ax - nx * az, nx * ay - ny * ax
+        s11 = s12 = s22 = r1 = r2 = r3 = turn = 0.0
+        for j in range(k):
+            u1 = _dot(dx[i, j, 0], dx[i, j, 1], dx[i, j, 2], ax, ay, az)
+            u2 = _dot(dx[i, j, 0], dx[i, j, 1], dx[i, j, 2], bx, by, bz)
+            g1 = _dot(dn[i, j, 0], dn[i, j, 1], dn[i, j, 2], ax, ay, az)
+            g2 = _dot(dn[i, j, 0], dn[i, j, 1], dn[i, j, 2], bx, by, bz)
+            s11 += u1 * u1
+            s12 += u1 * u2
+            s22 += u2 * u2
+            r1 -= g1 * u1
+            r2 -= g1 * u2 + g2 * u1
+            r3 -= g2 * u2
+            reach[j] = math.sqrt(u1 * u1 + u2 * u2)
+            turn = max(turn, math.sqrt(_dot(dn[i, j, 0], dn[i, j, 1], dn[i, j, 2],
+                                            dn[i, j, 0], dn[i, j, 1], dn[i, j, 2])))
+        # A = [[s11, s12, 0], [s12, s11 + s22, s12], [0, s12, s22]] + eps I; Cramer's rule.
+        eps = 1e-9 * (2.0 * (s11 + s22)) + 1e-300
+        a11, a22, a33 = s11 + eps, s11 + s22 + eps, s22 + eps
+        det = a11 * (a22 * a33 - s12 * s12) - s12 * (s12 * a33)
+        k11 = (r1 * (a22 * a33 - s12 * s12) - s12 * (r2 * a33 - s12 * r3)) / det
+        k12 = (a11 * (r2 * a33 - s12 * r3) - r1 * (s12 * a33)) / det
+        k22 = (a11 * (a22 * r3 - s12 * r2) - s12 * (s12 * r3 - r2 * 0.0) + r1 * (s12 * s12)) / det
+        reach.sort()
+        mid = reach[k // 2] if k % 2 else 0.5 * (reach[k // 2 - 1] + reach[k // 2])
+        kmax = abs(0.5 * (k11 + k22)) + math.sqrt(0.25 * (k11 - k22) ** 2 + k12 * k12)
+        # Coincident neighbours (det underflows): the tangent plane.
+        flat = not (kmax * mid <= 0.3 and turn <= 0.3)
+        e = ((ax, ay, az), (bx, by, bz))
+        for p in range(3):
+            for q in range(3):
+                S[i, p, q] = 0.0 if flat else (k11 * e[0][p] * e[0][q]
+                                               + k12 * (e[0][p] * e[1][q] + e[1][p] * e[0][q])
+                                               + k22 * e[1][p] * e[1][q])

@@ -502,14 +502,8 @@ def _spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
     pool = np.arange(n)
     if n > 8192:
         pool = np.sort(np.random.default_rng(_SEED).choice(n, 8192, replace=False))
-    P = pts[pool]
-    chosen = np.empty(m, np.int64)
-    chosen[0] = int(np.argmin(np.linalg.norm(P - P.mean(0), axis=1)))
-    d = np.linalg.norm(P - P[chosen[0]], axis=1)
-    for i in range(1, m):
-        chosen[i] = int(np.argmax(d))
-        d = np.minimum(d, np.linalg.norm(P - P[chosen[i]], axis=1))
-    return np.sort(pool[chosen])
+    P = np.ascontiguousarray(pts[pool], np.float64)
+    return np.sort(pool[kernels.farthest_points(P, P.mean(0), m)])
 
 
 def _level_spacing(tree: cKDTree, pts: np.ndarray) -> float:
@@ -668,18 +662,9 @@ def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int)
     ref = src[_spread_subset(src, 4)]
     extent = float(np.linalg.norm(src.max(0) - src.min(0)))
     tol = 0.01 * max(extent, 1e-12)
-    feat = np.einsum("hij,mj->hmi", T[:, :3, :3], ref) + T[:, None, :3, 3]
     order = np.argsort(score, kind="stable")
-    kept: list[int] = []
-    for i in order:
-        if kept:
-            gap = np.max(np.linalg.norm(feat[kept] - feat[i][None], axis=2), axis=1)
-            if np.min(gap) <= tol:
-                continue
-        kept.append(int(i))
-        if len(kept) >= keep:
-            break
-    return T[kept]
+    feat = np.einsum("hij,mj->hmi", T[order, :3, :3], ref) + T[order, None, :3, 3]
+    return T[order[kernels.distinct_first(np.ascontiguousarray(feat), tol, keep)]]
 
 
 # ---------------------------------------------------------------------------- final stage

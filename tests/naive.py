@@ -91,3 +91,59 @@ class LookupAsTree:
         d = np.sqrt(np.array([f[1] for f in found]))
         far = d > distance_upper_bound
         return np.where(far, np.inf, d), np.where(far, len(self.pts), j)
+
+
+def farthest_points(P, centre, m):
+    """Slow twin of engine.kernels.farthest_points."""
+    d0 = [math.dist(p, centre) for p in P]
+    chosen = [d0.index(min(d0))]
+    d = [math.dist(p, P[chosen[0]]) for p in P]
+    while len(chosen) < m:
+        far = d.index(max(d))
+        chosen.append(far)
+        d = [min(d[i], math.dist(P[i], P[far])) for i in range(len(P))]
+    return chosen
+
+
+def distinct_first(feat, tol, keep):
+    """Slow twin of engine.kernels.distinct_first."""
+    kept = []
+    for i in range(len(feat)):
+        if len(kept) < keep and all(
+                max(math.dist(a, b) for a, b in zip(feat[q], feat[i])) > tol for q in kept):
+            kept.append(i)
+    return kept
+
+
+def shape_operators(n, dx, dn):
+    """Slow twin of engine.kernels.shape_fit (numpy over all points at once, LAPACK's solve): the
+    shape operators (m, 3, 3) from unit normals n (m, 3), neighbour offsets dx (m, k, 3) and
+    normal changes dn (m, k, 3)."""
+    helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
+    e1 = np.cross(n, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(n, e1)
+    u1, u2 = np.einsum("mkj,mj->mk", dx, e1), np.einsum("mkj,mj->mk", dx, e2)
+    g1, g2 = np.einsum("mkj,mj->mk", dn, e1), np.einsum("mkj,mj->mk", dn, e2)
+    # Least squares for symmetric K (k11, k12, k22) in  -g1 = k11 u1 + k12 u2,
+    # -g2 = k12 u1 + k22 u2.
+    A = np.zeros((n.shape[0], 3, 3))
+    A[:, 0, 0] = np.sum(u1 * u1, 1)
+    A[:, 0, 1] = A[:, 1, 0] = np.sum(u1 * u2, 1)
+    A[:, 1, 1] = np.sum(u2 * u2 + u1 * u1, 1)
+    A[:, 1, 2] = A[:, 2, 1] = np.sum(u1 * u2, 1)
+    A[:, 2, 2] = np.sum(u2 * u2, 1)
+    rhs = -np.stack([np.sum(g1 * u1, 1), np.sum(g1 * u2 + g2 * u1, 1), np.sum(g2 * u2, 1)], 1)
+    tr = np.trace(A, axis1=1, axis2=2)
+    kk = np.linalg.solve(A + (1e-9 * tr + 1e-300)[:, None, None] * np.eye(3),
+                         rhs[..., None])[..., 0]
+    S = (kk[:, 0, None, None] * np.einsum("mi,mj->mij", e1, e1)
+         + kk[:, 1, None, None] * (np.einsum("mi,mj->mij", e1, e2)
+                                   + np.einsum("mi,mj->mij", e2, e1))
+         + kk[:, 2, None, None] * np.einsum("mi,mj->mij", e2, e2))
+    reach = np.median(np.sqrt(u1 * u1 + u2 * u2), axis=1)
+    kmax = np.abs(0.5 * (kk[:, 0] + kk[:, 2])) + np.sqrt(0.25 * (kk[:, 0] - kk[:, 2]) ** 2
+                                                          + kk[:, 1] ** 2)
+    turn = np.max(np.linalg.norm(dn, axis=2), axis=1)
+    S[(kmax * reach > 0.3) | (turn > 0.3)] = 0.0
+    return S

@@ -126,3 +126,55 @@ def test_compiled_icp_is_the_numpy_icp_with_the_same_pairing(level, shape, reach
     kernels.icp_poses(T, src, lookup.lo, lookup.cell, lookup.owner, lookup.graph, pts, nrm,
                       np.zeros((0, 3, 3)) if S is None else S, h, 3, lam2, reach, 0, len(T), *one)
     assert np.array_equal(one[0], T_fast) and np.array_equal(one[1], s_fast)
+
+
+def test_farthest_points_and_distinct_poses_match_their_twins():
+    """The global search's spread subset and its pick of distinct poses, compiled, against
+    slow obvious twins, on points with ties (a grid) and without, and on poses with
+    near-duplicates."""
+    from naive import distinct_first, farthest_points
+    rng = np.random.default_rng(5)
+    grid = np.stack(np.meshgrid(np.arange(6.0), np.arange(5.0), [0.0, 1.0]), -1).reshape(-1, 3)
+    for P in (rng.normal(size=(300, 3)), grid):
+        for m in (1, 4, 16, 40):
+            assert list(kernels.farthest_points(P, P.mean(0), m)) == \
+                farthest_points(P, P.mean(0), m)
+    base = rng.normal(size=(40, 4, 3)) * 10
+    feat = np.concatenate([base, base + rng.normal(size=base.shape) * 0.05])[rng.permutation(80)]
+    for tol, keep in ((0.01, 100), (0.2, 100), (0.2, 7), (50.0, 100)):
+        assert list(kernels.distinct_first(feat, tol, keep)) == distinct_first(feat, tol, keep)
+
+
+def test_shape_operators_match_their_twin_and_a_sphere():
+    """Nominal.shape_operators (compiled per point, Cramer's rule) against the numpy twin (LAPACK's
+    solve) on the fairing, a sphere and a cube's edges; on a sphere of radius R with outward
+    normals S = -(I - n n^T) / R; across the cube's edges S is zero (the tangent plane)."""
+    from naive import shape_operators
+    from surfaces import sphere_points
+    rng = np.random.default_rng(3)
+    pts, nrm, grid = height_grid(120, 80)
+    fairing = Nominal.from_point_set(point_set(pts, nrm, grid))
+    sp, sn = sphere_points(r=50.0)
+    sphere = Nominal.from_point_set(point_set(sp, sn))
+    c = rng.uniform(0, 20, (3000, 3))
+    axis = rng.integers(0, 3, 3000)
+    side = rng.integers(0, 2, 3000)
+    c[np.arange(3000), axis] = 20.0 * side
+    cn = np.zeros((3000, 3))
+    cn[np.arange(3000), axis] = 2.0 * side - 1
+    cube = Nominal.from_point_set(point_set(c, cn))
+    for nominal in (fairing, sphere, cube):
+        idx = rng.choice(nominal.n, 500, replace=False)
+        S = nominal.shape_operators(idx)
+        _, nb = nominal.tree.query(nominal.points[idx], k=9)
+        n = nominal.normals(idx)
+        twin = shape_operators(n, nominal.points[nb] - nominal.points[idx][:, None],
+                               nominal.normals(nb) - n[:, None])
+        assert np.allclose(S, twin, rtol=1e-9, atol=1e-12)
+        if nominal is sphere:
+            expect = -(np.eye(3) - np.einsum("mi,mj->mij", n, n)) / 50.0
+            assert np.allclose(S, expect, atol=2e-3 / 50.0)
+        if nominal is cube:
+            edge = np.min(np.minimum(c[idx], 20.0 - c[idx]) + 20.0 * (
+                np.arange(3)[None] == axis[idx][:, None]), axis=1) < 0.5
+            assert edge.sum() > 5 and np.all(S[edge] == 0.0)
