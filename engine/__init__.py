@@ -11,9 +11,10 @@ def warm_up() -> None:
     compiles the kernels).
 
     A front end calls this in a background thread while the user picks files: it inspects a
-    four-point grid against itself shifted by 0.01 mm, which imports the pipeline and takes the
-    3D path through registration, the deviation kernels and the verdict (the 2D contour path
-    is not warmed).
+    small curved grid (48 x 48 points, more than the global search's coarse level, so that the
+    coarse-to-fine ICP runs too) against part of itself shifted by 0.01 mm, which imports the
+    pipeline and takes the 3D path through registration, the deviation kernels and the verdict
+    (the 2D contour path is not warmed).
     """
     import numpy as np
 
@@ -23,6 +24,8 @@ def warm_up() -> None:
     from .nominal import Nominal
     from .tolerance import Tolerance
 
-    grid = PointSet(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]]), grid_shape=(2, 2))
+    u, v = np.meshgrid(np.linspace(0.0, 40.0, 48), np.linspace(0.0, 40.0, 48), indexing="ij")
+    z = 0.01 * (u - 20.0) ** 2 + 0.005 * (v - 20.0) ** 2
+    grid = PointSet(np.column_stack([u.ravel(), v.ravel(), z.ravel()]), grid_shape=(48, 48))
     nominal = Nominal.from_point_set(grid)
-    inspect(nominal, nominal.points + [0, 0, 0.01], Tolerance.symmetric(1.0))
+    inspect(nominal, nominal.points[::7] + [0, 0, 0.01], Tolerance.symmetric(1.0))

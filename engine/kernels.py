@@ -503,33 +503,40 @@ def _min_norm_step(A, b, length, As, w, V, out):
         out[i] *= inv_len
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _residual(X, i, pts, j, nrm, row, shape, spacing, far, r, N, rn, e2):
+    """Point X[i] paired with sample pts[j] (unit normal nrm[row], shape operator shape[row] when
+    ``shape`` has rows): into r[i] the residual, N[i] its direction (the normal,
+    curvature-corrected), rn[i] the (second-order) distance along the normal, e2[i] the squared
+    error (infinite when ``far``)."""
+    for a in range(3):
+        r[i, a] = X[i, a] - pts[j, a]
+        N[i, a] = nrm[row, a]
+    along = _dot(r[i, 0], r[i, 1], r[i, 2], N[i, 0], N[i, 1], N[i, 2])
+    lat2 = max(_dot(r[i, 0], r[i, 1], r[i, 2], r[i, 0], r[i, 1], r[i, 2]) - along * along, 0.0)
+    if shape.shape[0] > 0:
+        q = 0.0
+        for a in range(3):
+            Sr = shape[row, a, 0] * r[i, 0] + shape[row, a, 1] * r[i, 1] \
+                + shape[row, a, 2] * r[i, 2]
+            q += r[i, a] * Sr
+            N[i, a] -= Sr
+        along -= 0.5 * q
+    rn[i] = along
+    lat = max(math.sqrt(lat2) - 3.0 * spacing, 0.0)
+    e2[i] = math.inf if far else along * along + lat * lat
+
+
 @njit(cache=True, nogil=True)
 def _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, N, r, rn,
                  e2):
-    """icp_poses' pairing of the points src at pose P (4, 4): into X the moved points, N the
-    residual's direction (the sample's normal, curvature-corrected), r the residual to the
-    sample, rn the (second-order) distance along the normal, e2 the squared error."""
-    curved = shape.shape[0] > 0
+    """icp_poses' pairing of the points src at pose P (4, 4): into X the moved points, and by
+    ``_residual`` r, N, rn and e2."""
     for i in range(src.shape[0]):
         for a in range(3):
             X[i, a] = P[a, 0] * src[i, 0] + P[a, 1] * src[i, 1] + P[a, 2] * src[i, 2] + P[a, 3]
         j, d2 = nearest_sample(X[i, 0], X[i, 1], X[i, 2], lo, cell, owner, graph, pts)
-        for a in range(3):
-            r[i, a] = X[i, a] - pts[j, a]
-            N[i, a] = nrm[j, a]
-        along = _dot(r[i, 0], r[i, 1], r[i, 2], N[i, 0], N[i, 1], N[i, 2])
-        lat2 = max(_dot(r[i, 0], r[i, 1], r[i, 2], r[i, 0], r[i, 1], r[i, 2]) - along * along,
-                   0.0)
-        if curved:
-            q = 0.0
-            for a in range(3):
-                Sr = shape[j, a, 0] * r[i, 0] + shape[j, a, 1] * r[i, 1] + shape[j, a, 2] * r[i, 2]
-                q += r[i, a] * Sr
-                N[i, a] -= Sr
-            along -= 0.5 * q
-        rn[i] = along
-        lat = max(math.sqrt(lat2) - 3.0 * spacing, 0.0)
-        e2[i] = math.inf if d2 > reach * reach else along * along + lat * lat
+        _residual(X, i, pts, j, nrm, j, shape, spacing, d2 > reach * reach, r, N, rn, e2)
 
 
 @njit(cache=True, nogil=True)
@@ -752,3 +759,33 @@ def shape_fit(N, dx, dn, S):
                 S[i, p, q] = 0.0 if flat else (k11 * e[0][p] * e[0][q]
                                                + k12 * (e[0][p] * e[1][q] + e[1][p] * e[0][q])
                                                + k22 * e[1][p] * e[1][q])
+
+
+@njit(cache=True, nogil=True)
+def icp_paired(T, X, j, far, pts, nrm, shape, spacing, lam2, reach, update, out_T, out_e2,
+               out_delta):
+    """One iteration of engine.registration._icp_batch for poses T (H, 4, 4) whose points X
+    (H, m, 3) are paired with samples j (H, m) of pts (L, 3) (scipy's kd-tree; ``far`` (H, m):
+    none within reach), with unit normals nrm (H, m, 3) and shape operators ``shape``
+    (H, m, 3, 3; or (0, m, 3, 3): the tangent plane) of those samples: the squared errors into
+    out_e2 (H, m) and, with ``update``, the updated poses into out_T and the steps
+    [rotation vector, translation] into out_delta (H, 6). The arithmetic is icp_poses'. Twin:
+    tests/naive.py icp_batch."""
+    H, m = X.shape[0], X.shape[1]
+    N, r, rn, srt = np.empty((m, 3)), np.empty((m, 3)), np.empty(m), np.empty(m)
+    A, As, EV, sxx = np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((3, 3))
+    b, ev, c = np.empty(6), np.empty(6), np.empty(3)
+    R, Q = np.empty((3, 3)), np.empty((4, 4))
+    no_shape = np.empty((0, 3, 3))
+    for h in range(H):
+        Xh, e2 = X[h], out_e2[h]
+        Sh = shape[h] if shape.shape[0] > 0 else no_shape
+        for i in range(m):
+            _residual(Xh, i, pts, j[h, i], nrm[h], i, Sh, spacing, far[h, i], r, N, rn, e2)
+        if not update:
+            continue
+        length = _normal_equations(Xh, N, r, rn, e2, spacing, reach, lam2, srt, A, b, c, sxx)
+        _min_norm_step(A, b, length, As, ev, EV, out_delta[h])
+        P = T[h].copy()
+        _apply_step(P, out_delta[h], c, R, Q)
+        out_T[h] = P

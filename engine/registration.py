@@ -537,20 +537,33 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
     by a few points (a boss on a cube, whose faces fit at 24 poses) does.
     """
     done = 0
+    H, m = T.shape[0], src.shape[0]
+    no_shape = np.empty((0, m, 3, 3))
+    e2, delta = np.empty((H, m)), np.empty((H, 6))
     for k in range(iterations + 1):
-        X, r, rn, n, e2 = _pairs(T, src, tree, pts, nrm, spacing, reach, shape)
-        if k == iterations:
-            break
-        if stage is not None:
+        # Pairs from scipy's kd-tree; the arithmetic compiled (kernels.icp_paired).
+        X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+        dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
+                             distance_upper_bound=reach)
+        far = ~np.isfinite(dist).reshape(H, m)
+        j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
+        n = nrm(j) if callable(nrm) else nrm[j]
+        update = k < iterations
+        if update and stage is not None:
             report(f"{stage[0]}, ICP iteration {k + 1}",
                    stage[1] + (stage[2] - stage[1]) * k / iterations)
-        delta, c = _icp_step(X, r, rn, n, e2, spacing, reach, lam2)
-        T = _compose_update(T, delta, c)
+        T_next = np.empty_like(T)
+        kernels.icp_paired(np.ascontiguousarray(T), np.ascontiguousarray(X), j, far, pts,
+                           np.ascontiguousarray(n, np.float64),
+                           no_shape if shape is None else np.ascontiguousarray(shape[j]),
+                           float(spacing), float(lam2), float(reach), update, T_next, e2, delta)
+        if not update:
+            break
+        T = T_next
         done += 1
         if stop_rad and np.all(np.linalg.norm(delta[:, :3], axis=1) < stop_rad) and \
                 np.all(np.linalg.norm(delta[:, 3:], axis=1) < stop_rad * 100 * spacing):
-            X, r, rn, n, e2 = _pairs(T, src, tree, pts, nrm, spacing, reach, shape)
-            break
+            stop_rad, iterations = 0.0, k + 1  # one more pairing scores the poses returned
     return T, np.mean(np.minimum(e2, (3 * spacing) ** 2), axis=1), done
 
 
@@ -583,59 +596,6 @@ def _icp_poses(T: np.ndarray, src: np.ndarray, lookup: SampleLookup, pts: np.nda
 
 
 _NO_SHAPE = np.zeros((0, 3, 3))
-
-
-def _pairs(T, src, tree, pts, nrm, spacing, reach, shape):
-    """The points ``src`` (m, 3) at the H poses T, each paired with its nearest sample (see
-    _icp_batch): (X (H, m, 3), residual to the sample r, distance along its normal rn (second
-    order with ``shape``), the residual's direction n, squared error e2 (inf: unpaired))."""
-    H, m = T.shape[0], src.shape[0]
-    X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
-    dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
-                         distance_upper_bound=reach)
-    far = ~np.isfinite(dist).reshape(H, m)
-    j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
-    mp, n = pts[j], (nrm(j) if callable(nrm) else nrm[j])
-    r = X - mp
-    rn = np.sum(r * n, axis=2)
-    lat2 = np.maximum(np.sum(r * r, axis=2) - rn * rn, 0.0)
-    if shape is not None:
-        # Second-order distance to the surface through the sample (see
-        # Nominal.shape_operators), and its gradient as the direction of the residual.
-        Sr = np.einsum("hmij,hmj->hmi", shape[j], r)
-        rn = rn - 0.5 * np.sum(r * Sr, axis=2)
-        n = n - Sr
-    lat = np.maximum(np.sqrt(lat2) - 3 * spacing, 0.0)
-    return X, r, rn, n, np.where(far, np.inf, rn * rn + lat * lat)
-
-
-def _icp_step(X, r, rn, n, e2, spacing, reach, lam2):
-    """One ICP update per pose from the pairs of _pairs: (delta (H, 6), centres c (H, 3))."""
-    H = X.shape[0]
-    tau = np.minimum(np.maximum(3 * spacing, 2.5 * np.sqrt(np.median(e2, axis=1))), reach)
-    w = (e2 <= (tau * tau)[:, None]).astype(np.float64)
-    sw = w.sum(1)
-    c = (w[..., None] * X).sum(1) / np.maximum(sw, 1.0)[:, None]
-    xt = X - c[:, None, :]
-    Jp = np.concatenate([np.cross(xt, n), n], axis=2)  # (H, m, 6)
-    Jw = Jp * w[..., None]
-    A = Jw.transpose(0, 2, 1) @ Jp
-    b = (Jw * rn[..., None]).sum(1)
-    if lam2:
-        # Point-to-point term: x' - m = r - [xt]x w + t.
-        xw = xt * w[..., None]
-        sx = xw.sum(1)
-        sxx = xw.transpose(0, 2, 1) @ xt
-        A_pp = np.zeros((H, 6, 6))
-        A_pp[:, :3, :3] = np.trace(sxx, axis1=1, axis2=2)[:, None, None] * np.eye(3) - sxx
-        A_pp[:, :3, 3:] = skew(sx)
-        A_pp[:, 3:, :3] = np.transpose(A_pp[:, :3, 3:], (0, 2, 1))
-        A_pp[:, 3:, 3:] = sw[:, None, None] * np.eye(3)
-        b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
-        A = A + lam2 * A_pp
-        b = b + lam2 * b_pp
-    length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(sw, 1.0))
-    return -min_norm_solve(A, b, 3, length), c
 
 
 def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarray:

@@ -80,7 +80,8 @@ def nearest_sample(p, lookup, pts):
 
 class LookupAsTree:
     """A kd-tree stand-in whose ``query`` pairs by ``nearest_sample`` above: run through the numpy
-    ICP of engine.registration (_icp_batch), it is the twin of the compiled one (_icp_poses)."""
+    ICP below (icp_batch), it is the twin of the compiled one that pairs so
+    (engine.registration._icp_poses)."""
 
     def __init__(self, lookup, pts):
         self.lookup, self.pts = lookup, np.asarray(pts)
@@ -147,3 +148,70 @@ def shape_operators(n, dx, dn):
     turn = np.max(np.linalg.norm(dn, axis=2), axis=1)
     S[(kmax * reach > 0.3) | (turn > 0.3)] = 0.0
     return S
+
+
+def icp_batch(T, src, tree, pts, nrm, spacing, iterations, stop_rad=0.0, lam2=0.0,
+              reach=np.inf, shape=None):
+    """Slow twin of engine.registration._icp_batch and of the compiled ICP kernels
+    (kernels.icp_paired, kernels.icp_poses): the same ICP in numpy over all poses at once, LAPACK
+    for the steps; pairing by ``tree.query`` (scipy's kd-tree, or LookupAsTree). Returns (poses,
+    truncated scores, iterations run)."""
+    from engine.geometry import skew
+    from engine.registration import _compose_update, min_norm_solve
+
+    def pairs(T):
+        H, m = T.shape[0], src.shape[0]
+        X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+        dist, j = tree.query(X.reshape(-1, 3), distance_upper_bound=reach)
+        far = ~np.isfinite(dist).reshape(H, m)
+        j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
+        mp, n = pts[j], (nrm(j) if callable(nrm) else nrm[j])
+        r = X - mp
+        rn = np.sum(r * n, axis=2)
+        lat2 = np.maximum(np.sum(r * r, axis=2) - rn * rn, 0.0)
+        if shape is not None:
+            Sr = np.einsum("hmij,hmj->hmi", shape[j], r)
+            rn = rn - 0.5 * np.sum(r * Sr, axis=2)
+            n = n - Sr
+        lat = np.maximum(np.sqrt(lat2) - 3 * spacing, 0.0)
+        return X, r, rn, n, np.where(far, np.inf, rn * rn + lat * lat)
+
+    def step(X, r, rn, n, e2):
+        H = X.shape[0]
+        tau = np.minimum(np.maximum(3 * spacing, 2.5 * np.sqrt(np.median(e2, axis=1))), reach)
+        w = (e2 <= (tau * tau)[:, None]).astype(np.float64)
+        sw = w.sum(1)
+        c = (w[..., None] * X).sum(1) / np.maximum(sw, 1.0)[:, None]
+        xt = X - c[:, None, :]
+        Jp = np.concatenate([np.cross(xt, n), n], axis=2)
+        Jw = Jp * w[..., None]
+        A = Jw.transpose(0, 2, 1) @ Jp
+        b = (Jw * rn[..., None]).sum(1)
+        if lam2:
+            xw = xt * w[..., None]
+            sx = xw.sum(1)
+            sxx = xw.transpose(0, 2, 1) @ xt
+            A_pp = np.zeros((H, 6, 6))
+            A_pp[:, :3, :3] = np.trace(sxx, axis1=1, axis2=2)[:, None, None] * np.eye(3) - sxx
+            A_pp[:, :3, 3:] = skew(sx)
+            A_pp[:, 3:, :3] = np.transpose(A_pp[:, :3, 3:], (0, 2, 1))
+            A_pp[:, 3:, 3:] = sw[:, None, None] * np.eye(3)
+            b_pp = np.concatenate([np.cross(xw, r).sum(1), (r * w[..., None]).sum(1)], axis=1)
+            A = A + lam2 * A_pp
+            b = b + lam2 * b_pp
+        length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(sw, 1.0))
+        return -min_norm_solve(A, b, 3, length), c
+
+    done = 0
+    for k in range(iterations + 1):
+        X, r, rn, n, e2 = pairs(T)
+        if k == iterations:
+            break
+        delta, c = step(X, r, rn, n, e2)
+        T = _compose_update(T, delta, c)
+        done += 1
+        if stop_rad and np.all(np.linalg.norm(delta[:, :3], axis=1) < stop_rad) and \
+                np.all(np.linalg.norm(delta[:, 3:], axis=1) < stop_rad * 100 * spacing):
+            X, r, rn, n, e2 = pairs(T)
+            break
+    return T, np.mean(np.minimum(e2, (3 * spacing) ** 2), axis=1), done

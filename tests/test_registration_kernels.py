@@ -11,7 +11,7 @@ from engine.geometry import apply_transform, make_transform
 from engine.nominal import Nominal
 from engine.registration import (RegistrationSettings, _hypotheses, _icp_batch, _icp_poses,
                                  _level_spacing, _spread_subset, min_norm_solve)
-from naive import LookupAsTree, nearest_sample
+from naive import LookupAsTree, icp_batch, nearest_sample
 from surfaces import height, height_grid, point_set, random_rotation
 
 
@@ -102,9 +102,8 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
                                                 (True, 60.0, 0.0)])
 def test_compiled_icp_is_the_numpy_icp_with_the_same_pairing(level, shape, reach, lam2):
     """Poses from the global search's starts, three ICP iterations: the compiled kernel (split
-    over threads) and engine.registration's numpy ICP paired by the same lookup (its slow twin)
-    end at the same poses and scores, with the curvature term or without, with a reach or
-    without."""
+    over threads) and the numpy ICP twin paired by the same lookup end at the same poses and
+    scores, with the curvature term or without, with a reach or without."""
     nominal, pts, nrm, S, h, _, lookup = level
     rng = np.random.default_rng(7)
     q = _surface_points(rng, 600, 0.004)
@@ -114,8 +113,8 @@ def test_compiled_icp_is_the_numpy_icp_with_the_same_pairing(level, shape, reach
     S = S if shape else None
     T_fast, s_fast = _icp_poses(T, src, lookup, pts, nrm, S, h, iterations=3, lam2=lam2,
                                 reach=reach)
-    T_slow, s_slow, done = _icp_batch(T, src, LookupAsTree(lookup, pts), pts, nrm, h,
-                                      iterations=3, lam2=lam2, reach=reach, shape=S)
+    T_slow, s_slow, done = icp_batch(T, src, LookupAsTree(lookup, pts), pts, nrm, h,
+                                     iterations=3, lam2=lam2, reach=reach, shape=S)
     assert done == 3
     moved = np.linalg.norm(np.einsum("hij,mj->hmi", T_fast[:, :3, :3] - T_slow[:, :3, :3], src)
                            + (T_fast[:, None, :3, 3] - T_slow[:, None, :3, 3]), axis=2)
@@ -178,3 +177,38 @@ def test_shape_operators_match_their_twin_and_a_sphere():
             edge = np.min(np.minimum(c[idx], 20.0 - c[idx]) + 20.0 * (
                 np.arange(3)[None] == axis[idx][:, None]), axis=1) < 0.5
             assert edge.sum() > 5 and np.all(S[edge] == 0.0)
+
+
+@pytest.mark.parametrize("level_size, stop_rad", [(4000, 0.0), (None, 1e-6)])
+def test_coarse_to_fine_icp_is_its_numpy_twin(level, level_size, stop_rad):
+    """The coarse-to-fine levels' ICP (engine.registration._icp_batch: scipy's kd-tree pairs,
+    compiled arithmetic) against the numpy twin with the same kd-tree: a quadric level of 4,000
+    samples, and the whole nominal (plane, normals looked up as needed, early stop), from poses
+    a few millimetres and degrees off."""
+    nominal = level[0]
+    rng = np.random.default_rng(9)
+    q = _surface_points(rng, 500, 0.004)
+    T0 = make_transform(random_rotation(rng), rng.uniform(-900, 900, 3))
+    measured = apply_transform(T0, q)
+    inv = np.linalg.inv(T0)
+    from engine.geometry import rotation_from_rotvec
+    T = np.stack([make_transform(rotation_from_rotvec(rng.normal(0, 0.03, 3)), rng.normal(0, 3, 3))
+                  @ inv for _ in range(6)])
+    if level_size is None:
+        tree, pts, nrm, S = nominal.tree, nominal.points, nominal.normals, None
+    else:
+        idx, tree = nominal.level(level_size)
+        pts, nrm, S = nominal.points[idx], nominal.normals(idx), nominal.level_shape(level_size)
+    h = _level_spacing(tree, pts)
+    fast = _icp_batch(T, measured, tree, pts, nrm, h, iterations=8, stop_rad=stop_rad,
+                      reach=10 * h, shape=S)
+    slow = icp_batch(T, measured, tree, pts, nrm, h, iterations=8, stop_rad=stop_rad,
+                     reach=10 * h, shape=S)
+    assert fast[2] == slow[2] and (stop_rad == 0.0 or fast[2] < 8), fast[2]
+    moved = np.linalg.norm(np.einsum("hij,mj->hmi", fast[0][:, :3, :3] - slow[0][:, :3, :3],
+                                     measured) + (fast[0][:, None, :3, 3] - slow[0][:, None, :3, 3]),
+                           axis=2)
+    assert np.max(moved) < 1e-7
+    assert np.allclose(fast[1], slow[1], rtol=1e-9, atol=1e-15)
+    # and they land where the points belong
+    assert np.max(np.linalg.norm(apply_transform(fast[0][0], measured) - q, axis=1)) < 0.05
