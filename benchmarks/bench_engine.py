@@ -7,7 +7,10 @@ Each case runs in its own process (so peak memory is that case's). Engine time i
 nominal's structures, registration from the arbitrary pose and deviations; file loading and the
 one-time load of the compiled kernels (printed below the table) are excluded; "peak RSS" is the
 process's peak resident memory, the in-memory nominal and measured arrays included. Accuracy compares with the
-planted truth: the largest error of the registered points and of the signed deviations.
+planted truth: the largest error of the registered points and of the signed deviations. One of
+the bracket's 100 points lies in its flange's through hole (material where the drawing has
+none): that case is rightly REJECTed, and that point, whose deviation is not the planted one,
+is left out of "dev err".
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ CASES = {
     # name: (nominal grid nu x nv, measured points, coverage x-range, y-range, kind)
     "60k/1.1k": ((300, 200), 1100, (-245, 245), (-120, 120), "grid+IJK"),
     "60k/400 quarter": ((300, 200), 400, (0, 245), (0, 120), "grid+IJK"),
+    "60k/400 tenth": ((300, 200), 400, (-200, -50), (-120, -40), "grid+IJK"),
     "200k/100 bracket": (None, 100, None, None, "points+IJK"),
     "1M/200k": ((1414, 707), 200_000, (-245, 245), (-120, 120), "grid+IJK"),
     "5M/1M": ((3162, 1581), 1_000_000, (-245, 245), (-120, 120), "grid+IJK"),
@@ -37,11 +41,11 @@ CASES = {
 }
 
 
-def run_case(name: str) -> dict:
-    import engine
+def make_case(name: str):
+    """(nominal PointSet, truth q (m, 3) in the nominal frame, measured points (m, 3) in the
+    arbitrary pose, true deviations (m,; the planted ones, NaN where none is known),
+    T_measured_nominal (4, 4)) of a case."""
     from engine.geometry import apply_transform, make_transform
-    from engine.inspection import Tolerance, inspect
-    from engine.nominal import Nominal
     from engine.pointset import PointSet
     import samples.generate as gen
 
@@ -72,7 +76,23 @@ def run_case(name: str) -> dict:
     q = q + planted[:, None] * nq
     R = gen.rotation([0.4, -0.7, 0.2], 137.0)
     T = make_transform(R, np.array([1520.0, -830.0, 410.0]))
-    measured = apply_transform(T, q)
+    truth = planted.copy()
+    if grid is None:
+        # A point of face A that falls in the flange's through hole is material where the
+        # drawing has none: its deviation is not the planted one (about 1.2 mm, measured to the
+        # hole's wall, is right); it has no planted truth.
+        truth[np.hypot(q[:, 0] - gen.HOLE_CENTRE[0], q[:, 1] - gen.HOLE_CENTRE[1])
+              < gen.HOLE_D / 2] = np.nan
+    return ps, q, apply_transform(T, q), truth, T
+
+
+def run_case(name: str) -> dict:
+    import engine
+    from engine.inspection import Tolerance, inspect
+    from engine.nominal import Nominal
+
+    ps, q, measured, planted, _ = make_case(name)
+    kind = CASES[name][4]
 
     # Load the compiled kernels (numba cache) once, as a running application has them: that
     # one-time cost is reported on its own.
@@ -85,7 +105,7 @@ def run_case(name: str) -> dict:
     res = inspect(nom, measured, Tolerance.symmetric(0.05))
     engine_s = time.perf_counter() - t0
     pose_err = float(np.max(np.linalg.norm(res.registered - q, axis=1)))
-    dev_err = float(np.max(np.abs(res.deviations.signed - planted)))
+    dev_err = float(np.nanmax(np.abs(res.deviations.signed - planted)))
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return {"case": name, "nominal": int(nom.n), "measured": int(len(q)), "kind": kind,
             "engine_s": engine_s, "register_s": res.timings_s["register"],

@@ -503,40 +503,46 @@ def _min_norm_step(A, b, length, As, w, V, out):
         out[i] *= inv_len
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _residual(X, i, pts, j, nrm, row, shape, spacing, far, r, N, rn, e2):
-    """Point X[i] paired with sample pts[j] (unit normal nrm[row], shape operator shape[row] when
-    ``shape`` has rows): into r[i] the residual, N[i] its direction (the normal,
-    curvature-corrected), rn[i] the (second-order) distance along the normal, e2[i] the squared
-    error (infinite when ``far``)."""
-    for a in range(3):
-        r[i, a] = X[i, a] - pts[j, a]
-        N[i, a] = nrm[row, a]
-    along = _dot(r[i, 0], r[i, 1], r[i, 2], N[i, 0], N[i, 1], N[i, 2])
-    lat2 = max(_dot(r[i, 0], r[i, 1], r[i, 2], r[i, 0], r[i, 1], r[i, 2]) - along * along, 0.0)
-    if shape.shape[0] > 0:
-        q = 0.0
+@njit(cache=True, nogil=True)
+def _residuals(X, j, far, pts, nrm, shape, by_pair, spacing, r, N, rn, e2):
+    """Points X (m, 3) paired with samples pts[j] (m,), none within reach where ``far``: into r
+    the residuals, N their directions (the samples' unit normals, curvature-corrected by their
+    shape operators when ``shape`` has rows), rn the (second-order) distances along the
+    normals, e2 the squared errors (infinite where far). The rows of nrm and shape are the
+    samples' (j[i]), or with ``by_pair`` the pairs' (i)."""
+    curved = shape.shape[0] > 0
+    for i in range(X.shape[0]):
+        row = i if by_pair else j[i]
         for a in range(3):
-            Sr = shape[row, a, 0] * r[i, 0] + shape[row, a, 1] * r[i, 1] \
-                + shape[row, a, 2] * r[i, 2]
-            q += r[i, a] * Sr
-            N[i, a] -= Sr
-        along -= 0.5 * q
-    rn[i] = along
-    lat = max(math.sqrt(lat2) - 3.0 * spacing, 0.0)
-    e2[i] = math.inf if far else along * along + lat * lat
+            r[i, a] = X[i, a] - pts[j[i], a]
+            N[i, a] = nrm[row, a]
+        along = _dot(r[i, 0], r[i, 1], r[i, 2], N[i, 0], N[i, 1], N[i, 2])
+        lat2 = max(_dot(r[i, 0], r[i, 1], r[i, 2], r[i, 0], r[i, 1], r[i, 2]) - along * along,
+                   0.0)
+        if curved:
+            q = 0.0
+            for a in range(3):
+                Sr = shape[row, a, 0] * r[i, 0] + shape[row, a, 1] * r[i, 1] \
+                    + shape[row, a, 2] * r[i, 2]
+                q += r[i, a] * Sr
+                N[i, a] -= Sr
+            along -= 0.5 * q
+        rn[i] = along
+        lat = max(math.sqrt(lat2) - 3.0 * spacing, 0.0)
+        e2[i] = math.inf if far[i] else along * along + lat * lat
 
 
 @njit(cache=True, nogil=True)
-def _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, N, r, rn,
-                 e2):
-    """icp_poses' pairing of the points src at pose P (4, 4): into X the moved points, and by
-    ``_residual`` r, N, rn and e2."""
+def _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, j, far,
+                 N, r, rn, e2):
+    """icp_poses' pairing of the points src at pose P (4, 4): into X the moved points, j their
+    samples and far whether those lie beyond ``reach``, and by ``_residuals`` r, N, rn, e2."""
     for i in range(src.shape[0]):
         for a in range(3):
             X[i, a] = P[a, 0] * src[i, 0] + P[a, 1] * src[i, 1] + P[a, 2] * src[i, 2] + P[a, 3]
-        j, d2 = nearest_sample(X[i, 0], X[i, 1], X[i, 2], lo, cell, owner, graph, pts)
-        _residual(X, i, pts, j, nrm, j, shape, spacing, d2 > reach * reach, r, N, rn, e2)
+        j[i], d2 = nearest_sample(X[i, 0], X[i, 1], X[i, 2], lo, cell, owner, graph, pts)
+        far[i] = d2 > reach * reach
+    _residuals(X, j, far, pts, nrm, shape, False, spacing, r, N, rn, e2)
 
 
 @njit(cache=True, nogil=True)
@@ -630,14 +636,15 @@ def icp_poses(T, src, lo, cell, owner, graph, pts, nrm, shape, spacing, iteratio
     m = src.shape[0]
     X, N, r = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
     rn, e2, srt = np.empty(m), np.empty(m), np.empty(m)
+    j, far = np.empty(m, np.int64), np.empty(m, np.bool_)
     A, As, EV, sxx = np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((3, 3))
     b, ev, delta, c = np.empty(6), np.empty(6), np.empty(6), np.empty(3)
     R, Q = np.empty((3, 3)), np.empty((4, 4))
     for h in range(first, last):
         P = T[h].copy()
         for k in range(iterations + 1):
-            _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, N,
-                         r, rn, e2)
+            _pair_points(P, src, lo, cell, owner, graph, pts, nrm, shape, spacing, reach, X, j,
+                         far, N, r, rn, e2)
             if k == iterations:
                 break
             length = _normal_equations(X, N, r, rn, e2, spacing, reach, lam2, srt, A, b, c,
@@ -780,8 +787,7 @@ def icp_paired(T, X, j, far, pts, nrm, shape, spacing, lam2, reach, update, out_
     for h in range(H):
         Xh, e2 = X[h], out_e2[h]
         Sh = shape[h] if shape.shape[0] > 0 else no_shape
-        for i in range(m):
-            _residual(Xh, i, pts, j[h, i], nrm[h], i, Sh, spacing, far[h, i], r, N, rn, e2)
+        _residuals(Xh, j[h], far[h], pts, nrm[h], Sh, True, spacing, r, N, rn, e2)
         if not update:
             continue
         length = _normal_equations(Xh, N, r, rn, e2, spacing, reach, lam2, srt, A, b, c, sxx)
