@@ -795,3 +795,60 @@ def icp_paired(T, X, j, far, pts, nrm, shape, spacing, lam2, reach, update, out_
         P = T[h].copy()
         _apply_step(P, out_delta[h], c, R, Q)
         out_T[h] = P
+
+
+# ------------------------------------------------------------------ nominal construction
+@njit(cache=True, nogil=True)
+def _nonzero_area(ax, ay, az, bx, by, bz, cx, cy, cz):
+    """Numerically non-zero area of the triangle a b c (as nominal._nonzero_area_xyz)."""
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    scale = max(e1x * e1x + e1y * e1y + e1z * e1z, e2x * e2x + e2y * e2y + e2z * e2z)
+    return nx * nx + ny * ny + nz * nz > 1e-24 * max(scale, 1e-300) ** 2
+
+
+@njit(cache=True, nogil=True)
+def grid_triangles(P, nu, nv):
+    """The triangles (2 m, 3) of a u-v grid's points P (nv * nu, 3; u fastest), m = (nu - 1) x
+    (nv - 1) cells each split along its shorter diagonal: first every cell's triangle
+    v00 v10 (v11 | v01), then every cell's (v00 | v10) v11 v01; and whether each has non-zero
+    area (2 m,). Twin: tests/naive.py grid_triangles."""
+    m = (nv - 1) * (nu - 1)
+    tris = np.empty((2 * m, 3), np.int64)
+    ok = np.empty(2 * m, np.bool_)
+    for j in range(nv - 1):
+        for i in range(nu - 1):
+            c = j * (nu - 1) + i
+            v00 = j * nu + i
+            v10, v01, v11 = v00 + 1, v00 + nu, v00 + nu + 1
+            d1 = _dot(P[v00, 0] - P[v11, 0], P[v00, 1] - P[v11, 1], P[v00, 2] - P[v11, 2],
+                      P[v00, 0] - P[v11, 0], P[v00, 1] - P[v11, 1], P[v00, 2] - P[v11, 2])
+            d2 = _dot(P[v10, 0] - P[v01, 0], P[v10, 1] - P[v01, 1], P[v10, 2] - P[v01, 2],
+                      P[v10, 0] - P[v01, 0], P[v10, 1] - P[v01, 1], P[v10, 2] - P[v01, 2])
+            short = d1 <= d2
+            third = v11 if short else v01
+            first = v00 if short else v10
+            tris[c, 0], tris[c, 1], tris[c, 2] = v00, v10, third
+            tris[m + c, 0], tris[m + c, 1], tris[m + c, 2] = first, v11, v01
+            ok[c] = _nonzero_area(P[v00, 0], P[v00, 1], P[v00, 2], P[v10, 0], P[v10, 1],
+                                  P[v10, 2], P[third, 0], P[third, 1], P[third, 2])
+            ok[m + c] = _nonzero_area(P[first, 0], P[first, 1], P[first, 2], P[v11, 0],
+                                      P[v11, 1], P[v11, 2], P[v01, 0], P[v01, 1], P[v01, 2])
+    return tris, ok
+
+
+@njit(cache=True, nogil=True)
+def longest_edges(P, tris):
+    """(t,) the longest edge of each triangle of tris (t, 3) over the points P (n, 3)."""
+    out = np.empty(tris.shape[0])
+    for t in range(tris.shape[0]):
+        best = 0.0
+        for k in range(3):
+            a, b = tris[t, k], tris[t, (k + 1) % 3]
+            best = max(best, _dot(P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2],
+                                  P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]))
+        out[t] = math.sqrt(best)
+    return out

@@ -203,13 +203,7 @@ class Nominal:
         """
         tris = self.triangles
         P = self.points
-        longest = np.empty(tris.shape[0])
-        for s0 in range(0, tris.shape[0], 65536):
-            t = tris[s0:s0 + 65536]
-            a, b, c = P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]
-            longest[s0:s0 + 65536] = np.sqrt(np.maximum.reduce([
-                np.einsum("ij,ij->i", b - a, b - a), np.einsum("ij,ij->i", c - b, c - b),
-                np.einsum("ij,ij->i", a - c, a - c)]))
+        longest = kernels.longest_edges(P, tris)
         s = float(np.median(longest[:: max(1, longest.size // 100000)]))
         big = np.flatnonzero(longest > 2.0 * s)
         extra_pts = [np.empty((0, 3))]
@@ -386,36 +380,7 @@ def _wraps(P: np.ndarray) -> bool:
 def _grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:
     """Split each u-v grid cell into two triangles along its shorter diagonal (u fastest);
     triangles of zero area (collapsed rows or columns, as at a pole) are left out."""
-    C = [np.ascontiguousarray(points[:, k]).reshape(nv, nu) for k in range(3)]
-    m = (nv - 1) * (nu - 1)
-    use1 = np.empty((nv - 1, nu - 1), dtype=bool)
-    ok = np.empty((2, nv - 1, nu - 1), dtype=bool)
-    rows = max(1, 32768 // nu)  # cache-sized bands of cell rows
-    for r0 in range(0, nv - 1, rows):
-        r1 = min(r0 + rows, nv - 1)
-        # Per coordinate, the four corner arrays of the band's cells.
-        p00 = [c[r0:r1, :-1] for c in C]
-        p10 = [c[r0:r1, 1:] for c in C]
-        p01 = [c[r0 + 1:r1 + 1, :-1] for c in C]
-        p11 = [c[r0 + 1:r1 + 1, 1:] for c in C]
-        u = sum((a - b) ** 2 for a, b in zip(p00, p11)) <= sum((a - b) ** 2
-                                                                for a, b in zip(p10, p01))
-        use1[r0:r1] = u
-        third = [np.where(u, a, b) for a, b in zip(p11, p01)]   # triangle 1: v00 v10 (v11|v01)
-        first = [np.where(u, a, b) for a, b in zip(p00, p10)]   # triangle 2: (v00|v10) v11 v01
-        ok[0, r0:r1] = _nonzero_area_xyz(p00, p10, third)
-        ok[1, r0:r1] = _nonzero_area_xyz(first, p11, p01)
-    use1 = use1.ravel()
-    j, i = np.divmod(np.arange(m, dtype=np.int64), nu - 1)
-    v00 = j * nu + i
-    tris = np.empty((2 * m, 3), dtype=np.int64)
-    tris[:m, 0] = v00
-    tris[:m, 1] = v00 + 1
-    tris[:m, 2] = np.where(use1, v00 + nu + 1, v00 + nu)
-    tris[m:, 0] = np.where(use1, v00, v00 + 1)
-    tris[m:, 1] = v00 + nu + 1
-    tris[m:, 2] = v00 + nu
-    ok = ok.reshape(-1)
+    tris, ok = kernels.grid_triangles(np.ascontiguousarray(points, np.float64), int(nu), int(nv))
     return tris if ok.all() else tris[ok]
 
 

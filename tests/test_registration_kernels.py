@@ -212,3 +212,25 @@ def test_coarse_to_fine_icp_is_its_numpy_twin(level, level_size, stop_rad):
     assert np.allclose(fast[1], slow[1], rtol=1e-9, atol=1e-15)
     # and they land where the points belong
     assert np.max(np.linalg.norm(apply_transform(fast[0][0], measured) - q, axis=1)) < 0.05
+
+
+def test_grid_triangles_and_longest_edges_match_their_twins():
+    """The nominal's grid split (shorter diagonal; zero-area triangles at a pole left out) and
+    its triangles' longest edges, compiled, against the numpy twins, exactly."""
+    from engine.nominal import _grid_triangles
+    from naive import grid_triangles
+    rng = np.random.default_rng(2)
+    for nu, nv in ((7, 5), (40, 31), (300, 200)):
+        u, v = np.meshgrid(np.linspace(0, 1, nu), np.linspace(0, 1, nv))
+        pts = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)]) \
+            + rng.normal(0, 0.2 / nu, (u.size, 3))
+        assert np.array_equal(_grid_triangles(pts, nu, nv), grid_triangles(pts, nu, nv))
+    # A cone: the first row all at the apex, its cells' triangles there have zero area.
+    a, h = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, 10, 9))
+    cone = np.column_stack([(h * np.cos(a)).ravel(), (h * np.sin(a)).ravel(), h.ravel()])
+    tris = _grid_triangles(cone, 24, 9)
+    assert np.array_equal(tris, grid_triangles(cone, 24, 9)) and len(tris) < 2 * 23 * 8
+    P = rng.normal(size=(500, 3))
+    T = rng.integers(0, 500, (2000, 3))
+    e = np.stack([np.sum((P[T[:, k]] - P[T[:, (k + 1) % 3]]) ** 2, axis=1) for k in range(3)])
+    assert np.allclose(kernels.longest_edges(P, T), np.sqrt(e.max(axis=0)), rtol=1e-15, atol=0)
