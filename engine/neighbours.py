@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-PARALLEL_QUERIES = 20000
+PARALLEL_QUERIES = 2048
 """A kd-tree query of fewer points runs on one thread: starting the threads costs more than
 they save (a plan's datum fits query a few dozen points, many times)."""
 

@@ -307,7 +307,7 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
             else None
         frac = 0.4 + 0.35 * min(level, 4) / 4
         T, score, done = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h,
-                                    iterations=8 if last else 4, stop_rad=1e-6 if last else 0.0,
+                                    iterations=4, stop_rad=1e-6 if last else 0.0,
                                     reach=10 * h, shape=shape,
                                     stage=(f"ICP on {size:,} nominal samples", frac,
                                            frac + 0.08))
