@@ -8,7 +8,10 @@ The method is the paper's modified ICP (section 4) with a global stage in front 
    nominal normal at anchors spread over the whole nominal, at 18 spins. Every hypothesis runs a
    few ICP iterations on a coarse sample of the nominal, paired point-to-quadric (each sample
    carries its local curvature, so a coarse sample still scores close fits correctly); poses
-   that arrive at the same place merge and only the best distinct ones go on. A pose scores the
+   that arrive at the same place merge and only the best distinct ones go on. These some
+   10^5 pairings are compiled (kernels.icp_poses) and find their sample in constant time
+   (neighbours.SampleLookup: the owner of the point's grid cell, then a walk to nearer
+   neighbours), not by a kd-tree query each. A pose scores the
    mean over every point of its squared distance, each point's capped at 3 sample spacings: a
    point off the part costs the same whatever the pose, and every point counts, so that a
    feature carried by a few points (a boss on a cube, whose faces fit at 24 poses) decides.

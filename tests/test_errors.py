@@ -91,5 +91,8 @@ def test_warm_up_loads_the_pipeline_and_the_compiled_kernels():
                        timeout=600)
     assert r.returncode == 0, r.stderr
     compiled = json.loads(r.stdout.strip().splitlines()[-1])
-    # The measurement's kernels are loaded (numba compiles or loads a kernel on first call).
-    assert "best_in_stars" in compiled and "phong_finish" in compiled, compiled
+    # The measurement's and the registration's kernels are loaded (numba compiles or loads a
+    # kernel on first call): the global search's, the coarse-to-fine levels' and the nominal's.
+    for kernel in ("best_in_stars", "phong_finish", "icp_poses", "icp_paired", "shape_fit",
+                   "grid_triangles", "longest_edges", "farthest_points", "distinct_first"):
+        assert kernel in compiled, (kernel, compiled)
