@@ -731,6 +731,9 @@ def shape_fit(N, dx, dn, S):
         hx, hy, hz = (1.0, 0.0, 0.0) if abs(nx) < 0.9 else (0.0, 1.0, 0.0)
         ax, ay, az = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx
         length = math.sqrt(ax * ax + ay * ay + az * az)
+        if not length > 0.0:  # no normal: the tangent plane
+            S[i] = 0.0
+            continue
         ax, ay, az = ax / length, ay / length, az / length
         bx, by, bz = ny * az - nz * ay, nz * ax - nx * az, nx * ay - ny * ax
         s11 = s12 = s22 = r1 = r2 = r3 = turn = 0.0
@@ -752,14 +755,18 @@ def shape_fit(N, dx, dn, S):
         eps = 1e-9 * (2.0 * (s11 + s22)) + 1e-300
         a11, a22, a33 = s11 + eps, s11 + s22 + eps, s22 + eps
         det = a11 * (a22 * a33 - s12 * s12) - s12 * (s12 * a33)
+        if not det > 0.0:
+            # Coincident neighbours (a pole row, points stored twice): det underflows to 0 and
+            # nothing measures the curvature; the tangent plane.
+            S[i] = 0.0
+            continue
         k11 = (r1 * (a22 * a33 - s12 * s12) - s12 * (r2 * a33 - s12 * r3)) / det
         k12 = (a11 * (r2 * a33 - s12 * r3) - r1 * (s12 * a33)) / det
         k22 = (a11 * (a22 * r3 - s12 * r2) - s12 * (s12 * r3 - r2 * 0.0) + r1 * (s12 * s12)) / det
         reach.sort()
         mid = reach[k // 2] if k % 2 else 0.5 * (reach[k // 2 - 1] + reach[k // 2])
         kmax = abs(0.5 * (k11 + k22)) + math.sqrt(0.25 * (k11 - k22) ** 2 + k12 * k12)
-        # Coincident neighbours (det underflows): the tangent plane.
-        flat = not (kmax * mid <= 0.3 and turn <= 0.3)
+        flat = not (kmax * mid <= 0.3 and turn <= 0.3)  # also where it overflowed (NaN)
         e = ((ax, ay, az), (bx, by, bz))
         for p in range(3):
             for q in range(3):

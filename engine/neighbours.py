@@ -50,17 +50,20 @@ class SampleLookup:
 
     @classmethod
     def build(cls, pts: np.ndarray, tree, spacing: float) -> "SampleLookup":
-        """The lookup of samples ``pts`` (L, 3) with their kd-tree and typical ``spacing`` (mm):
-        the grid covers their box and 4 spacings around it, in cells of half a spacing or, where
-        that would exceed ``LOOKUP_CELLS`` cells, larger ones."""
+        """The lookup of samples ``pts`` (L, 3) with their kd-tree and typical ``spacing`` (mm,
+        may be 0): the grid covers their box and 4 spacings around it, in cells of half a
+        spacing or, where that would exceed ``LOOKUP_CELLS`` cells, larger ones."""
         margin = 4.0 * spacing
         lo = pts.min(axis=0) - margin
         size = pts.max(axis=0) + margin - lo
-        cell = max(0.5 * spacing, float(np.cbrt(np.prod(size) / LOOKUP_CELLS)), 1e-9)
-        shape = np.maximum(np.ceil(size / cell).astype(np.int64), 1)
-        while np.prod(shape) > LOOKUP_CELLS:
+        # Cells of half a spacing, larger where the box would need too many, and never below
+        # 1/1024 of the box's longest side (samples all in one plane and no spacing, as with
+        # points stored twice, give no volume to divide).
+        cell = max(0.5 * spacing, float(np.cbrt(np.prod(size) / LOOKUP_CELLS)),
+                   float(np.max(size)) / 1024.0, 1e-9)
+        while np.prod(np.maximum(np.ceil(size / cell), 1.0)) > LOOKUP_CELLS:  # float: no overflow
             cell *= 1.05
-            shape = np.maximum(np.ceil(size / cell).astype(np.int64), 1)
+        shape = np.maximum(np.ceil(size / cell).astype(np.int64), 1)
         at = np.minimum(((pts - lo) / cell).astype(np.int64), shape - 1)
         sample = np.full(tuple(shape), -1, np.int32)
         sample[at[:, 0], at[:, 1], at[:, 2]] = np.arange(len(pts), dtype=np.int32)
