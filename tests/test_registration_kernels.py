@@ -79,10 +79,22 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
         assert np.allclose(np.sort(w), ref, rtol=0, atol=1e-13 * ref[-1])
         assert np.allclose(A @ V, V * w, rtol=0, atol=1e-12 * ref[-1])
         assert np.allclose(V.T @ V, np.eye(6), atol=1e-13)
-        b, length = rng.normal(size=6) * scales, 10.0 ** rng.uniform(-1, 3)
+    # Rank-deficient and ill-conditioned steps. The scaled system's eigenvalues are kept at least
+    # 100 times from the 1e-6 x largest below which a direction is left alone: at the threshold
+    # itself, LAPACK's last digits (which change with the CPU's code path) decide either way.
+    for k in range(300):
+        Q, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+        top, kept = 10.0 ** rng.uniform(-3, 6), 1 + k % 6
+        ev = top * np.r_[1.0, 10.0 ** rng.uniform(-4, 0, kept - 1),
+                         10.0 ** rng.uniform(-16, -8, 6 - kept) * (k % 2)]
+        length = 10.0 ** rng.uniform(-1, 3)
+        s = np.r_[np.full(3, 1.0 / length), np.ones(3)]
+        A = (Q * ev) @ Q.T / np.outer(s, s)
+        A = 0.5 * (A + A.T)
+        b = rng.normal(size=6) * np.abs(A).max()
         kernels._min_norm_step(A, b, length, As, w, V, out)
         expect = min_norm_solve(A, b, 3, length)
-        assert np.allclose(-out, expect, rtol=1e-9, atol=1e-9 * np.max(np.abs(expect)))
+        assert np.allclose(-out, expect, rtol=0, atol=1e-9 * np.max(np.abs(expect)))
     # Well-conditioned systems take the Cholesky path (checked to be taken), same answer.
     taken = 0
     for k in range(300):
