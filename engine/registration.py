@@ -62,7 +62,6 @@ from .geometry import (
     make_transform,
     rotation_angle_deg,
     rotation_from_rotvec,
-    skew,
     uniform_rotations,
 )
 from .nominal import Nominal
