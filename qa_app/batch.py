@@ -389,9 +389,14 @@ def _remove_part(batch: Batch, part: Part) -> None:
             os.remove(files[name])
 
 
-def run_batch(batch: Batch, loaded: LoadedNominal, client, on_row=None) -> list[dict]:
+def run_batch(batch: Batch, loaded: LoadedNominal, client=None, on_row=None,
+              connect=None) -> list[dict]:
     """Inspect every part of ``batch`` against ``loaded`` on the Dask ``client``'s cluster;
     return the summary rows in measurement order (:func:`summary_row`), each part once.
+
+    connect : instead of ``client``, a function returning a context manager that yields one
+    (e.g. ``lambda: dask_client(None, 2)``), entered only when some part is left to inspect: the
+    resume of a finished lot starts no cluster.
 
     A part with a complete result of an earlier run for the same inputs and settings is not
     inspected again (its row says ``skipped``). Each part's files are written as its result
@@ -410,7 +415,10 @@ def run_batch(batch: Batch, loaded: LoadedNominal, client, on_row=None) -> list[
         rows[i] = summary_row(part, done[0], done[1], tracked, skipped=True)
         if on_row is not None:
             on_row(rows[i])
-    with contextlib.closing(_compute(batch, loaded, client, todo)) as results:
+    with contextlib.ExitStack() as stack:
+        if todo and connect is not None:
+            client = stack.enter_context(connect())
+        results = stack.enter_context(contextlib.closing(_compute(batch, loaded, client, todo)))
         for i, res in results:
             part = batch.parts[i]
             if res.error is None:

@@ -470,8 +470,9 @@ def _run_batch(args, job, loaded) -> int:
     bar = None if args.quiet or not sys.stderr.isatty() else qb.ProgressBar(len(job.parts))
     t0 = time.monotonic()
     try:
-        with qb.dask_client(args.scheduler, args.workers) as client:
-            rows = qb.run_batch(job, loaded, client, on_row=bar and bar.update)
+        # The cluster is started (or reached) only if some part is left to inspect.
+        rows = qb.run_batch(job, loaded, on_row=bar and bar.update,
+                            connect=lambda: qb.dask_client(args.scheduler, args.workers))
     except KeyboardInterrupt:
         if bar is not None:
             bar.close()

@@ -211,6 +211,36 @@ def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys)
     assert _complete_parts(out) == {"s02", "s03"}
 
 
+def test_resuming_a_finished_lot_starts_no_cluster(lot, tmp_path, capsys, monkeypatch):
+    """Every part already done: the same command writes the same summary without starting a
+    local cluster (it took about 3 s for nothing) or reaching a scheduler."""
+    import distributed
+
+    d, _ = lot
+    out = tmp_path / "out"
+    args = ["batch", d / "nominal.csv", d / "parts" / "s01.csv", d / "parts" / "s02.csv",
+            "--tol", "0.1", "--out", out, "--workers", "1", "--quiet"]
+    assert run(*args) == 0
+    first = _summary(out)
+    capsys.readouterr()
+
+    def no_cluster(*a, **k):
+        raise AssertionError("a finished lot started a cluster")
+
+    monkeypatch.setattr(distributed, "LocalCluster", no_cluster)
+    monkeypatch.setattr(distributed, "Client", no_cluster)
+    assert run(*args) == 0
+    assert "2 skipped" in capsys.readouterr().out
+    again = _summary(out)
+    assert [r["skipped"] for r in again["parts"]] == [True, True]
+    for r in first["parts"] + again["parts"]:
+        r.pop("skipped")
+    assert again["parts"] == first["parts"]
+    # With a scheduler that does not exist, too: nothing needs it.
+    at = args.index("--workers")
+    assert run(*args[:at], *args[at + 2:], "--scheduler", "tcp://127.0.0.1:9") == 0
+
+
 def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
     """Twelve parts, all ACCEPT at +-0.06 mm, with a bump that grows 4 um a part: summary.json's
     SPC of max |d| warns of the drift towards the upper limit, after as many more parts as the
