@@ -154,3 +154,46 @@ def test_exact_surface_gives_exact_deviations_where_the_sample_cannot():
     assert res.normals_source == "B-rep"
     sampled = inspect(nominal, measured, Tolerance.symmetric(0.05))
     assert np.max(np.abs(sampled.deviations.signed - planted)) > 1e-4
+
+
+@pytest.mark.parametrize("kind", ["grid", "bare points, normals estimated"])
+def test_concurrent_inspections_sharing_one_nominal_give_the_sequential_results(kind):
+    """A Dask worker with several threads inspects parts side by side against one nominal,
+    whose structures (levels, lookups, shape operators, kd-trees, estimated normals) fill
+    lazily: six threads at once give, bit for bit, what six inspections in turn against fresh
+    nominals give."""
+    import threading
+
+    pts, nrm, grid = height_grid(150, 100)
+
+    def nominal():
+        return Nominal.from_point_set(point_set(pts, nrm, grid) if kind == "grid"
+                                      else point_set(pts))
+
+    parts = []
+    for seed in range(6):
+        rng = np.random.default_rng(seed)
+        x, y = rng.uniform(-240, 240, 400), rng.uniform(-115, 115, 400)
+        q = np.column_stack([x, y, height(x, y)]) + \
+            rng.normal(0, 0.003, 400)[:, None] * height_normal(x, y)
+        q[seed] += 0.2 * height_normal(x[seed], y[seed]) * (seed % 2)
+        parts.append(apply_transform(make_transform(random_rotation(rng),
+                                                    rng.uniform(-500, 500, 3)), q))
+    tol = Tolerance.symmetric(0.1)
+    alone = [inspect(nominal(), p, tol) for p in parts]
+    shared, together = nominal(), [None] * len(parts)
+
+    def work(i):
+        together[i] = inspect(shared, parts[i], tol)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(parts))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for a, b in zip(alone, together):
+        assert b is not None and a.verdict == b.verdict
+        assert np.array_equal(a.deviations.signed, b.deviations.signed)
+        assert np.array_equal(a.registration.T_nominal_measured,
+                              b.registration.T_nominal_measured)
+    assert {a.verdict for a in alone} == {ACCEPT, REJECT}
