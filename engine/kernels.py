@@ -1,8 +1,10 @@
-"""Compiled inner loops (numba) of the deviation measurement.
+"""Compiled inner loops (numba) of the deviation measurement, the registration's ICP and the
+nominal's construction.
 
 Per measured point these run a short, branchy computation (which triangle of a star is nearest,
-which Voronoi region of that triangle holds the foot point, a few Phong iterations): as numpy
-array chains they are memory-bound and an order of magnitude slower. Each kernel has a slow,
+which Voronoi region of that triangle holds the foot point, a few Phong iterations; a pairing, a
+residual and a 6 x 6 step per ICP pose): as numpy array chains they are memory-bound and an
+order of magnitude slower. Each kernel has a slow,
 obvious twin in ``tests/naive.py`` or is checked against analytic geometry in the tests.
 
 Compiled on first use and cached next to this file (numba ``cache=True``).
@@ -624,15 +626,15 @@ def icp_poses(T, src, lo, cell, owner, graph, pts, nrm, shape, spacing, iteratio
     (0, 3, 3): the tangent plane), paired by ``nearest_sample``: ``iterations`` updates, then
     the poses into out_T and their truncated scores into out_score.
 
-    The same computation as engine.registration._icp_batch over _pairs and _icp_step (which pair
-    with scipy's kd-tree), one pose at a time: the squared error e2 of a point is its
+    The same computation as engine.registration._icp_batch (which pairs with scipy's kd-tree),
+    one pose at a time, without its early stop: the squared error e2 of a point is its
     (second-order) distance along the sample's normal squared plus its sideways distance beyond
     3 spacings squared, infinite when the sample is farther than ``reach``; pairs with e2 above
     max(3 spacings, 2.5 x the pose's median e2^1/2) (at most ``reach``) are left out of the
     point-to-plane (-quadric) least squares, to which ``lam2`` > 0 adds a point-to-point term of
     that weight; the minimum-norm step is applied about the pairs' centroid. The score is the
-    mean of min(e2, (3 spacings)^2) one pairing after the last update. Twin: registration's
-    numpy _icp_batch with tests/naive.py's pairing."""
+    mean of min(e2, (3 spacings)^2) one pairing after the last update. Twin: tests/naive.py
+    icp_batch paired by tests/naive.py LookupAsTree."""
     m = src.shape[0]
     X, N, r = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
     rn, e2, srt = np.empty(m), np.empty(m), np.empty(m)
