@@ -531,13 +531,14 @@ def verdict_counts(rows: list[dict]) -> dict[str, int]:
     return {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
 
 
-def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> dict:
+def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict],
+                     tracked: list[Tracked], analyses: list) -> dict:
     """summary.json: the inputs and settings, the tracked characteristics with their limits,
-    one row per part in measurement order, the counts per verdict and the exit code."""
-    from engine.spc import analyse, to_json
+    one row per part in measurement order, the counts per verdict, the exit code and the SPC
+    ``analyses`` (engine.spc.Analysis, one per tracked characteristic)."""
+    from engine.spc import to_json
     from reports.results import SOFTWARE_NAME, software_version
 
-    tracked = tracked_characteristics(loaded)
     return {
         "nominal": {"path": loaded.path, "sha256": loaded.source.record.sha256},
         "plan": None if loaded.plan is None else {"path": loaded.plan.path,
@@ -555,8 +556,7 @@ def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> d
                           "time_s: the inspection's time (the part document's timings_s.total, "
                           "or until the error); skipped: the result of an earlier run for the "
                           "same inputs and settings; message: the first reason, or the error",
-        "spc": [{"id": t.id, **to_json(analyse(series))}
-                for t, series in zip(tracked, lot_series(tracked, rows))],
+        "spc": [{"id": t.id, **to_json(a)} for t, a in zip(tracked, analyses)],
         "software": {"name": SOFTWARE_NAME, "version": software_version()},
     }
 
@@ -601,18 +601,21 @@ def _cell(v) -> str:
 def write_summary(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> list[str]:
     """Write summary.csv, summary.json and spc.pdf (the lot's SPC: reports.spc), all or none;
     return their paths."""
+    from engine.spc import analyse
     from reports.outputs import Output, write_all
     from reports.results import result_json
     from reports.spc import spc_pdf
 
     files = batch.summary_files()
     tracked = tracked_characteristics(loaded)
+    analyses = [analyse(series) for series in lot_series(tracked, rows)]  # once, for both
     counts = verdict_counts(rows)
     title = (f"{os.path.basename(loaded.path)}: {len(rows)} parts"
              + (f", plan {os.path.basename(loaded.plan.path)}" if loaded.plan else ""))
+    doc = summary_document(batch, loaded, rows, tracked, analyses)
     write_all([Output(files["csv"], summary_csv(tracked, rows)),
-               Output(files["json"], result_json(summary_document(batch, loaded, rows))),
-               Output(files["spc"], spc_pdf(lot_series(tracked, rows), title,
+               Output(files["json"], result_json(doc)),
+               Output(files["spc"], spc_pdf(analyses, title,
                                             {"parts": len(rows), **counts,
                                              "nominal": loaded.path}))])
     return [files["csv"], files["json"], files["spc"]]

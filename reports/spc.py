@@ -48,16 +48,19 @@ RULE_TEXT = ("Run rules (Nelson 1984): R1 a point beyond 3σ of the centre; R2 n
              "Bissell).")
 
 
-def spc_pdf(series: Iterable[Series | tuple], title: str, facts: Mapping[str, object]) -> bytes:
+def spc_pdf(series: Iterable[Series | Analysis | tuple], title: str,
+            facts: Mapping[str, object]) -> bytes:
     """The SPC report as PDF bytes.
 
     series : :class:`engine.spc.Series` (or tuples of its fields: name, unit, values, serials,
-    lower, upper), one per characteristic, values in measurement order. title : the first line
+    lower, upper), one per characteristic, values in measurement order; or their
+    :class:`engine.spc.Analysis` when the caller has it already. title : the first line
     of every page. facts : what the first page says about the lot, in order (e.g. "parts": 30,
     "ACCEPT": 28, "REJECT": 1, "ERROR": 1, "nominal": "bracket.stl"); a key that is a verdict
     (ACCEPT, REJECT, INCONCLUSIVE) is printed in its colour.
     """
-    analyses = [analyse(s if isinstance(s, Series) else Series(*s)) for s in series]
+    analyses = [s if isinstance(s, Analysis) else analyse(s if isinstance(s, Series)
+                                                          else Series(*s)) for s in series]
     buf = io.BytesIO()
     meta = {"Title": title, "Creator": SOFTWARE_NAME, "Producer": SOFTWARE_NAME,
             "CreationDate": None}

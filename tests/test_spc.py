@@ -250,6 +250,9 @@ def test_spc_pdf_pages_text_and_same_bytes(tmp_path):
     facts = {"parts": 30, "ACCEPT": 29, "ERROR": 1}
     data = spc_pdf(lot(), "Lot 7 bracket", facts)
     assert data == spc_pdf(lot(), "Lot 7 bracket", facts)  # deterministic
+    # Analyses made already (the batch's summary.json has them) draw the same report.
+    made = [spc.analyse(s if isinstance(s, spc.Series) else spc.Series(*s)) for s in lot()]
+    assert spc_pdf(made, "Lot 7 bracket", facts) == data
     path = tmp_path / "spc.pdf"
     path.write_bytes(data)
     assert pages(path) == 1 + 3
