@@ -809,7 +809,8 @@ def icp_paired(T, X, j, far, pts, nrm, shape, spacing, lam2, reach, update, out_
 # ------------------------------------------------------------------ nominal construction
 @njit(cache=True, nogil=True)
 def _nonzero_area(ax, ay, az, bx, by, bz, cx, cy, cz):
-    """Numerically non-zero area of the triangle a b c (as nominal._nonzero_area_xyz)."""
+    """Numerically non-zero area of the triangle a b c: its doubled area squared above 1e-24 x
+    the square of its longer edge from a, squared. Twin: tests/naive.py nonzero_area_xyz."""
     e1x, e1y, e1z = bx - ax, by - ay, bz - az
     e2x, e2y, e2z = cx - ax, cy - ay, cz - az
     nx = e1y * e2z - e1z * e2y
@@ -847,6 +848,18 @@ def grid_triangles(P, nu, nv):
             ok[m + c] = _nonzero_area(P[first, 0], P[first, 1], P[first, 2], P[v11, 0],
                                       P[v11, 1], P[v11, 2], P[v01, 0], P[v01, 1], P[v01, 2])
     return tris, ok
+
+
+@njit(cache=True, nogil=True)
+def nonzero_areas(P, tris):
+    """(t,) whether each triangle of tris (t, 3) over the points P (n, 3) has a numerically
+    non-zero area (the rule of grid_triangles, for meshes)."""
+    out = np.empty(tris.shape[0], np.bool_)
+    for t in range(tris.shape[0]):
+        a, b, c = tris[t, 0], tris[t, 1], tris[t, 2]
+        out[t] = _nonzero_area(P[a, 0], P[a, 1], P[a, 2], P[b, 0], P[b, 1], P[b, 2],
+                               P[c, 0], P[c, 1], P[c, 2])
+    return out
 
 
 @njit(cache=True, nogil=True)

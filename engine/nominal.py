@@ -384,29 +384,10 @@ def _grid_triangles(points: np.ndarray, nu: int, nv: int) -> np.ndarray:
     return tris if ok.all() else tris[ok]
 
 
-def _nonzero_area_xyz(a, b, c) -> np.ndarray:
-    """Non-zero area for triangles given as per-coordinate arrays [x, y, z] of their corners."""
-    e1 = [bb - aa for aa, bb in zip(a, b)]
-    e2 = [cc - aa for aa, cc in zip(a, c)]
-    cx = e1[1] * e2[2] - e1[2] * e2[1]
-    cy = e1[2] * e2[0] - e1[0] * e2[2]
-    cz = e1[0] * e2[1] - e1[1] * e2[0]
-    area2sq = cx * cx + cy * cy + cz * cz
-    scale = np.maximum(sum(e * e for e in e1), sum(e * e for e in e2))
-    return area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2
-
-
-def _nonzero_area(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    return _nonzero_area_xyz(a.T, b.T, c.T)
-
-
 def _drop_degenerate(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    """Triangles of (numerically) non-zero area (in cache-sized chunks)."""
-    keep = np.empty(tris.shape[0], dtype=bool)
-    for s in range(0, tris.shape[0], 65536):
-        t = tris[s:s + 65536]
-        a = points[t[:, 0]]
-        keep[s:s + 65536] = _nonzero_area(a, points[t[:, 1]], points[t[:, 2]])
+    """Triangles of (numerically) non-zero area: the grid's rule (kernels.nonzero_areas)."""
+    keep = kernels.nonzero_areas(np.ascontiguousarray(points, np.float64),
+                                 np.ascontiguousarray(tris, np.int64))
     return tris if keep.all() else tris[keep]
 
 

@@ -220,7 +220,6 @@ def icp_batch(T, src, tree, pts, nrm, spacing, iterations, stop_rad=0.0, lam2=0.
 def grid_triangles(points, nu, nv):
     """Slow twin of engine.kernels.grid_triangles (numpy, in cache-sized bands of rows): the
     grid's triangles of non-zero area."""
-    from engine.nominal import _nonzero_area_xyz
     C = [np.ascontiguousarray(points[:, k]).reshape(nv, nu) for k in range(3)]
     m = (nv - 1) * (nu - 1)
     use1 = np.empty((nv - 1, nu - 1), dtype=bool)
@@ -238,8 +237,8 @@ def grid_triangles(points, nu, nv):
         use1[r0:r1] = u
         third = [np.where(u, a, b) for a, b in zip(p11, p01)]   # triangle 1: v00 v10 (v11|v01)
         first = [np.where(u, a, b) for a, b in zip(p00, p10)]   # triangle 2: (v00|v10) v11 v01
-        ok[0, r0:r1] = _nonzero_area_xyz(p00, p10, third)
-        ok[1, r0:r1] = _nonzero_area_xyz(first, p11, p01)
+        ok[0, r0:r1] = nonzero_area_xyz(p00, p10, third)
+        ok[1, r0:r1] = nonzero_area_xyz(first, p11, p01)
     use1 = use1.ravel()
     j, i = np.divmod(np.arange(m, dtype=np.int64), nu - 1)
     v00 = j * nu + i
@@ -252,3 +251,16 @@ def grid_triangles(points, nu, nv):
     tris[m:, 2] = v00 + nu
     ok = ok.reshape(-1)
     return tris if ok.all() else tris[ok]
+
+
+def nonzero_area_xyz(a, b, c):
+    """Slow twin of engine.kernels._nonzero_area (numpy): non-zero area for triangles given as
+    per-coordinate arrays [x, y, z] of their corners."""
+    e1 = [bb - aa for aa, bb in zip(a, b)]
+    e2 = [cc - aa for aa, cc in zip(a, c)]
+    cx = e1[1] * e2[2] - e1[2] * e2[1]
+    cy = e1[2] * e2[0] - e1[0] * e2[2]
+    cz = e1[0] * e2[1] - e1[1] * e2[0]
+    area2sq = cx * cx + cy * cy + cz * cz
+    scale = np.maximum(sum(e * e for e in e1), sum(e * e for e in e2))
+    return area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2

@@ -233,8 +233,9 @@ def test_coarse_to_fine_icp_is_its_numpy_twin(level, level_size, stop_rad):
 
 
 def test_grid_triangles_and_longest_edges_match_their_twins():
-    """The nominal's grid split (shorter diagonal; zero-area triangles at a pole left out) and
-    its triangles' longest edges, compiled, against the numpy twins, exactly."""
+    """The nominal's grid split (shorter diagonal; zero-area triangles at a pole left out), a
+    mesh's zero-area test and the triangles' longest edges, compiled, against the numpy twins,
+    exactly."""
     from engine.nominal import _grid_triangles
     from naive import grid_triangles
     rng = np.random.default_rng(2)
@@ -252,6 +253,15 @@ def test_grid_triangles_and_longest_edges_match_their_twins():
     T = rng.integers(0, 500, (2000, 3))
     e = np.stack([np.sum((P[T[:, k]] - P[T[:, (k + 1) % 3]]) ** 2, axis=1) for k in range(3)])
     assert np.allclose(kernels.longest_edges(P, T), np.sqrt(e.max(axis=0)), rtol=1e-15, atol=0)
+    # A mesh's zero-area triangles (a repeated corner, three collinear corners) by the same
+    # rule as the grid's.
+    from naive import nonzero_area_xyz
+    P[:50] = P[50:100] * 0.0 + np.linspace(0, 1, 50)[:, None] * [1.0, 2.0, 3.0]  # a line
+    T[:300, 1] = T[:300, 0]
+    T[300:600] = rng.integers(0, 50, (300, 3))
+    keep = kernels.nonzero_areas(P, T)
+    assert np.array_equal(keep, nonzero_area_xyz(P[T[:, 0]].T, P[T[:, 1]].T, P[T[:, 2]].T))
+    assert not keep[:600].any() and keep[600:].mean() > 0.99
 
 
 def test_degenerate_samples_take_the_tangent_plane_and_the_lookup_still_builds():
