@@ -329,6 +329,12 @@ def in_polygon(uv, segments, band):
 
 # ------------------------------------------------------------------ global search's ICP
 @njit(cache=True, nogil=True, inline="always")
+def _squared_distance(P, i, x, y, z):
+    """Squared distance from row i of P (n, 3) to the point (x, y, z)."""
+    return _dot(P[i, 0] - x, P[i, 1] - y, P[i, 2] - z, P[i, 0] - x, P[i, 1] - y, P[i, 2] - z)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _cell_index(x, lo, cell, n):
     """The cell of coordinate x along an axis of n cells from lo, clamped (NaN: the first)."""
     f = (x - lo) / cell
@@ -348,13 +354,11 @@ def nearest_sample(x, y, z, lo, cell, owner, graph, pts):
     j = owner[_cell_index(x, lo[0], cell, owner.shape[0]),
               _cell_index(y, lo[1], cell, owner.shape[1]),
               _cell_index(z, lo[2], cell, owner.shape[2])]
-    d = _dot(x - pts[j, 0], y - pts[j, 1], z - pts[j, 2],
-             x - pts[j, 0], y - pts[j, 1], z - pts[j, 2])
+    d = _squared_distance(pts, j, x, y, z)
     while True:
         best, bd = j, d
         for q in graph[j]:
-            dq = _dot(x - pts[q, 0], y - pts[q, 1], z - pts[q, 2],
-                      x - pts[q, 0], y - pts[q, 1], z - pts[q, 2])
+            dq = _squared_distance(pts, q, x, y, z)
             if dq < bd:
                 best, bd = q, dq
         if best == j:
@@ -667,28 +671,21 @@ def farthest_points(P, centre, m):
     Twin: tests/naive.py farthest_points."""
     n = P.shape[0]
     chosen = np.empty(m, np.int64)
-    d = np.empty(n)
-    best, bd = 0, math.inf
+    d = np.full(n, math.inf)  # distance to the nearest point chosen
+    far, fd = 0, math.inf
     for i in range(n):
-        e = math.sqrt(_dot(P[i, 0] - centre[0], P[i, 1] - centre[1], P[i, 2] - centre[2],
-                           P[i, 0] - centre[0], P[i, 1] - centre[1], P[i, 2] - centre[2]))
-        if e < bd:
-            best, bd = i, e
-    chosen[0] = best
-    for i in range(n):
-        d[i] = math.sqrt(_dot(P[i, 0] - P[best, 0], P[i, 1] - P[best, 1], P[i, 2] - P[best, 2],
-                              P[i, 0] - P[best, 0], P[i, 1] - P[best, 1], P[i, 2] - P[best, 2]))
-    for k in range(1, m):
-        far, fd = 0, -1.0
-        for i in range(n):
-            if d[i] > fd:
-                far, fd = i, d[i]
+        e = math.sqrt(_squared_distance(P, i, centre[0], centre[1], centre[2]))
+        if e < fd:
+            far, fd = i, e
+    for k in range(m):
+        if k:
+            far, fd = 0, -1.0
+            for i in range(n):
+                if d[i] > fd:
+                    far, fd = i, d[i]
         chosen[k] = far
         for i in range(n):
-            e = math.sqrt(_dot(P[i, 0] - P[far, 0], P[i, 1] - P[far, 1], P[i, 2] - P[far, 2],
-                               P[i, 0] - P[far, 0], P[i, 1] - P[far, 1], P[i, 2] - P[far, 2]))
-            if e < d[i]:
-                d[i] = e
+            d[i] = min(d[i], math.sqrt(_squared_distance(P, i, P[far, 0], P[far, 1], P[far, 2])))
     return chosen
 
 
