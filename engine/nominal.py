@@ -97,13 +97,24 @@ class Nominal:
                                                compact_nodes=False))
         return self._levels[size]
 
-    def level_lookup(self, size: int, spacing: float) -> SampleLookup:
-        """The constant-time nearest-sample lookup of a coarse level (neighbours.SampleLookup),
-        whose samples lie ``spacing`` mm apart (typically)."""
+    def level_spacing(self, size: int) -> float:
+        """A level's typical sample spacing, mm: the median distance from a spread sample of
+        its points (about 1,000) to their nearest other point of the level."""
+        key = ("spacing", int(min(size, self.n)))
+        if key not in self._levels:
+            idx, tree = self.level(size)
+            pts = self.points[idx] if idx.size < self.n else self.points
+            d, _ = tree.query(pts[:: max(1, pts.shape[0] // 1000)], k=2)
+            self._levels[key] = float(np.median(d[:, 1]))
+        return self._levels[key]
+
+    def level_lookup(self, size: int) -> SampleLookup:
+        """The constant-time nearest-sample lookup of a coarse level (neighbours.SampleLookup)."""
         key = ("lookup", int(min(size, self.n)))
         if key not in self._levels:
             idx, tree = self.level(size)
-            self._levels[key] = SampleLookup.build(self.points[idx], tree, spacing)
+            self._levels[key] = SampleLookup.build(self.points[idx], tree,
+                                                   self.level_spacing(size))
         return self._levels[key]
 
     def level_shape(self, size: int) -> np.ndarray:

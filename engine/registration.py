@@ -258,11 +258,11 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
 
     Scores on a coarse sample cannot tell close fits apart (its chords are off by curvature x
     spacing^2), so several distinct poses are carried to the finer levels, where they can."""
-    lvl_idx, lvl_tree = nominal.level(coarse)
+    lvl_idx, _ = nominal.level(coarse)
     lvl_pts = nominal.points[lvl_idx]
     lvl_nrm = nominal.normals(lvl_idx)
     lvl_shape = nominal.level_shape(coarse)
-    h0 = _level_spacing(lvl_tree, lvl_pts)
+    h0 = nominal.level_spacing(coarse)
 
     report("global search: pose hypotheses", 0.02)
     sub = _spread_subset(measured, settings.coarse_measured)
@@ -271,7 +271,7 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
     # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
     # distinct ones go on.
     first = sub[_spread_subset(measured[sub], settings.coarse_measured // 2)]
-    lookup = nominal.level_lookup(coarse, h0)
+    lookup = nominal.level_lookup(coarse)
     report(f"global search over {n_hyp} poses", 0.05)
     T, score = _icp_poses(T, measured[first], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
                           iterations=3, lam2=0.01)
@@ -302,7 +302,7 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
             pts_l, nrm_l = nominal.points, nominal.normals
         else:
             pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
-        h = _level_spacing(tree, pts_l)
+        h = nominal.level_spacing(size)
         msub = _spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
         last = size >= nominal.n
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
@@ -506,12 +506,6 @@ def _spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
         pool = np.sort(np.random.default_rng(_SEED).choice(n, 8192, replace=False))
     P = np.ascontiguousarray(pts[pool], np.float64)
     return np.sort(pool[kernels.farthest_points(P, P.mean(0), m)])
-
-
-def _level_spacing(tree: cKDTree, pts: np.ndarray) -> float:
-    sample = pts[:: max(1, pts.shape[0] // 1000)]
-    d, _ = tree.query(sample, k=2)
-    return float(np.median(d[:, 1]))
 
 
 def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, nrm: np.ndarray,

@@ -10,7 +10,7 @@ from engine import kernels
 from engine.geometry import apply_transform, make_transform
 from engine.nominal import Nominal
 from engine.registration import (RegistrationSettings, _hypotheses, _icp_batch, _icp_poses,
-                                 _level_spacing, _spread_subset, min_norm_solve)
+                                 _spread_subset, min_norm_solve)
 from naive import LookupAsTree, icp_batch, nearest_sample
 from surfaces import height, height_grid, point_set, random_rotation
 
@@ -21,9 +21,8 @@ def level():
     nominal = Nominal.from_point_set(point_set(pts, nrm, grid))
     idx, tree = nominal.level(1000)
     p = nominal.points[idx]
-    h = _level_spacing(tree, p)
-    return nominal, p, nominal.normals(idx), nominal.level_shape(1000), h, tree, \
-        nominal.level_lookup(1000, h)
+    return nominal, p, nominal.normals(idx), nominal.level_shape(1000), \
+        nominal.level_spacing(1000), tree, nominal.level_lookup(1000)
 
 
 def _surface_points(rng, n, noise):
@@ -217,7 +216,7 @@ def test_coarse_to_fine_icp_is_its_numpy_twin(level, level_size, stop_rad):
     else:
         idx, tree = nominal.level(level_size)
         pts, nrm, S = nominal.points[idx], nominal.normals(idx), nominal.level_shape(level_size)
-    h = _level_spacing(tree, pts)
+    h = nominal.level_spacing(nominal.n if level_size is None else level_size)
     fast = _icp_batch(T, measured, tree, pts, nrm, h, iterations=8, stop_rad=stop_rad,
                       reach=10 * h, shape=S)
     slow = icp_batch(T, measured, tree, pts, nrm, h, iterations=8, stop_rad=stop_rad,
