@@ -505,6 +505,6 @@ def step_facts(step) -> dict:
     """What the outputs say of a STEP nominal (JSON ``step``)."""
     return {"schema": step.schema, "unit": step.unit, "mm_per_unit": step.mm_per_unit,
             "faces": step.n_faces, "deflection_mm": step.deflection,
-            "method": "exact B-rep",
+            "method": "exact B-rep", "warnings": list(step.warnings),
             "units_definition": "the file's length unit; every coordinate is converted to mm"}
 

@@ -457,6 +457,41 @@ def test_damaged_files_never_crash_the_process(tmp_path):
 
 # ---------------------------------------------------------------------------------- real files
 
+AP242 = [os.path.join(ROOT, "tests", "data", "step", f)
+         for f in ("nist_ctc_01_asme1_ap242-e1.stp", "nist_ctc_03_asme1_ap242-e2.stp")]
+
+
+@pytest.mark.parametrize("path", AP242, ids=os.path.basename)
+def test_real_ap242_files_are_read_with_every_face(path):
+    """NIST AP242 files with semantic PMI: hundreds of their PMI and presentation entities fail
+    OpenCascade's checks (values rounded, descriptions that are no string), none of which the
+    B-rep uses. They are read, every ADVANCED_FACE a face, and the ignored entities said."""
+    nominal = read_step(path)
+    assert nominal.n_faces == len(re.findall(r"=\s*ADVANCED_FACE\s*\(", _text(path)))
+    assert len(nominal.warnings) == 1 and "the shape does not use" in nominal.warnings[0]
+    assert "ignored" in nominal.warnings[0]
+
+
+def test_a_damaged_entity_the_shape_does_not_use_is_a_warning(tmp_path):
+    """A damaged property entity (an integer item holding 1.5) in a good file: read, with a
+    warning naming it; the same damage on an entity of the B-rep still refuses the file."""
+    text = _text(sm.write_step(sm.box_with_hole(), tmp_path / "good.step"))
+    extra = "#99990 = INTEGER_REPRESENTATION_ITEM('count',1.5);\n"
+    path = tmp_path / "pmi.step"
+    path.write_text(text.replace("ENDSEC;\nEND-ISO", extra + "ENDSEC;\nEND-ISO"),
+                    encoding="latin-1")
+    nominal = read_step(path)
+    assert nominal.n_faces == 7
+    assert "INTEGER_REPRESENTATION_ITEM" in nominal.warnings[0]
+    assert "1 entity the shape does not use" in nominal.warnings[0]
+    # The same kind of damage on a B-rep entity (a face bound's orientation that is no boolean).
+    bound = re.search(r"(#\d+ = FACE_BOUND\('',#\d+,)\.T\.\)", text)
+    bad = tmp_path / "brep.step"
+    bad.write_text(text.replace(bound.group(0), bound.group(1) + "1.5)"), encoding="latin-1")
+    with pytest.raises(InputError, match="damaged"):
+        read_step(bad)
+
+
 def test_nist_ftc06_faces_and_bounds_match_the_file_text():
     """NIST FTC-06 (inch): OpenCascade's faces are the file's ADVANCED_FACEs, the box is that of
     the file's vertices (read from the text, in inches, x 25.4), and every tessellation point

@@ -15,10 +15,12 @@ Reading
     begins ``ISO-10303-21;``, has ``HEADER;`` … ``ENDSEC;`` then ``DATA;`` and ends with
     ``END-ISO-10303-21;`` (a file cut short is refused here). OpenCascade's parser then reports
     syntax errors and unresolved references (the model's global check) and per-entity errors: a
-    file with any of the former, or with an error on an entity the shape is made of (topology,
-    geometry, representations, placements, products, units: a face bound that is no loop would
-    crash OpenCascade's translation), is refused as damaged; errors on presentation and PMI
-    entities (styles, annotations; the NIST CTC files have some) are let pass.
+    file with any of the former, or with an error on an entity the shape is made of (everything
+    reached from its shape representations and product structure, ``BREP_ROOTS``: topology,
+    geometry, placements, contexts, units; a face bound that is no loop would crash
+    OpenCascade's translation), is refused as damaged; errors on entities the shape does not
+    use (PMI, presentation, properties: the NIST AP242 files have hundreds) are let pass with a
+    warning (:attr:`StepNominal.warnings`).
     A file that transfers to no shape, or to a shape without faces, is refused. Every refusal is
     an :class:`~engine.errors.InputError` (exit 65) naming the file and the problem.
 
@@ -147,12 +149,15 @@ class StepNominal:
     bounds : (2, 3) the B-rep's bounding box (min, max), mm.
     tolerance : the model's largest tolerance (of a face, edge or vertex), mm: how far its
         edges may stray from its faces' surfaces (the CTC-05 test part: 0.034 mm).
+    warnings : what was ignored in reading: entities the shape does not use (PMI,
+        presentation, properties) that failed OpenCascade's checks.
     """
 
     def __init__(self, path: str, schema: str, unit: str, mm_per_unit: float | None,
                  faces: tuple, point_set: PointSet, face_ids: np.ndarray, deflection: float,
-                 bounds: np.ndarray, brep: "_Brep"):
+                 bounds: np.ndarray, brep: "_Brep", warnings: tuple[str, ...] = ()):
         self.path = path
+        self.warnings = warnings
         self.schema = schema
         self.unit = unit
         self.mm_per_unit = mm_per_unit
@@ -257,7 +262,7 @@ def read_step(path: str | os.PathLike) -> StepNominal:
     path = os.fspath(path)
     schema = check_step_file(path)
     _quiet_opencascade()
-    reader, doc = _transfer(path)
+    reader, doc, warnings = _transfer(path)
     unit = _file_unit(reader)
     placed = _placed_faces(doc)
     if not placed:
@@ -273,7 +278,7 @@ def read_step(path: str | os.PathLike) -> StepNominal:
     ps = PointSet(points, normals=normals, triangles=triangles, path=path)
     faces = tuple(brep.face_record(i) for i in range(1, brep.n + 1))
     return StepNominal(path, schema, unit, _mm_per_unit(unit), faces, ps, face_ids, deflection,
-                       bounds, brep)
+                       bounds, brep, tuple(warnings))
 
 
 def deflection_for(diagonal_mm: float) -> float:
@@ -335,8 +340,9 @@ def _quiet_opencascade() -> None:
 
 
 def _transfer(path: str):
-    """Read and translate the file into an XDE document; (reader, document). InputError when
-    OpenCascade cannot read it, finds it damaged, or translates no shape."""
+    """Read and translate the file into an XDE document; (reader, document, warnings about
+    damaged entities the shape does not use). InputError when OpenCascade cannot read it, finds
+    an entity the shape uses damaged, or translates no shape."""
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static
     from OCP.STEPCAFControl import STEPCAFControl_Reader
@@ -358,7 +364,7 @@ def _transfer(path: str):
         raise InputError(f"OpenCascade could not read the STEP file ({e})", path) from e
     if status != IFSelect_RetDone:
         raise InputError(f"OpenCascade could not read the STEP file ({status.name})", path)
-    _check_model(reader.Reader(), path)
+    warnings = _check_model(reader.Reader(), path)
     doc = TDocStd_Document(TCollection_ExtendedString("XmlXCAF"))
     XCAFDoc_ShapeTool.SetAutoNaming_s(False)  # else unnamed solids are called 'SOLID'
     try:
@@ -367,33 +373,125 @@ def _transfer(path: str):
         raise InputError(f"OpenCascade could not translate the STEP file ({e})", path) from e
     if not ok:
         raise InputError("the STEP file holds no shape OpenCascade can translate", path)
-    return reader, doc
+    return reader, doc, warnings
 
 
-def _check_model(step_reader, path: str) -> None:
+def _check_model(step_reader, path: str) -> list[str]:
     """Refuse a model whose parse reported errors (syntax, unresolved references) or whose
-    shape entities (``_SHAPE_PACKAGES``) failed their checks; naming the first and the count."""
+    entities that the B-rep uses (:func:`brep_entities`) failed their checks, naming the first
+    and the count; return warnings for the damaged entities it does not use (PMI, presentation,
+    properties: OpenCascade reads the shape without them)."""
     model = step_reader.StepModel()
     glob = model.GlobalCheck(True)
     if glob.NbFails():
         raise InputError(f"the STEP file is damaged: {glob.NbFails()} error(s), the first: "
                          f"{glob.CFail(1, True)}", path)
     checks = step_reader.WS().ModelCheckList(False)
-    bad = []
+    bad, unused = [], []
+    used = None
     checks.Start()
     while checks.More():
         c, num = checks.Value(), checks.Number()
         if c.NbFails() and num > 0:
+            if used is None:
+                used = _used_entity_numbers(path, model.NbEntities())
             entity = model.Value(num)
-            if type(entity).__module__.rsplit(".", 1)[-1] in _SHAPE_PACKAGES:
-                keyword = re.sub(r"(?<!^)(?=[A-Z])", "_", type(entity).__name__.split("_", 1)[-1])
-                bad.append(f"entity {num} of the DATA section, a {keyword.upper()}: "
-                           f"{c.CFail(1, True)}")
+            keyword = _keyword(entity)
+            what = f"entity {num} of the DATA section, a {keyword}: {c.CFail(1, True)}"
+            if used is not False and num not in used and _same_kind(used, num, keyword):
+                unused.append(what)
+            elif used is False and \
+                    type(entity).__module__.rsplit(".", 1)[-1] not in _SHAPE_PACKAGES:
+                unused.append(what)
+            else:
+                bad.append(what)
         checks.Next()
     if bad:
         raise InputError(f"the STEP file is damaged: {len(bad)} shape entit"
                          f"{'y is' if len(bad) == 1 else 'ies are'} wrong, the first: {bad[0]}",
                          path)
+    if not unused:
+        return []
+    return [f"{len(unused)} entit{'y' if len(unused) == 1 else 'ies'} the shape does not use "
+            f"(PMI, presentation or properties) failed OpenCascade's checks and were ignored; "
+            f"the first: {unused[0]}"]
+
+
+def _keyword(entity) -> str:
+    """The STEP keyword of an OpenCascade entity class (StepRepr_IntegerRepresentationItem ->
+    INTEGER_REPRESENTATION_ITEM)."""
+    return re.sub(r"(?<!^)(?=[A-Z])", "_", type(entity).__name__.split("_", 1)[-1]).upper()
+
+
+_STRING_RE = re.compile(r"'(?:[^']|'')*'")
+_INSTANCE_RE = re.compile(r"\s*#(\d+)\s*=\s*(.*)", re.S)
+_REF_RE = re.compile(r"#(\d+)")
+_KEYWORD_RE = re.compile(r"([A-Z_][A-Z0-9_]*)\s*\(")
+BREP_ROOTS = frozenset({
+    # the product structure OpenCascade's translation walks …
+    "SHAPE_DEFINITION_REPRESENTATION", "SHAPE_REPRESENTATION_RELATIONSHIP",
+    "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION", "NEXT_ASSEMBLY_USAGE_OCCURRENCE",
+    # … and the shape representations and topological items it translates
+    "ADVANCED_BREP_SHAPE_REPRESENTATION", "MANIFOLD_SURFACE_SHAPE_REPRESENTATION",
+    "FACETED_BREP_SHAPE_REPRESENTATION", "MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS",
+    "SHELL_BASED_SURFACE_MODEL", "FACETED_BREP", "CLOSED_SHELL", "OPEN_SHELL", "ADVANCED_FACE"})
+"""Entities whose references, followed to the end, are everything the B-rep is made of: its
+topology, geometry, placements, representation contexts and units, and the assembly's
+products, occurrences and transformations. PMI, presentation and property entities refer to
+the B-rep, never the other way round, so they are not reached."""
+
+
+def _instances(path: str) -> list[tuple[int, list[int], set[str]]]:
+    """The DATA section's entity instances in file order: (#id, the #ids it refers to, its
+    keywords; a complex instance has several). Strings are blanked first (they may hold
+    '#', ';' or parentheses)."""
+    with open(path, "rb") as f:
+        text = f.read().decode("latin-1")
+    data = text.upper().find("DATA;")
+    body = _STRING_RE.sub("''", text[data + 5:] if data >= 0 else "")
+    out = []
+    for statement in body.split(";"):
+        m = _INSTANCE_RE.match(statement)
+        if m:
+            rest = m.group(2)
+            out.append((int(m.group(1)), [int(r) for r in _REF_RE.findall(rest)],
+                        set(_KEYWORD_RE.findall(rest.upper()))))
+    return out
+
+
+def _used_entity_numbers(path: str, n_entities: int):
+    """The model numbers (1..N, file order, as OpenCascade numbers them) of the entities the
+    B-rep uses (reached from ``BREP_ROOTS``), as a :class:`_Used` that also knows each
+    number's keywords; False when the file's instances cannot be matched one to one with OpenCascade's."""
+    instances = _instances(path)
+    if len(instances) != n_entities:
+        return False
+    number = {eid: k + 1 for k, (eid, _, _) in enumerate(instances)}
+    refs = {eid: r for eid, r, _ in instances}
+    stack = [eid for eid, _, kw in instances if kw & BREP_ROOTS]
+    seen: set[int] = set()
+    while stack:
+        eid = stack.pop()
+        if eid in seen or eid not in refs:
+            continue
+        seen.add(eid)
+        stack.extend(refs[eid])
+    used = {number[e] for e in seen}
+    return _Used(used, {k + 1: kw for k, (_, _, kw) in enumerate(instances)})
+
+
+class _Used(set):
+    """A set of model numbers, with each number's keywords (``keywords[num]``)."""
+
+    def __init__(self, numbers, keywords: dict):
+        super().__init__(numbers)
+        self.keywords = keywords
+
+
+def _same_kind(used: "_Used", num: int, keyword: str) -> bool:
+    """Whether the file's instance at model number ``num`` is of OpenCascade's entity's kind:
+    the check that the two numberings agree before an entity is let pass as unused."""
+    return keyword in used.keywords.get(num, ())
 
 
 def _file_unit(reader) -> str:
