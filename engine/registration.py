@@ -258,7 +258,9 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
 
     Scores on a coarse sample cannot tell close fits apart (its chords are off by curvature x
     spacing^2), so several distinct poses are carried to the finer levels, where they can."""
-    lvl_pts, lvl_nrm, _ = nominal.level(coarse)
+    lvl_idx, _ = nominal.level(coarse)
+    lvl_pts = nominal.points[lvl_idx]
+    lvl_nrm = nominal.normals(lvl_idx)
     lvl_shape = nominal.level_shape(coarse)
     h0 = nominal.level_spacing(coarse)
 
@@ -294,11 +296,12 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
         size = size * 4 if size * 4 <= settings.quadric_max_level else nominal.n
         size = min(size, nominal.n)
         level += 1
+        idx, tree = nominal.level(size)
         if size >= nominal.n:
             # Normals looked up as needed: bare points get theirs estimated only where paired.
-            pts_l, nrm_l, tree = nominal.points, nominal.normals, nominal.tree
+            pts_l, nrm_l = nominal.points, nominal.normals
         else:
-            pts_l, nrm_l, tree = nominal.level(size)
+            pts_l, nrm_l = nominal.points[idx], nominal.normals(idx)
         h = nominal.level_spacing(size)
         msub = _spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
         last = size >= nominal.n
@@ -320,10 +323,10 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
                settings: RegistrationSettings, zone_width: float | None, hypotheses: int,
                iterations: int) -> RegistrationResult:
     """Score every refined candidate pose (4, 4) by its point-to-surface deviations (on a seeded
-    subset of the measured points) with :func:`pose_score`; every candidate distinct from
-    those finished gets the point-to-surface finish, best first (a finish may move a pose
-    away: least squares over every point pulls a wrong pose towards the points it leaves off
-    the part; and it brings a pose near the right one home). The answer is the best finished
+    subset of the measured points) with :func:`pose_score`; the best gets the
+    point-to-surface finish, and so does every distinct candidate that scores better than the
+    finished poses (a finish may move a pose away: least squares over every point pulls a
+    wrong pose towards the points it leaves off the part). The answer is the best finished
     pose: no candidate scores better. The best distinct other pose is the runner-up."""
     near = settings.near_fraction_of_size * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
@@ -343,14 +346,9 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
             nominal, measured, refined[best], settings, zone_width)
         final[best] = pose_score(finished[best][5].signed[ssub], scale)
         chosen = min(final, key=final.get)
-        # Every distinct candidate is finished, not only those already scoring better: a
-        # candidate a millimetre off the right pose scores worse before its finish than a
-        # wrong pose after its own (NIST CTC-01 with 2% mis-probes: 0.64 against 0.50 mm;
-        # finished, 0.24 mm). The coarse-to-fine levels leave a handful of them.
         best = None if unfit else next(
-            (j for j in order if j not in finished
-             and all(_is_distinct(refined[j], finished[i][0], measured[sub], nominal.diagonal)
-                     for i in finished)),
+            (j for j in order if j not in finished and scores[j] < final[chosen]
+             and _is_distinct(refined[j], finished[chosen][0], measured[sub], nominal.diagonal)),
             None)
     Tb, converged, _, inlier, rule, dev_b, dev_s, message = finished[chosen]
     # Every candidate at its finished pose and score where it was finished.

@@ -78,12 +78,6 @@ AMBIGUITY_SCORE_RATIO = 1.5
 AMBIGUITY_DEVIATION = 0.1
 """… and it is a material one when it moves some point's deviation by more than this fraction
 of the zone's width."""
-PLACE_AMBIGUITY = 10.0
-"""A competitor that moves some deviation by more than this many zone widths puts the points
-at another place on the part: the measurement does not fix the pose, and whatever both poses
-say, the right one may be a third (a 30% patch of NIST CTC-03 fitted two places 7 mm apart,
-scores 0.079 and 0.082 mm, both REJECT; the truth, found by neither, was ACCEPT). The verdict
-is INCONCLUSIVE."""
 
 
 AMBIGUITY_POINTS = 16384
@@ -173,8 +167,7 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
     sensitivity : whether the pointwise verdict holds over the poses the measurement allows
     (engine.trust.pose_sensitivity), with ``statements`` saying so in plain words. Given, a weak
     direction or a runner-up makes the verdict INCONCLUSIVE only when the verdict differs at
-    some of those poses (they are reported as facts otherwise); None: any of them does. A
-    runner-up more than ``PLACE_AMBIGUITY`` zone widths away makes it INCONCLUSIVE either way.
+    some of those poses (they are reported as facts otherwise); None: any of them does.
     """
     inside = (d >= tol.lower) & (d <= tol.upper)
     reasons = []
@@ -188,12 +181,7 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
         reasons.append(f"another pose fits better than the one found (score "
                        f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm); the pose "
                        "cannot be trusted")
-    if ambiguous and spread > PLACE_AMBIGUITY * (tol.upper - tol.lower):
-        reasons.append(f"the points fit two places on the part nearly as well (scores "
-                       f"{reg.score:.4g} and {reg.runner_up_score:.4g} mm) whose deviations "
-                       f"differ by up to {spread:.4g} mm: the measurement does not fix where "
-                       "on the part it lies; measure more of the part")
-    elif sensitivity is None:
+    if sensitivity is None:
         if ambiguous:
             reasons.append(f"the pose is ambiguous: another pose fits nearly as well (score "
                            f"{reg.runner_up_score:.4g} mm against {reg.score:.4g} mm) and moves "
