@@ -378,7 +378,7 @@ def _transfer(path: str):
 
 def _check_model(step_reader, path: str) -> list[str]:
     """Refuse a model whose parse reported errors (syntax, unresolved references) or whose
-    entities that the B-rep uses (:func:`brep_entities`) failed their checks, naming the first
+    entities that the B-rep uses (:func:`_used_entity_numbers`) failed their checks, naming the first
     and the count; return warnings for the damaged entities it does not use (PMI, presentation,
     properties: OpenCascade reads the shape without them)."""
     model = step_reader.StepModel()
