@@ -8,7 +8,8 @@ A :class:`Nominal` owns what registration and deviation measurement need from it
   on that estimate: normals are made consistent over the surface and point away from its centre);
 * ``triangles`` (M, 3) for meshes and grids (grid cells are split along their shorter diagonal),
   or None for bare points, where the paper's facets of the 4 nearest points are used instead;
-* a kd-tree over the points and coarse levels (seeded random subsets) for coarse-to-fine ICP.
+* a kd-tree over the points and coarse levels for coarse-to-fine ICP: seeded random points spread
+  over the triangles by area (meshes and grids), seeded random subsets (bare points).
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from .pointset import PointSet
 
 NORMAL_NEIGHBOURS = 12
 MAX_SUBDIVISION = 16  # a large triangle gets at most 16 x 16 / 2 interior sample points
+AREA_SAMPLES = 16384
+"""Area samples of a mesh or grid (:attr:`Nominal.area_samples`): as many as the largest coarse
+level the registration asks for (16 x its ``coarse_size``)."""
 _SEED = 20240607
 
 
@@ -53,6 +57,7 @@ class Nominal:
         self._tree: cKDTree | None = None
         self._levels: dict = {}
         self._perm = np.random.default_rng(_SEED).permutation(self.n)
+        self._area_samples: tuple | None = None
         self._orient_ref: tuple[cKDTree, np.ndarray] | None = None
         if self.triangles is not None:
             self._build_stars()
@@ -86,43 +91,89 @@ class Nominal:
             self._tree = cKDTree(self.points, balanced_tree=False, compact_nodes=False)
         return self._tree
 
-    def level(self, size: int) -> tuple[np.ndarray, cKDTree]:
-        """A coarse level: the first ``size`` points of a seeded permutation and their kd-tree."""
-        size = int(min(size, self.n))
-        if size >= self.n:
-            return np.arange(self.n), self.tree
+    def level(self, size: int) -> tuple[np.ndarray, np.ndarray, cKDTree]:
+        """A coarse level of ``size`` samples: (points (m, 3), outward unit normals (m, 3), their
+        kd-tree).
+
+        A mesh's or grid's levels are the first ``size`` of its area samples
+        (:attr:`area_samples`: points drawn over its triangles by area), so that every level
+        covers the surface evenly, whatever its vertices do: a CAD tessellation puts them along
+        edges and around holes, none inside a plane. Bare points' levels are the first ``size``
+        of a seeded permutation of them (``size >= n``: all of them, with their tree)."""
+        size = self._level_size(size)
+        if self.triangles is None and size >= self.n:
+            return self.points, self.normals(np.arange(self.n)), self.tree
         if size not in self._levels:
-            idx = np.sort(self._perm[:size])
-            self._levels[size] = (idx, cKDTree(self.points[idx], balanced_tree=False,
-                                               compact_nodes=False))
+            if self.triangles is not None:
+                pts, nrm, _ = self.area_samples
+                pts, nrm = pts[:size], nrm[:size]
+            else:
+                idx = np.sort(self._perm[:size])
+                pts, nrm = self.points[idx], self.normals(idx)
+            self._levels[size] = (pts, nrm, cKDTree(pts, balanced_tree=False,
+                                                    compact_nodes=False))
         return self._levels[size]
+
+    @property
+    def finest_level(self) -> int:
+        """The size of the finest level: every area sample (meshes and grids: their vertices
+        leave the middle of a CAD tessellation's planes empty, so that a point measured there
+        pairs with another face's edge), or every point (bare points)."""
+        return AREA_SAMPLES if self.triangles is not None else self.n
+
+    def _level_size(self, size: int) -> int:
+        """The size of the level asked for as ``size``: at most :attr:`finest_level`."""
+        return int(min(size, self.finest_level))
+
+    @property
+    def area_samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``AREA_SAMPLES`` seeded random points on the triangles, each triangle drawn by its
+        area (a mesh's or grid's coarse levels): (points (s, 3), outward unit normals (s, 3),
+        interpolated from the triangle's vertex normals, triangle index (s,))."""
+        if self._area_samples is None:
+            tris = self.triangles
+            P = self.points
+            area = 0.5 * np.linalg.norm(np.cross(P[tris[:, 1]] - P[tris[:, 0]],
+                                                 P[tris[:, 2]] - P[tris[:, 0]]), axis=1)
+            rng = np.random.default_rng(_SEED)
+            t = np.searchsorted(np.cumsum(area), rng.uniform(0, area.sum(), AREA_SAMPLES))
+            t = np.minimum(t, len(tris) - 1)
+            r1, r2 = np.sqrt(rng.uniform(size=AREA_SAMPLES)), rng.uniform(size=AREA_SAMPLES)
+            w = np.column_stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2])
+            corner = tris[t]
+            pts = np.einsum("sc,scj->sj", w, P[corner])
+            nrm = np.einsum("sc,scj->sj", w, self.normals(corner))
+            size = np.linalg.norm(nrm, axis=1, keepdims=True)
+            flat = np.cross(P[corner[:, 1]] - P[corner[:, 0]], P[corner[:, 2]] - P[corner[:, 0]])
+            nrm = np.where(size > 1e-12, nrm / np.maximum(size, 1e-300),
+                           flat / np.linalg.norm(flat, axis=1, keepdims=True))
+            self._area_samples = (pts, nrm, t.astype(np.int64))
+        return self._area_samples
 
     def level_spacing(self, size: int) -> float:
         """A level's typical sample spacing, mm: the median distance from a spread sample of
         its points (about 1,000) to their nearest other point of the level."""
-        key = ("spacing", int(min(size, self.n)))
+        key = ("spacing", self._level_size(size))
         if key not in self._levels:
-            idx, tree = self.level(size)
-            pts = self.points[idx] if idx.size < self.n else self.points
+            pts, _, tree = self.level(size)
             d, _ = tree.query(pts[:: max(1, pts.shape[0] // 1000)], k=2)
             self._levels[key] = float(np.median(d[:, 1]))
         return self._levels[key]
 
     def level_lookup(self, size: int) -> SampleLookup:
         """The constant-time nearest-sample lookup of a coarse level (neighbours.SampleLookup)."""
-        key = ("lookup", int(min(size, self.n)))
+        key = ("lookup", self._level_size(size))
         if key not in self._levels:
-            idx, tree = self.level(size)
-            self._levels[key] = SampleLookup.build(self.points[idx], tree,
-                                                   self.level_spacing(size))
+            pts, _, tree = self.level(size)
+            self._levels[key] = SampleLookup.build(pts, tree, self.level_spacing(size))
         return self._levels[key]
 
     def level_shape(self, size: int) -> np.ndarray:
         """(m, 3, 3) shape operators of a coarse level's points (see :meth:`shape_operators`)."""
-        key = ("shape", int(min(size, self.n)))
+        key = ("shape", self._level_size(size))
         if key not in self._levels:
-            idx, _ = self.level(size)
-            self._levels[key] = self.shape_operators(idx)
+            pts, nrm, _ = self.level(size)
+            self._levels[key] = self.shape_at(pts, nrm)
         return self._levels[key]
 
     def shape_operators(self, idx: np.ndarray, k: int = 9) -> np.ndarray:
@@ -136,13 +187,16 @@ class Nominal:
         edges) S is zero: the tangent plane is the honest approximation there.
         """
         idx = np.asarray(idx)
+        return self.shape_at(self.points[idx], self.normals(idx), k)
+
+    def shape_at(self, p: np.ndarray, n: np.ndarray, k: int = 9) -> np.ndarray:
+        """(m, 3, 3) :meth:`shape_operators` at surface points p (m, 3) with outward unit
+        normals n (m, 3) (a level's area samples), from their ``k`` nearest nominal points."""
         k = min(k, self.n)
-        p = self.points[idx]
-        n = self.normals(idx)
         _, nb = self.tree.query(p, k=k, workers=query_workers(len(p)))
         dx = self.points[nb] - p[:, None, :]
         dn = self.normals(nb) - n[:, None, :]
-        S = np.empty((idx.size, 3, 3))
+        S = np.empty((p.shape[0], 3, 3))
         kernels.shape_fit(np.ascontiguousarray(n), dx, dn, S)
         return S
 
@@ -253,8 +307,8 @@ class Nominal:
         """(k, 2) pairs (representative, copy) of points with exactly the same coordinates: a
         closed grid's seam (a revolved surface whose last
         column repeats its first), a pole row, a mesh written without welding its vertices. Only
-        a grid's border can hold them; a mesh is searched whole (by a hash of the coordinates'
-        bits, so the cost is one sort of n integers)."""
+        a grid's border can hold them; a mesh is searched whole (one sort of the coordinates'
+        bits)."""
         if self.kind == "grid" and self.grid_shape is not None:
             nu, nv = self.grid_shape
             ids = np.arange(self.n).reshape(nv, nu)
@@ -262,24 +316,17 @@ class Nominal:
         else:
             cand = np.arange(self.n)
         bits = np.ascontiguousarray(self.points[cand]).view(np.uint64).reshape(-1, 3)
-        h = (bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (bits[:, 1] * np.uint64(
-            0xC2B2AE3D27D4EB4F)) ^ (bits[:, 2] * np.uint64(0x165667B19E3779F9))
-        order = np.argsort(h, kind="stable")
-        hs = h[order]
-        same = hs[1:] == hs[:-1]
-        if not same.any():
+        # One sort of the coordinates' bits: equal points end up in runs (a stable sort keeps
+        # each run in index order, so its first point, the representative, has the lowest).
+        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+        b = bits[order]
+        new_run = np.ones(len(b), dtype=bool)
+        new_run[1:] = np.any(b[1:] != b[:-1], axis=1)
+        if new_run.all():
             return np.zeros((0, 2), np.int64)
-        # Runs of equal hashes, then exact coordinates within them (a collision is not a pair).
-        pairs = []
-        starts = np.flatnonzero(np.diff(np.concatenate([[False], same, [False]]).astype(int)) == 1)
-        ends = np.flatnonzero(np.diff(np.concatenate([[False], same, [False]]).astype(int)) == -1)
-        for a, b in zip(starts, ends):
-            run = cand[order[a:b + 1]]
-            _, first, group = np.unique(self.points[run], axis=0, return_index=True,
-                                        return_inverse=True)
-            rep = run[first[group.ravel()]]
-            pairs.append(np.column_stack([rep, run])[rep != run])
-        return np.concatenate(pairs).astype(np.int64) if pairs else np.zeros((0, 2), np.int64)
+        rep = cand[order[np.flatnonzero(new_run)[np.cumsum(new_run) - 1]]]
+        copy = cand[order]
+        return np.column_stack([rep, copy])[rep != copy].astype(np.int64)
 
     @property
     def sample_tree(self) -> cKDTree:

@@ -222,3 +222,28 @@ def test_material_in_the_hole_is_judged_where_it_is_not_slid_away():
     assert _max_error(res.registration, apply_transform(T, q), q) < 0.05
     assert res.verdict == REJECT
     assert np.array_equal(np.flatnonzero(~res.in_tolerance), in_hole)
+
+
+def test_coarse_levels_of_a_mesh_cover_its_area_evenly():
+    """A CAD-like tessellation of a 100 x 100 mm plate face: nodes only on its border, fanned
+    slivers from edge to edge. Every coarse level is spread over the face by area (a quarter of
+    its points in the middle quarter of the face, with the plate's normal), not over the nodes,
+    none of which lie inside."""
+    from engine.nominal import Nominal
+    from surfaces import point_set
+
+    t = np.linspace(0.0, 100.0, 201)[:-1]
+    border = np.concatenate([np.column_stack([t, 0 * t]), np.column_stack([100 + 0 * t, t]),
+                             np.column_stack([100 - t, 100 + 0 * t]),
+                             np.column_stack([0 * t, 100 - t])])
+    pts = np.column_stack([border, np.zeros(len(border))])
+    tris = np.array([[0, k, k + 1] for k in range(1, len(pts) - 1)])
+    nominal = Nominal.from_point_set(point_set(pts, np.tile([0.0, 0.0, 1.0], (len(pts), 1)),
+                                               triangles=tris))
+    # The finest level too (the registration's last ICP level): area samples, not the nodes.
+    for size in (200, 1000, 4000, nominal.finest_level):
+        lp, ln, _ = nominal.level(size)
+        assert lp.shape == (size, 3) and np.allclose(lp[:, 2], 0.0)
+        assert np.allclose(ln, [0.0, 0.0, 1.0])
+        middle = np.mean(np.all((lp[:, :2] > 25) & (lp[:, :2] < 75), axis=1))
+        assert abs(middle - 0.25) < 4 * np.sqrt(0.25 * 0.75 / size), (size, middle)

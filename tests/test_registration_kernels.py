@@ -19,9 +19,8 @@ from surfaces import height, height_grid, point_set, random_rotation
 def level():
     pts, nrm, grid = height_grid(300, 200)
     nominal = Nominal.from_point_set(point_set(pts, nrm, grid))
-    idx, tree = nominal.level(1000)
-    p = nominal.points[idx]
-    return nominal, p, nominal.normals(idx), nominal.level_shape(1000), \
+    p, nrm, tree = nominal.level(1000)
+    return nominal, p, nrm, nominal.level_shape(1000), \
         nominal.level_spacing(1000), tree, nominal.level_lookup(1000)
 
 
@@ -214,8 +213,8 @@ def test_coarse_to_fine_icp_is_its_numpy_twin(level, level_size, stop_rad):
     if level_size is None:
         tree, pts, nrm, S = nominal.tree, nominal.points, nominal.normals, None
     else:
-        idx, tree = nominal.level(level_size)
-        pts, nrm, S = nominal.points[idx], nominal.normals(idx), nominal.level_shape(level_size)
+        pts, nrm, tree = nominal.level(level_size)
+        S = nominal.level_shape(level_size)
     h = nominal.level_spacing(nominal.n if level_size is None else level_size)
     fast = _icp_batch(T, measured, tree, pts, nrm, h, iterations=8, stop_rad=stop_rad,
                       reach=10 * h, shape=S)

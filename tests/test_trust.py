@@ -275,6 +275,9 @@ def test_sampling_margin_is_curvature_times_spacing_squared_over_8():
     assert sorted(w.type for w in res.conditioning.weak) == ["rotation"] * 3
     assert res.verdict == ACCEPT and res.pose_sensitivity.verdict_stable
     for p in res.pose_sensitivity.probes:  # every axis passes through the sphere's centre
+        if p.kind == "runner-up":  # another turn of the sphere, finished as well: no axis
+            assert set(p.verdicts) == {ACCEPT} and p.max_change_mm < 0.01
+            continue
         assert np.linalg.norm(p.through) < 1e-2
     assert sum("holds for every such orientation" in r for r in res.reasons) == 3
 
