@@ -1,0 +1,90 @@
+"""The registration sweep, small: three real NIST parts (tests/data/step, public domain) x four
+defects x two random poses, each inspected from its arbitrary pose at +-0.05 mm against the
+truth of tests/sweep.py (the least-squares pose from the known pose, OpenCascade's exact
+distances). No case may be wrong (a confident verdict at a wrong pose, or the wrong verdict);
+every case that covers the whole part must be right. benchmarks/bench_sweep.py runs the large
+version over every NIST file.
+
+Before the registration sampled CAD tessellations by area, CTC-01 with its largest face bowed
+came back REJECT at a pose 25 mm off the truth, "converged".
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from engine.inspection import Tolerance, inspect
+from engine.io.step import read_step
+from engine.nominal import Nominal
+from engine.pipeline import _exact_deviations
+from sweep import judge, make_case, truth
+
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "step")
+PARTS = ["nist_ctc_01_asme1_ap203.stp", "nist_ftc_06_asme1_rd.stp",
+         "nist_ctc_03_asme1_ap242-e2.stp"]
+DEFECTS = ["none", "bow1.0", "outliers2", "cover30"]
+TOL = 0.05
+
+
+@pytest.mark.parametrize("name", PARTS)
+def test_sweep_over_a_real_part(name):
+    part = read_step(os.path.join(DATA, name))
+    exact = _exact_deviations(part)
+    rows = []
+    for k, defect in enumerate(DEFECTS):
+        for pose in range(2):
+            case = make_case(part, defect, seed=100 * pose + k)
+            d_true = truth(part, case)
+            res = inspect(Nominal.from_point_set(part.point_set), case["measured"],
+                          Tolerance.symmetric(TOL), exact=exact)
+            outcome, err = judge(res, d_true, TOL)
+            rows.append((defect, pose, res.verdict, outcome, round(err, 4)))
+    wrong = [r for r in rows if r[3] == "wrong"]
+    assert not wrong, rows
+    full = [r for r in rows if r[0] != "cover30"]
+    assert all(r[3] == "right" for r in full), rows
+    # The truth is not trivial: a bow of 1 mm is a REJECT, a perfect part an ACCEPT.
+    assert {r[2] for r in rows if r[0] == "bow1.0"} == {"REJECT"}
+    assert {r[2] for r in rows if r[0] == "none"} == {"ACCEPT"}
+
+
+def test_the_truth_is_the_known_pose_for_a_perfect_part():
+    """The sweep's truth itself: with no defect and no noise its deviations are zero (the
+    least-squares pose from the known pose is the known pose)."""
+    part = read_step(os.path.join(DATA, PARTS[1]))
+    case = make_case(part, "none", seed=3, n=300, noise=0.0)
+    assert np.max(np.abs(truth(part, case))) < 1e-6
+
+
+def _inspect_case(name, defect, seed, judged=True):
+    part = read_step(os.path.join(DATA, name))
+    case = make_case(part, defect, seed=seed)
+    res = inspect(Nominal.from_point_set(part.point_set), case["measured"],
+                  Tolerance.symmetric(TOL), exact=_exact_deviations(part))
+    return res, judge(res, truth(part, case), TOL) if judged else None
+
+
+def test_a_30_percent_patch_lands_where_it_was_measured():
+    """CTC-03, 600 points on a 30% patch (benchmarks/bench_sweep.py's case of seed 5). Two root
+    causes. The registration's finest ICP level was the tessellation's nodes, none inside a
+    plane: the global search's best pose, 1.4 mm from the truth, left at 11 mm and the answer
+    was a confident REJECT 24 mm off. Then, at the right pose, the tessellation's chordal error
+    (0.065 mm) made a pose 24 mm away (0.090 mm) a near tie: INCONCLUSIVE. Exactly, they score
+    0.0019 and 0.048 mm."""
+    res, (outcome, err) = _inspect_case("nist_ctc_03_asme1_ap242-e2.stp", "cover30", 5)
+    assert outcome == "right" and res.verdict == "ACCEPT", (outcome, err, res.reasons)
+    assert res.registration.runner_up_score > 10 * res.registration.score
+
+
+def test_an_exact_fit_cycling_between_two_poses_settles():
+    """FTC-06 (AP242) with its largest face bowed 1 mm: the exact least squares stepped back and
+    forth between two poses 0.38 um apart for all its 20 steps (a point's foot flipping between
+    two faces), and the verdict was INCONCLUSIVE, "did not settle". A step that does not lower
+    the sum of squares is now halved and the fit settles (at the truth, 0.3 um off:
+    benchmarks/bench_sweep.py)."""
+    res, _ = _inspect_case("nist_ftc_06_asme1_ap242-e1.stp", "bow1.0", 3, judged=False)
+    assert res.registration.converged, res.registration.message
+    assert res.verdict == "REJECT", res.reasons
