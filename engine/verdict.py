@@ -86,11 +86,18 @@ difference of two rigid poses' deviations varies smoothly over the part, so a su
 over it finds its largest value."""
 
 
+SCORE_TIE = 1e-6
+"""Scores within this fraction of each other are a tie: a runner-up refined on the exact surface
+(engine.inspection) that lands on a turn of the chosen pose about a free axis (NIST FTC-11, a
+part of revolution: both 0.0170363 mm, 2e-12 mm apart) does not fit better."""
+
+
 def better_runner_up(reg) -> bool:
-    """A distinct runner-up pose that scores better than the chosen one (and is no symmetry of
-    a 2D template): the chosen pose is not the best fit found, and nothing judged there stands."""
+    """A distinct runner-up pose that scores better than the chosen one, beyond a tie (and is
+    no symmetry of a 2D template): the chosen pose is not the best fit found, and nothing
+    judged there stands."""
     return (reg.runner_up_score is not None and not reg.symmetric
-            and reg.runner_up_score < reg.score)
+            and reg.runner_up_score < (1.0 - SCORE_TIE) * reg.score)
 
 
 def pose_trusted(reg) -> bool:
