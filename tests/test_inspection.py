@@ -197,3 +197,20 @@ def test_concurrent_inspections_sharing_one_nominal_give_the_sequential_results(
         assert np.array_equal(a.registration.T_nominal_measured,
                               b.registration.T_nominal_measured)
     assert {a.verdict for a in alone} == {ACCEPT, REJECT}
+
+
+def test_a_runner_up_tied_with_the_chosen_pose_does_not_fit_better():
+    """NIST FTC-11, a part of revolution: the runner-up refined on the exact surface is a turn
+    of the chosen pose about its free axis and scored 2e-12 mm better (0.017036316169810804
+    against 0.01703631616983032 mm); that made the verdict INCONCLUSIVE, "another pose fits
+    better". A tie is no better fit; a runner-up better by a thousandth still is."""
+    from types import SimpleNamespace
+
+    from engine.verdict import better_runner_up
+
+    def reg(score, runner):
+        return SimpleNamespace(score=score, runner_up_score=runner, symmetric=False)
+
+    assert not better_runner_up(reg(0.01703631616983032, 0.017036316169810804))
+    assert better_runner_up(reg(0.017036, 0.017036 * 0.999))
+    assert not better_runner_up(reg(0.017036, 0.02))
