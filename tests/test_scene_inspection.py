@@ -180,3 +180,35 @@ def test_sick_scene_registers_after_crop_and_plane_removal(capsys, tmp_path):
     doc = json.loads((tmp_path / "r.json").read_text())
     assert doc["registration"]["converged"], (code, doc["reasons"])
     assert doc["registration"]["rms"] < SICK_RMS_MM, (code, doc["reasons"])
+
+
+def test_the_app_runs_with_the_crop_and_shows_the_warning(scene):
+    """The desktop app's controller (no Qt) passes the session's crop and plane removal to the
+    run; the extent warning is the message bar's warning; a changed crop makes the result
+    stale; a saved session keeps them."""
+    from qa_app.desktop.controller import Controller
+    from qa_app.desktop.model import Session
+
+    d, box = scene
+    s = Session()
+    messages = []
+    s.message.connect(lambda level, text: messages.append((level, text)))
+    c = Controller(s, synchronous=True)
+    c.open_files([str(d / "nominal.csv"), str(d / "scene.xyz")])
+    assert c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    assert messages[-1][0] == "warning" and messages[-1][1].startswith("The measured points span")
+    s.set_settings(crop=tuple(box), remove_plane=True)
+    assert s.stale_reasons == ["crop box changed", "plane removal changed"]
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT" and s.run.selection.n_kept == N_PART
+    assert messages[-1][0] == "info" and not s.stale_reasons
+    c.save_session(str(d / "scene.qasession"))
+    saved = json.loads((d / "scene.qasession").read_text())
+    assert saved["settings"]["crop"] == pytest.approx(list(box))
+    assert saved["results"]["scene"]["n_kept"] == N_PART
+    s2 = Session()
+    c2 = Controller(s2, synchronous=True)
+    c2.open_session(str(d / "scene.qasession"))
+    assert s2.settings.crop == pytest.approx(tuple(box)) and s2.settings.remove_plane
+    assert s2.run.selection.n_kept == N_PART
