@@ -92,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 NOMINAL_HELP = ("nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, '# grid: NU x "
                 "NV' header for a u-v grid), mesh (.stl .ply .obj .vtk .vtp), structured grid "
-                "(.vts), a STEP model (.stp .step: deviations exact to its faces), or a 2D "
+                "(.vts), an E57 scan (.e57: every scan in the file's frame), a STEP model (.stp "
+                ".step: deviations exact to its faces), or a 2D "
                 "contour template: a DXF drawing (.dxf) or airfoil ordinates (.dat, with "
                 "--scale)")
 
