@@ -127,6 +127,15 @@ def test_bad_scene_options_are_usage_errors(scene, capsys, args, text):
     assert code == 64 and text in err and "Traceback" not in err
 
 
+def test_batch_takes_the_scene_options_and_refuses_bad_ones(scene, capsys, tmp_path):
+    d, _ = scene
+    code = run("batch", d / "nominal.csv", d / "scene.xyz", "--tol", "0.05", "--out",
+               tmp_path / "lot", "--crop", 1, 2, 3, 4, 5, 3)
+    err = capsys.readouterr().err
+    assert code == 64 and "qa-inspect batch: --crop's z range 3 .. 3 is empty" in err
+    assert not (tmp_path / "lot").exists()
+
+
 def test_a_crop_of_nothing_is_a_usage_error_not_a_verdict(scene, capsys, tmp_path):
     d, _ = scene
     code = run("inspect", d / "nominal.csv", d / "scene.xyz", "--tol", "0.05", "--crop",
