@@ -25,6 +25,7 @@ from .plan import Plan
 from .pointset import PointSet
 from .nominal import Nominal
 from .progress import Callback, report, reporting
+from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .settings import InspectionSettings
 from .tolerance import Tolerance
 from .verdict import ACCEPT
@@ -52,7 +53,11 @@ class Run:
     nominal : the 3D nominal (None for a 2D template); template : the 2D template file (None for
     a 3D nominal); measured : the measured point set as read; timings_s : seconds spent
     ``load``-ing the files, in ``register`` and ``deviation``, and in ``total``; plan : the
-    inspection plan as read (None without one), whose ``part`` the certificate names.
+    inspection plan as read (None without one), whose ``part`` the certificate names;
+    selection : which of the measured file's points were inspected (engine.scene.Selection;
+    None: every one, ``measured`` is then the file's point set, else the points kept);
+    warnings : what the user should know about the inputs, one sentence each (the command
+    line prints them, the JSON lists them, the app shows them).
     """
 
     settings: InspectionSettings
@@ -63,6 +68,8 @@ class Run:
     template: object | None
     timings_s: dict
     plan: Plan | None = None
+    selection: Selection | None = None
+    warnings: tuple[str, ...] = ()
 
     @functools.cached_property
     def worst_order(self) -> np.ndarray:
@@ -117,8 +124,17 @@ def instrument_of(given, plan: Plan | None):
 
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
-    """Raise SettingsError for options that do not apply to this kind of nominal."""
+    """Raise SettingsError for options that do not apply to this kind of nominal, or a crop
+    box or plane distance that is none."""
+    if settings.crop is not None:
+        check_box(settings.crop)
+    check_plane_distance(settings.plane_distance)
+    if settings.plane_distance is not None and not settings.remove_plane:
+        raise SettingsError("a plane removal distance applies with --remove-plane only")
     kind = formats.kind_of(nominal_path)
+    if settings.remove_plane and kind in formats.TEMPLATE_KINDS:
+        raise SettingsError("--remove-plane applies to 3D nominals: the measured points of a "
+                            "2D template lie in its plane")
     if kind == formats.DXF:
         if settings.scale is not None:
             raise SettingsError("--scale applies to airfoil ordinate templates (.dat) only")
@@ -297,6 +313,13 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
               InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
     if loaded.plan_record is not None:
         inputs.append(loaded.plan_record)
+    measured_ps, selection = _select(measured_ps, settings)
+    warnings: tuple[str, ...] = ()
+    if source.template is None:
+        said = extent_warning(measured_ps.points, source.point_set.points,
+                              "measured points" if selection is None else
+                              "measured points kept (after the crop and plane removal)")
+        warnings = () if said is None else (said,)
     t1 = time.perf_counter()
     if source.template is not None:
         result = _inspect_template(source.template, measured_ps, settings, plan)
@@ -311,7 +334,20 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
-    return Run(settings, result, inputs, measured_ps, nominal, source.template, timings, plan)
+    return Run(settings, result, inputs, measured_ps, nominal, source.template, timings, plan,
+               selection, warnings)
+
+
+def _select(measured_ps: PointSet, settings: InspectionSettings
+            ) -> tuple[PointSet, Selection | None]:
+    """The measured points the settings keep (engine.scene.select_points: the crop box, the
+    dominant plane removed), and the selection; (the point set, None) when they keep all."""
+    if settings.crop is None and not settings.remove_plane:
+        return measured_ps, None
+    report("selecting the part's points", 0.0)
+    selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
+                              settings.plane_distance, f"measured points of {measured_ps.path}")
+    return measured_ps.take(selection.kept), selection
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,8 @@ class PointSet:
         their faces: a vertex on the edge between faces of two groups is in both. None when
         the file names no group. Indices rather than (n,) masks: a CAD export may name a group
         per face, hundreds of them over a million vertices.
+    intensity : (n,) float64, the scanner's return intensity of each point (E57, in the file's
+        own scale), or None. Carried along, not used by the inspection.
     """
 
     points: np.ndarray
@@ -32,7 +34,20 @@ class PointSet:
     dim: int = 3
     path: str = "<array>"
     groups: dict[str, np.ndarray] | None = None
+    intensity: np.ndarray | None = None
 
     @property
     def n(self) -> int:
         return int(self.points.shape[0])
+
+    def take(self, indices: np.ndarray) -> "PointSet":
+        """The points ``indices`` (k,) int in that order, with their normals, labels and
+        intensities. A subset of a grid or mesh is a bare point set: its grid, triangles and
+        groups are dropped."""
+        idx = np.asarray(indices, dtype=np.int64)
+
+        def sub(a):
+            return None if a is None else a[idx]
+
+        return PointSet(self.points[idx], sub(self.normals), sub(self.labels), None, None,
+                        self.dim, self.path, None, sub(self.intensity))

@@ -44,6 +44,15 @@ class InspectionSettings:
     """The guarded rule's guard band: "uncertainty", each point's expanded uncertainty U; or
     "sampling", its nominal-sampling margin alone (how certificates made before uncertainty
     budgets were judged: ``verify`` re-runs them so)."""
+    crop: tuple[float, float, float, float, float, float] | None = None
+    """Keep only the measured points inside this box (xmin, ymin, zmin, xmax, ymax, zmax), mm,
+    in the measured file's coordinates, faces included (engine.scene); None: every point."""
+    remove_plane: bool = False
+    """Remove the dominant plane (the table under the part) from the measured points, after the
+    crop (engine.scene.dominant_plane)."""
+    plane_distance: float | None = None
+    """With ``remove_plane``: the points within this distance of the plane are removed, mm;
+    None: the distance engine.scene.dominant_plane chooses from the data."""
 
     @property
     def tolerance(self) -> Tolerance:
@@ -54,6 +63,16 @@ class InspectionSettings:
         d["layers"] = None if self.layers is None else list(self.layers)
         if self.guard == "uncertainty":
             del d["guard"]  # the default; an "instrument" key (null or not) says so
+        # Off, the scene options are left out: the settings of an inspection without them
+        # read as they did before they existed (a batch's resume key, a certificate's JSON).
+        if self.crop is None:
+            del d["crop"]
+        else:
+            d["crop"] = list(self.crop)
+        if not self.remove_plane:
+            del d["remove_plane"]
+        if self.plane_distance is None:
+            del d["plane_distance"]
         return d
 
     @classmethod
@@ -67,4 +86,7 @@ class InspectionSettings:
                    Instrument.from_json(d.get("instrument")),
                    # Settings without "instrument" are older than uncertainty budgets: their
                    # guarded rule guarded by the sampling margin alone.
-                   d.get("guard") or ("uncertainty" if "instrument" in d else "sampling"))
+                   d.get("guard") or ("uncertainty" if "instrument" in d else "sampling"),
+                   None if d.get("crop") is None else tuple(float(v) for v in d["crop"]),
+                   bool(d.get("remove_plane", False)),
+                   None if d.get("plane_distance") is None else float(d["plane_distance"]))

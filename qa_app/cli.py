@@ -92,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 NOMINAL_HELP = ("nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, '# grid: NU x "
                 "NV' header for a u-v grid), mesh (.stl .ply .obj .vtk .vtp), structured grid "
-                "(.vts), a STEP model (.stp .step: deviations exact to its faces), or a 2D "
+                "(.vts), an E57 scan (.e57: every scan in the file's frame), a STEP model (.stp "
+                ".step: deviations exact to its faces), or a 2D "
                 "contour template: a DXF drawing (.dxf) or airfoil ordinates (.dat, with "
                 "--scale)")
 
@@ -117,6 +118,7 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i.add_argument("--scale", type=_finite_float, metavar="CHORD",
                    help="airfoil ordinate template (.dat): chord length in mm")
     _add_fit_options(i)
+    _add_scene_options(i)
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")
@@ -153,6 +155,47 @@ def _add_fit_options(i: argparse.ArgumentParser) -> None:
                    help="the instrument's expanded measurement uncertainty, mm (k = 2); "
                         "combined per point with the registration's pose uncertainty and the "
                         "nominal-sampling margin (replaces a plan's [measurement] instrument)")
+
+
+def _add_scene_options(i: argparse.ArgumentParser) -> None:
+    """The measured scene's crop and plane removal (engine.scene), of ``inspect`` and
+    ``batch``."""
+    g = i.add_argument_group("measured scene (a scan holding more than the part)")
+    g.add_argument("--crop", type=_finite_float, nargs=6,
+                   metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
+                   help="inspect only the measured points inside this box (mm, the measured "
+                        "file's coordinates)")
+    g.add_argument("--remove-plane", action="store_true",
+                   help="remove the dominant plane (the table under the part) from the measured "
+                        "points, after the crop (seeded RANSAC; the distance from the data: 3 "
+                        "robust standard deviations of the plane's points, at least their "
+                        "spacing)")
+    g.add_argument("--remove-plane-distance", type=_finite_float, metavar="MM",
+                   help="with --remove-plane: remove the points within MM of the plane")
+
+
+def _scene_options(args, command: str) -> dict:
+    """The scene options as InspectionSettings fields, checked (usage errors, before any
+    file is read)."""
+    from engine.errors import SettingsError
+    from engine.scene import check_box, check_plane_distance
+
+    distance = args.remove_plane_distance
+    try:
+        crop = None if args.crop is None else check_box(args.crop)
+        check_plane_distance(distance)
+    except SettingsError as e:
+        raise UsageError(f"qa-inspect {command}: {_option_words(e)}") from e
+    if distance is not None and not args.remove_plane:
+        raise UsageError(f"qa-inspect {command}: --remove-plane-distance applies with "
+                         "--remove-plane")
+    return {"crop": crop, "remove_plane": bool(args.remove_plane), "plane_distance": distance}
+
+
+def _option_words(e: Exception) -> str:
+    """A scene setting's error in the command line's words."""
+    return (str(e).replace("the crop box", "--crop")
+            .replace("the plane removal distance", "--remove-plane-distance"))
 
 
 def _add_certificate_options(i: argparse.ArgumentParser) -> None:
@@ -204,6 +247,7 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
     _add_zone_options(b)
     b.add_argument("--out", required=True, metavar="DIR", help="output folder")
     _add_fit_options(b)
+    _add_scene_options(b)
     c = b.add_argument_group("certificates")
     c.add_argument("--report", action="store_true",
                    help="write each part's certificate DIR/parts/SERIAL.pdf (an UNSIGNED DRAFT "
@@ -286,10 +330,12 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
                   [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U]
-                  [--scale CHORD]
+                  [--scale CHORD] [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
+                  [--remove-plane [--remove-plane-distance MM]]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
-                  --plan PLAN.toml) --out DIR [--fit …] [--decision-rule …]
+                  --plan PLAN.toml) --out DIR [--fit …] [--decision-rule …] [--crop …]
+                  [--remove-plane [--remove-plane-distance MM]]
                   [--report [--sign ID.p12 --sign-pass-env VAR] [--part-number …]]
                   [--scheduler ADDRESS] [--workers N] [--quiet]
        qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
@@ -405,6 +451,7 @@ def _cmd_inspect(args) -> int:
                                 "--report": args.report, "--csv": args.csv, "--json": args.json,
                                 "--sign": args.sign, "--plan": args.plan})
     tol = _tolerance(args)  # usage errors first, before any process is started
+    _scene_options(args, "inspect")
     if args.sign and not args.report:
         raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
     if args.report == "-":
@@ -440,6 +487,7 @@ def _cmd_batch(args) -> int:
     _no_empty_paths("batch", {"NOMINAL": args.nominal, "MEASURED": args.measured,
                               "--out": args.out, "--sign": args.sign, "--plan": args.plan})
     tol = _tolerance(args, "batch")
+    _scene_options(args, "batch")
     if args.sign and not args.report:
         raise UsageError("qa-inspect batch: --sign needs --report")
     if args.workers is not None and (args.scheduler or args.workers < 1):
@@ -454,7 +502,8 @@ def _cmd_batch(args) -> int:
         # Absolute paths: the workers may run elsewhere (the same files at the same paths).
         settings = inspection_settings(tol, args.plan and os.path.abspath(args.plan),
                                        fit=args.fit, decision_rule=args.decision_rule,
-                                       instrument=_instrument(args, "batch"))
+                                       instrument=_instrument(args, "batch"),
+                                       **_scene_options(args, "batch"))
         loaded = load_nominal(os.path.abspath(args.nominal), settings)  # once, before the cluster
         qb.check_certifiable(job, loaded)
     except SettingsError as e:
@@ -682,7 +731,8 @@ def _run_inspect(args, tol, renderer) -> int:
                                        else tuple(args.layer), units=args.units,
                                        scale=args.scale, fit=args.fit,
                                        decision_rule=args.decision_rule,
-                                       instrument=_instrument(args, "inspect"))
+                                       instrument=_instrument(args, "inspect"),
+                                       **_scene_options(args, "inspect"))
         run = run_files(args.nominal, args.measured, settings)
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
@@ -715,10 +765,12 @@ def _run_inspect(args, tol, renderer) -> int:
     except OutputConflictError as e:  # the target changed into a folder, key... during the run
         raise UsageError(f"qa-inspect inspect: {e}") from e
     written = [o.path for o in outputs]
+    for w in run.warnings:
+        print(f"qa-inspect: warning: {w}", file=sys.stderr)
     if stdout is not None:
         sys.stdout.write(stdout)
     else:
-        print(_summary(result, written))
+        print(_summary(result, written, run.selection))
     return EXIT[result.verdict]
 
 
@@ -757,7 +809,18 @@ def _plan_summary(plan) -> list[str]:
     return lines
 
 
-def _summary(result, written) -> str:
+def _selection_line(sel) -> str:
+    """The measured points a crop and plane removal kept, in words."""
+    parts = [f"{sel.n_read:,} read"]
+    if sel.box is not None:
+        parts.append(f"{sel.n_outside_box:,} outside the crop box")
+    if sel.plane is not None:
+        parts.append(f"{sel.n_on_plane:,} on the dominant plane (within "
+                     f"{sel.plane.distance:.3g} mm)")
+    return f"  measured points: {', '.join(parts)}; {sel.n_kept:,} inspected"
+
+
+def _summary(result, written, selection=None) -> str:
     st = result.statistics
     reg = result.registration
     tol = result.tolerance
@@ -773,6 +836,8 @@ def _summary(result, written) -> str:
         f"{reg.iterations} iterations, rms {reg.rms:.4f} mm over {reg.n_inliers} fitted points, "
         f"{reg.hypotheses} pose hypotheses",
     ]
+    if selection is not None:
+        lines.append(_selection_line(selection))
     if result.normals_source == "estimated":
         lines.append("  note: the nominal has no normals; the deviation sign comes from normals "
                      "estimated from its points")

@@ -39,11 +39,37 @@ def software_version() -> str:
 
 
 def run_document(run: Run) -> dict:
-    """The JSON document of one run of the pipeline: :func:`result_document` and the settings
-    needed to re-run it (``settings``)."""
+    """The JSON document of one run of the pipeline: :func:`result_document`, the settings
+    needed to re-run it (``settings``), what the user should know about the inputs
+    (``warnings``, sentences) and, with a crop or plane removal, which measured points were
+    inspected (``scene``, :func:`scene_json`)."""
     doc = result_document(run.result, run.inputs, run.timings_s, run.measured.labels)
     doc["settings"] = run.settings.to_json()
+    doc["warnings"] = list(run.warnings)
+    if run.selection is not None:
+        doc["scene"] = scene_json(run.selection)
     return doc
+
+
+def scene_json(sel) -> dict:
+    """Which measured points an inspection kept (engine.scene.Selection): the counts, the crop
+    box and the plane removed."""
+    plane = sel.plane
+    return {
+        "n_read": sel.n_read, "n_kept": sel.n_kept,
+        "crop": None if sel.box is None else list(sel.box),
+        "n_outside_crop": sel.n_outside_box,
+        "plane": None if plane is None else {
+            "normal": [float(v) for v in plane.normal], "offset_mm": _num(plane.offset),
+            "distance_mm": _num(plane.distance), "distance_rule": plane.rule,
+            "sigma_mm": _num(plane.sigma), "spacing_mm": _num(plane.spacing),
+            "n_removed": sel.n_on_plane},
+        "definition": "the measured points inspected: those inside the crop box (xmin, ymin, "
+                      "zmin, xmax, ymax, zmax, mm, the measured file's frame, faces included), "
+                      "less those within distance_mm of the dominant plane among them "
+                      "(normal . x = offset_mm, seeded RANSAC, refitted by least squares); the "
+                      "per-point outputs number the kept points from 1 in input order",
+    }
 
 
 def result_document(result: InspectionResult, inputs: list[InputRecord],

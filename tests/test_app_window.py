@@ -707,6 +707,33 @@ def test_fields_show_only_for_the_nominals_they_apply_to(window, tmp_path):
     assert w.session.settings.units is None and w.session.settings.layers is None
 
 
+def test_the_crop_box_and_plane_removal_typed_reach_the_settings(window):
+    """The crop box is six numbers typed as on the command line (a box that is none is an
+    error in the message bar and changes nothing); the plane's distance shows with the plane's
+    removal only, and neither applies to a 2D template."""
+    w = window
+    form = w.tolerance
+    w.controller.open_nominal(os.path.join(BELLY, "nominal.csv"))
+    form.crop.setText("-130, -60, 300 130 300 500")
+    form.crop.editingFinished.emit()
+    assert w.session.settings.crop == (-130.0, -60.0, 300.0, 130.0, 300.0, 500.0)
+    form.crop.setText("1 2 3 0 5 6")
+    form.crop.editingFinished.emit()
+    assert w.message_bar.level == "error" and "x range 1 .. 0 is empty" in w.message_bar.text
+    assert w.session.settings.crop == (-130.0, -60.0, 300.0, 130.0, 300.0, 500.0)
+    assert not form.plane_distance.isVisibleTo(w)
+    form.remove_plane.setChecked(True)
+    assert form.plane_distance.isVisibleTo(w) and w.session.settings.remove_plane
+    assert w.session.settings.plane_distance is None
+    form.plane_distance.setValue(15.0)
+    assert w.session.settings.plane_distance == 15.0
+    form.crop.setText("")
+    form.crop.editingFinished.emit()
+    assert w.session.settings.crop is None
+    w.controller.open_nominal(os.path.join(FRAME, "template.dxf"))
+    assert not form.remove_plane.isVisibleTo(w) and not w.session.settings.remove_plane
+
+
 def test_a_dxf_layer_chosen_in_the_form_is_the_one_inspected(window):
     """Only the profile layer taken: the run is made with it, and a layer that is not in the
     drawing is refused in the message bar."""

@@ -18,7 +18,10 @@ inside the readers that need them.
   while reading means a damaged or truncated file, an ASCII legacy file's section lengths are
   checked first (VTK reads one cut short without complaint), and cell indices before any VTK
   filter runs;
-* ``.vts`` (structured grid): a u-v grid (x fastest), its cells are the facets.
+* ``.vts`` (structured grid): a u-v grid (x fastest), its cells are the facets;
+* ``.e57`` (ASTM E2807 scanner files, ``e57``): the points of every scan moved by its pose into
+  the file's frame, metres made mm, with intensity and normals where every scan has them; read
+  by pye57 in a child process once the header is checked.
 """
 
 from __future__ import annotations
@@ -47,6 +50,9 @@ def load_point_set(path: str | os.PathLike) -> PointSet:
     if kind in (formats.VTK, formats.GRID):
         from .meshes import read_vtk
         return read_vtk(path, suffix)
+    if kind == formats.E57:
+        from .e57 import read_e57
+        return read_e57(path)
     if kind in (formats.POINT_TEXT, formats.NPY):
         from .points import read_points
         return read_points(path)

@@ -26,6 +26,9 @@ AIRFOIL = "airfoil template"
 """2D airfoil ordinate templates, Selig order (``engine.io.templates``)."""
 PLAN = "inspection plan"
 """Inspection plans in TOML: regions, datums, alignment, characteristics (``engine.io.plan``)."""
+E57 = "E57"
+"""ASTM E2807 scanner files, every scan in the file's frame, read with pye57 in a child process
+(``engine.io.e57``)."""
 STEP = "STEP"
 """STEP CAD models (ISO 10303-21; AP203/AP214/AP242), read with OpenCascade (``engine.io.step``)."""
 
@@ -35,6 +38,7 @@ KIND = {
     ".ply": MESH, ".stl": MESH, ".obj": MESH,
     ".vtk": VTK, ".vtp": VTK,
     ".vts": GRID,
+    ".e57": E57,
     ".dxf": DXF,
     ".dat": AIRFOIL,
     ".toml": PLAN,
@@ -42,7 +46,7 @@ KIND = {
 }
 """Suffix (lower case, with its dot) -> kind of file."""
 
-POINT_SET_KINDS = (POINT_TEXT, NPY, MESH, VTK, GRID)
+POINT_SET_KINDS = (POINT_TEXT, NPY, MESH, VTK, GRID, E57)
 """Files read into a :class:`engine.io.points.PointSet` (a 3D nominal or measured points)."""
 TEMPLATE_KINDS = (DXF, AIRFOIL)
 """Files read into a 2D contour template (a nominal only)."""
@@ -61,7 +65,7 @@ PLAN_SUFFIXES = suffixes(PLAN)
 STEP_SUFFIXES = suffixes(STEP)
 NOMINAL_SUFFIXES = ALL_SUFFIXES + STEP_SUFFIXES + TEMPLATE_SUFFIXES
 """Every file a nominal may be: a point set, a STEP model or a 2D template."""
-MEASURED_SUFFIXES = suffixes(POINT_TEXT, NPY) + (".ply",)
+MEASURED_SUFFIXES = suffixes(POINT_TEXT, NPY, E57) + (".ply",)
 """What CMMs and scanners write: the desktop app's filter for measured files (any point set is
 accepted)."""
 

@@ -25,7 +25,8 @@ SESSION_FORMAT = "qa-inspect session"
 SESSION_SUFFIX = ".qasession"
 INPUTS = ("nominal", "measured", "plan")
 """The input files of a session, by role (as the run's InputRecords name them)."""
-OPTIONS = ("layers", "units", "scale", "fit", "decision_rule")
+OPTIONS = ("layers", "units", "scale", "fit", "decision_rule", "crop", "remove_plane",
+           "plane_distance")
 """The settings besides the zone and the plan, passed on to the run as they are."""
 
 
@@ -206,6 +207,8 @@ class Controller:
             reasons = [r for r in res.reasons if r not in res.trust_statements]
             s.tell("info", f"{res.verdict}: {'; '.join(reasons)} "
                            f"(max |d| {res.statistics.max_abs:.4f} mm)")
+            for w in run.warnings:  # after the note: the message bar keeps what needs attention
+                s.tell("warning", w[:1].upper() + w[1:])
 
         self._start(job, done, lambda: s.set_running(False))
 

@@ -144,6 +144,10 @@ class Session:
             out.append("airfoil chord changed")
         if (was.layers, was.units) != (now.layers, now.units):
             out.append("template layers or units changed")
+        if was.crop != now.crop:
+            out.append("crop box changed")
+        if (was.remove_plane, was.plane_distance) != (now.remove_plane, now.plane_distance):
+            out.append("plane removal changed")
         return out + list(self.changed_inputs)
 
     def _zone_changes(self, was, now) -> list[str]:

@@ -24,6 +24,7 @@ from PySide6.QtCore import (
 from PySide6.QtGui import QColor, QPainter, QPainterPath, QPen, QPixmap
 from PySide6.QtWidgets import (
     QAbstractItemView,
+    QCheckBox,
     QComboBox,
     QDoubleSpinBox,
     QFormLayout,
@@ -719,6 +720,7 @@ class ToleranceForm(QWidget):
         self.presets = presets
         self._loading = self._pushing = False
         self._make_fields()
+        self._make_scene_fields()
         save = self._make_buttons()
         self._lay_out(save)
         for w in (self.sym, self.asym, self.by_plan):
@@ -739,6 +741,10 @@ class ToleranceForm(QWidget):
         for combo in (self.fit, self.rule, self.units):
             combo.currentIndexChanged.connect(self.push)
         self.layers.editingFinished.connect(self.push)
+        self.crop.editingFinished.connect(self.push)
+        self.remove_plane.toggled.connect(self._applicable)
+        self.remove_plane.toggled.connect(self.push)
+        self.plane_distance.valueChanged.connect(self.push)
         # The plan's zone is a choice with a plan only; the airfoil chord applies to .dat
         # nominals only (see settings_fields).
         session.inputs_changed.connect(self._inputs)
@@ -786,6 +792,27 @@ class ToleranceForm(QWidget):
         self.layers.setToolTip("The DXF layers to take, separated by commas (empty: every "
                                "layer)")
 
+    def _make_scene_fields(self) -> None:
+        """The measured scene's options (engine.scene), as the command line's --crop and
+        --remove-plane [--remove-plane-distance]: the crop box typed as six numbers, the
+        dominant plane's removal and its distance (mm; 0 shows as "from the data")."""
+        self.crop = QLineEdit()
+        self.crop.setPlaceholderText("every point")
+        self.crop.setToolTip("Inspect only the measured points inside this box: XMIN YMIN ZMIN "
+                             "XMAX YMAX ZMAX, mm, in the measured file's coordinates (empty: "
+                             "every point)")
+        self.remove_plane = QCheckBox("Remove the dominant plane (the table)")
+        self.remove_plane.setToolTip("Remove the plane holding the most measured points (the "
+                                     "table under the part), after the crop")
+        self.plane_distance = QDoubleSpinBox()
+        self.plane_distance.setRange(0.0, 1e6)
+        self.plane_distance.setDecimals(3)
+        self.plane_distance.setSuffix(" mm")
+        self.plane_distance.setSpecialValueText("(from the data)")
+        self.plane_distance.setToolTip("Points within this distance of the plane are removed; "
+                                       "from the data: 3 robust standard deviations of the "
+                                       "plane's points, at least their spacing")
+
     def _make_buttons(self) -> QPushButton:
         """The preset chooser, the Inspect and Cancel buttons, and the "Save preset…" button,
         which is returned for the layout."""
@@ -824,6 +851,9 @@ class ToleranceForm(QWidget):
         form.addRow("Airfoil chord", self.chord)
         form.addRow("DXF units", self.units)
         form.addRow("DXF layers", self.layers)
+        form.addRow("Crop box", self.crop)
+        form.addRow("", self.remove_plane)
+        form.addRow("Plane distance", self.plane_distance)
         self.form = form
         buttons = QHBoxLayout()
         buttons.addWidget(self.inspect_button, 1)
@@ -855,6 +885,9 @@ class ToleranceForm(QWidget):
         self.form.setRowVisible(self.chord, kind == formats.AIRFOIL)
         self.form.setRowVisible(self.units, kind == formats.DXF)
         self.form.setRowVisible(self.layers, kind == formats.DXF)
+        flat = kind in formats.TEMPLATE_KINDS  # a template's points lie in its plane
+        self.form.setRowVisible(self.remove_plane, not flat)
+        self.form.setRowVisible(self.plane_distance, not flat and self.remove_plane.isChecked())
 
     def _inputs(self) -> None:
         """A plan opened or closed: the plan's zone is offered with a plan only; the form shows
@@ -898,15 +931,38 @@ class ToleranceForm(QWidget):
             self.chord.setValue(st.scale or 0.0)
             self.units.setCurrentIndex(max(0, self.units.findData(st.units)))
             self.layers.setText(", ".join(st.layers or ()))
+            self.crop.setText("" if st.crop is None else " ".join(f"{v:g}" for v in st.crop))
+            self.remove_plane.setChecked(st.remove_plane)
+            self.plane_distance.setValue(st.plane_distance or 0.0)
         finally:
             self._loading = False
+        self._applicable()
 
     def options(self) -> dict:
         """Fit, decision rule, airfoil chord and DXF units and layers as Settings fields."""
         layers = tuple(x.strip() for x in self.layers.text().split(",") if x.strip())
         return {"fit": self.fit.currentData(), "decision_rule": self.rule.currentData(),
                 "scale": self.chord.value() or None, "units": self.units.currentData(),
-                "layers": layers or None}
+                "layers": layers or None, "crop": self._crop_box(),
+                "remove_plane": self.remove_plane.isChecked(),
+                "plane_distance": (self.plane_distance.value() or None)
+                if self.remove_plane.isChecked() else None}
+
+    def _crop_box(self):
+        """The crop box typed (six numbers, spaces or commas between them), or None when the
+        field is empty; a box that is none is said in the message bar and the session's box
+        stays as it was."""
+        from engine.errors import SettingsError
+        from engine.scene import check_box
+
+        text = self.crop.text().replace(",", " ").split()
+        if not text:
+            return None
+        try:
+            return check_box(text)
+        except SettingsError as e:
+            self.session.tell("error", str(e))
+            return self.session.settings.crop
 
     def settings_fields(self) -> dict:
         """The form as Settings fields: the zone (not checked here: the controller refuses an
@@ -919,6 +975,8 @@ class ToleranceForm(QWidget):
             options["scale"] = None  # the chord applies to airfoil ordinates only
         if kind != formats.DXF:
             options["units"] = options["layers"] = None
+        if kind in formats.TEMPLATE_KINDS:
+            options["remove_plane"], options["plane_distance"] = False, None
         return {"tol_lower": float(lo), "tol_upper": float(hi),
                 "zone_in_verdict": not self.plans_zone(), **options}
 
