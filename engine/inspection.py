@@ -21,7 +21,8 @@ from .errors import SettingsError
 from .fits import FITS, _apply_update, minimax
 from .geometry import apply_transform
 from .nominal import Nominal
-from .registration import RegistrationResult, RegistrationSettings, pose_score, register
+from .registration import (RegistrationResult, RegistrationSettings, distinct_poses, pose_score,
+                           register)
 from .tolerance import Tolerance
 from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
                       margins_3d, plausible_runner_up, pointwise_verdict, pose_trusted)
@@ -138,7 +139,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     # The flow starts from the registration's last evaluation: every point at its final pose.
     if exact is not None:
         reg = _exact_fit(reg, measure, tolerance.upper - tolerance.lower)
-        reg = _exact_runner_up(reg, measure, settings.outlier_floor * nominal.diagonal,
+        reg = _exact_runner_up(reg, measure, measured, nominal.diagonal, settings.outlier_floor,
                                tolerance.upper - tolerance.lower)
     T = reg.T_nominal_measured
     dev = reg.deviations
@@ -245,11 +246,13 @@ RUNNER_UP_FIT_ITERATIONS = 20
 """Gauss-Newton iterations at most of the runner-up's exact least squares."""
 
 
-def _exact_runner_up(reg, measure, scale: float, zone_width: float):
+def _exact_runner_up(reg, measure, measured: np.ndarray, diagonal: float, floor: float,
+                     zone_width: float):
     """A plausible runner-up (engine.verdict.plausible_runner_up) judged on the exact surface,
     as the chosen pose was: its pose finished by least squares of the exact deviations of the
     points the gross-outlier rule keeps there, then both poses scored (``pose_score`` at
-    ``scale``) on the same seeded points. The sample's scores carry its chordal error, which on
+    ``floor`` x the nominal's ``diagonal``) on the same seeded points; a runner-up that the
+    finish brings onto the chosen pose is none. The sample's scores carry its chordal error, which on
     a CAD tessellation can exceed the noise a hundredfold: NIST CTC-03's 30% patch scored
     0.065 mm at the right pose and 0.090 mm at one 24 mm away, a near tie; exactly, 0.0019
     against 0.048 mm. An implausible runner-up stays as the sample judged it."""
@@ -266,9 +269,12 @@ def _exact_runner_up(reg, measure, scale: float, zone_width: float):
     use = np.zeros(n, bool)
     use[idx[~gross_outliers(dev.signed, dev.foot, rule)]] = True
     Tr = _subset_fit(measure, reg.runner_up_T, use, RUNNER_UP_FIT_ITERATIONS)
+    score = pose_score(reg.deviations.signed[idx], floor * diagonal)
+    if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
+        return replace(reg, score=score, runner_up_score=None, runner_up_T=None)
     _, dev_r = measure(Tr, idx)
-    return replace(reg, score=pose_score(reg.deviations.signed[idx], scale),
-                   runner_up_score=pose_score(dev_r.signed, scale), runner_up_T=Tr)
+    return replace(reg, score=score, runner_up_score=pose_score(dev_r.signed, floor * diagonal),
+                   runner_up_T=Tr)
 
 
 def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray):

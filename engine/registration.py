@@ -351,7 +351,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
         # mis-probes: 2.44 mm, 8.7 mm off the truth, against a wrong pose's 0.17 mm).
         best = None if unfit or len(finished) >= MAX_FINISHES else next(
             (j for j in order if j not in finished
-             and all(_is_distinct(refined[j], finished[i][0], measured[sub], nominal.diagonal)
+             and all(distinct_poses(refined[j], finished[i][0], measured[sub], nominal.diagonal)
                      for i in finished)),
             None)
     Tb, converged, _, inlier, rule, dev_b, dev_s, message = finished[chosen]
@@ -359,7 +359,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     poses = [finished[i][0] if i in finished else refined[i] for i in range(len(refined))]
     scores = [final.get(i, scores[i]) for i in range(len(refined))]
     runner = min((j for j in range(len(refined)) if j != chosen
-                  and _is_distinct(poses[j], Tb, measured[sub], nominal.diagonal)),
+                  and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
                  key=lambda j: scores[j], default=None)
     return RegistrationResult.from_fit(
         Tb, dev_b, inlier, rule, near, converged=converged,
@@ -606,7 +606,7 @@ def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarr
     return U @ T
 
 
-def _is_distinct(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: float) -> bool:
+def distinct_poses(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: float) -> bool:
     """Two poses differ when they rotate apart by over 2 degrees or move the points apart by over
     1% of the measured extent (the nominal's diagonal when smaller)."""
     extent = min(float(np.linalg.norm(src.max(0) - src.min(0))), diagonal)
