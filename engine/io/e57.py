@@ -20,6 +20,7 @@ import numpy as np
 from engine.errors import InputError, InputNotFoundError
 from engine.pointset import PointSet
 
+from .child import CHILD_INPUT_ERROR, arrays_from_child
 from .points import finish_point_set
 
 SIGNATURE = b"ASTM-E57"
@@ -35,7 +36,6 @@ E57_READ_TIMEOUT_S = 300.0
 unreadable."""
 NORMALS = ("nor:normalX", "nor:normalY", "nor:normalZ")
 """The point fields of the E57 surface-normals extension."""
-_CHILD_INPUT_ERROR = 3
 
 
 def check_header(head: bytes, size: int, path: str) -> None:
@@ -65,32 +65,12 @@ def read_e57(path: str) -> PointSet:
     """Every scan of the E57 file ``path`` as one PointSet in mm (see the module's docstring).
     Raises InputError for a file that is no E57 file, is truncated or damaged, or holds no
     points; never crashes."""
-    import subprocess
-    import sys
-    import tempfile
-
     size = os.path.getsize(path)
     if size == 0:
         raise InputError("the file is empty", path)
     check_header(_head(path), size, path)
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    with tempfile.TemporaryDirectory(prefix="qa-e57-") as tmp:
-        out = os.path.join(tmp, "arrays.npz")
-        try:
-            r = subprocess.run([sys.executable, "-m", "engine.io.e57", path, out],
-                               capture_output=True, text=True, env=env,
-                               timeout=E57_READ_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            raise InputError(f"the E57 reader did not finish within {E57_READ_TIMEOUT_S:g} s "
-                             "(damaged file?)", path) from None
-        if r.returncode == _CHILD_INPUT_ERROR:
-            raise InputError(r.stdout.strip() or "damaged E57 file", path)
-        if r.returncode != 0:
-            how = f"signal {-r.returncode}" if r.returncode < 0 else f"exit {r.returncode}"
-            raise InputError(f"damaged: the E57 reader crashed reading it ({how})", path)
-        with np.load(out, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
+    arrays = arrays_from_child("engine.io.e57", path, [], "the E57 reader", "damaged E57 file",
+                               E57_READ_TIMEOUT_S)
     return _point_set(arrays, path)
 
 
@@ -217,12 +197,12 @@ def _e57_child(argv: list[str]) -> int:
         arrays = _e57_arrays(path)
     except InputError as e:
         print(e.message)
-        return _CHILD_INPUT_ERROR
+        return CHILD_INPUT_ERROR
     except Exception as e:  # libE57Format's E57Exception and what pye57 raises on a bad file
         # libE57Format's message is its first line; debug context follows.
         text = (str(e).strip().splitlines() or [type(e).__name__])[0][:300]
         print(f"damaged or unreadable E57 file: {text}")
-        return _CHILD_INPUT_ERROR
+        return CHILD_INPUT_ERROR
     np.savez(out, **arrays)
     return 0
 

@@ -65,6 +65,7 @@ import numpy as np
 from engine.errors import InputError
 from engine.pointset import PointSet
 
+from .child import CHILD_INPUT_ERROR, arrays_from_child
 from .points import check_coordinate_range, finish_point_set, read_bytes, split_lines, text_lines
 
 
@@ -1119,32 +1120,12 @@ def read_vtk(path: str, suffix: str) -> PointSet:
     and can crash on a damaged one (a flipped byte in a binary legacy file's offsets does), which
     here becomes an InputError instead of the end of the program. The child checks the cells
     before handing back plain arrays; the filters then run here on checked data."""
-    import subprocess
-    import sys
-    import tempfile
-
     import pyvista as pv
 
     if os.path.getsize(path) == 0:
         raise InputError("the file is empty", path)
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    with tempfile.TemporaryDirectory(prefix="qa-vtk-") as tmp:
-        out = os.path.join(tmp, "arrays.npz")
-        try:
-            r = subprocess.run([sys.executable, "-m", "engine.io.meshes", path, suffix, out],
-                               capture_output=True, text=True, env=env,
-                               timeout=VTK_READ_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            raise InputError(f"VTK's reader did not finish within {VTK_READ_TIMEOUT_S:g} s "
-                             "(damaged file?)", path) from None
-        if r.returncode == _CHILD_INPUT_ERROR:
-            raise InputError(r.stdout.strip() or "damaged file", path)
-        if r.returncode != 0:
-            how = f"signal {-r.returncode}" if r.returncode < 0 else f"exit {r.returncode}"
-            raise InputError(f"damaged: VTK's reader crashed reading it ({how})", path)
-        with np.load(out, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
+    arrays = arrays_from_child("engine.io.meshes", path, [suffix], "VTK's reader",
+                               "damaged file", VTK_READ_TIMEOUT_S)
     pts = arrays["points"]
     _check_vertices(pts, path)
     normals = _unit_normals_or_none(arrays.get("normals"), pts)
@@ -1162,7 +1143,6 @@ def read_vtk(path: str, suffix: str) -> PointSet:
     return finish_point_set(PointSet(pts, normals, None, None, None, 3, path))
 
 
-_CHILD_INPUT_ERROR = 3
 
 
 def _vtk_arrays(path: str, suffix: str) -> dict:
@@ -1221,7 +1201,7 @@ def _vtk_child(argv: list[str]) -> int:
         arrays = _vtk_arrays(path, suffix)
     except InputError as e:
         print(e.message)
-        return _CHILD_INPUT_ERROR
+        return CHILD_INPUT_ERROR
     np.savez(out, **arrays)
     return 0
 
