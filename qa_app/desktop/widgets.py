@@ -776,12 +776,8 @@ class ToleranceForm(QWidget):
                              "point's expanded uncertainty U, reject only outside the zone grown "
                              "by it. Automatic: guarded when the plan's [measurement] states an "
                              "instrument, as qa-inspect does without --decision-rule")
-        self.chord = QDoubleSpinBox()
-        self.chord.setRange(0.0, 1e6)
-        self.chord.setDecimals(3)
-        self.chord.setSuffix(" mm")
-        self.chord.setSpecialValueText("(from the file)")
-        self.chord.setToolTip("Chord length of an airfoil ordinate template (.dat)")
+        self.chord = _optional_mm("(from the file)",
+                                  "Chord length of an airfoil ordinate template (.dat)")
         self.units = QComboBox()
         self.units.addItem("(the drawing's)", None)
         for u in DXF_UNITS:
@@ -804,14 +800,9 @@ class ToleranceForm(QWidget):
         self.remove_plane = QCheckBox("Remove the dominant plane (the table)")
         self.remove_plane.setToolTip("Remove the plane holding the most measured points (the "
                                      "table under the part), after the crop")
-        self.plane_distance = QDoubleSpinBox()
-        self.plane_distance.setRange(0.0, 1e6)
-        self.plane_distance.setDecimals(3)
-        self.plane_distance.setSuffix(" mm")
-        self.plane_distance.setSpecialValueText("(from the data)")
-        self.plane_distance.setToolTip("Points within this distance of the plane are removed; "
-                                       "from the data: 3 robust standard deviations of the "
-                                       "plane's points, at least their spacing")
+        self.plane_distance = _optional_mm(
+            "(from the data)", "Points within this distance of the plane are removed; from the "
+            "data: 3 robust standard deviations of the plane's points, at least their spacing")
 
     def _make_buttons(self) -> QPushButton:
         """The preset chooser, the Inspect and Cancel buttons, and the "Save preset…" button,
@@ -1008,3 +999,14 @@ class ToleranceForm(QWidget):
             self.presets[name.strip()] = (lo, hi)
             self._fill_presets()
             self.preset_saved.emit(name.strip(), lo, hi)
+
+
+def _optional_mm(unset: str, tip: str) -> QDoubleSpinBox:
+    """A length in mm, 0 to 1e6 to the micrometre, whose 0 shows as ``unset`` (not given)."""
+    box = QDoubleSpinBox()
+    box.setRange(0.0, 1e6)
+    box.setDecimals(3)
+    box.setSuffix(" mm")
+    box.setSpecialValueText(unset)
+    box.setToolTip(tip)
+    return box
