@@ -622,6 +622,7 @@ class _Elementary:
     the face its distance bounds the face's from below."""
 
     KINDS = ("Plane", "Cylinder", "Cone", "Sphere", "Torus")
+    PARAMETERS = ("o", "x", "y", "z", "R", "r", "alpha")
 
     def __init__(self, kind: str, adaptor):
         surface = getattr(adaptor, kind)()
@@ -645,19 +646,38 @@ class _Elementary:
         e = cls(kind, adaptor)
         return None if kind == "Torus" and e.r >= e.R else e  # a spindle torus: the general way
 
+    @classmethod
+    def stack(cls, surfaces: list["_Elementary"]) -> "_Elementary":
+        """Surfaces of one kind as rows: each parameter an array over them (see :meth:`take`)."""
+        s = object.__new__(cls)
+        s.kind = surfaces[0].kind
+        for name in cls.PARAMETERS:
+            setattr(s, name, np.array([getattr(e, name) for e in surfaces], float))
+        return s
+
+    def take(self, rows: np.ndarray) -> "_Elementary":
+        """Of stacked surfaces (:meth:`stack`), one per point: ``rows`` (m,) indices into them;
+        :meth:`nearest` then projects the i-th point on the i-th surface."""
+        s = object.__new__(type(self))
+        s.kind = self.kind
+        for name in self.PARAMETERS:
+            setattr(s, name, getattr(self, name)[rows])
+        return s
+
     def nearest(self, p: np.ndarray):
         """For points p (m, 3): distance (m,), u (m,), v (m,), foot (m, 3) and the surface's
-        unit normal there (m, 3; the parametrisation's, before the face's orientation)."""
+        unit normal there (m, 3; the parametrisation's, before the face's orientation). The
+        surface is one, or one per point (:meth:`take`)."""
         w = p - self.o
-        lx, ly, lz = w @ self.x, w @ self.y, w @ self.z
+        lx, ly, lz = _rows_dot(w, self.x), _rows_dot(w, self.y), _rows_dot(w, self.z)
         if self.kind == "Plane":
-            n = np.cross(self.x, self.y)
-            h = w @ n
-            return np.abs(h), lx, ly, p - h[:, None] * n, np.tile(n, (len(p), 1))
+            n = np.broadcast_to(np.cross(self.x, self.y), p.shape)
+            h = _rows_dot(w, n)
+            return np.abs(h), lx, ly, p - h[:, None] * n, n.copy()
         u = np.arctan2(ly, lx)
         rho = np.hypot(lx, ly)
         if self.kind == "Cylinder":
-            v, radius, height = lz, np.full(len(p), self.R), lz
+            v, radius, height = lz, np.broadcast_to(self.R, lz.shape), lz
             d = np.abs(rho - self.R)
         elif self.kind == "Sphere":
             v = np.arctan2(lz, rho)
@@ -688,9 +708,10 @@ class _Elementary:
         """D1U x D1V, normalised (its positive factors left out, so it is defined at poles)."""
         tangent_u = -np.sin(u)[:, None] * self.x + np.cos(u)[:, None] * self.y
         if self.kind == "Cylinder":
-            dv = np.tile(self.z, (len(u), 1))
+            dv = np.broadcast_to(self.z, tangent_u.shape)
         elif self.kind == "Cone":
-            dv = np.sin(self.alpha) * e + np.cos(self.alpha) * self.z
+            sa, ca = np.sin(self.alpha)[..., None], np.cos(self.alpha)[..., None]
+            dv = sa * e + ca * self.z
             tangent_u = tangent_u * np.where(radius < 0, -1.0, 1.0)[:, None]
         else:  # sphere, torus: d/dv of (cos v e + sin v z), up to the radius
             dv = -np.sin(v)[:, None] * e + np.cos(v)[:, None] * self.z
@@ -746,19 +767,12 @@ class _FaceTools:
         if self.elementary is None:
             return self._project_general(pts)
         d, u, v, _, _ = self.elementary.nearest(pts)
-        u, v = self._in_period(u, 0), self._in_period(v, 1)
-        u0, u1, v0, v1 = self.uv_box
-        tol = 1e-9 * (1.0 + np.abs(self.uv_box).max())
-        found = (u >= u0 - tol) & (u <= u1 + tol) & (v >= v0 - tol) & (v <= v1 + tol)
-        return d, np.column_stack([u, v]), found, d
+        uv, found = _in_box(u, v, np.asarray(self.uv_box, float), np.asarray(self.periods))
+        return d, uv, found, d
 
     def _in_period(self, t: np.ndarray, axis: int) -> np.ndarray:
         """A periodic parameter moved by whole periods into the face's box (from its start)."""
-        period = self.periods[axis]
-        if not period:
-            return t
-        start = self.uv_box[2 * axis] - 1e-9
-        return start + np.mod(t - start, period)
+        return _in_period(t, self.periods[axis], self.uv_box[2 * axis])
 
     def _project_general(self, pts: np.ndarray):
         """OpenCascade's extrema over the face's (u, v) box, one point at a time: the nearest
@@ -893,6 +907,34 @@ class _FaceTools:
             return None
 
 
+class _Surfaces:
+    """Every face's surface by face id, for projecting many points on many faces with one
+    vectorised call per kind of elementary surface (a NIST part has up to 338 faces, and a
+    call per face cost more than its arithmetic).
+
+    kind (F + 1,) : index into ``_Elementary.KINDS``, -1 for a general surface (and id 0);
+    row (F + 1,) : the face's row in ``stacks[kind]`` (:meth:`_Elementary.stack`);
+    uv_box (F + 1, 4), periods (F + 1, 2), reversed (F + 1,) : as ``_FaceTools``'."""
+
+    def __init__(self, tools: list[_FaceTools]):
+        m = len(tools) + 1
+        self.kind = np.full(m, -1, np.int64)
+        self.row = np.zeros(m, np.int64)
+        self.uv_box = np.zeros((m, 4))
+        self.periods = np.zeros((m, 2))
+        self.reversed = np.zeros(m, bool)
+        groups: dict[int, list] = {}
+        for fid, t in enumerate(tools, 1):
+            self.uv_box[fid], self.periods[fid], self.reversed[fid] = t.uv_box, t.periods, \
+                t.reversed
+            if t.elementary is not None:
+                k = _Elementary.KINDS.index(t.elementary.kind)
+                group = groups.setdefault(k, [])
+                self.kind[fid], self.row[fid] = k, len(group)
+                group.append(t.elementary)
+        self.stacks = {k: _Elementary.stack(g) for k, g in groups.items()}
+
+
 class _Brep:
     """The placed faces (id i is ``faces[i - 1]``), their names, tools, boxes and adjacency."""
 
@@ -926,6 +968,11 @@ class _Brep:
         if t is None:
             t = self._tools[fid] = _FaceTools(self.faces[fid - 1])
         return t
+
+    @functools.cached_property
+    def surfaces(self) -> "_Surfaces":
+        """The faces' elementary surfaces stacked by kind, for projections in bulk."""
+        return _Surfaces([self.tools(fid) for fid in range(1, self.n + 1)])
 
     def boxes(self) -> np.ndarray:
         """(F, 2, 3) each face's bounding box from its exact geometry (BRepBndLib.AddOptimal),
@@ -1009,24 +1056,47 @@ class _Brep:
     # ---------------------------------------------------------------- exact distance
     def project(self, p: np.ndarray, pairs: np.ndarray, best: _Best) -> tuple:
         """Project the points of the (point index, face id) ``pairs`` on their faces' surfaces
-        (one face at a time, its projector reused) and keep in ``best`` each point's nearest
-        foot that lies on its trimmed face. Returns (bound, inside) per pair: ``bound`` is the
-        distance to the untrimmed surface, exact where ``inside``, else a lower bound (the
-        larger of it and the distance to the face's bounding box).
+        and keep in ``best`` each point's nearest foot that lies on its trimmed face. Returns
+        (bound, inside) per pair: ``bound`` is the distance to the untrimmed surface, exact
+        where ``inside``, else a lower bound (the larger of it and the distance to the face's
+        bounding box).
 
-        Feet are classified nearest first, per point, and only while nearer than the best:
-        the costly classification of the others is skipped. (An elementary surface's distance
-        bounds its face's from below; a general face that is skipped or whose foot falls
-        outside it is bounded by its bounding box, for ``settle``.)"""
-        d, bound = np.empty(len(pairs)), np.empty(len(pairs))
-        uv = np.empty((len(pairs), 2))
-        found = np.empty(len(pairs), bool)
-        for fid, block in _by_face(pairs):
-            d[block], uv[block], found[block], bound[block] = \
-                self.tools(fid).project(p[pairs[block, 0]])
-        bound = np.fmax(bound, _box_distance(self.boxes()[pairs[:, 1] - 1], p[pairs[:, 0]]))
+        Elementary surfaces are projected first, in bulk (``surfaces``); a general face (one
+        projection at a time by OpenCascade's extrema, its projector reused) only where its
+        bounding box is nearer than the best foot so far and the point's upper bound: elsewhere
+        its box bounds it, for ``settle``. Feet are classified nearest first, per point, and
+        only while nearer than the best: the costly classification of the others is skipped.
+        (An elementary surface's distance bounds its face's from below; a general face whose
+        foot falls outside it is bounded by its bounding box.)"""
+        d, uv = np.full(len(pairs), np.inf), np.zeros((len(pairs), 2))
+        found = np.zeros(len(pairs), bool)
+        bound = _box_distance(self.boxes()[pairs[:, 1] - 1], p[pairs[:, 0]])
+        table = self.surfaces
+        kind = table.kind[pairs[:, 1]]
+        for k in np.unique(kind[kind >= 0]):
+            j = np.flatnonzero(kind == k)
+            fid = pairs[j, 1]
+            d[j], u, v, _, _ = table.stacks[k].take(table.row[fid]).nearest(p[pairs[j, 0]])
+            uv[j], found[j] = _in_box(u, v, table.uv_box[fid], table.periods[fid])
+        bound[kind >= 0] = np.fmax(bound[kind >= 0], d[kind >= 0])
         inside = np.zeros(len(pairs), bool)
-        pending = found.copy()
+        self._keep_nearest_inside(pairs, d, uv, found.copy(), inside, best)
+        limit = np.minimum(best.dist, best.upper)
+        general = np.flatnonzero((kind < 0) & (bound < limit[pairs[:, 0]] - TIE_MM))
+        for fid, block in _by_face(pairs[general]):
+            j = general[block]
+            d[j], uv[j], found[j], _ = self.tools(fid).project(p[pairs[j, 0]])
+        if general.size:
+            pending = np.zeros(len(pairs), bool)
+            pending[general] = found[general]
+            self._keep_nearest_inside(pairs, d, uv, pending, inside, best)
+        return np.where(inside, d, bound), inside
+
+    def _keep_nearest_inside(self, pairs: np.ndarray, d: np.ndarray, uv: np.ndarray,
+                             pending: np.ndarray, inside: np.ndarray, best: _Best) -> None:
+        """Classify the ``pending`` pairs' feet (at distance ``d``, parameters ``uv``) nearest
+        first per point, while nearer than the point's best; mark ``inside`` those on their
+        trimmed face and keep the nearest in ``best``."""
         while pending.any():
             cand = np.flatnonzero(pending)
             cand = cand[np.lexsort((d[cand], pairs[cand, 0]))]
@@ -1041,7 +1111,6 @@ class _Brep:
             i = pairs[won, 0]
             best.dist[i], best.face[i], best.uv[i], best.on_face[i] = (d[won], pairs[won, 1],
                                                                        uv[won], True)
-        return np.where(inside, d, bound), inside
 
     def settle(self, p: np.ndarray, pairs: np.ndarray, bound: np.ndarray, inside: np.ndarray,
                best: _Best) -> None:
@@ -1076,8 +1145,16 @@ class _Brep:
             raise RuntimeError("OpenCascade found no distance to any face")
         foot, normal = np.array(best.foot), np.zeros_like(p)
         on = np.flatnonzero(best.on_face)
-        for fid, block in _by_face(np.column_stack([on, best.face[on]])):
-            i = on[block]
+        table = self.surfaces
+        kind = table.kind[best.face[on]]
+        for k in np.unique(kind[kind >= 0]):
+            i = on[kind == k]
+            fid = best.face[i]
+            _, _, _, foot[i], n = table.stacks[k].take(table.row[fid]).nearest(p[i])
+            normal[i] = np.where(table.reversed[fid][:, None], -n, n)
+        general = on[kind < 0]
+        for fid, block in _by_face(np.column_stack([general, best.face[general]])):
+            i = general[block]
             foot[i], normal[i] = self.tools(fid).at(p[i], best.uv[i])
         for i in np.flatnonzero(~best.on_face):
             normal[i] = self._boundary_normal(best.support.get(i), foot[i], int(best.face[i]))
@@ -1161,6 +1238,31 @@ def _joined(lines: list[np.ndarray], tol: float) -> list[np.ndarray] | None:
     for k, p in enumerate(out):
         p[0], p[-1] = shared[2 * k], shared[2 * k + 1]
     return out
+
+
+def _rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of a (m, 3) with b (3,) or (m, 3)."""
+    return np.einsum("ij,ij->i", a, np.broadcast_to(b, a.shape))
+
+
+def _in_period(t: np.ndarray, period, start) -> np.ndarray:
+    """A periodic parameter t moved by whole periods into [start, start + period) (less 1e-9);
+    unchanged where the period is 0 (not periodic). period, start: scalars or per t."""
+    period = np.asarray(period, float)
+    if not period.any():
+        return t
+    start = np.asarray(start, float) - 1e-9
+    return np.where(period > 0, start + np.mod(t - start, np.where(period > 0, period, 1.0)), t)
+
+
+def _in_box(u: np.ndarray, v: np.ndarray, uv_box: np.ndarray, periods: np.ndarray):
+    """Feet's (u, v) (m,) each into its face's (u, v) box u0 u1 v0 v1 ((4,) or (m, 4)) by whole
+    periods ((2,) or (m, 2)): ((m, 2) wrapped (u, v), (m,) whether it lies in the box)."""
+    u0, u1, v0, v1 = uv_box.T
+    u, v = _in_period(u, periods.T[0], u0), _in_period(v, periods.T[1], v0)
+    tol = 1e-9 * (1.0 + np.abs(uv_box).max(axis=-1))
+    found = (u >= u0 - tol) & (u <= u1 + tol) & (v >= v0 - tol) & (v <= v1 + tol)
+    return np.column_stack([u, v]), found
 
 
 def _box_distance(boxes: np.ndarray, p: np.ndarray) -> np.ndarray:
