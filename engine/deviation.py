@@ -228,7 +228,12 @@ def _pick_facet(nominal: Nominal, pts: np.ndarray, tris: np.ndarray, shaped_next
 def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     tree = nominal.sample_tree
     n = pts.shape[0]
-    _, centre = tree.query(pts, k=1, workers=query_workers(len(pts)))
+    # The 4 nearest samples at once: most points need the wider look below (one query costs
+    # much less than two).
+    k = min(4, tree.n)
+    _, nn = tree.query(pts, k=k, workers=query_workers(len(pts)))
+    nn = np.asarray(nn).reshape(n, k)
+    centre = nn[:, 0]
     best_tri = np.zeros(n, np.int64)
     best_d2 = np.full(n, np.inf)
     best_b = np.zeros((n, 3))
@@ -240,11 +245,9 @@ def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     # next three nearest points too.
     at_centre = np.where(nominal.triangles[best_tri] == centre[:, None], best_b, 0.0).sum(axis=1)
     rim = np.flatnonzero((centre >= nominal.n) | (at_centre <= 1e-12))
-    k = min(4, tree.n)
-    if rim.size and k > 1:
-        _, nn = tree.query(pts[rim], k=k, workers=query_workers(int(np.count_nonzero(rim))))
-        for col in range(1, k):
-            kernels.best_in_stars(pts, rim, nn[:, col].astype(np.int64), *args)
+    for col in range(1, k):
+        if rim.size:
+            kernels.best_in_stars(pts, rim, nn[rim, col].astype(np.int64), *args)
     sel = nominal.triangles[best_tri]
     return nominal.points[sel], nominal.normals(sel), best_b
 
