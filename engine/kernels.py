@@ -294,7 +294,6 @@ def boxes_nearer(p, boxes, limit, done_start, done_face):
     return out[:k]
 
 
-@njit(cache=True, nogil=True)
 def in_polygon(uv, segments, band):
     """Even-odd classification of 2D points against closed polylines given as a soup of
     segments, with the points within ``band`` of any segment marked apart.
@@ -302,14 +301,23 @@ def in_polygon(uv, segments, band):
     uv (m, 2); segments (E, 4): u0 v0 u1 v1 each, the union of closed loops in any order and
     direction. Returns (inside (m,) bool: an odd number of crossings of the ray towards +u;
     near (m,) bool: within ``band`` of a segment, where the caller decides otherwise)."""
-    m, e = uv.shape[0], segments.shape[0]
+    m = uv.shape[0]
+    return in_polygons(uv, segments, np.zeros(m, np.int64),
+                       np.full(m, segments.shape[0], np.int64), np.full(m, float(band)))
+
+
+@njit(cache=True, nogil=True)
+def in_polygons(uv, segments, start, stop, band):
+    """:func:`in_polygon` of each point against its own polylines: point i against
+    ``segments[start[i]:stop[i]]`` within ``band[i]`` (many faces' trims in one call)."""
+    m = uv.shape[0]
     inside = np.zeros(m, np.bool_)
     near = np.zeros(m, np.bool_)
-    band2 = band * band
     for i in range(m):
         u, v = uv[i, 0], uv[i, 1]
+        band2 = band[i] * band[i]
         odd = False
-        for k in range(e):
+        for k in range(start[i], stop[i]):
             a0, a1, b0, b1 = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
             if (a1 > v) != (b1 > v):
                 if u < a0 + (v - a1) * (b0 - a0) / (b1 - a1):

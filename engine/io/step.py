@@ -770,10 +770,6 @@ class _FaceTools:
         uv, found = _in_box(u, v, np.asarray(self.uv_box, float), np.asarray(self.periods))
         return d, uv, found, d
 
-    def _in_period(self, t: np.ndarray, axis: int) -> np.ndarray:
-        """A periodic parameter moved by whole periods into the face's box (from its start)."""
-        return _in_period(t, self.periods[axis], self.uv_box[2 * axis])
-
     def _project_general(self, pts: np.ndarray):
         """OpenCascade's extrema over the face's (u, v) box, one point at a time: the nearest
         point of the surface over the box (its search takes the box's edges in), so on the
@@ -806,22 +802,6 @@ class _FaceTools:
             if n is not None:
                 normal[j] = n
         return foot, normal
-
-    def contains(self, uv: np.ndarray) -> np.ndarray:
-        """Whether the (u, v) points (m, 2) lie on the trimmed face (IN or ON its boundary):
-        by the trim's polylines (see ``TRIM_DEFLECTION``) away from them, by OpenCascade's
-        classifier near them (or for a face whose polylines could not be drawn)."""
-        from engine.kernels import in_polygon
-
-        if self.trim is None or uv.shape[0] == 0:
-            return self._classify(uv)
-        segments, band = self.trim
-        # A periodic parameter into the face's domain, as OpenCascade's classifier takes it.
-        wrapped = np.column_stack([self._in_period(uv[:, 0], 0), self._in_period(uv[:, 1], 1)])
-        inside, near = in_polygon(wrapped, segments, band)
-        if near.any():
-            inside[near] = self._classify(uv[near])
-        return inside
 
     @functools.cached_property
     def trim(self) -> tuple[np.ndarray, float] | None:
@@ -933,6 +913,35 @@ class _Surfaces:
                 self.kind[fid], self.row[fid] = k, len(group)
                 group.append(t.elementary)
         self.stacks = {k: _Elementary.stack(g) for k, g in groups.items()}
+
+
+class _Trims:
+    """The faces' trim polylines (``_FaceTools.trim``) drawn so far, in one segment array:
+    face id f's are ``segments[start[f]:stop[f]]`` within ``band[f]``; stop[f] -1: not drawn
+    yet, -2: none (OpenCascade's classifier decides)."""
+
+    def __init__(self, n_faces: int):
+        self.start = np.zeros(n_faces + 1, np.int64)
+        self.stop = np.full(n_faces + 1, -1, np.int64)
+        self.band = np.zeros(n_faces + 1)
+        self.segments = np.zeros((0, 4))
+
+    def add(self, fids: np.ndarray, tools) -> None:
+        """Draw the trims of the faces ``fids`` not drawn yet; tools(fid) -> _FaceTools."""
+        new = [int(f) for f in fids if self.stop[f] == -1]
+        if not new:
+            return
+        blocks, at = [self.segments], self.segments.shape[0]
+        for f in new:
+            trim = tools(f).trim
+            if trim is None:
+                self.stop[f] = -2
+                continue
+            segments, self.band[f] = trim
+            self.start[f], self.stop[f] = at, at + segments.shape[0]
+            at += segments.shape[0]
+            blocks.append(segments)
+        self.segments = np.ascontiguousarray(np.concatenate(blocks))
 
 
 class _Brep:
@@ -1105,12 +1114,42 @@ class _Brep:
             if cand.size == 0:
                 break
             pending[cand] = False
-            for fid, block in _by_face(pairs[cand]):
-                inside[cand[block]] = self.tools(fid).contains(uv[cand[block]])
+            inside[cand] = self.contains(pairs[cand, 1], uv[cand])
             won = cand[inside[cand]]
             i = pairs[won, 0]
             best.dist[i], best.face[i], best.uv[i], best.on_face[i] = (d[won], pairs[won, 1],
                                                                        uv[won], True)
+
+    def contains(self, fids: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        """Whether each (u, v) point (m, 2) lies on its trimmed face ``fids`` (m,) (IN or ON
+        its boundary): by the face's trim polylines (``_FaceTools.trim``, every face's in one
+        call) away from them, by OpenCascade's classifier near them (or for a face whose
+        polylines could not be drawn). A periodic parameter is first moved into the face's
+        domain, as OpenCascade's classifier takes it."""
+        from engine.kernels import in_polygons
+
+        out = np.zeros(len(fids), bool)
+        if len(fids) == 0:
+            return out
+        trims = self.trims
+        trims.add(np.unique(fids), self.tools)
+        drawn = np.flatnonzero(trims.stop[fids] >= 0)
+        f = fids[drawn]
+        table = self.surfaces
+        wrapped = np.column_stack([_in_period(uv[drawn, 0], table.periods[f, 0],
+                                              table.uv_box[f, 0]),
+                                   _in_period(uv[drawn, 1], table.periods[f, 1],
+                                              table.uv_box[f, 2])])
+        out[drawn], near = in_polygons(wrapped, trims.segments, trims.start[f], trims.stop[f],
+                                       trims.band[f])
+        ask = np.union1d(drawn[near], np.flatnonzero(trims.stop[fids] < 0))
+        for fid, block in _by_face(np.column_stack([ask, fids[ask]])):
+            out[ask[block]] = self.tools(fid)._classify(uv[ask[block]])
+        return out
+
+    @functools.cached_property
+    def trims(self) -> "_Trims":
+        return _Trims(self.n)
 
     def settle(self, p: np.ndarray, pairs: np.ndarray, bound: np.ndarray, inside: np.ndarray,
                best: _Best) -> None:
