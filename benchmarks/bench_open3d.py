@@ -1,12 +1,16 @@
 """The engine and Open3D's global registration side by side, in one run, on the same cases.
 
+    .venv/bin/pip install -c constraints.txt -e '.[bench]'     # Open3D, once
+    .venv/bin/python benchmarks/bench_open3d.py
+    .venv/bin/python benchmarks/bench_open3d.py 60k/1.1k "60k/400 tenth"
     .venv/bin/python benchmarks/bench_open3d.py --open3d-python /path/to/venv/bin/python
-    .venv/bin/python benchmarks/bench_open3d.py --open3d-python PY 60k/1.1k "60k/400 tenth"
 
-Open3D is not a dependency of the product: give the interpreter of a separate environment that
-has it (``python3.11 -m venv o3d && o3d/bin/pip install open3d==0.20.0``; on Debian it also
-needs ``apt-get install libusb-1.0-0``). Each side runs in its own process per case, the cases
-alternate, and each is run ``--repeat`` times (default 3; the table gives the fastest).
+Open3D is not a dependency of the product but of the optional ``bench`` extra (open3d-cpu; on
+Debian it needs ``libusb-1.0-0``, which scripts/setup.sh installs). Open3D runs in the
+interpreter running this script when it has Open3D, else in the one given by
+``--open3d-python`` (any environment with numpy and Open3D 0.20). Each side runs in its own
+process per case, the cases alternate, and each is run ``--repeat`` times (default 3; the
+table gives the fastest).
 
 Open3D's pipeline is its tutorial's, tuned to these parts: voxel down-sampling at 2% of the
 nominal's diagonal, normals, FPFH features (radius 5 voxels), RANSAC over feature matches
@@ -24,6 +28,7 @@ hand-tuned one (1,000: ten times faster here).
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
@@ -144,12 +149,16 @@ def main(argv: list[str]) -> int:
         i = args.index("--repeat")
         repeat = int(args[i + 1])
         del args[i:i + 2]
-    if "--open3d-python" not in args:
-        print(__doc__, file=sys.stderr)
+    if "--open3d-python" in args:
+        i = args.index("--open3d-python")
+        python = args[i + 1]
+        del args[i:i + 2]
+    elif importlib.util.find_spec("open3d") is not None:
+        python = sys.executable
+    else:
+        print("Open3D is not installed here: .venv/bin/pip install -c constraints.txt "
+              "-e '.[bench]', or give --open3d-python\n\n" + __doc__, file=sys.stderr)
         return 2
-    i = args.index("--open3d-python")
-    python = args[i + 1]
-    del args[i:i + 2]
     names = args or ["60k/1.1k", "60k/400 quarter", "60k/400 tenth", "200k/100 bracket",
                      "1M points/200k"]
     return run(names, python, repeat)

@@ -9,11 +9,12 @@ cd "$(dirname "$0")/.."
 need_apt=()
 command -v pdfsig >/dev/null 2>&1 || need_apt+=(poppler-utils)
 command -v certutil >/dev/null 2>&1 || need_apt+=(libnss3-tools)
-# The desktop app's 3D viewport tests run on a virtual X display with Qt's xcb platform.
+# The desktop app's 3D viewport tests run on a virtual X display with Qt's xcb platform;
+# libusb is what Open3D (the optional bench extra, benchmarks/bench_open3d.py) loads.
 command -v xvfb-run >/dev/null 2>&1 || need_apt+=(xvfb xauth)
 for lib in libxcb-icccm4 libxcb-image0 libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 \
            libxcb-shape0 libxcb-xinerama0 libxcb-xkb1 libxkbcommon-x11-0 libxcb-cursor0 \
-           libgl1 libegl1 libgl1-mesa-dri; do
+           libgl1 libegl1 libgl1-mesa-dri libusb-1.0-0; do
     dpkg -s "$lib" >/dev/null 2>&1 || need_apt+=("$lib")
 done
 if [ ${#need_apt[@]} -gt 0 ]; then
