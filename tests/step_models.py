@@ -119,6 +119,23 @@ def box_with_hole():
     return BRepAlgoAPI_Cut(box, hole).Shape()
 
 
+def featured_block():
+    """Issue 21's plain block: 120 x 80 x 30 mm ([0, 120] x [0, 80] x [0, 30]) with a through
+    hole (radius 8 along z at (30, 40)), a boss on top (radius 10, 12 high, at (90, 40)) and a
+    slot in the top (x 45-75, y 35-45, 10 deep)."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+
+    block = BRepPrimAPI_MakeBox(120.0, 80.0, 30.0).Shape()
+    hole = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(30, 40, -1), gp_Dir(0, 0, 1)), 8.0, 32.0)
+    boss = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(90, 40, 30), gp_Dir(0, 0, 1)), 10.0, 12.0)
+    slot = BRepPrimAPI_MakeBox(gp_Pnt(45, 35, 20), gp_Pnt(75, 45, 31)).Shape()
+    shape = BRepAlgoAPI_Cut(block, hole.Shape()).Shape()
+    shape = BRepAlgoAPI_Fuse(shape, boss.Shape()).Shape()
+    return BRepAlgoAPI_Cut(shape, slot).Shape()
+
+
 def box_face_samples(rng, n_per_face: int, margin: float = 1.5):
     """Points on the box-with-hole's faces at least ``margin`` from every edge: (feet (m, 3),
     outward normals (m, 3), which face: 'x-', 'x+', 'y-', 'y+', 'z-', 'z+' or 'hole')."""
