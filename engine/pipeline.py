@@ -23,6 +23,7 @@ from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
 from .plan import Plan
 from .pointset import PointSet
+from .neighbours import query_workers
 from .nominal import Nominal
 from .progress import Callback, report, reporting
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
@@ -309,11 +310,20 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
                          f"{nominal_path} is a 3D surface: give the measured points as x y "
                          "z, or a 2D template (.dxf, .dat) as NOMINAL for a 2D inspection",
                          measured_ps.path)
-    inputs = [source.record,
-              InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
+    measured_sha = sha256_of(measured_path)
+    if measured_sha == source.record.sha256:
+        raise InputError(f"the measured file is the nominal {nominal_path} (same content, sha256 "
+                         f"{measured_sha[:16]}…): a nominal inspected against itself measures "
+                         "nothing", measured_path)
+    inputs = [source.record, InputRecord("measured", measured_path, measured_sha, measured_ps.n)]
     if loaded.plan_record is not None:
         inputs.append(loaded.plan_record)
     measured_ps, selection = _select(measured_ps, settings)
+    if nominal is not None and copies_nominal(measured_ps.points, nominal):
+        raise InputError(f"every one of the {measured_ps.n:,} measured points is one of the "
+                         f"nominal's points ({nominal_path}) to the last bit: they are a copy "
+                         "of the nominal, not a measurement (a measurement carries its "
+                         "instrument's noise)", measured_path)
     warnings: tuple[str, ...] = ()
     if source.template is None:
         said = extent_warning(measured_ps.points, source.point_set.points,
@@ -348,6 +358,27 @@ def _select(measured_ps: PointSet, settings: InspectionSettings
     selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
                               settings.plane_distance, f"measured points of {measured_ps.path}")
     return measured_ps.take(selection.kept), selection
+
+
+COPY_PROBE = 64
+"""Measured points checked first for being the nominal's own (:func:`copies_nominal`): a
+measurement differs from the nominal at once, and only a copy is checked whole."""
+
+
+def copies_nominal(points: np.ndarray, nominal: Nominal) -> bool:
+    """Whether every one of the measured ``points`` (n, 3) is, coordinate for coordinate
+    (exactly equal floats), one of the ``nominal``'s points: the nominal's own samples, not a
+    measurement of the part. False for no points."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.shape[0] == 0 or nominal.n == 0:
+        return False
+    for probe in (points[:COPY_PROBE], points):
+        _, near = nominal.tree.query(probe, k=1, workers=query_workers(len(probe)))
+        if not np.array_equal(nominal.points[near], probe):
+            return False
+        if len(probe) == len(points):
+            break
+    return True
 
 
 @dataclass(frozen=True)
