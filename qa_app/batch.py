@@ -504,14 +504,67 @@ def _compute(batch: Batch, loaded: LoadedNominal, client, todo: list[int]):
             client.cancel(list(futures))
 
 
+CONNECT_S = 5.0
+"""Seconds a Dask scheduler named by ``--scheduler`` has to accept the connection, and as many
+to answer Dask's handshake (one on the same network answers in milliseconds): a closed port, or
+a port where another service listens (an HTTP server, the dashboard's port), is said within
+seconds, not after Dask's own 30 s of retries, or never (Dask waits for the handshake's answer
+without end)."""
+
+
+def probe_scheduler(address: str, seconds: float = CONNECT_S) -> None:
+    """Connect to the Dask scheduler at ``address`` (``tcp://HOST:PORT``; ``tls://`` and
+    Dask's other schemes too), shake hands with it, and hang up: first a plain connection
+    (within ``seconds``; a refusal is final), then Dask's handshake (within ``seconds``).
+
+    Raises ConnectionError naming the address and the reason: the address is none, nothing
+    listens there, nothing answers, or what accepted the connection did not answer as a Dask
+    scheduler does (another service on that port)."""
+    import asyncio
+    import socket
+
+    from distributed.comm import connect, parse_address, parse_host_port
+
+    def refused(reason: str) -> ConnectionError:
+        return ConnectionError(f"cannot reach the Dask scheduler {address}: {reason}")
+
+    other = "another service on that port? a scheduler listens on 8786 by default, its " \
+            "dashboard on 8787"
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            with socket.create_connection(parse_host_port(location), timeout=seconds):
+                pass
+    except ConnectionRefusedError as e:
+        raise refused("the connection was refused (nothing listens on that port)") from e
+    except (socket.timeout, TimeoutError) as e:
+        raise refused(f"no answer within {seconds:.0f} s") from e
+    except (OSError, ValueError, TypeError) as e:
+        raise refused(f"{e.strerror or e}" if isinstance(e, OSError) else f"{e}") from e
+
+    async def shake_hands():
+        comm = await connect(address, timeout=seconds)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(shake_hands(), seconds))
+    except (asyncio.TimeoutError, TimeoutError) as e:
+        raise refused(f"something accepted the connection but did not answer as a Dask "
+                      f"scheduler within {seconds:.0f} s ({other})") from e
+    except Exception as e:  # noqa: BLE001 - whatever the answer was, it was not a scheduler's
+        raise refused(f"what answered is not a Dask scheduler (its answer could not be read: "
+                      f"{type(e).__name__}; {other})") from e
+
+
 @contextlib.contextmanager
 def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0):
     """A Dask client: of the existing cluster at ``scheduler`` (tcp://HOST:PORT), or of a local
     cluster of ``workers`` single-threaded worker processes (default: the cores) started here
     and closed at the end. Distributed's log messages below ERROR are silenced.
 
-    Raises ConnectionError when the scheduler cannot be reached, or has no worker within
-    ``wait_s`` seconds.
+    Raises ConnectionError when the scheduler cannot be reached or does not answer as one
+    (:func:`probe_scheduler`, within seconds), or has no worker within ``wait_s`` seconds.
     """
     from distributed import Client, LocalCluster
 
@@ -526,8 +579,9 @@ def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0
                     dashboard_address=":0", silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
         else:
+            probe_scheduler(scheduler)
             try:
-                client = stack.enter_context(Client(scheduler, timeout=wait_s))
+                client = stack.enter_context(Client(scheduler, timeout=CONNECT_S))
             except (OSError, TimeoutError, ValueError) as e:
                 raise ConnectionError(f"cannot reach the Dask scheduler {scheduler}: {e}") from e
             try:

@@ -252,6 +252,48 @@ def test_every_match_of_a_lot_is_in_its_summary_and_an_unreadable_one_is_an_erro
     assert "is a named pipe (FIFO)" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("service", ["http", "closed"])
+def test_a_scheduler_address_without_a_scheduler_exits_69_within_seconds(lot, tmp_path,
+                                                                         service):
+    """--scheduler at a port where an HTTP server listens hung for ever (Dask waits for its
+    handshake's answer without end); at a closed port it took 61 s. Both: exit 69 within 15 s,
+    naming the address and the reason, and nothing written."""
+    import http.server
+    import threading
+
+    d, _ = lot
+    server = None
+    if service == "http":
+        server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
+                                                 http.server.SimpleHTTPRequestHandler)
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        port = server.server_address[1]
+        reason = "did not answer as a Dask scheduler within 5 s"
+    else:
+        with socket.socket() as s:  # a free port, closed again: nothing listens there
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        reason = "the connection was refused"
+    address = f"tcp://127.0.0.1:{port}"
+    try:
+        t0 = time.monotonic()
+        r = subprocess.run([sys.executable, "-m", "qa_app.cli", "batch", str(d / "nominal.csv"),
+                            str(d / "parts" / "s01.csv"), "--tol", "0.1", "--out",
+                            str(tmp_path / "out"), "--scheduler", address],
+                           capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                           env={**os.environ, "PYTHONPATH": ROOT})
+        elapsed = time.monotonic() - t0
+    finally:
+        if server is not None:
+            server.shutdown()
+            server.server_close()
+    assert r.returncode == 69, r.stderr
+    assert elapsed < 15, elapsed
+    assert r.stderr.startswith(f"qa-inspect: error: cannot reach the Dask scheduler {address}: ")
+    assert reason in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_resuming_a_finished_lot_starts_no_cluster(lot, tmp_path, capsys, monkeypatch):
     """Every part already done: the same command writes the same summary without starting a
     local cluster (it took about 3 s for nothing) or reaching a scheduler."""
