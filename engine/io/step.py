@@ -65,7 +65,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from engine.errors import InputError, InputNotFoundError
+from engine.errors import InputError, InputNotFoundError, NoDistanceError
 from engine.neighbours import query_workers
 from engine.pointset import PointSet
 
@@ -1151,7 +1151,8 @@ class _Brep:
     def finish(self, p: np.ndarray, best: _Best):
         """(signed, foot, normal, face) from each point's nearest foot (see deviations)."""
         if (best.face == 0).any():
-            raise RuntimeError("OpenCascade found no distance to any face")
+            raise NoDistanceError(np.flatnonzero(best.face == 0), p[best.face == 0],
+                                  "OpenCascade found no distance to any face")
         foot, normal = np.array(best.foot), np.zeros_like(p)
         on = np.flatnonzero(best.on_face)
         for fid, block in _by_face(np.column_stack([on, best.face[on]])):
