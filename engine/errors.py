@@ -36,5 +36,22 @@ class SettingsError(QAError, ValueError):
     """Inconsistent settings (e.g. a tolerance zone whose lower limit exceeds the upper)."""
 
 
+class NoDistanceError(QAError, ArithmeticError):
+    """No distance could be computed from some points to a nominal's surface (OpenCascade found
+    none to any face of a STEP model): a "could not compute", which the pipeline turns into an
+    INCONCLUSIVE verdict naming the points, never an internal error.
+
+    ``points`` : (k,) int indices of those points in the array asked about;
+    ``coordinates`` : (k, 3) float, the points themselves (mm, the nominal's frame).
+    """
+
+    def __init__(self, points, coordinates, why: str):
+        self.points = points
+        self.coordinates = coordinates
+        self.why = why
+        super().__init__(f"{why} from {len(points)} point(s), the first at "
+                         f"{tuple(round(float(c), 6) for c in coordinates[0])} mm")
+
+
 class Cancelled(QAError):
     """The user stopped the computation (raised from a progress callback)."""

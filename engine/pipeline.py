@@ -18,17 +18,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .errors import InputError, SettingsError
+from .errors import InputError, NoDistanceError, SettingsError
 from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
 from .plan import Plan
 from .pointset import PointSet
+from .neighbours import query_workers
 from .nominal import Nominal
 from .progress import Callback, report, reporting
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .settings import InspectionSettings
 from .tolerance import Tolerance
-from .verdict import ACCEPT
+from .verdict import ACCEPT, INCONCLUSIVE
 
 
 @dataclass(frozen=True)
@@ -309,11 +310,20 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
                          f"{nominal_path} is a 3D surface: give the measured points as x y "
                          "z, or a 2D template (.dxf, .dat) as NOMINAL for a 2D inspection",
                          measured_ps.path)
-    inputs = [source.record,
-              InputRecord("measured", measured_path, sha256_of(measured_path), measured_ps.n)]
+    measured_sha = sha256_of(measured_path)
+    if measured_sha == source.record.sha256:
+        raise InputError(f"the measured file is the nominal {nominal_path} (same content, sha256 "
+                         f"{measured_sha[:16]}…): a nominal inspected against itself measures "
+                         "nothing", measured_path)
+    inputs = [source.record, InputRecord("measured", measured_path, measured_sha, measured_ps.n)]
     if loaded.plan_record is not None:
         inputs.append(loaded.plan_record)
     measured_ps, selection = _select(measured_ps, settings)
+    if nominal is not None and copies_nominal(measured_ps.points, nominal):
+        raise InputError(f"every one of the {measured_ps.n:,} measured points is one of the "
+                         f"nominal's points ({nominal_path}) to the last bit: they are a copy "
+                         "of the nominal, not a measurement (a measurement carries its "
+                         "instrument's noise)", measured_path)
     warnings: tuple[str, ...] = ()
     if source.template is None:
         said = extent_warning(measured_ps.points, source.point_set.points,
@@ -348,6 +358,27 @@ def _select(measured_ps: PointSet, settings: InspectionSettings
     selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
                               settings.plane_distance, f"measured points of {measured_ps.path}")
     return measured_ps.take(selection.kept), selection
+
+
+COPY_PROBE = 64
+"""Measured points checked first for being the nominal's own (:func:`copies_nominal`): a
+measurement differs from the nominal at once, and only a copy is checked whole."""
+
+
+def copies_nominal(points: np.ndarray, nominal: Nominal) -> bool:
+    """Whether every one of the measured ``points`` (n, 3) is, coordinate for coordinate
+    (exactly equal floats), one of the ``nominal``'s points: the nominal's own samples, not a
+    measurement of the part. False for no points."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.shape[0] == 0 or nominal.n == 0:
+        return False
+    for probe in (points[:COPY_PROBE], points):
+        _, near = nominal.tree.query(probe, k=1, workers=query_workers(len(probe)))
+        if not np.array_equal(nominal.points[near], probe):
+            return False
+        if len(probe) == len(points):
+            break
+    return True
 
 
 @dataclass(frozen=True)
@@ -385,11 +416,12 @@ def _read_nominal(path: str, settings: InspectionSettings) -> _Nominal:
     return _Nominal(InputRecord("nominal", path, sha, ps.n), point_set=ps)
 
 
-def _face_sample(step, k: int = 32):
+def _face_sample(distances: "ExactDistances", k: int = 32):
     """feet (n, 3) on a STEP model -> (n,) the tessellation point nearest each foot among those
-    of the face it lies on (exactly: the model's own distance), so that a point joins its
-    face's regions even where the face's samples lie only on its edges, shared with the next
-    face's; the face's first sample when none of the k nearest is on it."""
+    of the face it lies on (exactly: the model's own distance, ``distances``), so that a point
+    joins its face's regions even where the face's samples lie only on its edges, shared with
+    the next face's; the face's first sample when none of the k nearest is on it."""
+    step = distances.step
     points = step.point_set.points
     ids = np.asarray(step.face_ids)
     first = np.full(step.n_faces + 1, -1)
@@ -397,7 +429,7 @@ def _face_sample(step, k: int = 32):
     tree = cKDTree(points)
 
     def sample_of(feet: np.ndarray) -> np.ndarray:
-        face = step.deviations(feet)[3]
+        face = distances(feet)[3]
         _, near = tree.query(feet, k=min(k, ids.size))
         hit = ids[near] == face[:, None]
         pick = np.where(hit.any(axis=1), near[np.arange(len(feet)), hit.argmax(axis=1)],
@@ -447,25 +479,98 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
                 settings: InspectionSettings, plan):
     """A 3D inspection (exact to a STEP model's faces when the nominal is one), and its plan's
     characteristics."""
-    exact = None
+    exact = distances = None
     if source.step is not None:
-        exact = _exact_deviations(source.step)
+        distances = ExactDistances(source.step, nominal)
+        exact = _exact_deviations(distances)
     result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
                      decision_rule=settings.decision_rule, exact=exact,
                      instrument=instrument_of(settings.instrument, plan), guard=settings.guard)
     if source.step is not None:
         result = dataclasses.replace(result, extra={**result.extra,
                                                     "step": step_facts(source.step)})
-    if plan is None:
-        return result
-    from .characteristics import inspect_plan
+    if plan is not None:
+        from .characteristics import inspect_plan
 
-    report("judging the plan's characteristics", 0.99)
-    ps = source.point_set
-    return inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
-                        measured_ps.labels, settings.zone_in_verdict, ps.groups, exact,
-                        None if source.step is None else _face_sample(source.step),
-                        None if source.step is None else _exact_features(source.step))
+        report("judging the plan's characteristics", 0.99)
+        ps = source.point_set
+        result = inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
+                              measured_ps.labels, settings.zone_in_verdict, ps.groups, exact,
+                              None if distances is None else _face_sample(distances),
+                              None if source.step is None else _exact_features(source.step))
+    if distances is not None and distances.missed:
+        result = distances.judged(result, measured_ps.labels)
+    return result
+
+
+class ExactDistances:
+    """A STEP model's exact distances (engine.io.step.StepNominal.deviations: ``(signed, foot,
+    normal, face)`` of points X (n, 3), nominal frame), with the tessellation's distance
+    standing in for a point to which OpenCascade finds none (engine.errors.NoDistanceError):
+    the others are measured exactly again, and every point stood in for is kept in
+    ``missed`` (its nominal-frame coordinates, where it was asked about) so that the verdict
+    says so (:meth:`judged`): a "could not compute", never an internal error.
+
+    step : the StepNominal; nominal : the Nominal built from its tessellation (its samples are
+    ``step.point_set``'s, in order, so a sample's face is ``step.face_ids`` of it).
+    """
+
+    def __init__(self, step, nominal: Nominal):
+        self.step, self.nominal = step, nominal
+        self.missed: list[np.ndarray] = []
+        self.why = ""
+
+    def __call__(self, X: np.ndarray):
+        X = np.asarray(X, dtype=np.float64)
+        out = (np.empty(len(X)), np.empty((len(X), 3)), np.empty((len(X), 3)),
+               np.empty(len(X), np.int64))
+        exact = np.arange(len(X))
+        while exact.size:  # each failure takes its points out: at most len(X) rounds
+            try:
+                got = self.step.deviations(X[exact])
+            except NoDistanceError as e:
+                self._stand_in(X[exact[e.points]], exact[e.points], out)
+                self.why = e.why
+                exact = np.delete(exact, e.points)
+                continue
+            for o, g in zip(out, got):
+                o[exact] = g
+            break
+        return out
+
+    def _stand_in(self, P: np.ndarray, rows: np.ndarray, out) -> None:
+        from .deviation import point_to_surface
+
+        self.missed.append(P)
+        dv = point_to_surface(self.nominal, P)
+        out[0][rows], out[1][rows], out[2][rows] = dv.signed, dv.foot, dv.normal
+        out[3][rows] = np.asarray(self.step.face_ids)[self.nominal.tree.query(dv.foot)[1]]
+
+    def judged(self, result: InspectionResult, labels: np.ndarray | None) -> InspectionResult:
+        """``result`` made INCONCLUSIVE by the points stood in for, its first reason naming
+        them: the measured points (numbered from 1, as the outputs number them) that were
+        stood in for at the pose reported, else the first one at a pose tried on the way."""
+        missed = np.concatenate(self.missed)
+        near, _ = cKDTree(missed).query(result.registered, k=1)
+        at = np.flatnonzero(near <= SAME_POINT_MM)
+        if at.size:
+            label = "" if labels is None else f", label {labels[at[0]]}"
+            who = (f"measured point {at[0] + 1}{label}" if at.size == 1 else
+                   f"{at.size} measured points (the first: point {at[0] + 1}{label})")
+        else:
+            x, y, z = missed[0]
+            who = (f"a measured point at a pose tried on the way (then at ({x:.4f}, {y:.4f}, "
+                   f"{z:.4f}) mm in the nominal's frame)")
+        reason = (f"no exact distance from {who} to the STEP model: {self.why} (its "
+                  "projection and extrema search failed on every face near it); the "
+                  "tessellation's distance stood in, so the verdict cannot be trusted")
+        return dataclasses.replace(result, verdict=INCONCLUSIVE,
+                                   reasons=(reason,) + tuple(result.reasons))
+
+
+SAME_POINT_MM = 1e-6
+"""A point stood in for (ExactDistances) is a measured point at the pose reported when it lies
+this near it (the same transform of the same point, up to rounding)."""
 
 
 SAME_SURFACE = 1e-9
@@ -525,13 +630,13 @@ def _same_sphere(g: dict, h: dict, scale: float) -> bool:
 _EXACT_KINDS = {"plane": _same_plane, "cylinder": _same_cylinder, "sphere": _same_sphere}
 
 
-def _exact_deviations(step):
-    """Deviations from a STEP model's faces (engine.io.step.StepNominal.deviations) as the
-    engine's Deviations."""
+def _exact_deviations(distances: ExactDistances):
+    """Deviations from a STEP model's faces (:class:`ExactDistances`) as the engine's
+    Deviations."""
     from .deviation import Deviations
 
     def exact(X: np.ndarray) -> Deviations:
-        signed, foot, normal, _ = step.deviations(X)
+        signed, foot, normal, _ = distances(X)
         return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
 
     return exact

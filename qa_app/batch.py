@@ -50,28 +50,62 @@ class BatchUsageError(SettingsError):
 # ---------------------------------------------------------------------------- the parts
 @dataclass(frozen=True)
 class Part:
-    """One measured file: its serial (the file's stem) and its path as given."""
+    """One measured file: its serial (the file's stem) and its path as given; ``problem``
+    says why a glob's match cannot be read at all (a dangling symbolic link, a named pipe, a
+    folder …; :func:`unreadable`): the part is then an ERROR row, and the file is never
+    opened."""
 
     serial: str
     path: str
+    problem: str | None = None
+
+
+def unreadable(path: str) -> str | None:
+    """Why ``path`` is no file a part can be read from, in words, found without opening it (a
+    named pipe would block the reader until something writes to it); None for a regular file
+    (or a link to one)."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        if os.path.islink(path):
+            return f"a symbolic link to {os.readlink(path)}, which does not exist"
+        return "no such file (it went away after the pattern was matched)"
+    except OSError as e:
+        return f"cannot be examined ({e.strerror})"
+    if stat.S_ISREG(mode):
+        return None
+    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return f"{what}, not a file of measured points (it is not opened)"
+    return "not a regular file (it is not opened)"
 
 
 def find_parts(patterns: list[str]) -> list[Part]:
     """The parts named by MEASURED ``patterns`` (files or globs), in measurement order: the
     patterns in the order given, a glob's matches sorted by name, a file named twice once.
+    Every match of a glob is a part: one that is no regular file (a dangling symbolic link, a
+    named pipe, a folder) has its ``problem`` and becomes an ERROR row, never silently left
+    out of the lot.
 
     Raises BatchUsageError for a pattern that names no file (a missing file, a glob matching
-    nothing: a lot with a part silently missing would be summarised as complete), and for two
-    files with one serial (their results would overwrite each other).
+    nothing: a lot with a part silently missing would be summarised as complete), for a file
+    named directly that is no regular file, and for two files with one serial (their results
+    would overwrite each other).
     """
     paths: list[str] = []
     for pattern in patterns:
         if glob.has_magic(pattern):
-            found = sorted(p for p in glob.glob(pattern) if os.path.isfile(p))
+            found = sorted(glob.glob(pattern))
             if not found:
                 raise BatchUsageError(f"MEASURED pattern '{pattern}' matches no file")
         elif os.path.isfile(pattern):
             found = [pattern]
+        elif os.path.lexists(pattern) and not os.path.isdir(pattern):
+            raise BatchUsageError(f"MEASURED file {pattern} is {unreadable(pattern)}")
         else:
             raise BatchUsageError(f"MEASURED file {pattern} does not exist"
                                   + (" (it is a folder: give a glob such as "
@@ -84,12 +118,12 @@ def find_parts(patterns: list[str]) -> list[Part]:
         real = os.path.realpath(path)
         if real in seen.values():
             continue
-        serial = os.path.splitext(os.path.basename(path))[0]
+        serial = os.path.splitext(os.path.basename(os.path.normpath(path)))[0]
         if serial in seen:
             raise BatchUsageError(f"two parts have the serial '{serial}': {seen[serial]} and "
                                   f"{path} (a part's serial is its file's stem); rename one")
         seen[serial] = real
-        parts.append(Part(serial, path))
+        parts.append(Part(serial, path, unreadable(path)))
     return parts
 
 
@@ -408,11 +442,15 @@ def run_batch(batch: Batch, loaded: LoadedNominal, client=None, on_row=None,
     rows: list[dict | None] = [None] * len(batch.parts)
     todo = []
     for i, part in enumerate(batch.parts):
-        done = _finished(batch, loaded, part)
-        if done is None:
-            todo.append(i)
-            continue
-        rows[i] = summary_row(part, done[0], done[1], tracked, skipped=True)
+        if part.problem is not None:  # no file to read: its ERROR row, and never opened
+            _remove_part(batch, part)
+            rows[i] = summary_row(part, None, None, tracked, f"{part.path}: {part.problem}")
+        else:
+            done = _finished(batch, loaded, part)
+            if done is None:
+                todo.append(i)
+                continue
+            rows[i] = summary_row(part, done[0], done[1], tracked, skipped=True)
         if on_row is not None:
             on_row(rows[i])
     with contextlib.ExitStack() as stack:
@@ -466,14 +504,67 @@ def _compute(batch: Batch, loaded: LoadedNominal, client, todo: list[int]):
             client.cancel(list(futures))
 
 
+CONNECT_S = 5.0
+"""Seconds a Dask scheduler named by ``--scheduler`` has to accept the connection, and as many
+to answer Dask's handshake (one on the same network answers in milliseconds): a closed port, or
+a port where another service listens (an HTTP server, the dashboard's port), is said within
+seconds, not after Dask's own 30 s of retries, or never (Dask waits for the handshake's answer
+without end)."""
+
+
+def probe_scheduler(address: str, seconds: float = CONNECT_S) -> None:
+    """Connect to the Dask scheduler at ``address`` (``tcp://HOST:PORT``; ``tls://`` and
+    Dask's other schemes too), shake hands with it, and hang up: first a plain connection
+    (within ``seconds``; a refusal is final), then Dask's handshake (within ``seconds``).
+
+    Raises ConnectionError naming the address and the reason: the address is none, nothing
+    listens there, nothing answers, or what accepted the connection did not answer as a Dask
+    scheduler does (another service on that port)."""
+    import asyncio
+    import socket
+
+    from distributed.comm import connect, parse_address, parse_host_port
+
+    def refused(reason: str) -> ConnectionError:
+        return ConnectionError(f"cannot reach the Dask scheduler {address}: {reason}")
+
+    other = "another service on that port? a scheduler listens on 8786 by default, its " \
+            "dashboard on 8787"
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            with socket.create_connection(parse_host_port(location), timeout=seconds):
+                pass
+    except ConnectionRefusedError as e:
+        raise refused("the connection was refused (nothing listens on that port)") from e
+    except (socket.timeout, TimeoutError) as e:
+        raise refused(f"no answer within {seconds:.0f} s") from e
+    except (OSError, ValueError, TypeError) as e:
+        raise refused(f"{e.strerror or e}" if isinstance(e, OSError) else f"{e}") from e
+
+    async def shake_hands():
+        comm = await connect(address, timeout=seconds)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(shake_hands(), seconds))
+    except (asyncio.TimeoutError, TimeoutError) as e:
+        raise refused(f"something accepted the connection but did not answer as a Dask "
+                      f"scheduler within {seconds:.0f} s ({other})") from e
+    except Exception as e:  # noqa: BLE001 - whatever the answer was, it was not a scheduler's
+        raise refused(f"what answered is not a Dask scheduler (its answer could not be read: "
+                      f"{type(e).__name__}; {other})") from e
+
+
 @contextlib.contextmanager
 def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0):
     """A Dask client: of the existing cluster at ``scheduler`` (tcp://HOST:PORT), or of a local
     cluster of ``workers`` single-threaded worker processes (default: the cores) started here
     and closed at the end. Distributed's log messages below ERROR are silenced.
 
-    Raises ConnectionError when the scheduler cannot be reached, or has no worker within
-    ``wait_s`` seconds.
+    Raises ConnectionError when the scheduler cannot be reached or does not answer as one
+    (:func:`probe_scheduler`, within seconds), or has no worker within ``wait_s`` seconds.
     """
     from distributed import Client, LocalCluster
 
@@ -488,8 +579,9 @@ def dask_client(scheduler: str | None, workers: int | None, wait_s: float = 60.0
                     dashboard_address=":0", silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
         else:
+            probe_scheduler(scheduler)
             try:
-                client = stack.enter_context(Client(scheduler, timeout=wait_s))
+                client = stack.enter_context(Client(scheduler, timeout=CONNECT_S))
             except (OSError, TimeoutError, ValueError) as e:
                 raise ConnectionError(f"cannot reach the Dask scheduler {scheduler}: {e}") from e
             try:

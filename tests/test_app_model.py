@@ -63,6 +63,23 @@ def test_bad_input_gives_the_command_lines_message(tmp_path, capsys):
     assert f"{bad}:3:" in text
 
 
+def test_the_nominal_as_its_own_measurement_is_one_error(tmp_path, capsys):
+    """The app runs the command line's pipeline: the nominal given as the measured file too
+    (here a byte-identical copy) is refused with the command line's words, and no result."""
+    copy = tmp_path / "copy.csv"
+    shutil.copyfile(os.path.join(BELLY, "nominal.csv"), copy)
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), str(copy)])
+    c.set_tolerance(-0.1, 0.1)
+    c.inspect()
+    assert s.run is None and not c.busy
+    level, text = messages[-1]
+    assert level == "error" and text.startswith(f"{copy}: the measured file is the nominal ")
+    assert cli_main(["inspect", os.path.join(BELLY, "nominal.csv"), str(copy), "--tol", "0.1"]) \
+        == 65
+    assert capsys.readouterr().err.strip() == f"qa-inspect: error: {text}"
+
+
 def test_missing_and_unsupported_files_and_bad_zone(tmp_path):
     s, c, messages = make()
     c.open_nominal(str(tmp_path / "nope.csv"))

@@ -211,6 +211,89 @@ def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys)
     assert _complete_parts(out) == {"s02", "s03"}
 
 
+def test_every_match_of_a_lot_is_in_its_summary_and_an_unreadable_one_is_an_error(
+        lot, tmp_path, capsys):
+    """A glob's matches that are no file to read (a dangling symbolic link, a named pipe, a
+    folder) were silently left out ("1 parts: 1 ACCEPT"): each is an ERROR row saying what it
+    is, found without opening it (a pipe would block the batch). A part that is the nominal
+    itself is an ERROR row too (issue 22, items 2 and 3). Run in a child process: a batch that
+    blocked on the pipe fails the test instead of hanging the run."""
+    d, truth = lot
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    (parts / "s01.csv").write_bytes((d / "parts" / "s01.csv").read_bytes())
+    (parts / "s02.csv").symlink_to(tmp_path / "gone.csv")
+    os.mkfifo(parts / "s03.csv")
+    (parts / "s04.csv").mkdir()
+    (parts / "s05.csv").write_bytes((d / "nominal.csv").read_bytes())
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "qa_app.cli", "batch", str(d / "nominal.csv"),
+                        str(parts / "*.csv"), "--tol", "0.1", "--out", str(out), "--workers",
+                        "1", "--quiet"], capture_output=True, text=True, timeout=300,
+                       cwd=tmp_path, env={**os.environ, "PYTHONPATH": ROOT})
+    assert r.returncode == 65, r.stdout + r.stderr  # ACCEPT and ERRORs
+    assert r.stdout.startswith("5 parts: 1 ACCEPT, 0 REJECT, 0 INCONCLUSIVE, 4 ERROR")
+    rows = _summary(out)["parts"]
+    assert [(x["serial"], x["verdict"]) for x in rows] == [
+        ("s01", truth["s01"]), ("s02", "ERROR"), ("s03", "ERROR"), ("s04", "ERROR"),
+        ("s05", "ERROR")]
+    messages = [x["message"] for x in rows[1:]]
+    assert messages[0] == f"{parts / 's02.csv'}: a symbolic link to {tmp_path / 'gone.csv'}, " \
+                          "which does not exist"
+    assert messages[1].startswith(f"{parts / 's03.csv'}: a named pipe (FIFO), not a file")
+    assert messages[2].startswith(f"{parts / 's04.csv'}: a folder, not a file")
+    assert messages[3].startswith(f"{parts / 's05.csv'}: the measured file is the nominal ")
+    for serial in ("s02", "s03", "s04", "s05"):
+        assert f"  ERROR {serial} ({parts / serial}.csv): " in r.stdout
+    assert _complete_parts(out) == {"s01"}
+    # Named directly (not by a glob), such a file is a usage error, as before.
+    assert run("batch", d / "nominal.csv", parts / "s03.csv", "--tol", "0.1", "--out",
+               tmp_path / "o") == 64
+    assert "is a named pipe (FIFO)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("service", ["http", "closed"])
+def test_a_scheduler_address_without_a_scheduler_exits_69_within_seconds(lot, tmp_path,
+                                                                         service):
+    """--scheduler at a port where an HTTP server listens hung for ever (Dask waits for its
+    handshake's answer without end); at a closed port it took 61 s. Both: exit 69 within 15 s,
+    naming the address and the reason, and nothing written."""
+    import http.server
+    import threading
+
+    d, _ = lot
+    server = None
+    if service == "http":
+        server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
+                                                 http.server.SimpleHTTPRequestHandler)
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        port = server.server_address[1]
+        reason = "did not answer as a Dask scheduler within 5 s"
+    else:
+        with socket.socket() as s:  # a free port, closed again: nothing listens there
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        reason = "the connection was refused"
+    address = f"tcp://127.0.0.1:{port}"
+    try:
+        t0 = time.monotonic()
+        r = subprocess.run([sys.executable, "-m", "qa_app.cli", "batch", str(d / "nominal.csv"),
+                            str(d / "parts" / "s01.csv"), "--tol", "0.1", "--out",
+                            str(tmp_path / "out"), "--scheduler", address],
+                           capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                           env={**os.environ, "PYTHONPATH": ROOT})
+        elapsed = time.monotonic() - t0
+    finally:
+        if server is not None:
+            server.shutdown()
+            server.server_close()
+    assert r.returncode == 69, r.stderr
+    assert elapsed < 15, elapsed
+    assert r.stderr.startswith(f"qa-inspect: error: cannot reach the Dask scheduler {address}: ")
+    assert reason in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_resuming_a_finished_lot_starts_no_cluster(lot, tmp_path, capsys, monkeypatch):
     """Every part already done: the same command writes the same summary without starting a
     local cluster (it took about 3 s for nothing) or reaching a scheduler."""

@@ -124,6 +124,40 @@ def test_bad_data_exit_65_and_missing_exit_66_without_outputs(files, tmp_path, c
     assert run("inspect", d / "nominal.csv", flat, "--tol", "1") == 65
 
 
+def test_the_nominal_inspected_against_itself_is_refused(files, tmp_path, capsys):
+    """The nominal as its own measurement (the same file, a byte-identical copy) gave a
+    (signed) ACCEPT: exit 65, the reason, no output. So do measured points that are all the
+    nominal's own points to the last bit (every other row, without the normals): no
+    measurement carries none of its instrument's noise."""
+    import shutil
+
+    d, _, _, _ = files
+    nominal = d / "nominal.csv"
+    copy = tmp_path / "copy.csv"
+    shutil.copyfile(nominal, copy)
+    with open(nominal) as f:
+        rows = [line for line in f if line[:1].isdigit() or line[:1] == "-"]
+    subset = tmp_path / "subset.csv"
+    subset.write_text("x,y,z\n" + "".join(",".join(r.split(",")[:3]) + "\n"
+                                          for r in rows[::2]))
+    sha = hashlib.sha256(nominal.read_bytes()).hexdigest()
+    for measured, words in ((nominal, f"the measured file is the nominal {nominal} (same "
+                                      f"content, sha256 {sha[:16]}"),
+                            (copy, f"the measured file is the nominal {nominal} (same content"),
+                            (subset, f"every one of the {len(rows[::2]):,} measured points is "
+                                     "one of the nominal's points")):
+        out = tmp_path / "r.json"
+        assert run("inspect", nominal, measured, "--tol", "0.05", "--json", out) == 65
+        err = capsys.readouterr().err
+        assert err.startswith(f"qa-inspect: error: {measured}: {words}"), err
+        assert len(err.splitlines()) == 1 and not out.exists()
+    # One point measured (a hair off the nominal) makes it a measurement again.
+    subset.write_text(subset.read_text().replace(rows[0].split(",")[0] + ",",
+                                                 f"{float(rows[0].split(',')[0]) + 1e-6},", 1))
+    assert run("inspect", nominal, subset, "--tol", "0.05") in (0, 1, 2)
+    assert "error" not in capsys.readouterr().err
+
+
 def test_unwritable_output_exit_73_and_no_partial_file(files, tmp_path, capsys):
     d, _, _, _ = files
     blocker = tmp_path / "file"

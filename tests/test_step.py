@@ -456,6 +456,68 @@ def test_damaged_files_never_crash_the_process(tmp_path):
     assert r.stdout.split().count("REFUSED") == len(paths), r.stdout + r.stderr
 
 
+REDTEAM = os.path.join(ROOT, "tests", "data", "step", "redteam")
+
+
+def _cycles(tmp_path) -> list[tuple[str, str]]:
+    """The red team's reference cycles, and an oriented edge of an oriented edge (no cycle,
+    but a reference the schema forbids): [(path, words the refusal must say)]."""
+    looped = os.path.join(REDTEAM, "edgeloop_cycle.stp")
+    chain = tmp_path / "oe_chain.stp"
+    chain.write_text(_text(looped).replace("#20 = ORIENTED_EDGE('',*,*,#20,.F.);",
+                                           "#20 = ORIENTED_EDGE('',*,*,#55,.F.);"),
+                     encoding="latin-1")
+    return [(looped, "entity #20, an ORIENTED_EDGE, refers to itself"),
+            (os.path.join(REDTEAM, "oe_cycle2.stp"),
+             "#20 ORIENTED_EDGE -> #55 ORIENTED_EDGE -> #20"),
+            (str(chain), "entity #20, an ORIENTED_EDGE, refers to #55, another ORIENTED_EDGE")]
+
+
+@pytest.mark.parametrize("command", ["inspect", "batch"])
+def test_reference_cycles_are_refused_by_the_command_line(tmp_path, command):
+    """Entities of the B-rep that refer to each other in a cycle killed OpenCascade's parser
+    (exit 139, nothing said). Run as the user runs it, in a child process: exit 65, one line
+    naming the file and the entity, no traceback, no output."""
+    measured = tmp_path / "part" / "m.csv"
+    measured.parent.mkdir()
+    measured.write_text("".join(f"{i},{i % 3},{i % 5}\n" for i in range(20)))
+    for path, words in _cycles(tmp_path):
+        out = tmp_path / "out"
+        args = (["inspect", path, str(measured), "--tol", "0.1", "--json", str(out / "r.json")]
+                if command == "inspect" else
+                ["batch", path, str(measured.parent / "*.csv"), "--tol", "0.1", "--out",
+                 str(out), "--workers", "1"])
+        if command == "inspect":
+            out.mkdir()
+        r = subprocess.run([sys.executable, "-m", "qa_app.cli", *args], capture_output=True,
+                           text=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": ROOT},
+                           timeout=300)
+        assert r.returncode == 65, (path, r.returncode, r.stderr)
+        assert r.stderr.startswith(f"qa-inspect: error: {path}: the STEP file is damaged: ")
+        assert words in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+        assert "Traceback" not in r.stderr and r.stdout == ""
+        assert not out.exists() or not any(out.rglob("*")), list(out.rglob("*"))
+        if out.exists():
+            out.rmdir()
+
+
+def test_a_reference_cycle_of_any_length_is_found_without_recursion():
+    """The walk over the entities is iterative: a chain 200,000 entities deep is walked, a
+    cycle through all of them is found and named in short."""
+    from engine.io.step import _check_references
+
+    n = 200_000
+    chain = [(1, [2], {"CLOSED_SHELL"})] + [(i, [i + 1], {"TRIMMED_CURVE"})
+                                             for i in range(2, n)] + [(n, [], {"EDGE_CURVE"})]
+    assert len(_check_references(chain, "deep.step")) == n
+    looped = chain[:-1] + [(n, [2], {"EDGE_CURVE"})]
+    with pytest.raises(InputError) as e:
+        _check_references(looped, "deep.step")
+    assert "entity #2, a TRIMMED_CURVE, refers back to itself through #2 TRIMMED_CURVE -> " \
+           "#3 TRIMMED_CURVE" in str(e.value)
+    assert f"({n - 1 - 8} more) -> #2" in str(e.value)
+
+
 # ---------------------------------------------------------------------------------- real files
 
 AP242 = [os.path.join(ROOT, "tests", "data", "step", f)

@@ -182,3 +182,53 @@ def test_the_desktop_session_opens_and_inspects_a_step_nominal(tmp_path, part):
     res = s.run.result
     assert res.verdict == "ACCEPT" and res.normals_source == "B-rep"
     assert np.max(np.abs(res.deviations.signed - planted)) < 1e-9
+
+
+@pytest.mark.parametrize("with_plan", [False, True])
+def test_no_exact_distance_to_any_face_is_inconclusive_naming_the_point(tmp_path, part,
+                                                                        monkeypatch, with_plan):
+    """When OpenCascade finds no distance from a point to any face (seen on NIST CTC-01 with
+    a bowed face from a random pose, with a plan), the run ended in an internal error (70,
+    "RuntimeError: OpenCascade found no distance to any face"). Here OpenCascade is made to
+    find none for any point more than 1 mm from the model (the search of every face comes back
+    empty), and one measured point lies 3 mm off: the run says which point and why, the
+    tessellation's distance stands in for it, and the verdict is INCONCLUSIVE (2), with and
+    without a plan."""
+    from engine.io import step as step_module
+
+    rng = np.random.default_rng(5)
+    M, planted, face, true, N = measured_on(part, rng, n=300, true_points=True)
+    A = np.column_stack([true, np.ones(len(true))])
+    R = np.linalg.lstsq(A, M, rcond=None)[0][:3].T  # measured = true @ R.T + t
+    k = 41
+    M[k] += 3.0 * (R @ N[k])
+    write(tmp_path / "m.csv", M)
+    settle = step_module._Brep.settle
+
+    def settle_finding_nothing_far_off(self, p, pairs, bound, inside, best):
+        settle(self, p, pairs, bound, inside, best)
+        best.face[best.dist > 1.0] = 0  # as if OpenCascade's searches had all failed there
+
+    monkeypatch.setattr(step_module._Brep, "settle", settle_finding_nothing_far_off)
+    args = ["inspect", STEP, str(tmp_path / "m.csv"), "--tol", "0.05", "--json",
+            str(tmp_path / "r.json"), "--csv", str(tmp_path / "r.csv")]
+    if with_plan:
+        fid = int(np.bincount(face).argmax())  # the face with most points
+        (tmp_path / "plan.toml").write_text(f'[[region]]\nname = "F"\ngroup = "face:{fid}"\n'
+                                            '[[characteristic]]\nid = "1"\ntype = "profile"\n'
+                                            'region = "F"\nzone = 0.05\n')
+        args += ["--plan", str(tmp_path / "plan.toml")]
+    code = main(args)
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert code == 2 and doc["verdict"] == "INCONCLUSIVE"
+    assert doc["reasons"][0].startswith(f"no exact distance from measured point {k + 1} to the "
+                                        "STEP model: OpenCascade found no distance to any face")
+    assert "the tessellation's distance stood in" in doc["reasons"][0]
+    # The point's deviation is the tessellation's, near its 3 mm; the others' are exact.
+    import csv
+
+    with open(tmp_path / "r.csv") as f:
+        d = np.array([float(r["deviation"]) for r in csv.DictReader(f)])
+    assert abs(d[k] - 3.0) < 0.02
+    others = np.arange(len(d)) != k
+    assert np.max(np.abs(d[others] - planted[others])) < 1e-3  # the fit without point k

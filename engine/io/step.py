@@ -13,7 +13,11 @@ and only inside functions: a run without a STEP file never loads it (about half 
 Reading
     The file is checked before OpenCascade sees it: not empty, at most ``MAX_BYTES``, text that
     begins ``ISO-10303-21;``, has ``HEADER;`` … ``ENDSEC;`` then ``DATA;`` and ends with
-    ``END-ISO-10303-21;`` (a file cut short is refused here). OpenCascade's parser then reports
+    ``END-ISO-10303-21;`` (a file cut short is refused here). Then the references of the
+    entities the B-rep uses are walked in the file's text (``BREP_ROOTS``, iteratively): a
+    reference cycle (an oriented edge of itself, two of each other) or an oriented edge, face,
+    shell or path of another of its kind is refused, naming the entities, before OpenCascade's
+    parser follows them until the process dies. OpenCascade's parser then reports
     syntax errors and unresolved references (the model's global check) and per-entity errors: a
     file with any of the former, or with an error on an entity the shape is made of (everything
     reached from its shape representations and product structure, ``BREP_ROOTS``: topology,
@@ -61,7 +65,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from engine.errors import InputError, InputNotFoundError
+from engine.errors import InputError, InputNotFoundError, NoDistanceError
 from engine.neighbours import query_workers
 from engine.pointset import PointSet
 
@@ -358,13 +362,17 @@ def _transfer(path: str):
     for mode in (reader.SetColorMode, reader.SetLayerMode, reader.SetGDTMode, reader.SetMatMode,
                  reader.SetPropsMode, reader.SetViewMode):
         mode(False)
+    # Before OpenCascade parses it: its parser follows some references (an oriented edge's
+    # vertices) and dies on a cycle of them.
+    instances = _instances(path)
+    reached = _check_references(instances, path)
     try:
         status = reader.ReadFile(path)
     except Exception as e:  # OpenCascade's Standard_Failure
         raise InputError(f"OpenCascade could not read the STEP file ({e})", path) from e
     if status != IFSelect_RetDone:
         raise InputError(f"OpenCascade could not read the STEP file ({status.name})", path)
-    warnings = _check_model(reader.Reader(), path)
+    warnings = _check_model(reader.Reader(), path, instances, reached)
     doc = TDocStd_Document(TCollection_ExtendedString("XmlXCAF"))
     XCAFDoc_ShapeTool.SetAutoNaming_s(False)  # else unnamed solids are called 'SOLID'
     try:
@@ -376,10 +384,11 @@ def _transfer(path: str):
     return reader, doc, warnings
 
 
-def _check_model(step_reader, path: str) -> list[str]:
+def _check_model(step_reader, path: str, instances: list, reached: set[int]) -> list[str]:
     """Refuse a model whose parse reported errors (syntax, unresolved references) or whose
-    entities that the B-rep uses (:func:`_used_entity_numbers`) failed their checks, naming the first
-    and the count; return warnings for the damaged entities it does not use (PMI, presentation,
+    entities that the B-rep uses (:func:`_used_entity_numbers` of the file's ``instances``
+    and the #ids ``reached`` from its roots) failed their checks, naming the first and the
+    count; return warnings for the damaged entities it does not use (PMI, presentation,
     properties: OpenCascade reads the shape without them)."""
     model = step_reader.StepModel()
     glob = model.GlobalCheck(True)
@@ -394,7 +403,7 @@ def _check_model(step_reader, path: str) -> list[str]:
         c, num = checks.Value(), checks.Number()
         if c.NbFails() and num > 0:
             if used is None:
-                used = _used_entity_numbers(path, model.NbEntities())
+                used = _used_entity_numbers(instances, reached, model.NbEntities())
             entity = model.Value(num)
             keyword = _keyword(entity)
             what = f"entity {num} of the DATA section, a {keyword}: {c.CFail(1, True)}"
@@ -459,24 +468,93 @@ def _instances(path: str) -> list[tuple[int, list[int], set[str]]]:
     return out
 
 
-def _used_entity_numbers(path: str, n_entities: int):
+NOT_OF_ITS_OWN_KIND = frozenset({"ORIENTED_EDGE", "ORIENTED_FACE", "ORIENTED_CLOSED_SHELL",
+                                 "ORIENTED_OPEN_SHELL", "ORIENTED_PATH"})
+"""Entities whose one referenced entity (the edge, face, shell or path they orient) must not be
+of their own kind (the topology schema's WHERE rules): OpenCascade checks that a reference is of
+the declared type (an edge), and an oriented edge is one, but not these rules."""
+CYCLE_SHOWN = 8
+"""Entities of a reference cycle named in its refusal at most."""
+
+
+def _check_references(instances: list[tuple[int, list[int], set[str]]], path: str) -> set[int]:
+    """The #ids of the entities the B-rep uses (reached from ``BREP_ROOTS``, :func:`_reach`).
+
+    InputError naming the entities when they refer to each other in a cycle (an oriented edge
+    of itself, two of each other, a curve trimmed from itself …: OpenCascade's translation
+    follows the references until its stack overflows and the process dies), or when an entity
+    of ``NOT_OF_ITS_OWN_KIND`` refers to another of its kind."""
+    refs = {eid: r for eid, r, _ in instances}
+    kinds = {eid: kw for eid, _, kw in instances}
+    reached, cycle = _reach(refs, [eid for eid, _, kw in instances if kw & BREP_ROOTS])
+    if cycle is not None:
+        first = cycle[0]
+        if len(cycle) == 2:
+            how = "refers to itself"
+        else:
+            loop = [f"#{e} {_kind(kinds[e])}" for e in cycle[:-1]]
+            if len(loop) > CYCLE_SHOWN:
+                loop = loop[:CYCLE_SHOWN] + [f"… ({len(loop) - CYCLE_SHOWN} more)"]
+            how = f"refers back to itself through {' -> '.join(loop)} -> #{first}"
+        raise InputError(f"the STEP file is damaged: entity #{first}, {_a(kinds[first])}, {how} "
+                         "(the entities of a shape must not refer to each other in a cycle)",
+                         path)
+    for eid in sorted(reached):
+        own = kinds[eid] & NOT_OF_ITS_OWN_KIND
+        for r in refs[eid]:
+            if own & kinds.get(r, set()):
+                kind = _kind(own)
+                raise InputError(f"the STEP file is damaged: entity #{eid}, {_a(own)}, refers "
+                                 f"to #{r}, another {kind}, as the element it orients (an "
+                                 f"{kind} must orient one that is not oriented)", path)
+    return reached
+
+
+def _reach(refs: dict[int, list[int]], roots: list[int]) -> tuple[set[int], list[int] | None]:
+    """The #ids reached from ``roots`` by following ``refs`` (#id -> the #ids it refers to;
+    references to ids not in it are left to the model's own check), and the first reference
+    cycle met ([#a, #b, …, #a]; None when there is none). Depth first, iterative: no recursion
+    limit to hit however deep the file's references go."""
+    state: dict[int, bool] = {}  # True while on the path being walked, False once done
+    for root in roots:
+        if root in state or root not in refs:
+            continue
+        state[root] = True
+        path, todo = [root], [iter(refs[root])]
+        while todo:
+            nxt = next(todo[-1], None)
+            if nxt is None:
+                state[path.pop()] = False
+                todo.pop()
+            elif nxt in refs and nxt not in state:
+                state[nxt] = True
+                path.append(nxt)
+                todo.append(iter(refs[nxt]))
+            elif state.get(nxt):
+                return set(state), path[path.index(nxt):] + [nxt]
+    return set(state), None
+
+
+def _kind(keywords: set[str]) -> str:
+    """An instance's keyword(s) in words (a complex instance's joined by '+')."""
+    return "+".join(sorted(keywords)) or "entity"
+
+
+def _a(keywords: set[str]) -> str:
+    kind = _kind(keywords)
+    return ("an " if kind[0] in "AEIOU" else "a ") + kind
+
+
+def _used_entity_numbers(instances: list[tuple[int, list[int], set[str]]], reached: set[int],
+                         n_entities: int):
     """The model numbers (1..N, file order, as OpenCascade numbers them) of the entities the
-    B-rep uses (reached from ``BREP_ROOTS``), as a :class:`_Used` that also knows each
-    number's keywords; False when the file's instances cannot be matched one to one with OpenCascade's."""
-    instances = _instances(path)
+    B-rep uses (the #ids ``reached`` from ``BREP_ROOTS``), as a :class:`_Used` that also knows
+    each number's keywords; False when the file's ``instances`` cannot be matched one to one
+    with OpenCascade's."""
     if len(instances) != n_entities:
         return False
     number = {eid: k + 1 for k, (eid, _, _) in enumerate(instances)}
-    refs = {eid: r for eid, r, _ in instances}
-    stack = [eid for eid, _, kw in instances if kw & BREP_ROOTS]
-    seen: set[int] = set()
-    while stack:
-        eid = stack.pop()
-        if eid in seen or eid not in refs:
-            continue
-        seen.add(eid)
-        stack.extend(refs[eid])
-    used = {number[e] for e in seen}
+    used = {number[e] for e in reached}
     return _Used(used, {k + 1: kw for k, (_, _, kw) in enumerate(instances)})
 
 
@@ -1181,7 +1259,8 @@ class _Brep:
     def finish(self, p: np.ndarray, best: _Best):
         """(signed, foot, normal, face) from each point's nearest foot (see deviations)."""
         if (best.face == 0).any():
-            raise RuntimeError("OpenCascade found no distance to any face")
+            raise NoDistanceError(np.flatnonzero(best.face == 0), p[best.face == 0],
+                                  "OpenCascade found no distance to any face")
         foot, normal = np.array(best.foot), np.zeros_like(p)
         on = np.flatnonzero(best.on_face)
         table = self.surfaces
