@@ -14,6 +14,8 @@ A :class:`Nominal` owns what registration and deviation measurement need from it
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
@@ -29,6 +31,10 @@ MAX_SUBDIVISION = 16  # a large triangle gets at most 16 x 16 / 2 interior sampl
 AREA_SAMPLES = 16384
 """Area samples of a mesh or grid (:attr:`Nominal.area_samples`): as many as the largest coarse
 level the registration asks for (16 x its ``coarse_size``)."""
+EVEN_EDGE_RATIO = 8.0
+"""A mesh's vertices cover its surface evenly (:attr:`Nominal.vertices_cover`) when its
+triangles' area-weighted mean squared longest edge is at most this many times the area per
+vertex."""
 _SEED = 20240607
 
 
@@ -101,7 +107,7 @@ class Nominal:
         edges and around holes, none inside a plane. Bare points' levels are the first ``size``
         of a seeded permutation of them (``size >= n``: all of them, with their tree)."""
         size = self._level_size(size)
-        if self.triangles is None and size >= self.n:
+        if size >= self.n and (self.triangles is None or self.vertices_cover):
             return self.points, self.normals(np.arange(self.n)), self.tree
         if size not in self._levels:
             if self.triangles is not None:
@@ -116,10 +122,27 @@ class Nominal:
 
     @property
     def finest_level(self) -> int:
-        """The size of the finest level: every area sample (meshes and grids: their vertices
-        leave the middle of a CAD tessellation's planes empty, so that a point measured there
-        pairs with another face's edge), or every point (bare points)."""
-        return AREA_SAMPLES if self.triangles is not None else self.n
+        """The size of the finest level: every area sample (meshes and grids whose vertices
+        leave parts of the surface empty: a CAD tessellation's planes, where a point measured
+        pairs with another face's edge), or every point (bare points, and meshes and grids whose
+        vertices cover the surface evenly, :attr:`vertices_cover`: a u-v grid, a scan's
+        mesh)."""
+        return self.n if self.triangles is None or self.vertices_cover else AREA_SAMPLES
+
+    @functools.cached_property
+    def vertices_cover(self) -> bool:
+        """A mesh's or grid's vertices spread over its surface about as evenly as area samples:
+        its triangles' longest edges, squared and averaged by area, are at most
+        ``EVEN_EDGE_RATIO`` x the area per vertex (2 for a square grid: its diagonals; a CAD
+        tessellation's fans across a plane reach hundreds)."""
+        P, tris = self.points, self.triangles
+        if tris is None or not len(tris):
+            return True
+        a, b, c = P[tris[:, 0]], P[tris[:, 1]], P[tris[:, 2]]
+        area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        longest = np.max([np.einsum("ij,ij->i", e, e) for e in (b - a, c - b, a - c)], axis=0)
+        total = float(area.sum())
+        return total <= 0 or float(area @ longest) / total <= EVEN_EDGE_RATIO * total / self.n
 
     def _level_size(self, size: int) -> int:
         """The size of the level asked for as ``size``: at most :attr:`finest_level`."""
