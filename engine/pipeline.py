@@ -512,13 +512,20 @@ class ExactDistances:
     says so (:meth:`judged`): a "could not compute", never an internal error.
 
     step : the StepNominal; nominal : the Nominal built from its tessellation (its samples are
-    ``step.point_set``'s, in order, so a sample's face is ``step.face_ids`` of it).
+    ``step.point_set``'s, in order, so a sample's face is ``step.face_ids`` of it); None: built
+    from it when a point first needs it.
     """
 
-    def __init__(self, step, nominal: Nominal):
-        self.step, self.nominal = step, nominal
+    def __init__(self, step, nominal: Nominal | None = None):
+        self.step, self._nominal = step, nominal
         self.missed: list[np.ndarray] = []
         self.why = ""
+
+    @property
+    def nominal(self) -> Nominal:
+        if self._nominal is None:
+            self._nominal = Nominal.from_point_set(self.step.point_set)
+        return self._nominal
 
     def __call__(self, X: np.ndarray):
         X = np.asarray(X, dtype=np.float64)
@@ -630,10 +637,13 @@ def _same_sphere(g: dict, h: dict, scale: float) -> bool:
 _EXACT_KINDS = {"plane": _same_plane, "cylinder": _same_cylinder, "sphere": _same_sphere}
 
 
-def _exact_deviations(distances: ExactDistances):
-    """Deviations from a STEP model's faces (:class:`ExactDistances`) as the engine's
-    Deviations."""
+def _exact_deviations(distances):
+    """Deviations from a STEP model's faces (an :class:`ExactDistances`, or a StepNominal
+    measured by one) as the engine's Deviations."""
     from .deviation import Deviations
+
+    if not isinstance(distances, ExactDistances):
+        distances = ExactDistances(distances)
 
     def exact(X: np.ndarray) -> Deviations:
         signed, foot, normal, _ = distances(X)
