@@ -101,16 +101,18 @@ class Nominal:
         """A coarse level of ``size`` samples: (points (m, 3), outward unit normals (m, 3), their
         kd-tree).
 
-        A mesh's or grid's levels are the first ``size`` of its area samples
+        The levels of a mesh whose vertices leave parts of its surface empty (not
+        :attr:`vertices_cover`) are the first ``size`` of its area samples
         (:attr:`area_samples`: points drawn over its triangles by area), so that every level
-        covers the surface evenly, whatever its vertices do: a CAD tessellation puts them along
-        edges and around holes, none inside a plane. Bare points' levels are the first ``size``
-        of a seeded permutation of them (``size >= n``: all of them, with their tree)."""
+        covers the surface evenly: a CAD tessellation puts its vertices along edges and around
+        holes, none inside a plane. Other levels (bare points, grids, even meshes) are the
+        first ``size`` of a seeded permutation of the points (``size >= n``: all of them, with
+        their tree)."""
         size = self._level_size(size)
         if size >= self.n and (self.triangles is None or self.vertices_cover):
             return self.points, self.normals(np.arange(self.n)), self.tree
         if size not in self._levels:
-            if self.triangles is not None:
+            if self.triangles is not None and not self.vertices_cover:
                 pts, nrm, _ = self.area_samples
                 pts, nrm = pts[:size], nrm[:size]
             else:
@@ -136,8 +138,8 @@ class Nominal:
         ``EVEN_EDGE_RATIO`` x the area per vertex (2 for a square grid: its diagonals; a CAD
         tessellation's fans across a plane reach hundreds)."""
         P, tris = self.points, self.triangles
-        if tris is None or not len(tris):
-            return True
+        if tris is None or not len(tris) or self.kind == "grid":
+            return True  # (a grid's cells are its neighbouring vertices')
         a, b, c = P[tris[:, 0]], P[tris[:, 1]], P[tris[:, 2]]
         area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
         longest = np.max([np.einsum("ij,ij->i", e, e) for e in (b - a, c - b, a - c)], axis=0)
