@@ -359,8 +359,14 @@ def test_excluded_points_are_worded_as_excluded_from_the_alignment(window, tmp_p
     cells = {model.point(r): model.data(model.index(r, 7)) for r in range(model.rowCount())}
     assert {i for i, t in cells.items() if t} == set(np.flatnonzero(res.outlier))
     assert {t for t in cells.values() if t} == {"excluded (gross outlier)"}
-    # The nominal's own points measured: nothing excluded, and the banner does not mention it.
-    w.controller.open_measured(os.path.join(BELLY, "nominal.csv"))
+    # Points on the nominal everywhere (its own points lifted 1 µm, every 7th: the nominal
+    # itself is no measurement and is refused): nothing excluded, and the banner does not
+    # mention it.
+    xyz = np.loadtxt(os.path.join(BELLY, "nominal.csv"), delimiter=",", comments="#",
+                     skiprows=3)[::7, :3] + [0.0, 0.0, 0.001]
+    on = tmp_path / "on_nominal.csv"
+    np.savetxt(on, xyz, delimiter=",", header="x,y,z", comments="", fmt="%.6f")
+    w.controller.open_measured(str(on))
     w.act_inspect.trigger()
     assert not w.session.run.result.outlier.any()
     assert "excluded" not in w.banner.detail.text() and "outlier" not in w.banner.detail.text()
