@@ -324,9 +324,11 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     subset of the measured points) with :func:`pose_score`; every candidate distinct from
     those finished gets the point-to-surface finish, best first, ``MAX_FINISHES`` at most (a
     finish may move a pose away: least squares over every point pulls a wrong pose towards the
-    points it leaves off the part; and it brings a pose near the right one home). The answer
-    is the best finished pose: no candidate scores better. The best distinct other pose is the
-    runner-up."""
+    points it leaves off the part; and it brings a pose near the right one home). The finishes
+    run on the points the candidates are scored on (at most ``icp_measured``), those after the
+    best one ``ALTERNATIVE_ITERATIONS`` at most (one that ends best unsettled is finished in
+    full); the pose chosen is then fitted on every point. The answer is the best finished
+    pose: no candidate scores better. The best distinct other pose is the runner-up."""
     near = settings.near_fraction_of_size * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
     report("comparing the candidate poses", 0.8)
