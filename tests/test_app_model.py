@@ -216,6 +216,8 @@ def test_sample_session_opens_and_inspects_with_its_zone():
 
 @pytest.mark.parametrize("content, expected", [
     ("[]", "not a readable session file"),
+    # issue 22: deeply nested JSON was a RecursionError out of the window
+    ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
     ('{"format": "qa-inspect session", "inputs": [], "settings": {"tol_lower": 0.1, '
      '"tol_upper": -0.1}}', "zone is empty"),
 ])
@@ -227,6 +229,30 @@ def test_bad_session_files_are_one_error(tmp_path, content, expected):
     assert messages[-1][0] == "error" and expected in messages[-1][1]
     c.open_session(str(tmp_path))  # a folder
     assert messages[-1][0] == "error" and str(tmp_path) in messages[-1][1]
+    assert s.step == Step.NEED_NOMINAL
+
+
+def test_a_named_pipe_as_the_session_is_one_error_and_never_opened(tmp_path):
+    """Issue 22: a FIFO given as the session hung the window for ever (open() waits for a
+    writer). It is refused unopened, in one message, and the window goes on."""
+    import threading
+    import time
+
+    fifo = tmp_path / "s.qasession"
+    os.mkfifo(fifo)
+
+    def unblock():  # a regression would block open(); a writer after 5 s lets the test fail
+        time.sleep(5.0)
+        try:
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        except OSError:  # no reader waiting: as it should be
+            pass
+
+    threading.Thread(target=unblock, daemon=True).start()
+    s, c, messages = make()
+    c.open_session(str(fifo))
+    assert messages[-1][0] == "error" and str(fifo) in messages[-1][1]
+    assert "not a regular file" in messages[-1][1]
     assert s.step == Step.NEED_NOMINAL
 
 

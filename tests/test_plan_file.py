@@ -189,6 +189,13 @@ lock = ["z"]
                         RpsPoint("R2", (100.0, 0.0, 0.0), ("z",)))
 
 
+def test_a_plan_nested_too_deeply_is_refused_not_a_recursion_error(tmp_path):
+    """Issue 22: arrays nested 5,000 deep made tomllib recurse out of the stack: exit 70 with
+    RecursionError. It is bad input, named as such."""
+    e = refused(tmp_path, "x = " + "[" * 5000 + "]" * 5000 + "\n")
+    assert "nested too deeply" in str(e)
+
+
 def test_toml_is_the_plan_row_of_the_file_table():
     assert formats.kind_of("Plan.TOML") == formats.PLAN and formats.PLAN_SUFFIXES == (".toml",)
     assert ".toml" not in formats.ALL_SUFFIXES + formats.TEMPLATE_SUFFIXES

@@ -118,6 +118,9 @@ def _parse(raw: bytes, path: str) -> dict:
                          "is UTF-8", path, raw[:e.start].count(b"\n") + 1) from None
     try:
         return tomllib.loads(text)
+    except RecursionError:
+        raise InputError("its tables or arrays are nested too deeply to be a plan (a plan "
+                         "nests them a few levels at most)", path) from None
     except tomllib.TOMLDecodeError as e:
         message = str(e)
         where = _TOML_WHERE.search(message)

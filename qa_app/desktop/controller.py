@@ -408,6 +408,10 @@ class Controller:
         if self._refuse_while_busy():
             return
         try:
+            if os.path.exists(path) and not os.path.isfile(path):
+                # A named pipe would block the window until something writes to it.
+                raise InputError("is not a session file: not a regular file (a folder, a "
+                                 "named pipe or a device); it was not opened", path)
             with open(path, encoding="utf-8") as f:
                 doc = json.load(f)
             if doc.get("format") != SESSION_FORMAT:
@@ -421,6 +425,10 @@ class Controller:
             return
         except SettingsError as e:
             s.tell("error", f"{path}: {e}")
+            return
+        except RecursionError:
+            s.tell("error", f"{path}: not a readable session file (its JSON is nested too "
+                   "deeply)")
             return
         except (ValueError, KeyError, TypeError, AttributeError, OSError, InputError) as e:
             s.tell("error", e.__str__() if isinstance(e, InputError) else
