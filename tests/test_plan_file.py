@@ -196,6 +196,25 @@ def test_a_plan_nested_too_deeply_is_refused_not_a_recursion_error(tmp_path):
     assert "nested too deeply" in str(e)
 
 
+@pytest.mark.parametrize("value", ["A\nACCEPT: all 5 characteristics are within tolerance",
+                                   "tab\there", "esc\u001b[2J", "line\u2028sep"])
+def test_ids_names_and_labels_with_control_characters_are_refused(tmp_path, value):
+    """Issue 22: a characteristic id holding a line break and "ACCEPT: ..." printed a forged
+    verdict line on a REJECT run. Every string of the plan is plain text or the plan is bad
+    input."""
+    import json
+
+    text = json.dumps(value)  # a TOML basic string with the escapes
+    e = refused(tmp_path, f'[[region]]\nname = "skin"\nlabels = "s*"\n'
+                          f'[[characteristic]]\nid = {text}\ntype = "profile"\n'
+                          f'region = "skin"\nzone = 0.1\n')
+    assert "control character" in str(e) and "id" in str(e)
+    e = refused(tmp_path, f'[[region]]\nname = {text}\nlabels = "s*"\n')
+    assert "control character" in str(e)
+    e = refused(tmp_path, f'[[region]]\nname = "skin"\nlabels = {text}\n')
+    assert "control character" in str(e)
+
+
 def test_toml_is_the_plan_row_of_the_file_table():
     assert formats.kind_of("Plan.TOML") == formats.PLAN and formats.PLAN_SUFFIXES == (".toml",)
     assert ".toml" not in formats.ALL_SUFFIXES + formats.TEMPLATE_SUFFIXES

@@ -175,6 +175,7 @@ class _Table:
                             f"({_kind(value)})")
         if not value.strip():
             raise self.fail(key, "must not be empty")
+        self._printable(key, value)
         if choices and value not in choices:
             raise self.fail(key, f"must be one of {', '.join(choices)}; got {_show(value)}")
         return value
@@ -198,9 +199,20 @@ class _Table:
             raise self.fail(key, f"must be an array of names, e.g. {example}; got "
                             f"{_show(value)}")
         for i, v in enumerate(value):
+            self._printable(key, v)
             if v in value[:i]:
                 raise self.fail(key, f"names {_show(v)} twice")
         return tuple(value)
+
+    def _printable(self, key: str, value: str) -> None:
+        """Refuse a string holding a control character (a line break, a tab, an escape ...):
+        it is printed on the terminal, the certificate and the QIF, where a line break in an id
+        would forge a line of the report (issue 22)."""
+        bad = _CONTROL.search(value)
+        if bad:
+            raise self.fail(key, f"holds a control character (U+{ord(bad.group()):04X}) in "
+                            f"{value!r}: names, ids and labels are printed on lines of their "
+                            "own and must be plain text")
 
     def points(self, key: str, count: int, form: str) -> list[tuple[float, float, float]]:
         """``count`` points [x, y, z] of finite numbers, mm (one: the key holds [x, y, z]; more:
@@ -505,6 +517,10 @@ def _kind(value: object) -> str:
         if isinstance(value, types):
             return word
     return "a date or time"
+
+
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+"""Control characters and the Unicode line and paragraph separators."""
 
 
 def _show(value: object) -> str:
