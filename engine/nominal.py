@@ -141,10 +141,17 @@ class Nominal:
         if tris is None or not len(tris) or self.kind == "grid":
             return True  # (a grid's cells are its neighbouring vertices')
         a, b, c = P[tris[:, 0]], P[tris[:, 1]], P[tris[:, 2]]
-        area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        area = self.triangle_areas
         longest = np.max([np.einsum("ij,ij->i", e, e) for e in (b - a, c - b, a - c)], axis=0)
         total = float(area.sum())
         return total <= 0 or float(area @ longest) / total <= EVEN_EDGE_RATIO * total / self.n
+
+    @functools.cached_property
+    def triangle_areas(self) -> np.ndarray:
+        """(m,) each triangle's area, mm² (meshes and grids)."""
+        P, tris = self.points, self.triangles
+        return 0.5 * np.linalg.norm(np.cross(P[tris[:, 1]] - P[tris[:, 0]],
+                                             P[tris[:, 2]] - P[tris[:, 0]]), axis=1)
 
     def _level_size(self, size: int) -> int:
         """The size of the level asked for as ``size``: at most :attr:`finest_level`."""
@@ -158,8 +165,7 @@ class Nominal:
         if self._area_samples is None:
             tris = self.triangles
             P = self.points
-            area = 0.5 * np.linalg.norm(np.cross(P[tris[:, 1]] - P[tris[:, 0]],
-                                                 P[tris[:, 2]] - P[tris[:, 0]]), axis=1)
+            area = self.triangle_areas
             rng = np.random.default_rng(_SEED)
             t = np.searchsorted(np.cumsum(area), rng.uniform(0, area.sum(), AREA_SAMPLES))
             t = np.minimum(t, len(tris) - 1)
