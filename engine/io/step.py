@@ -63,10 +63,10 @@ import re
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from engine.errors import InputError, InputNotFoundError, NoDistanceError
 from engine.neighbours import query_workers
+from engine.nominal import surface_tree
 from engine.pointset import PointSet
 
 from .points import COORD_LIMIT_MM
@@ -172,7 +172,7 @@ class StepNominal:
         self.bounds = bounds
         self._brep = brep
         self.tolerance = brep.tolerance
-        self._tree = cKDTree(point_set.points)
+        self._tree = surface_tree(point_set.points)
 
     @property
     def n_faces(self) -> int:
