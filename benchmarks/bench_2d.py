@@ -23,7 +23,7 @@ sys.path.insert(0, ROOT)
 
 from engine.contour import arc, build_template, points_on, segment  # noqa: E402
 from engine.inspection import Tolerance, inspect_2d  # noqa: E402
-from engine.registration2d import _pose, apply2  # noqa: E402
+from engine.pose import apply_transform, pose_2d  # noqa: E402
 
 
 def wavy_template(n_entities: int):
@@ -52,7 +52,7 @@ def run(n_entities: int, n_points: int) -> dict:
     rng = np.random.default_rng(2)
     t = wavy_template(n_entities)
     q = points_on(t, n_points, rng)
-    meas = apply2(_pose(2.1, [350.0, -120.0]), q)
+    meas = apply_transform(pose_2d(2.1, [350.0, -120.0]), q)
     m3 = np.column_stack([meas, np.zeros(n_points)])
     inspect_2d(t, m3[:50], 2, Tolerance.symmetric(0.05))  # load compiled code paths once
     t0 = time.perf_counter()

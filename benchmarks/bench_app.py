@@ -28,7 +28,7 @@ sys.path.insert(0, ROOT)
 
 def make_big(folder: str) -> tuple[str, str]:
     import samples.generate as gen
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
 
     nu, nv = 1414, 707
     X, Y = np.meshgrid(np.linspace(-250, 250, nu), np.linspace(-125, 125, nv))

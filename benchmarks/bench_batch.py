@@ -34,7 +34,7 @@ TOL = "0.15"
 
 def make_lot(folder: str, n: int, seed: int = 14) -> None:
     """n parts p0001.csv ... from the sample's measured points, each in its own random pose."""
-    from engine.geometry import make_transform
+    from engine.pose import make_transform
     from scipy.spatial.transform import Rotation
 
     with open(MEASURED) as f:

@@ -45,7 +45,7 @@ def make_case(name: str):
     """(nominal PointSet, truth q (m, 3) in the nominal frame, measured points (m, 3) in the
     arbitrary pose, true deviations (m,; the planted ones, NaN where none is known),
     T_measured_nominal (4, 4)) of a case."""
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
     from engine.pointset import PointSet
     import samples.generate as gen
 

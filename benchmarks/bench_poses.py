@@ -33,12 +33,12 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 
 def _error(T, measured, truth):
-    from engine.geometry import apply_transform
+    from engine.pose import apply_transform
     return float(np.max(np.linalg.norm(apply_transform(T, measured) - truth, axis=1)))
 
 
 def cube(seeds):
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
     from engine.inspection import Tolerance, inspect
     from surfaces import random_rotation
     import test_registration as tr
@@ -57,7 +57,7 @@ def cube(seeds):
 
 
 def fairing(coverage, seeds):
-    from engine.geometry import apply_transform
+    from engine.pose import apply_transform
     from engine.nominal import Nominal
     from engine.registration import register
     from surfaces import height_grid, point_set
@@ -79,7 +79,7 @@ def fairing(coverage, seeds):
 
 
 def bracket(seeds):
-    from engine.geometry import apply_transform
+    from engine.pose import apply_transform
     from engine.registration import register
     from surfaces import bracket_two_faces
     import test_registration as tr

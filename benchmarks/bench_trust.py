@@ -22,7 +22,7 @@ sys.path.insert(0, ROOT)
 
 
 def cylinder(n_measured: int, seed: int = 4):
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
     from engine.nominal import Nominal
     from engine.pointset import PointSet
 

@@ -37,6 +37,7 @@ import numpy as np
 from .datums import Alignment, align, align_rps
 from .errors import InputError
 from .fits import minimax_pose
+from .pose import apply_transform
 from .plan import FEATURES_2D, FEATURES_3D, MIN_POINTS, RESERVED_ID, Characteristic, Plan
 from .tolerance import Tolerance
 from .verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, pointwise_verdict
@@ -627,7 +628,6 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     a STEP model: the nearest of the foot's own face, whose samples its edges share with the
     next face's). exact_feature : see Geometry.exact_feature (a STEP model's faces)."""
     from .deviation import point_to_surface
-    from .geometry import apply_transform
     from .regions import nominal_members
     from .uncertainty import expanded_at
     from .verdict import margins_3d
@@ -679,7 +679,6 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     from .contour import deviations_2d
     from .deviation import Deviations
     from .registration import in_plane
-    from .registration2d import apply2
     from .regions import nominal_members
 
     P2 = result.registered[:, :2]
@@ -692,7 +691,7 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     masks = nominal_members(plan, samples, None, layers, fold_case=True)
 
     def evaluate(T, idx):
-        X = apply2(T, P2[idx])
+        X = apply_transform(T, P2[idx])
         dv = deviations_2d(index, X)
         return X, dv.signed, dv.normal
 
@@ -716,7 +715,7 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
     if planned.alignment is None:
         return result
-    X2 = apply2(T2, P2)
+    X2 = apply_transform(T2, P2)
     d2 = deviations_2d(index, X2)
     zeros = np.zeros(X2.shape[0])
     dv = Deviations(d2.signed, np.column_stack([d2.foot, zeros]),

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fits import _apply_update, pose_jacobian
+from .pose import apply_update, pose_jacobian
 from .plan import MIN_POINTS
 
 SIZE_FEATURES = ("cylinder", "sphere", "circle")
@@ -271,7 +271,7 @@ def _jacobian(X, normals, centre, length, nrot):
 def _step(T, B, eta, centre, length, nrot):
     p = B @ eta
     p[:nrot] /= length
-    return _apply_update(T, p, centre), float(np.max(np.abs(B @ eta))) if eta.size else 0.0
+    return apply_update(T, p, centre), float(np.max(np.abs(B @ eta))) if eta.size else 0.0
 
 
 def _least_squares(evaluate, T, idx, B, centre, length, nrot, size):

@@ -6,8 +6,6 @@ the tolerance question "can this part be placed inside its zone?".
   linearised pose (scipy's HiGHS) with a trust region, each step checked on the exact deviations.
 * :func:`minimax`: that fit as the inspection runs it, from the least-squares pose, with the
   facts the outputs report (:func:`minimax_facts`).
-* :func:`pose_jacobian`: the linearised point-to-surface deviation of a rigid update, shared with
-  engine.trust's conditioning (the least-squares normal equations).
 
 Shapes: points and normals are (n, 3) in 3D, (n, 2) for a 2D template (3 degrees of freedom:
 the rotation about z and the two translations). Units mm; directions in the nominal frame.
@@ -20,20 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .pose import apply_update, pose_jacobian
 from .tolerance import Tolerance
 
 FITS = ("lsq", "minimax")
-
-
-def pose_jacobian(X: np.ndarray, normals: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """(n, 6) in 3D, (n, 3) in 2D: d(deviation)/d[rotation, translation] of the update
-    x' = c + R(w)(x - c) + t (:func:`_apply_update`) at points X with surface normals
-    ``normals`` (both (n, 3) or (n, 2), nominal frame) about the centre c."""
-    r = X - c
-    if X.shape[1] == 3:
-        return np.concatenate([np.cross(r, normals), normals], axis=1)
-    rot = r[:, 0] * normals[:, 1] - r[:, 1] * normals[:, 0]
-    return np.column_stack([rot, normals])
 
 
 @dataclass(frozen=True)
@@ -109,7 +97,7 @@ def minimax_pose(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, 
         p = sol.x[:dof].copy()
         interior = bool(np.max(np.abs(p)) < 0.999 * radius)
         p[:nrot] /= length
-        T_new = _apply_update(T, p, c)
+        T_new = apply_update(T, p, c)
         X_new, d_new, nrm_new = evaluate(T_new)
         e_new = excursion(d_new)
         if e_new < e - tol_mm:
@@ -127,22 +115,6 @@ def minimax_pose(evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, 
             if radius < tol_mm:
                 break
     return MinimaxResult(T, e / half, start / half, it, lps)
-
-
-def _apply_update(T: np.ndarray, p: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """x' = c + R(w)(x - c) + t applied after the pose T (3D 4x4 or 2D 3x3)."""
-    if T.shape[0] == 4:
-        from .geometry import make_transform, rotation_from_rotvec
-
-        R = rotation_from_rotvec(p[None, :3])[0]
-        U = make_transform(R, c - R @ c + p[3:])
-        return U @ T
-    th = p[0]
-    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
-    U = np.eye(3)
-    U[:2, :2] = R
-    U[:2, 2] = c - R @ c + p[1:]
-    return U @ T
 
 
 def minimax(evaluate, T: np.ndarray, use: np.ndarray, tol: Tolerance,

@@ -18,8 +18,8 @@ import numpy as np
 
 from .deviation import Deviations
 from .errors import SettingsError
-from .fits import FITS, _apply_update, minimax
-from .geometry import apply_transform
+from .fits import FITS, minimax
+from .pose import apply_transform, apply_update, pose_jacobian
 from .nominal import Nominal
 from .registration import (RegistrationResult, RegistrationSettings, distinct_poses, pose_score,
                            register)
@@ -277,8 +277,6 @@ def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray):
     """One Gauss-Newton step of the signed deviations ``signed`` (m,) of points X (m, 3) with
     the surface normals at their feet: (step (6,): rotation vector then translation, about c;
     c (3,) the points' centroid; moved: the largest displacement the step gives a point, mm)."""
-    from .fits import pose_jacobian
-
     c = X.mean(axis=0)
     step = np.linalg.lstsq(pose_jacobian(X, normal, c), -signed, rcond=None)[0]
     moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
@@ -302,7 +300,7 @@ def _subset_fit(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 5
     for _ in range(max_iterations):
         step, c, moved = _gn_step_exact(X, dev.normal, dev.signed)
         if moved <= 1e-9 * extent:
-            return _apply_update(T, step, c)
+            return apply_update(T, step, c)
         lower = _lower_along(lambda Tc: measure(Tc, idx), T, step, c,
                              float(np.sum(dev.signed ** 2)), lambda dv: dv.signed)
         if lower is None:
@@ -317,7 +315,7 @@ def _lower_along(measure, T: np.ndarray, step: np.ndarray, c: np.ndarray, cost: 
     from pose T whose sum of squared ``residuals(dev)`` is below ``cost``: (T', X', dev') with
     measure(T') = (X', dev'); None when none is."""
     for k in range(EXACT_HALVINGS + 1):
-        T_new = _apply_update(T, step / 2 ** k, c)
+        T_new = apply_update(T, step / 2 ** k, c)
         X_new, dev_new = measure(T_new)
         if float(np.sum(residuals(dev_new) ** 2)) < cost:
             return T_new, X_new, dev_new
@@ -510,7 +508,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     """
     from .contour import ContourIndex, deviations_2d
-    from .registration2d import apply2, fit_plane, register_2d
+    from .registration2d import fit_plane, register_2d
 
     _check_options(fit, decision_rule)
     t0 = time.perf_counter()
@@ -539,15 +537,15 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
 
     def measure(Tc):
-        X = apply2(Tc, q2)
+        X = apply_transform(Tc, q2)
         return X, deviations_2d(index, X)
 
     def deviations_at(Tc, idx):
-        return deviations_2d(index, apply2(Tc, q2[idx])).signed
+        return deviations_2d(index, apply_transform(Tc, q2[idx])).signed
 
     T2 = reg.T_nominal_measured
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
-    j = _judge_pose(reg, T2, apply2(T2, q2), reg.deviations,
+    j = _judge_pose(reg, T2, apply_transform(T2, q2), reg.deviations,
                     _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
                     tolerance, fit, decision_rule, extra, instrument, guard)
     t1 = j.fitted_at

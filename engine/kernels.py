@@ -376,7 +376,7 @@ def nearest_sample(x, y, z, lo, cell, owner, graph, pts):
 
 @njit(cache=True, nogil=True)
 def _rotation(wx, wy, wz, R):
-    """Rodrigues, as engine.geometry.rotation_from_rotvec, into R (3, 3)."""
+    """Rodrigues, as engine.pose.rotation_from_rotvec, into R (3, 3)."""
     theta = math.sqrt(wx * wx + wy * wy + wz * wz)
     if theta < 1e-8:
         s, c = 1.0 - theta ** 2 / 6.0, 0.5 - theta ** 2 / 24.0
@@ -492,7 +492,7 @@ def _well_conditioned_solve(As, b, inv_len, L, out):
 
 @njit(cache=True, nogil=True)
 def _min_norm_step(A, b, length, As, w, V, out):
-    """out = -x, x = engine.registration.min_norm_solve(A (6, 6), b (6,), 3, length); As, w, V:
+    """out = -x, x = engine.pose.min_norm_solve(A (6, 6), b (6,), 3, length); As, w, V:
     work arrays (6, 6), (6,), (6, 6)."""
     inv_len = 1.0 / max(length, 1e-12)
     for i in range(6):
@@ -619,7 +619,7 @@ def _normal_equations(X, N, r, rn, e2, spacing, reach, lam2, srt, A, b, c, sxx):
 
 @njit(cache=True, nogil=True)
 def _apply_step(P, delta, c, R, Q):
-    """P (4, 4) <- [R(delta[:3]), c - R c + delta[3:]] @ P, as registration._compose_update."""
+    """P (4, 4) <- [R(delta[:3]), c - R c + delta[3:]] @ P, as engine.pose.compose_updates."""
     _rotation(delta[0], delta[1], delta[2], R)
     for a in range(3):
         ta = c[a] - (R[a, 0] * c[0] + R[a, 1] * c[1] + R[a, 2] * c[2]) + delta[3 + a]

@@ -58,12 +58,8 @@ from .contour import Deviations2D
 from .deviation import Deviations, point_to_surface
 from . import kernels
 from .neighbours import PARALLEL_QUERIES, SampleLookup, query_workers
-from .geometry import (
-    make_transform,
-    rotation_angle_deg,
-    rotation_from_rotvec,
-    uniform_rotations,
-)
+from .pose import (apply_transform, apply_update, gauss_newton_step, make_transform,
+                   rotation_angle_deg, rotation_from_rotvec, uniform_rotations)
 from .nominal import Nominal
 from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
                        gross_rule, robust_centre_sigma)
@@ -332,7 +328,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     near = settings.near_fraction_of_size * nominal.diagonal
     ssub = _spread_subset(measured, settings.icp_measured)
     report("comparing the candidate poses", 0.8)
-    devs = [point_to_surface(nominal, measured[ssub] @ Tc[:3, :3].T + Tc[:3, 3]).signed
+    devs = [point_to_surface(nominal, apply_transform(Tc, measured[ssub])).signed
             for Tc in refined]
     scale = settings.outlier_floor * nominal.diagonal
     scores = [pose_score(d, scale) for d in devs]
@@ -397,7 +393,7 @@ def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
               settings: RegistrationSettings, zone_width: float | None):
     """The candidate pose T measured as it is, unfitted (no pose there is worth fitting), in
     the form of _point_to_surface_fit's result."""
-    X = measured @ T[:3, :3].T + T[:3, 3]
+    X = apply_transform(T, measured)
     t0 = time.perf_counter()
     dev = point_to_surface(nominal, X)
     dev_s = time.perf_counter() - t0
@@ -566,7 +562,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
     e2, delta = np.empty((H, m)), np.empty((H, 6))
     for k in range(iterations + 1):
         # Pairs from scipy's kd-tree; the arithmetic compiled (kernels.icp_paired).
-        X = src @ T[:, :3, :3].transpose(0, 2, 1) + T[:, None, :3, 3]
+        X = apply_transform(T, src)
         dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
                              distance_upper_bound=reach)
         far = ~np.isfinite(dist).reshape(H, m)
@@ -622,20 +618,12 @@ def _icp_poses(T: np.ndarray, src: np.ndarray, lookup: SampleLookup, pts: np.nda
 _NO_SHAPE = np.zeros((0, 3, 3))
 
 
-def _compose_update(T: np.ndarray, delta: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Apply x' = c + R(w) (x - c) + t after T, for (H, 6) updates [w, t] about centres c."""
-    R = rotation_from_rotvec(delta[:, :3])
-    t = c - np.einsum("hij,hj->hi", R, c) + delta[:, 3:]
-    U = make_transform(R, t)
-    return U @ T
-
-
 def distinct_poses(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: float) -> bool:
     """Two poses differ when they rotate apart by over 2 degrees or move the points apart by over
     1% of the measured extent (the nominal's diagonal when smaller)."""
     extent = min(float(np.linalg.norm(src.max(0) - src.min(0))), diagonal)
-    x1 = src @ T1[:3, :3].T + T1[:3, 3]
-    x2 = src @ T2[:3, :3].T + T2[:3, 3]
+    x1 = apply_transform(T1, src)
+    x2 = apply_transform(T2, src)
     move = float(np.sqrt(np.mean(np.sum((x1 - x2) ** 2, axis=1))))
     return rotation_angle_deg(T1[:3, :3] @ T2[:3, :3].T) > 2.0 or move > 0.01 * extent
 
@@ -706,7 +694,7 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
         nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)[:7]
     total += it
     if fsub.size < n:
-        X = measured @ T[:3, :3].T + T[:3, 3]
+        X = apply_transform(T, measured)
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, X)
         dev_s = time.perf_counter() - t0
@@ -714,7 +702,7 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
         keep = ~gross_outliers(dev.signed, dev.foot, rule)
         finished = not settings.finish_on_all_points
         if not finished and converged and keep.sum() >= 6:
-            delta, c = _gn_step(X[keep], dev.normal[keep], dev.signed[keep])
+            delta, c = gauss_newton_step(X[keep], dev.normal[keep], dev.signed[keep])
             total += 1
             if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
                 moved, X_m = _moved(dev, X, delta, c)
@@ -727,7 +715,7 @@ def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
                     gross = _gross_included(X_m, moved, zone_width, floor)
                     ok = gross is not None and bool(np.all(gross[~keep]))
                 if ok:
-                    T = _compose_update(T[None], delta[None], c[None])[0]
+                    T = apply_update(T, delta, c)
                     dev, rule, finished = moved, rule_m, True
         if not finished:
             T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
@@ -777,7 +765,7 @@ def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, 
         # Every point included usually moves the pose so little that the deviations can
         # follow to first order: no new evaluation (mis-probes among many points). Only which
         # points are gross there is used: the final fit is a real one.
-        gross = _gross_included(pts @ T0[:3, :3].T + T0[:3, 3], d0, zone_width, floor)
+        gross = _gross_included(apply_transform(T0, pts), d0, zone_width, floor)
         used += 1
         if gross is not None:
             return start, gross
@@ -832,7 +820,7 @@ def _gross(dev, rule, included):
 
 def _moved(dev: Deviations, X: np.ndarray, delta: np.ndarray, c: np.ndarray):
     """The deviations ``dev`` of the points ``X`` (n, 3) after the small step ``delta`` about
-    ``c`` (from _gn_step), to first order (exact to ~step^2 x curvature), and the moved points."""
+    ``c`` (from gauss_newton_step), to first order (exact to ~step^2 x curvature), and the moved points."""
     motion = np.cross(delta[:3], X - c) + delta[3:]
     along = np.einsum("ij,ij->i", motion, dev.normal)
     return Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
@@ -853,7 +841,7 @@ def _gross_included(X: np.ndarray, dev: Deviations, zone_width, floor):
     changes by no more than the point moves, so the deviations followed to first order are
     within 2 m of the true ones whatever the nominal's shape (an edge crossed, a kink): a point
     counts as gross only beyond the threshold + 2 m."""
-    delta, c = _gn_step(X, dev.normal, dev.signed)
+    delta, c = gauss_newton_step(X, dev.normal, dev.signed)
     moved, _ = _moved(dev, X, delta, c)
     rule = gross_rule(moved.signed, zone_width, floor)
     m = _largest_motion(delta, X - c)
@@ -861,39 +849,6 @@ def _gross_included(X: np.ndarray, dev: Deviations, zone_width, floor):
         return None
     return gross_outliers(moved.signed, moved.foot,
                           dataclasses.replace(rule, threshold_mm=rule.threshold_mm + 2.0 * m))
-
-
-def _gn_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):
-    """One linearised least-squares step [rotation vector, translation] about the centroid c of
-    the points X (n, 3) with surface normals and signed deviations d; returns (step, c)."""
-    c = X.mean(axis=0)
-    J = np.concatenate([np.cross(X - c, normals), normals], axis=1)
-    A = J.T @ J
-    b = J.T @ d
-    length = float(np.sqrt(np.mean(np.sum((X - c) ** 2, axis=1)))) if X.size else 1.0
-    return -min_norm_solve(A, b, 3, length), c
-
-
-def min_norm_solve(A: np.ndarray, b: np.ndarray, nrot: int, length) -> np.ndarray:
-    """Minimum-norm solution of the pose normal equations A x = b, (..., k, k) and (..., k),
-    whose first ``nrot`` unknowns are rotations about points spread ``length`` (mm; scalar or
-    (...,)) around the centre.
-
-    In units where rotations move points by millimetres, directions whose eigenvalue is below
-    1e-6 of the largest are left alone: along what the points do not constrain (a sphere's
-    rotations, a plane's slides, a circle's turn) the step is zero, instead of whatever
-    rounding and sampling noise make of a (nearly) singular system.
-    """
-    k = A.shape[-1]
-    s = np.ones(np.shape(length) + (k,))
-    s[..., :nrot] = 1.0 / np.maximum(np.asarray(length, float), 1e-12)[..., None]
-    As = A * s[..., :, None] * s[..., None, :]
-    w, V = np.linalg.eigh(As)
-    top = np.maximum(w[..., -1:], 1e-300)
-    ok = w > 1e-6 * top
-    inv = np.where(ok, 1.0 / np.where(ok, w, 1.0), 0.0)
-    coef = np.einsum("...ji,...j->...i", V, b * s) * inv
-    return np.einsum("...ij,...j->...i", V, coef) * s
 
 
 def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
@@ -918,7 +873,7 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
     for it in range(1, max_iter + 1):
         report(f"point-to-surface fit on {pts.shape[0]:,} points, iteration {it}",
                0.85 + 0.1 * it / max(max_iter, 10))
-        X = pts @ T[:3, :3].T + T[:3, 3]
+        X = apply_transform(T, pts)
         if dev is None:
             t0 = time.perf_counter()
             dev = point_to_surface(nominal, X)
@@ -928,12 +883,12 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
             mask = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, floor)
         if mask.sum() < 6:
             return T, False, it, mask, dev, dev_s
-        delta, c = _gn_step(X[mask], dev.normal[mask], d[mask])
+        delta, c = gauss_newton_step(X[mask], dev.normal[mask], d[mask])
         if _largest_motion(delta, X[mask] - c) < settings.convergence_mm:
             return T, True, it, mask, dev, dev_s
-        T = _compose_update(T[None], delta[None], c[None])[0]
+        T = apply_update(T, delta, c)
         dev = None
-    X = pts @ T[:3, :3].T + T[:3, 3]
+    X = apply_transform(T, pts)
     t0 = time.perf_counter()
     dev = point_to_surface(nominal, X)
     dev_s = time.perf_counter() - t0

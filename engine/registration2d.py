@@ -31,7 +31,9 @@ from .neighbours import query_workers
 from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
                        gross_rule)
 from .progress import report
-from .registration import CONTOUR_RMS, RegistrationResult, min_norm_solve, robust_cut
+from .pose import (apply_transform, apply_update, compose_updates, gauss_newton_step,
+                   min_norm_solve, pose_2d, pose_jacobian, rotation_2d)
+from .registration import CONTOUR_RMS, RegistrationResult, robust_cut
 
 _SEED = 11
 GROSS_FLOOR = 1e-4
@@ -44,22 +46,6 @@ STEP_TOL = 1e-10
 the coordinates' size (some 1e6 times the float resolution of the coordinates, 0.03 um at 3e5 mm)
 plus 1e-4 of the RMS of the deviations (a step that changes the sum of squares by at most 1e-8
 of itself)."""
-
-
-def rot2(theta) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
-
-
-def _pose(theta, t) -> np.ndarray:
-    T = np.eye(3)
-    T[:2, :2] = rot2(theta)
-    T[:2, 2] = t
-    return T
-
-
-def apply2(T: np.ndarray, p: np.ndarray) -> np.ndarray:
-    return p @ T[:2, :2].T + T[:2, 2]
 
 
 class _Samples:
@@ -162,7 +148,7 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
     # Rotations about the centroid, centroid on the template's centroid.
     ct = index.centroid
     for th in np.linspace(0, 2 * np.pi, n_angles, endpoint=False):
-        hyps.append(_pose(th, ct - rot2(th) @ cm))
+        hyps.append(pose_2d(th, ct - rotation_2d(th) @ cm))
     # The point nearest the centroid onto anchors along the contours, direction along theirs:
     # an anchor every 5% of the measured extent (so one lands near the right place however
     # little of the contour was measured), at most max_anchors.
@@ -172,7 +158,7 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
     for k in range(0, len(S.pts), step):
         base = np.arctan2(S.tan[k, 1], S.tan[k, 0]) - np.arctan2(d0[1], d0[0])
         for th in (base, base + np.pi):
-            hyps.append(_pose(th, S.pts[k] - rot2(th) @ p0))
+            hyps.append(pose_2d(th, S.pts[k] - rotation_2d(th) @ p0))
     T = np.array(hyps)
     n_hyp = T.shape[0]
     Sc = S.coarse(1000)
@@ -219,7 +205,7 @@ def _symmetric_pose(index: ContourIndex, S: "_Samples", q: np.ndarray, rel: np.n
 def _maps_onto_itself(U: np.ndarray, S: _Samples, h: float) -> bool:
     """Whether the 2D transform U (3, 3, template frame) maps the contour samples onto the
     contours, within twice their spacing ``h``."""
-    dist, _ = S.tree.query(apply2(U, S.pts[:: max(1, len(S.pts) // 2000)]))
+    dist, _ = S.tree.query(apply_transform(U, S.pts[:: max(1, len(S.pts) // 2000)]))
     return bool(np.max(dist) <= 2 * h)
 
 
@@ -234,7 +220,7 @@ def _symmetry_group(rel: np.ndarray, S: _Samples, h: float, max_order: int = 360
     c = np.linalg.solve(np.eye(2) - rel[:2, :2], rel[:2, 2])  # the fixed point
 
     def about_c(a):
-        return _pose(a, c - rot2(a) @ c)
+        return pose_2d(a, c - rotation_2d(a) @ c)
 
     m = max([k for k in range(1, 13) if k == 1 or _maps_onto_itself(about_c(phi / k), S, h)])
     n = int(round(2 * np.pi / abs(phi / m)))
@@ -250,7 +236,7 @@ def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float
     sqrt(mean(min(d^2, cut0^2))) at them)."""
     H, m = T.shape[0], p.shape[0]
     for it in range(iterations + 1):
-        X = (p @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]).reshape(-1, 2)
+        X = apply_transform(T, p).reshape(-1, 2)
         dev = deviations_2d(index, X)
         d = dev.signed.reshape(H, m)
         if it == iterations:
@@ -260,17 +246,13 @@ def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float
         w = np.array([np.abs(dk) <= robust_cut(dk, sigmas, floor) for dk in d], float)
         c = (w[..., None] * X).sum(1) / np.maximum(w.sum(1), 1)[:, None]
         xt = X - c[:, None, :]
-        J = np.stack([xt[..., 0] * g[..., 1] - xt[..., 1] * g[..., 0], g[..., 0], g[..., 1]], 2)
+        J = pose_jacobian(X, g, c[:, None, :])
         Jw = J * w[..., None]
         length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(w.sum(1), 1.0))
         delta = -min_norm_solve(Jw.transpose(0, 2, 1) @ J, (Jw * d[..., None]).sum(1), 1,
                                 length)
-        T = _compose(T, delta, c)
+        T = compose_updates(T, delta, c)
     return T, np.sqrt(np.mean(np.minimum(d * d, cut0 * cut0), axis=1))
-
-
-def _rms_radius(xt: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.sum(xt * xt, axis=1)))) if xt.size else 1.0
 
 
 def _spread(p: np.ndarray, m: int) -> np.ndarray:
@@ -304,7 +286,7 @@ def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
     H, m = T.shape[0], src.shape[0]
     score = np.zeros(H)
     for _ in range(iterations):
-        X = src @ T[:, :2, :2].transpose(0, 2, 1) + T[:, None, :2, 2]
+        X = apply_transform(T, src)
         _, j = S.tree.query(X.reshape(-1, 2), workers=query_workers(H * m))
         j = j.reshape(H, m)
         r = X - S.pts[j]
@@ -317,26 +299,14 @@ def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
         w = (e2 <= tau2[:, None]).astype(float)
         c = (w[..., None] * X).sum(1) / np.maximum(w.sum(1), 1)[:, None]
         xt = X - c[:, None, :]
-        J = np.stack([xt[..., 0] * n[..., 1] - xt[..., 1] * n[..., 0], n[..., 0], n[..., 1]], 2)
+        J = pose_jacobian(X, n, c[:, None, :])
         Jw = J * w[..., None]
         A = Jw.transpose(0, 2, 1) @ J
         b = (Jw * rn[..., None]).sum(1)
         length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(w.sum(1), 1.0))
         delta = -min_norm_solve(A, b, 1, length)
-        T = _compose(T, delta, c)
+        T = compose_updates(T, delta, c)
     return T, score
-
-
-def _compose(T, delta, c):
-    """x' = c + R(dtheta) (x - c) + dt after T, for (H, 3) steps [dtheta, dtx, dty]."""
-    th = delta[:, 0]
-    U = np.zeros_like(T)
-    cs, sn = np.cos(th), np.sin(th)
-    U[:, 0, 0], U[:, 0, 1], U[:, 1, 0], U[:, 1, 1] = cs, -sn, sn, cs
-    Rc = np.einsum("hij,hj->hi", U[:, :2, :2], c)
-    U[:, :2, 2] = c - Rc + delta[:, 1:]
-    U[:, 2, 2] = 1.0
-    return U @ T
 
 
 def _best_distinct(T, score, src, keep, tol):
@@ -353,7 +323,7 @@ def _best_distinct(T, score, src, keep, tol):
 
 
 def _distinct(T1, T2, p, tol) -> bool:
-    return float(np.max(np.linalg.norm(apply2(T1, p) - apply2(T2, p), axis=1))) > tol
+    return float(np.max(np.linalg.norm(apply_transform(T1, p) - apply_transform(T2, p), axis=1))) > tol
 
 
 def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
@@ -411,7 +381,7 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
     last = np.inf
     result = None
     for it in range(1, max_iter + 1):
-        X = apply2(T, p)
+        X = apply_transform(T, p)
         dev = deviations_2d(index, X)
         d = dev.signed
         # The set is the rule's at this very pose (until it has changed RULE_ROUNDS times).
@@ -432,9 +402,9 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
             result = (T, True, it, kept, rule, dev)
             break
         last = moved
-        T = _compose(T[None], delta[None], c[None])[0]
+        T = apply_update(T, delta, c)
     if result is None:
-        dev = deviations_2d(index, apply2(T, p))
+        dev = deviations_2d(index, apply_transform(T, p))
         if changes <= RULE_ROUNDS:
             rule, out = rule_at(dev)
             kept = ~out
@@ -454,10 +424,8 @@ def _gn_step2(X: np.ndarray, dev: Deviations2D, use: np.ndarray):
     (registered, (n, 2)), solved about their centroid c: returns (step [angle, tx, ty], c, the
     largest motion the step gives any of them, mm)."""
     Xk, gk, dk = X[use], _gradient(X[use], dev.foot[use], dev.signed[use]), dev.signed[use]
-    c = Xk.mean(axis=0)
+    delta, c = gauss_newton_step(Xk, gk, dk)
     xt = Xk - c
-    J = np.column_stack([xt[:, 0] * gk[:, 1] - xt[:, 1] * gk[:, 0], gk[:, 0], gk[:, 1]])
-    delta = -min_norm_solve(J.T @ J, J.T @ dk, 1, _rms_radius(xt))
     reach = float(np.sqrt(np.max(np.sum(xt * xt, axis=1)))) if xt.size else 0.0
     return delta, c, abs(delta[0]) * reach + float(np.linalg.norm(delta[1:]))
 
@@ -479,7 +447,7 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
     inlier = None
     cut = np.inf
     for it in range(1, max_iter + 1):
-        X = apply2(T, p)
+        X = apply_transform(T, p)
         dev = deviations_2d(index, X)
         d = dev.signed
         if inlier is None or it <= 3:
@@ -490,8 +458,8 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
         delta, c, moved = _gn_step2(X, dev, inlier)
         if moved < 1e-7:
             return T, True, it, inlier, cut, dev
-        T = _compose(T[None], delta[None], c[None])[0]
-    X = apply2(T, p)
+        T = apply_update(T, delta, c)
+    X = apply_transform(T, p)
     dev = deviations_2d(index, X)
     if inlier is None:  # no iteration asked for: just measure, with the robust cut
         cut = robust_cut(dev.signed, sigmas, floor)

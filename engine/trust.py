@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fits import pose_jacobian
+from .pose import pose_jacobian
 
 CONDITIONING_POINTS = 16384
 """Fitted points the normal matrix is formed from at most (a seeded subset beyond)."""

@@ -24,7 +24,7 @@ sys.path.insert(0, ROOT)
 
 
 def main(out_dir: str) -> str:
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
     from qa_app.cli import main as cli
     from samples.generate import rotation
 

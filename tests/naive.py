@@ -173,8 +173,8 @@ def icp_batch(T, src, tree, pts, nrm, spacing, iterations, stop_rad=0.0, lam2=0.
     (kernels.icp_paired, kernels.icp_poses): the same ICP in numpy over all poses at once, LAPACK
     for the steps; pairing by ``tree.query`` (scipy's kd-tree, or LookupAsTree). Returns (poses,
     truncated scores, iterations run)."""
-    from engine.geometry import skew
-    from engine.registration import _compose_update, min_norm_solve
+    from engine.pose import skew
+    from engine.pose import compose_updates, min_norm_solve
 
     def pairs(T):
         H, m = T.shape[0], src.shape[0]
@@ -225,7 +225,7 @@ def icp_batch(T, src, tree, pts, nrm, spacing, iterations, stop_rad=0.0, lam2=0.
         if k == iterations:
             break
         delta, c = step(X, r, rn, n, e2)
-        T = _compose_update(T, delta, c)
+        T = compose_updates(T, delta, c)
         done += 1
         if stop_rad and np.all(np.linalg.norm(delta[:, :3], axis=1) < stop_rad) and \
                 np.all(np.linalg.norm(delta[:, 3:], axis=1) < stop_rad * 100 * spacing):

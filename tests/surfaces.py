@@ -91,7 +91,7 @@ def half_turn_symmetric_part(bump: float, dent: float = 0.0, seed: int = 0):
     only (an asymmetric feature a half-turned part would miss); the measured part (1,500
     points, seeded pose) has an optional ``dent`` (mm deep) of its own. Returns (Nominal,
     measured (1500, 3))."""
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
     from engine.nominal import Nominal
 
     def h(x, y):

@@ -482,7 +482,7 @@ def test_the_banner_says_whether_the_verdict_depends_on_the_pose(qtbot):
     from types import SimpleNamespace
 
     from engine.deviation import point_to_surface
-    from engine.geometry import apply_transform
+    from engine.pose import apply_transform
     from engine.inspection import Tolerance, inspect
     from qa_app.desktop.model import Session
     from qa_app.desktop.widgets import VerdictBanner
@@ -518,7 +518,7 @@ def test_a_cylinder_measured_all_round_holds_its_verdict_in_the_banner(qtbot):
     form verdict stands, with a short note, and the statements say what is not fixed."""
     from types import SimpleNamespace
 
-    from engine.geometry import apply_transform, make_transform
+    from engine.pose import apply_transform, make_transform
     from engine.inspection import Tolerance, inspect
     from engine.nominal import Nominal
     from qa_app.desktop.model import Session

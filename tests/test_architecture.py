@@ -54,3 +54,25 @@ def test_only_the_pipeline_opens_files():
     users = {m for m in graph.modules if m not in io
              for imported in graph.find_modules_directly_imported_by(m) if imported in io}
     assert users == {"engine.pipeline"}, users
+
+
+def test_no_private_name_is_imported_across_modules():
+    """A name with a leading underscore is its module's own: no other module of the product
+    imports it (grimp's import details, line by line). Shared maths has a public home, such as
+    engine.pose for the rigid motions."""
+    import grimp
+
+    found = []
+    for package in ("engine", "reports", "qa_app"):
+        graph = grimp.build_graph(package)
+        for importer in graph.modules:
+            for imported in graph.find_modules_directly_imported_by(importer):
+                if imported == importer:
+                    continue
+                for d in graph.get_import_details(importer=importer, imported=imported):
+                    names = d["line_contents"].split(" import ", 1)[-1]
+                    private = [n.strip(" ()") for n in names.split(",")
+                               if n.strip(" ()").startswith("_")]
+                    if private:
+                        found.append(f"{importer}:{d['line_number']} {d['line_contents']}")
+    assert found == []

@@ -15,7 +15,7 @@ import time
 import numpy as np
 import pytest
 
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from engine.pipeline import inspection_settings, load_nominal
 from engine.tolerance import Tolerance
 from qa_app import batch as qb

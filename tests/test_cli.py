@@ -14,7 +14,7 @@ import threading
 import numpy as np
 import pytest
 
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from qa_app.cli import main
 from surfaces import (height, height_normal, random_rotation, write_grid_nominal,
                       write_labelled_points)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from engine.datums import align, align_rps, invariant_motions
-from engine.geometry import make_transform, rotation_from_rotvec
+from engine.pose import make_transform, rotation_from_rotvec
 from engine.plan import Datum
 
 # A block [0, 100] x [0, 60] x [0, 20] with a vertical hole of radius 4 at (64, 30).

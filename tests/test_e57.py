@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from e57files import write_e57
 from engine.errors import InputError
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from engine.io import formats, load_point_set
 from qa_app.cli import main
 from surfaces import height, height_normal, random_rotation, write_grid_nominal

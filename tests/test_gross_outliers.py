@@ -15,7 +15,7 @@ from scipy.optimize import least_squares
 
 import samples.generate as gen
 from engine.deviation import point_to_surface
-from engine.geometry import apply_transform, make_transform, rotation_from_rotvec
+from engine.pose import apply_transform, make_transform, rotation_from_rotvec
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.outliers import gross_outliers, gross_rule

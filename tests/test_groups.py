@@ -113,7 +113,7 @@ def measure_block(rng):
         s, t = rng.uniform(m[0], 1 - m[0], 30), rng.uniform(m[1], 1 - m[1], 30)
         rest.append(o + s[:, None] * u + t[:, None] * v)
     P = np.vstack([top, *rest])
-    from engine.geometry import apply_transform, make_transform, rotation_from_rotvec
+    from engine.pose import apply_transform, make_transform, rotation_from_rotvec
 
     T = make_transform(rotation_from_rotvec(rng.normal(size=3) * 0.6), rng.uniform(-80, 80, 3))
     return apply_transform(T, P), top.shape[0]
@@ -352,7 +352,7 @@ def test_dxf_layers_are_regions_of_a_2d_plan(tmp_path):
     (the name compared without case, as DXF does) the other; a profile on OUTER holds only the
     outline's points."""
     from engine.contour import points_on
-    from engine.registration2d import _pose, apply2
+    from engine.pose import apply_transform, pose_2d
 
     doc = ezdxf.new("R2010")
     doc.header["$INSUNITS"] = 4
@@ -370,7 +370,7 @@ def test_dxf_layers_are_regions_of_a_2d_plan(tmp_path):
     hole = np.linalg.norm(q - [50, 50], axis=1) < 11
     pilot = np.linalg.norm(q - [150, 35], axis=1) < 6
     q[hole] = [50, 50] + (q[hole] - [50, 50]) * 10.01 / 10
-    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q)
+    meas = apply_transform(pose_2d(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q)
     np.savetxt(tmp_path / "m.csv", meas, delimiter=",", header="x,y", comments="", fmt="%.9f")
     code, doc = run_cli(tmp_path, tmp_path / "plate.dxf", tmp_path / "m.csv", """
 [[region]]

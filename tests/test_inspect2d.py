@@ -12,7 +12,8 @@ import pytest
 from engine.contour import ContourIndex, deviations_2d, points_on
 from engine.inspection import Tolerance, inspect_2d
 from engine.io.templates import read_airfoil_template, read_dxf_template
-from engine.registration2d import _pose, apply2, register_2d
+from engine.pose import apply_transform, pose_2d
+from engine.registration2d import register_2d
 from engine.verdict import ACCEPT, REJECT
 from qa_app.cli import main
 from surfaces import random_rotation
@@ -26,10 +27,10 @@ def test_pose_from_any_angle_and_offset(seed):
     rng = np.random.default_rng(seed)
     t = slotted_plate()
     q = points_on(t, 300, rng) + rng.normal(0, 0.002, (300, 2))
-    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-800, 800, 2)), q)
+    meas = apply_transform(pose_2d(rng.uniform(0, 2 * np.pi), rng.uniform(-800, 800, 2)), q)
     r = register_2d(ContourIndex(t), meas)
     assert r.converged and not r.symmetric
-    assert np.max(np.linalg.norm(apply2(r.T_nominal_measured, meas) - q, axis=1)) < 0.003
+    assert np.max(np.linalg.norm(apply_transform(r.T_nominal_measured, meas) - q, axis=1)) < 0.003
 
 
 def test_points_along_part_of_the_contour():
@@ -38,9 +39,9 @@ def test_points_along_part_of_the_contour():
     # Only the rounded end and the bottom edge were measured.
     w = np.array([1.0, 1.0, 0.0, 0.0, 0.0])
     q = points_on(t, 150, rng, w) + rng.normal(0, 0.002, (150, 2))
-    meas = apply2(_pose(2.0, [300.0, -40.0]), q)
+    meas = apply_transform(pose_2d(2.0, [300.0, -40.0]), q)
     r = register_2d(ContourIndex(t), meas)
-    assert np.max(np.linalg.norm(apply2(r.T_nominal_measured, meas) - q, axis=1)) < 0.005
+    assert np.max(np.linalg.norm(apply_transform(r.T_nominal_measured, meas) - q, axis=1)) < 0.005
 
 
 def test_symmetric_gear_any_equivalent_pose_is_right():
@@ -48,10 +49,10 @@ def test_symmetric_gear_any_equivalent_pose_is_right():
     g = read_dxf_template(f"{DATA}/gear_z20.dxf", units="mm").template
     idx = ContourIndex(g)
     q = points_on(g, 400, rng, (g.contour == 0).astype(float))
-    meas = apply2(_pose(1.234, [55.0, -20.0]), q)
+    meas = apply_transform(pose_2d(1.234, [55.0, -20.0]), q)
     r = register_2d(idx, meas)
     assert r.converged and r.symmetric
-    d = deviations_2d(idx, apply2(r.T_nominal_measured, meas)).signed
+    d = deviations_2d(idx, apply_transform(r.T_nominal_measured, meas)).signed
     assert np.max(np.abs(d)) < 1e-6
 
 
@@ -115,7 +116,7 @@ def test_cli_with_dxf_and_2d_points(tmp_path, capsys):
     t = read_dxf_template(dxf).template
     rng = np.random.default_rng(8)
     q = points_on(t, 200, rng)
-    meas = apply2(_pose(0.7, [10.0, 20.0]), q)
+    meas = apply_transform(pose_2d(0.7, [10.0, 20.0]), q)
     f = tmp_path / "m.txt"
     np.savetxt(f, meas, fmt="%.6f")
     code = main(["inspect", str(dxf), str(f), "--tol", "0.01", "--json", str(tmp_path / "r.json")])
@@ -143,7 +144,7 @@ def test_airfoil_ordinates_template(tmp_path, capsys):
     rng = np.random.default_rng(9)
     q = points_on(t, 300, rng)
     f = tmp_path / "m.csv"
-    np.savetxt(f, apply2(_pose(-1.1, [40.0, 5.0]), q), fmt="%.6f", delimiter=",")
+    np.savetxt(f, apply_transform(pose_2d(-1.1, [40.0, 5.0]), q), fmt="%.6f", delimiter=",")
     assert main(["inspect", str(dat), str(f), "--tol", "0.3", "--scale", "250"]) == 0
     assert main(["inspect", str(dat), str(f), "--tol", "0.3"]) == 64
     assert "needs --scale" in capsys.readouterr().err
@@ -187,7 +188,7 @@ def plate_with_dent(rng, n, depth, noise=0.002, width=6.0):
 
 def measured_from(t, q, dev, rng):
     nrm = deviations_2d(ContourIndex(t), q).normal
-    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q + dev[:, None] * nrm)
+    meas = apply_transform(pose_2d(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q + dev[:, None] * nrm)
     return np.column_stack([meas, np.zeros(len(meas))])
 
 
@@ -199,10 +200,10 @@ def independent_lsq(idx, meas2, T0, kept):
     c = meas2[kept].mean(axis=0)
 
     def pose(x):
-        return T0 @ _pose(x[0], c - apply2(_pose(x[0], [0.0, 0.0]), c[None])[0] + x[1:])
+        return T0 @ pose_2d(x[0], c - apply_transform(pose_2d(x[0], [0.0, 0.0]), c[None])[0] + x[1:])
 
     def resid(x):
-        return deviations_2d(idx, apply2(pose(x), meas2[kept])).signed
+        return deviations_2d(idx, apply_transform(pose(x), meas2[kept])).signed
 
     sol = least_squares(resid, np.zeros(3), x_scale="jac", xtol=1e-15,
                         ftol=1e-15, gtol=1e-15)
@@ -226,11 +227,11 @@ def test_least_squares_pose_is_the_least_squares_optimum_with_a_dent_in_toleranc
     # An independent optimiser started from the true pose (and from ours) finds no lower sum.
     best = min(independent_lsq(idx, meas[:, :2], np.linalg.inv(
         true_pose(meas[:, :2], q)), np.ones(len(q), bool)),
-        independent_lsq(idx, meas[:, :2], pose_2d(res), np.ones(len(q), bool)))
+        independent_lsq(idx, meas[:, :2], _planar_pose(res), np.ones(len(q), bool)))
     assert ours <= best * 1.0002
 
 
-def pose_2d(res):
+def _planar_pose(res):
     T = np.eye(3)
     T[:2, :2] = res.registration.T_nominal_measured[:2, :2]
     T[:2, 2] = res.registration.T_nominal_measured[:2, 3]
@@ -344,7 +345,7 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_left_out(seed,
     # the verdict is the one of the points as drawn.
     t, q, idx, drawn = d_profile_as_drawn
     rng = np.random.default_rng(100 + seed)
-    meas2 = apply2(_pose(rng.uniform(0, 6.28), rng.uniform(-300, 300, 2)), q)
+    meas2 = apply_transform(pose_2d(rng.uniform(0, 6.28), rng.uniform(-300, 300, 2)), q)
     res = inspect_2d(t, np.column_stack([meas2, np.zeros(len(q))]), 2,
                      Tolerance.symmetric(0.03), index=idx)
     assert res.registration.converged

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from engine.characteristics import inspect_plan
-from engine.geometry import make_transform, rotation_from_rotvec
+from engine.pose import make_transform, rotation_from_rotvec
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
@@ -360,7 +360,7 @@ def test_plan_on_a_2d_template_holes_relative_to_edge_datums(tmp_path):
 
     from engine.contour import ContourIndex, deviations_2d, points_on
     from engine.io.templates import read_dxf_template
-    from engine.registration2d import _pose, apply2
+    from engine.pose import apply_transform, pose_2d
     from qa_app.cli import main
 
     doc = ezdxf.new("R2010")
@@ -380,7 +380,7 @@ def test_plan_on_a_2d_template_holes_relative_to_edge_datums(tmp_path):
     corner = np.min(np.linalg.norm(q[:, None] - np.array(
         [[0, 0], [200, 0], [200, 100], [0, 100]]), axis=2), axis=1) < 5
     q = q[~corner]
-    meas = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q)
+    meas = apply_transform(pose_2d(rng.uniform(0, 2 * np.pi), rng.uniform(-300, 300, 2)), q)
     np.savetxt(tmp_path / "m.csv", meas, delimiter=",", header="x,y", comments="", fmt="%.9f")
     (tmp_path / "plan.toml").write_text("""
 [[region]]

@@ -15,7 +15,7 @@ import pytest
 
 from engine.contour import ContourIndex, deviations_2d, points_on
 from engine.inspection import Tolerance, inspect_2d
-from engine.registration2d import _pose, apply2
+from engine.pose import apply_transform, pose_2d
 from engine.io.templates import read_dxf_template
 from engine.verdict import ACCEPT
 
@@ -38,7 +38,7 @@ def measure(t, q, rng, far: bool):
     """q (n, 2) turned by a random angle and shifted: by up to 500 mm, or (far) by up to
     2 x 10^5 mm; as 3D points of a 2D measurement (z = 0)."""
     shift = rng.uniform(-2e5, 2e5, 2) if far else rng.uniform(-500.0, 500.0, 2)
-    meas = apply2(_pose(rng.uniform(0.0, 2.0 * np.pi), shift), q)
+    meas = apply_transform(pose_2d(rng.uniform(0.0, 2.0 * np.pi), shift), q)
     return np.column_stack([meas, np.zeros(len(meas))])
 
 

@@ -4,7 +4,7 @@ with a boss (faces that fit at 24 poses)."""
 import numpy as np
 import pytest
 
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.registration import RegistrationSettings, register

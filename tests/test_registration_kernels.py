@@ -7,10 +7,11 @@ import pytest
 from scipy.spatial import cKDTree
 
 from engine import kernels
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from engine.nominal import Nominal
+from engine.pose import min_norm_solve
 from engine.registration import (RegistrationSettings, _hypotheses, _icp_batch, _icp_poses,
-                                 _spread_subset, min_norm_solve)
+                                 _spread_subset)
 from naive import LookupAsTree, icp_batch, nearest_sample
 from surfaces import height, height_grid, point_set, random_rotation
 
@@ -64,7 +65,7 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
     """Jacobi eigen-decomposition of 6 x 6 pose systems against numpy's eigh (LAPACK), including
     rank-deficient ones (a plane's slides), and the minimum-norm step built on it (or on
     Cholesky, where the condition number provably keeps every direction) against
-    engine.registration.min_norm_solve."""
+    engine.pose.min_norm_solve."""
     rng = np.random.default_rng(11)
     w, V, As, out = np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty(6)
     for k in range(300):
@@ -207,7 +208,7 @@ def test_coarse_to_fine_icp_is_its_numpy_twin(level, level_size, stop_rad):
     T0 = make_transform(random_rotation(rng), rng.uniform(-900, 900, 3))
     measured = apply_transform(T0, q)
     inv = np.linalg.inv(T0)
-    from engine.geometry import rotation_from_rotvec
+    from engine.pose import rotation_from_rotvec
     T = np.stack([make_transform(rotation_from_rotvec(rng.normal(0, 0.03, 3)), rng.normal(0, 3, 3))
                   @ inv for _ in range(6)])
     if level_size is None:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import samples.generate as gen
-from engine.geometry import apply_transform
+from engine.pose import apply_transform
 from engine.inspection import Tolerance, inspect, inspect_2d
 from engine.nominal import Nominal
 from engine.io import load_point_set

@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pytest
 
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from engine.pipeline import run_files
 from engine.settings import InspectionSettings
 from qa_app.cli import _recheck, main

@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import linprog
 
 from engine.fits import minimax_pose
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.trust import conditioning
@@ -124,7 +124,7 @@ def test_a_cylinder_measured_all_round_is_judged_on_its_form():
     """Translation along and rotation about the axis are free, and the deviations do not change
     along them: the verdict (a form check) holds for every such position and says so."""
     from engine.deviation import point_to_surface
-    from engine.geometry import rotation_from_rotvec
+    from engine.pose import rotation_from_rotvec
 
     pts, nrm = _cylinder()
     R = random_rotation(np.random.default_rng(2))
@@ -427,7 +427,7 @@ def test_pose_uncertainty_matches_a_monte_carlo_of_refits():
     """Refit a rigid pose to pure noise many times (linear point-to-plane least squares, solved
     with lstsq) and move the points by it with real rotation matrices: the RMS displacement of
     the worst point is what pose_sigma_mm predicts."""
-    from engine.geometry import rotation_from_rotvec
+    from engine.pose import rotation_from_rotvec
 
     rng = np.random.default_rng(8)
     x, y = rng.uniform(-200, 200, 400), rng.uniform(-100, 100, 400)
@@ -725,7 +725,7 @@ def test_a_d_shaft_measured_clear_of_its_flat_is_inconclusive_from_every_pose():
     in every pose. Truth, independently: turned about the true axis (z) in 0.1 degree steps,
     some turn keeps the RMS within the plausibility limit and puts a point out."""
     from engine.deviation import point_to_surface
-    from engine.geometry import rotation_from_rotvec
+    from engine.pose import rotation_from_rotvec
     from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
 
     nominal = _d_shaft()
@@ -761,7 +761,7 @@ def test_a_2d_d_profile_measured_clear_of_its_flat_is_inconclusive_from_every_po
     clear of the flat, +-0.03 mm: INCONCLUSIVE from each of 8 poses; truth as for the shaft."""
     from engine.contour import ContourIndex, arc, build_template, deviations_2d, segment
     from engine.inspection import inspect_2d
-    from engine.registration2d import _pose, apply2
+    from engine.pose import apply_transform, pose_2d
     from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
 
     al = np.radians(20)
@@ -776,7 +776,7 @@ def test_a_2d_d_profile_measured_clear_of_its_flat_is_inconclusive_from_every_po
     verdicts = []
     for seed in range(8):
         r = np.random.default_rng(300 + seed)
-        measured = np.column_stack([apply2(_pose(r.uniform(0, 2 * np.pi),
+        measured = np.column_stack([apply_transform(pose_2d(r.uniform(0, 2 * np.pi),
                                                  r.uniform(-300, 300, 2)), q), np.zeros(m)])
         res = inspect_2d(tpl, measured, 2, tol)
         verdicts.append(res.verdict)

@@ -17,7 +17,7 @@ from engine.nominal import Nominal
 from engine.trust import conditioning
 from engine.uncertainty import Instrument, budget
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform
 from qa_app.cli import main
 from surfaces import height, height_grid, height_normal, point_set, random_rotation
 

@@ -86,7 +86,7 @@ def _head(path: str) -> bytes:
 
 def _point_set(arrays: dict, path: str) -> PointSet:
     """The child's arrays (metres) as a checked PointSet in mm."""
-    from .meshes import _unit_normals_or_none
+    from .meshes import unit_normals_or_none
 
     pts = arrays["points"] * MM_PER_M
     if pts.shape[0] == 0:
@@ -94,7 +94,7 @@ def _point_set(arrays: dict, path: str) -> PointSet:
     if not np.isfinite(pts).all():
         row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
         raise InputError(f"point {row} holds NaN or infinity", path)
-    normals = _unit_normals_or_none(arrays.get("normals"), pts)
+    normals = unit_normals_or_none(arrays.get("normals"), pts)
     intensity = arrays.get("intensity")
     if intensity is not None and not np.isfinite(intensity).all():
         intensity = None

@@ -1007,7 +1007,7 @@ def _check_vertices(pts: np.ndarray, path: str) -> None:
     check_coordinate_range(pts, path)
 
 
-def _unit_normals_or_none(n: np.ndarray | None, pts: np.ndarray) -> np.ndarray | None:
+def unit_normals_or_none(n: np.ndarray | None, pts: np.ndarray) -> np.ndarray | None:
     """The file's vertex normals made unit, or None when any is missing, zero or not finite."""
     if n is None or n.shape != pts.shape or not np.isfinite(n).all():
         return None
@@ -1024,7 +1024,7 @@ def read_mesh(path: str, suffix: str) -> PointSet:
     mesh = {".ply": read_ply, ".obj": read_obj, ".stl": read_stl}[suffix](path)
     pts = mesh.points
     _check_vertices(pts, path)
-    normals = _unit_normals_or_none(mesh.normals, pts)
+    normals = unit_normals_or_none(mesh.normals, pts)
     if mesh.polygons is None:
         return finish_point_set(PointSet(pts, normals, None, None, None, 3, path, mesh.groups))
     import pyvista as pv
@@ -1128,7 +1128,7 @@ def read_vtk(path: str, suffix: str) -> PointSet:
                                "damaged file", VTK_READ_TIMEOUT_S)
     pts = arrays["points"]
     _check_vertices(pts, path)
-    normals = _unit_normals_or_none(arrays.get("normals"), pts)
+    normals = unit_normals_or_none(arrays.get("normals"), pts)
     if "grid" in arrays:
         nu, nv = (int(v) for v in arrays["grid"])
         return finish_point_set(PointSet(pts, normals, None, (nu, nv), None, 3, path))
