@@ -1,0 +1,44 @@
+"""The engine as a library: the README's "Use as a library" section runs as a doctest, the
+public names are the ones ``engine.__all__`` lists, and importing the package loads nothing."""
+
+import doctest
+import os
+import re
+import subprocess
+import sys
+
+import engine
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def test_the_readme_library_section_runs(monkeypatch):
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        text = f.read()
+    section = re.search(r"^## Use as a library\n(.*?)^## ", text, re.S | re.M).group(1)
+    assert section.count(">>>") >= 5
+    monkeypatch.chdir(ROOT)  # the example names the samples relative to the checkout
+    test = doctest.DocTestParser().get_doctest(section, {}, "README: Use as a library",
+                                               "README.md", 0)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    runner.run(test)
+    assert runner.summarize(verbose=False).failed == 0
+
+
+def test_every_public_name_resolves_and_nothing_else_is_offered():
+    for name in engine.__all__:
+        assert getattr(engine, name) is not None, name
+    assert engine.Tolerance.__module__ == "engine.tolerance"
+    try:
+        engine.registration_internals  # noqa: B018
+    except AttributeError as e:
+        assert "has no attribute" in str(e)
+    else:
+        raise AssertionError("an unknown name resolved")
+
+
+def test_importing_the_engine_loads_none_of_its_rooms():
+    code = ("import sys, engine; print(sorted(m for m in sys.modules if m.startswith('engine.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=ROOT, check=True).stdout
+    assert out.strip() == "[]"
