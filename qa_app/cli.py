@@ -65,7 +65,9 @@ EXIT_CODES = """exit codes:
   0   ACCEPT: every point inside the tolerance zone (verify: the certificate is valid)
   1   REJECT: a point outside it (verify: the certificate is not valid)
   2   INCONCLUSIVE: the pose cannot be trusted, or the verdict differs at a pose the
-      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit
+      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit,
+      or the nominal and the measured points are a units' factor (10, 25.4, 304.8, 1000)
+      apart in size (the message says what reads either file right, e.g. --units mm)
   64  usage error: missing or contradictory options, an output that is an input
   65  bad input data (the message names the file, the line and the problem)
   66  an input file does not exist
