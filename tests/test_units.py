@@ -51,6 +51,8 @@ def test_principal_sizes_of_a_rectangle_outline_in_any_pose():
         T = make_transform(random_rotation(rng), rng.uniform(-1e4, 1e4, 3))
         assert np.allclose(principal_sizes(apply_transform(T, P)), want, rtol=1e-3, atol=1e-6)
     assert np.allclose(principal_sizes(P[:, :2]), want, rtol=1e-3, atol=1e-6)  # (n, 2) alike
+    # Beyond SIZE_POINTS, every k-th point: as right.
+    assert np.allclose(principal_sizes(rectangle_outline(a, b, 450_001)), want, rtol=1e-3)
 
 
 def test_sizes_match_at_a_units_factor_only():
