@@ -325,7 +325,8 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
                          "of the nominal, not a measurement (a measurement carries its "
                          "instrument's noise)", measured_path)
     warnings: tuple[str, ...] = ()
-    if source.template is None:
+    units = units_hint(source, nominal, measured_ps.points)
+    if source.template is None and units is None:  # the units, not a scene to crop
         said = extent_warning(measured_ps.points, source.point_set.points,
                               "measured points" if selection is None else
                               "measured points kept (after the crop and plane removal)")
@@ -340,6 +341,9 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
                 if source.template is not None else swap_hint(source.point_set, measured_ps))
         if hint:
             result = dataclasses.replace(result, reasons=result.reasons + (hint,))
+    if units is not None:  # whatever pose was found, it fits a part of another size
+        result = dataclasses.replace(result, verdict=INCONCLUSIVE,
+                                     reasons=(units,) + tuple(result.reasons))
     report("judging", 1.0)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
@@ -358,6 +362,42 @@ def _select(measured_ps: PointSet, settings: InspectionSettings
     selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
                               settings.plane_distance, f"measured points of {measured_ps.path}")
     return measured_ps.take(selection.kept), selection
+
+
+def nominal_sizes(source: "_Nominal", nominal: Nominal | None) -> np.ndarray:
+    """The nominal's principal sizes (engine.units.principal_sizes, mm) over an even sampling
+    of it: a template's contours by length (seeded), a mesh's surface by area (its vertices may
+    crowd where it curves), else its points."""
+    from .units import principal_sizes
+
+    if source.template is not None:
+        from .contour import points_on
+
+        return principal_sizes(points_on(source.template.template, SIZE_SAMPLES,
+                                         np.random.default_rng(SIZE_SEED)))
+    if nominal.triangles is not None and len(nominal.triangles):
+        return principal_sizes(nominal.area_samples[0])
+    return principal_sizes(nominal.points)
+
+
+SIZE_SAMPLES, SIZE_SEED = 16384, 7
+"""Points sampled on a template's contours for its size: their RMS extents are within ~0.5% of
+the contours' own."""
+
+
+def units_hint(source: "_Nominal", nominal: Nominal | None, measured: np.ndarray) -> str | None:
+    """A sentence saying the nominal and the ``measured`` points (n, 3), mm, are in different
+    units, naming what would read either right (engine.units.unit_mismatch), or None."""
+    from .units import principal_sizes, unit_mismatch
+
+    if source.template is not None:
+        kind = "dxf" if formats.kind_of(source.record.path) == formats.DXF else "airfoil"
+        mm = source.template.mm_per_unit
+    elif source.step is not None:
+        kind, mm = "step", source.step.mm_per_unit or 1.0
+    else:
+        kind, mm = "points", 1.0
+    return unit_mismatch(nominal_sizes(source, nominal), principal_sizes(measured), kind, mm)
 
 
 COPY_PROBE = 64

@@ -65,7 +65,9 @@ EXIT_CODES = """exit codes:
   0   ACCEPT: every point inside the tolerance zone (verify: the certificate is valid)
   1   REJECT: a point outside it (verify: the certificate is not valid)
   2   INCONCLUSIVE: the pose cannot be trusted, or the verdict differs at a pose the
-      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit
+      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit,
+      or the nominal and the measured points are a units' factor (10, 25.4, 304.8, 1000)
+      apart in size (the message says what reads either file right, e.g. --units mm)
   64  usage error: missing or contradictory options, an output that is an input
   65  bad input data (the message names the file, the line and the problem)
   66  an input file does not exist
@@ -111,12 +113,7 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
                    help=NOMINAL_HELP)
     i.add_argument("measured", metavar="MEASURED", help="measured points (same formats)")
     _add_zone_options(i)
-    i.add_argument("--layer", action="append", metavar="NAME",
-                   help="DXF template: take this layer (repeatable; default: every layer)")
-    i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
-                   help="DXF template: its units, overriding the file's $INSUNITS")
-    i.add_argument("--scale", type=_finite_float, metavar="CHORD",
-                   help="airfoil ordinate template (.dat): chord length in mm")
+    _add_template_options(i)
     _add_fit_options(i)
     _add_scene_options(i)
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
@@ -137,6 +134,23 @@ def _add_zone_options(i: argparse.ArgumentParser) -> None:
                    help="inspection plan: regions, datums, alignment and characteristics "
                         "(profile, flatness, position, size); with it --tol is optional and "
                         "adds a profile over all points")
+
+
+def _add_template_options(i: argparse.ArgumentParser) -> None:
+    """How a 2D template file is read (engine.io.templates), of ``inspect`` and ``batch``."""
+    i.add_argument("--layer", action="append", metavar="NAME",
+                   help="DXF template: take this layer (repeatable; default: every layer)")
+    i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
+                   help="DXF template: its units, overriding the file's $INSUNITS")
+    i.add_argument("--scale", type=_finite_float, metavar="CHORD",
+                   help="airfoil ordinate template (.dat): chord length in mm")
+
+
+def _template_options(args) -> dict:
+    """The template options as InspectionSettings fields (checked against the nominal by
+    engine.pipeline.check_settings when it is read)."""
+    return {"layers": None if args.layer is None else tuple(args.layer), "units": args.units,
+            "scale": args.scale}
 
 
 def _add_fit_options(i: argparse.ArgumentParser) -> None:
@@ -245,6 +259,7 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
                         "measurement order (a glob's matches sorted by name); a part's serial "
                         "is its file's stem")
     _add_zone_options(b)
+    _add_template_options(b)
     b.add_argument("--out", required=True, metavar="DIR", help="output folder")
     _add_fit_options(b)
     _add_scene_options(b)
@@ -334,7 +349,8 @@ USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --t
                   [--remove-plane [--remove-plane-distance MM]]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
-                  --plan PLAN.toml) --out DIR [--fit …] [--decision-rule …] [--crop …]
+                  --plan PLAN.toml) --out DIR [--layer NAME] [--units U] [--scale CHORD]
+                  [--fit …] [--decision-rule …] [--crop …]
                   [--remove-plane [--remove-plane-distance MM]]
                   [--report [--sign ID.p12 --sign-pass-env VAR] [--part-number …]]
                   [--scheduler ADDRESS] [--workers N] [--quiet]
@@ -501,6 +517,7 @@ def _cmd_batch(args) -> int:
                                + [p.path for p in parts])
         # Absolute paths: the workers may run elsewhere (the same files at the same paths).
         settings = inspection_settings(tol, args.plan and os.path.abspath(args.plan),
+                                       **_template_options(args),
                                        fit=args.fit, decision_rule=args.decision_rule,
                                        instrument=_instrument(args, "batch"),
                                        **_scene_options(args, "batch"))
@@ -727,10 +744,8 @@ def _run_inspect(args, tol, renderer) -> int:
     info, identity = _certificate_identity(args, "inspect")
     try:
         # A plan alone (no --tol): its zone for the per-point statistics, outside the verdict.
-        settings = inspection_settings(tol, args.plan, layers=None if args.layer is None
-                                       else tuple(args.layer), units=args.units,
-                                       scale=args.scale, fit=args.fit,
-                                       decision_rule=args.decision_rule,
+        settings = inspection_settings(tol, args.plan, **_template_options(args),
+                                       fit=args.fit, decision_rule=args.decision_rule,
                                        instrument=_instrument(args, "inspect"),
                                        **_scene_options(args, "inspect"))
         run = run_files(args.nominal, args.measured, settings)

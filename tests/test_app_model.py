@@ -119,6 +119,33 @@ def test_template_run_and_exports(tmp_path):
     assert b"QIFDocument" in (tmp_path / "r.qif").read_bytes()[:400]
 
 
+def test_a_drawing_in_the_wrong_units_says_so_and_its_units_field_reads_it_right(tmp_path):
+    """The gear drawing whose header says metres over millimetre numbers (tests/test_units.py):
+    the app's note is the command line's reason, and the DXF units the reason names fix it."""
+    import numpy as np
+
+    from engine.contour import points_on
+    from engine.io.templates import read_dxf_template
+
+    gear = os.path.join(ROOT, "tests", "data", "dxf", "gear_z20.dxf")
+    rng = np.random.default_rng(4)
+    q = points_on(read_dxf_template(gear, units="mm").template, 300, rng) + [40.0, -25.0]
+    np.savetxt(tmp_path / "gear.csv", q, delimiter=",", header="x,y", comments="")
+    s, c, messages = make()
+    c.open_files([gear, str(tmp_path / "gear.csv")])
+    c.set_tolerance(-0.05, 0.05)
+    c.inspect()
+    notes = [text for level, text in messages if level == "info"]
+    assert s.run.result.verdict == "INCONCLUSIVE"
+    assert notes[-1].startswith("INCONCLUSIVE: the nominal is 1000 x the size of the measured "
+                                "points"), notes[-1]
+    assert "--units mm (the desktop app's DXF units)" in notes[-1]
+    assert s.run.result.reasons[0] in notes[-1]
+    s.set_settings(units="mm")
+    c.inspect()
+    assert s.run.result.verdict == "ACCEPT"
+
+
 def test_session_round_trip_and_changed_input_warning(tmp_path):
     nominal = tmp_path / "nominal.csv"
     measured = tmp_path / "measured.csv"

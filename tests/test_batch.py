@@ -428,6 +428,62 @@ def test_a_step_nominal_reaches_the_workers_by_path(tmp_path):
     assert [r["verdict"] for r in _summary(out)["parts"]] == ["ACCEPT", "ACCEPT"]
 
 
+GEAR = os.path.join(ROOT, "tests", "data", "dxf", "gear_z20.dxf")
+"""A real gear drawing whose header says metres over numbers in mm (tests/test_units.py)."""
+
+
+def _gear_lot(folder, serials):
+    """Parts on the gear's contours as drawn (mm), 2 um noise, each in its own pose (x y)."""
+    from engine.contour import points_on
+    from engine.io.templates import read_dxf_template
+    from engine.registration2d import _pose, apply2
+
+    t = read_dxf_template(GEAR, units="mm").template
+    rng = np.random.default_rng(31)
+    for serial in serials:
+        q = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-200, 200, 2)),
+                   points_on(t, 300, rng))
+        np.savetxt(folder / f"{serial}.csv", q + rng.normal(0, 0.002, q.shape), delimiter=",",
+                   header="x,y", comments="")
+    return [folder / f"{s}.csv" for s in serials]
+
+
+def test_a_lot_against_a_drawing_in_the_wrong_units_passes_with_units(tmp_path, capsys):
+    """``batch`` takes --units (and --layer, --scale) as ``inspect`` does: without it every part
+    of the gear's lot is INCONCLUSIVE, saying which option reads the drawing right; with it
+    every part is ACCEPT, and the summary and each part's document record the units."""
+    parts = _gear_lot(tmp_path, ("g1", "g2"))
+    common = ["--tol", "0.05", "--workers", "1", "--quiet"]
+    assert run("batch", GEAR, *parts, "--out", tmp_path / "as_drawn", *common) == 2
+    rows = _summary(tmp_path / "as_drawn")["parts"]
+    assert [r["verdict"] for r in rows] == ["INCONCLUSIVE", "INCONCLUSIVE"]
+    assert all("read it with --units mm" in r["message"] for r in rows), rows
+    out = tmp_path / "in_mm"
+    assert run("batch", GEAR, *parts, "--out", out, "--units", "mm", "--layer", "0",
+               *common) == 0
+    summary = _summary(out)
+    assert [r["verdict"] for r in summary["parts"]] == ["ACCEPT", "ACCEPT"]
+    assert (summary["settings"]["units"], summary["settings"]["layers"]) == ("mm", ["0"])
+    doc = json.loads((out / "parts" / "g1.json").read_text())
+    assert (doc["settings"]["units"], doc["settings"]["layers"]) == ("mm", ["0"])
+    assert doc["template"]["units"].startswith("mm (given")
+
+
+@pytest.mark.parametrize("options, code", [
+    (["--scale", "100"], 64),  # a chord for a DXF drawing
+    (["--units", "km"], 64),
+    (["--layer", "NO_SUCH_LAYER"], 65),
+])
+def test_batch_refuses_template_options_as_inspect_does(tmp_path, capsys, options, code):
+    parts = _gear_lot(tmp_path, ("g1",))
+    assert run("inspect", GEAR, parts[0], "--tol", "0.05", *options) == code
+    said = capsys.readouterr().err.splitlines()[0].replace("qa-inspect inspect", "")
+    assert run("batch", GEAR, *parts, "--tol", "0.05", "--out", tmp_path / "o",
+               *options) == code
+    assert capsys.readouterr().err.splitlines()[0].replace("qa-inspect batch", "") == said
+    assert not os.path.exists(tmp_path / "o" / "summary.json")
+
+
 # ---------------------------------------------------------------------------- an external cluster
 @pytest.fixture()
 def cluster(tmp_path):

@@ -51,6 +51,9 @@ class TemplateFile:
     ignored : entity type -> count of entities that carry no contour geometry (annotation,
         and e.g. ``"LINE (zero length)"`` for geometry without extent).
     flattened : number of splines and ellipses flattened to segments (chord error <= 0.1 µm).
+    mm_per_unit : the millimetres one of the file's numbers was read as (the drawing's unit;
+        an airfoil's chord), so that a size found wrong by a unit's factor can say which unit
+        would read it right (engine.units).
     """
 
     path: str
@@ -60,6 +63,7 @@ class TemplateFile:
     ignored: dict = field(default_factory=dict)
     flattened: int = 0
     recovered: bool = False
+    mm_per_unit: float = 1.0
 
 
 def read_template(path: str | os.PathLike, layers: list[str] | None = None,
@@ -99,7 +103,7 @@ def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
     tol = chain_tol if chain_tol is not None else max(1e-6 * extent, 1e-9)
     contours = chain(prims, tol)
     return TemplateFile(path, build_template(contours), unit_name, unitless, dict(ignored),
-                       flattened, recovered)
+                       flattened, recovered, scale)
 
 
 def _open_dxf(path: str):
@@ -451,4 +455,5 @@ def read_airfoil_template(path: str | os.PathLike, chord_mm: float) -> TemplateF
              if math.dist(pts[i], pts[i + 1]) > 0]
     if math.dist(pts[-1], pts[0]) > 0:
         prims.append(segment(pts[-1], pts[0]))
-    return TemplateFile(path, build_template([(prims, True)]), "chord 1 scaled to mm", False)
+    return TemplateFile(path, build_template([(prims, True)]), "chord 1 scaled to mm", False,
+                        mm_per_unit=chord_mm)
