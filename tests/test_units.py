@@ -13,9 +13,8 @@ import numpy as np
 import pytest
 
 from engine.contour import points_on
-from engine.geometry import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform, pose_2d
 from engine.io.templates import read_dxf_template
-from engine.registration2d import _pose, apply2
 from engine.units import UNIT_FACTORS, principal_sizes, unit_factor, unit_mismatch
 from qa_app.cli import main
 from surfaces import height, height_normal, random_rotation, write_grid_nominal
@@ -97,7 +96,7 @@ def gear_points(tmp_path_factory):
     """400 points on the gear's contours as drawn (mm), 2 um noise, turned and shifted (x y)."""
     rng = np.random.default_rng(22)
     t = read_dxf_template(GEAR, units="mm").template
-    q = apply2(_pose(0.7, np.array([120.0, -40.0])), points_on(t, 400, rng))
+    q = apply_transform(pose_2d(0.7, np.array([120.0, -40.0])), points_on(t, 400, rng))
     path = tmp_path_factory.mktemp("gear") / "gear_mm.csv"
     np.savetxt(path, q + rng.normal(0, 0.002, q.shape), delimiter=",", header="x,y",
                comments="")
