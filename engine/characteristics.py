@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .choices import DecisionRule, Fit
 from .datums import Alignment, align, align_rps
 from .errors import InputError
 from .fits import minimax_pose
@@ -260,7 +261,7 @@ def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, placed):
             return _untrusted(c, idx, al)
         T = al.T_nominal_measured
         facts["free"] = [f.describe() for f in al.free]
-    elif c.fit == "minimax":
+    elif c.fit == Fit.MINIMAX:
         def evaluate(Tc):
             return geo.evaluate(Tc, idx)
 
@@ -647,7 +648,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
         return margins_3d(nominal, point_to_surface(nominal, X).foot)
 
     def margin(idx, T, form_only=False):
-        if result.decision_rule != "guarded":
+        if result.decision_rule != DecisionRule.GUARDED:
             return None
         if result.uncertainty is None:  # guarded by the sampling margin alone (older runs)
             return sampling(idx, T)
@@ -701,7 +702,7 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     def margin(idx, T, form_only=False):  # lines and arcs are exact: the budget's other terms
         from .uncertainty import expanded_at
 
-        if result.decision_rule != "guarded" or result.uncertainty is None:
+        if result.decision_rule != DecisionRule.GUARDED or result.uncertainty is None:
             return None
         return expanded_at(result.uncertainty, idx, np.zeros(len(idx)),
                            ("pose",) if form_only else ())

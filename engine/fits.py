@@ -18,10 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .choices import Fit
 from .pose import apply_update, pose_jacobian
 from .tolerance import Tolerance
 
-FITS = ("lsq", "minimax")
+FITS = tuple(f.value for f in Fit)
 
 
 @dataclass(frozen=True)
@@ -127,7 +128,7 @@ def minimax(evaluate, T: np.ndarray, use: np.ndarray, tol: Tolerance,
 
     report("minimax fit (linear programs)", 0.97)
     mm = minimax_pose(evaluate, T, tol.lower, tol.upper, use=use)
-    extra["minimax"] = minimax_facts(mm)
+    extra[Fit.MINIMAX.value] = minimax_facts(mm)
     return mm.T
 
 

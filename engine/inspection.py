@@ -18,6 +18,7 @@ import numpy as np
 
 from .deviation import Deviations
 from .errors import SettingsError
+from .choices import DecisionRule, Fit, Verdict
 from .fits import FITS, minimax
 from .pose import apply_transform, apply_update, pose_jacobian
 from .nominal import Nominal
@@ -44,7 +45,7 @@ class InspectionResult:
     in_tolerance : (n,) bool.
     """
 
-    verdict: str
+    verdict: Verdict
     reasons: tuple[str, ...]
     tolerance: Tolerance
     registration: RegistrationResult
@@ -57,8 +58,8 @@ class InspectionResult:
     extra: dict = field(default_factory=dict)
     """Kind-specific facts for the outputs (2D: the template's contours, symmetry, flatness;
     the minimax fit's excursions)."""
-    fit: str = "lsq"
-    decision_rule: str = "simple"
+    fit: Fit = Fit.LSQ
+    decision_rule: DecisionRule = DecisionRule.SIMPLE
     conditioning: "Conditioning | None" = None
     """How well the points constrain the pose (engine.trust)."""
     ambiguous: bool = False
@@ -99,13 +100,13 @@ def _check_options(fit: str, decision_rule: str) -> None:
 
 
 def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
-            settings: RegistrationSettings = RegistrationSettings(), fit: str = "lsq",
-            decision_rule: str = "simple",
+            settings: RegistrationSettings = RegistrationSettings(), fit: Fit = Fit.LSQ,
+            decision_rule: DecisionRule = DecisionRule.SIMPLE,
             exact: "Callable[[np.ndarray], Deviations] | None" = None,
             instrument: "Instrument | None" = None,
             guard: str = "uncertainty") -> InspectionResult:
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
-    with the given ``fit`` ("lsq" or "minimax") and ``decision_rule`` ("simple" or "guarded").
+    with the given ``fit`` and ``decision_rule`` (engine.choices; their words are taken too).
 
     exact(X) -> Deviations of points X (n, 3) in the nominal frame from the true surface the
     nominal samples (a STEP model's faces, engine.io.step): given, the registration runs on the
@@ -119,6 +120,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     from .deviation import point_to_surface
 
     _check_options(fit, decision_rule)
+    fit, decision_rule = Fit(fit), DecisionRule(decision_rule)
     if exact is not None:
         # The exact least squares finishes the pose: the sample's final fit need only get near
         # it (a CAD tessellation's long facets make it creep, not converge, at its last digits).
@@ -371,20 +373,20 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
         return Xc, dv.signed, dv.normal
 
     ambiguous, spread = ambiguity(reg, dev.signed, tol, measure.deviations_at)
-    if fit == "minimax":
+    if fit == Fit.MINIMAX:
         T = minimax(evaluate, T, reg.inlier, tol, extra)
         X, dev = measure.at(T)
     fitted_at = time.perf_counter()
     margin = unc = guard = None
-    if guard_by == "sampling" and decision_rule == "guarded":
+    if guard_by == "sampling" and decision_rule == DecisionRule.GUARDED:
         margin = guard = measure.margin(dev)
-    elif decision_rule == "guarded" or (instrument is not None and instrument.states_anything):
+    elif decision_rule == DecisionRule.GUARDED or (instrument is not None and instrument.states_anything):
         from .uncertainty import budget
 
         margin = measure.margin(dev)
         unc = budget(X, dev.normal, reg.inlier, robust_rms(dev.signed[reg.inlier], reg.rms),
                      cond, margin, instrument)
-        guard = unc.expanded if decision_rule == "guarded" else None
+        guard = unc.expanded if decision_rule == DecisionRule.GUARDED else None
     ts = time.perf_counter()
     sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
                                     tol, guard, fit, X, measure.beyond_at, dev.normal,
@@ -475,7 +477,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     alternatives = []
     if plausible_runner_up(reg):
         Tr = reg.runner_up_T
-        if fit == "minimax":
+        if fit == Fit.MINIMAX:
             Tr = minimax(evaluate, Tr, reg.inlier, tol, {})
         alternatives.append(Tr)
     region = [] if points is None or normals is None or pose_in_guard else uncertainty_poses(
@@ -490,8 +492,8 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
 
 
 def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance: Tolerance,
-               index: "ContourIndex | None" = None, fit: str = "lsq",
-               decision_rule: str = "simple",
+               index: "ContourIndex | None" = None, fit: Fit = Fit.LSQ,
+               decision_rule: DecisionRule = DecisionRule.SIMPLE,
                template_facts: dict | None = None,
                instrument: "Instrument | None" = None,
                guard: str = "uncertainty") -> InspectionResult:
@@ -511,6 +513,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     from .registration2d import fit_plane, register_2d
 
     _check_options(fit, decision_rule)
+    fit, decision_rule = Fit(fit), DecisionRule(decision_rule)
     t0 = time.perf_counter()
     index = index or ContourIndex(template)
     extra: dict = {"template": {"contours": int(template.closed.size),

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .choices import DecisionRule
 from .errors import InputError, NoDistanceError, SettingsError
 from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
@@ -102,8 +103,8 @@ def inspection_settings(tol: Tolerance | None, plan: str | None = None,
         read = read_plan(plan)
     if options.get("decision_rule") is None:
         stated = instrument_of(options.get("instrument"), read)
-        options["decision_rule"] = ("guarded" if stated is not None and stated.states_anything
-                                    else "simple")
+        options["decision_rule"] = (DecisionRule.GUARDED if stated is not None
+                                    and stated.states_anything else DecisionRule.SIMPLE)
     if tol is None:
         if plan is None:
             raise SettingsError("a tolerance zone or an inspection plan is required")

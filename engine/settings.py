@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from .choices import DecisionRule, Fit
 from .tolerance import Tolerance
 from .uncertainty import Instrument
 
@@ -26,10 +27,12 @@ class InspectionSettings:
     """DXF template: its units, overriding the drawing's $INSUNITS."""
     scale: float | None = None
     """Airfoil ordinate template: chord length, mm."""
-    fit: str = "lsq"
-    """"lsq" (least squares) or "minimax" (smallest largest excursion from the zone's centre)."""
-    decision_rule: str = "simple"
-    """"simple" or "guarded" (limits guarded by each point's expanded uncertainty, ISO 14253-1)."""
+    fit: Fit = Fit.LSQ
+    """Least squares, or minimax (smallest largest excursion from the zone's centre); a word
+    ("lsq", "minimax") is taken as its member."""
+    decision_rule: DecisionRule = DecisionRule.SIMPLE
+    """Simple, or guarded (limits guarded by each point's expanded uncertainty, ISO 14253-1); a
+    word ("simple", "guarded") is taken as its member."""
     plan: str | None = None
     """An inspection plan (TOML, engine.io.plan): datums, alignment, characteristics."""
     zone_in_verdict: bool = True
@@ -53,6 +56,14 @@ class InspectionSettings:
     plane_distance: float | None = None
     """With ``remove_plane``: the points within this distance of the plane are removed, mm;
     None: the distance engine.scene.dominant_plane chooses from the data."""
+
+    def __post_init__(self):
+        # A word given for a choice becomes its member; one that names none is left as it is,
+        # for engine.inspection's check to refuse with the choices (SettingsError).
+        for name, kind in (("fit", Fit), ("decision_rule", DecisionRule)):
+            value = getattr(self, name)
+            if isinstance(value, str) and value in kind._value2member_map_:
+                object.__setattr__(self, name, kind(value))
 
     @property
     def tolerance(self) -> Tolerance:
@@ -81,7 +92,7 @@ class InspectionSettings:
         return cls(float(d["tol_lower"]), float(d["tol_upper"]),
                    None if layers is None else tuple(str(x) for x in layers),
                    d.get("units"), None if d.get("scale") is None else float(d["scale"]),
-                   d.get("fit", "lsq"), d.get("decision_rule", "simple"), d.get("plan"),
+                   d.get("fit", Fit.LSQ), d.get("decision_rule", DecisionRule.SIMPLE), d.get("plan"),
                    bool(d.get("zone_in_verdict", True)),
                    Instrument.from_json(d.get("instrument")),
                    # Settings without "instrument" are older than uncertainty budgets: their

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .choices import Verdict
 from .pose import pose_jacobian
 
 CONDITIONING_POINTS = 16384
@@ -557,7 +558,7 @@ class _PoseJudge:
         idx = self.idx if idx is None else idx
         dd = self.with_subset(dI, idx)
         v = self.verdict_of(dd)
-        if every and idx.size < n and not (v == "REJECT" and self.base != "REJECT"):
+        if every and idx.size < n and not (v == Verdict.REJECT and self.base != Verdict.REJECT):
             # (One point out makes a REJECT whatever the others do.)
             if X is None:
                 rest = np.ones(n, bool)

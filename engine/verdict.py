@@ -31,15 +31,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .choices import DecisionRule, Verdict
 from .nominal import Nominal
 from .tolerance import Tolerance
 
 if TYPE_CHECKING:
     from .trust import PoseSensitivity
 
-ACCEPT, REJECT, INCONCLUSIVE = "ACCEPT", "REJECT", "INCONCLUSIVE"
+ACCEPT, REJECT, INCONCLUSIVE = Verdict.ACCEPT, Verdict.REJECT, Verdict.INCONCLUSIVE
 MIN_NEAR_FRACTION = 0.5
-DECISION_RULES = ("simple", "guarded")
+DECISION_RULES = tuple(r.value for r in DecisionRule)
 
 
 @dataclass(frozen=True)

@@ -42,3 +42,19 @@ def test_importing_the_engine_loads_none_of_its_rooms():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=ROOT, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_the_choices_are_typed_and_written_as_their_words():
+    """Verdict, fit and decision rule are string enums: a word given becomes its member, and a
+    member is written (JSON, f-strings, str) as its word, so the outputs keep their bytes."""
+    import json
+
+    from engine.choices import DecisionRule, Fit, Verdict
+    from engine.settings import InspectionSettings
+
+    s = InspectionSettings(-0.1, 0.1, fit="minimax", decision_rule="guarded")
+    assert s.fit is Fit.MINIMAX and s.decision_rule is DecisionRule.GUARDED
+    assert InspectionSettings.from_json(json.loads(json.dumps(s.to_json()))) == s
+    assert json.dumps({"verdict": Verdict.REJECT}) == '{"verdict": "REJECT"}'
+    assert f"{Verdict.INCONCLUSIVE}: x" == "INCONCLUSIVE: x" and str(Fit.LSQ) == "lsq"
+    assert InspectionSettings(-0.1, 0.1, fit="bogus").fit == "bogus"  # refused by the check
