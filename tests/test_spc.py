@@ -81,6 +81,100 @@ def test_one_sided_limit_gives_cpu_only():
     assert lower_only.cpk.value == pytest.approx(1.05 / (3 * (0.2 + 0.3 + 0.2) / 3 / 1.128))
 
 
+# --- kinds of quantity -----------------------------------------------------------------------
+
+def test_a_quantity_the_fit_forces_to_zero_is_information_only():
+    """The issue's lot: mean d after a least-squares fit, ~1e-6 mm with µm noise, against a
+    +-0.25 mm zone. As a process variable it gets Cpk in the tens of thousands and run rules on
+    the noise; as FORCED (what mean_deviation_kind says of the lsq fit) it keeps its values and
+    mean, and nothing is judged."""
+    rng = np.random.default_rng(22)
+    x = rng.normal(1e-6, 4e-6, 20)
+    x[5:14] = np.abs(x[5:14]) + 2e-6  # nine in a row above the mean: rule 2 on noise
+    x[16] = 4e-5
+    s = spc.Series("mean d", "mm", x, [f"SN{k}" for k in range(20)], -0.25, 0.25)
+    as_process = spc.analyse(s)
+    assert as_process.capability.cpk.value > 1000 and {2, 1} <= {v.rule for v in
+                                                                  as_process.violations}
+    assert spc.mean_deviation_kind("lsq") is spc.Kind.FORCED
+    forced = spc.analyse(spc.Series(*[getattr(s, f) for f in ("name", "unit", "values",
+                                                              "serials", "lower", "upper")],
+                                    spc.mean_deviation_kind("lsq")))
+    c = forced.chart
+    assert c.centre == pytest.approx(sum(x) / 20) and c.n == 20
+    assert (c.ucl, c.lcl, c.sigma_within, c.mr_ucl) == (None, None, None, None)
+    assert "information only" in c.reason
+    cap = forced.capability
+    assert [i.value for i in (cap.cp, cap.cpk, cap.cpu, cap.cpl)] == [None] * 4
+    assert "information only" in cap.cpk.reason
+    assert forced.violations == () and forced.flags == []
+    assert forced.drift.slope is None and not forced.drift.warning
+    doc = spc.to_json(forced)
+    assert doc["kind"] == "forced" and doc["capability"]["cpk"]["value"] is None
+    json.dumps(doc, allow_nan=False)
+
+
+def test_mean_deviation_kind_by_fit():
+    assert spc.mean_deviation_kind("lsq") is spc.Kind.FORCED
+    assert spc.mean_deviation_kind("minimax") is spc.Kind.MEASURED  # centres the extremes
+    with pytest.raises(SettingsError, match="unknown fit"):
+        spc.mean_deviation_kind("rps")
+
+
+def test_a_bounded_quantity_gets_cpu_only_while_its_values_look_normal():
+    """max |d| (>= 0, upper limit only): Cpu = (USL - mean) / (3 sigma_within) by hand, with the
+    normality test's p value kept; a lot of equal values but one far above them (clearly not
+    normal) gets no index, though a MEASURED quantity with the same values would."""
+    values = [0.020, 0.024, 0.021, 0.025, 0.022, 0.023]
+    a = spc.analyse(spc.Series("max |d|", "mm", values, list("abcdef"), None, 0.05,
+                               spc.Kind.BOUNDED))
+    sigma = ((0.004 + 0.003 + 0.004 + 0.003 + 0.001) / 5) / 1.128
+    cap = a.capability
+    assert cap.cpk.value == pytest.approx((0.05 - 0.0225) / (3 * sigma))
+    assert cap.cpk == cap.cpu and cap.cp.value is None and cap.cpl.value is None
+    assert cap.normality_p is not None and cap.normality_p >= spc.NORMALITY_ALPHA
+    skewed = np.r_[np.full(19, 0.010) + 1e-5 * np.arange(19) % 3e-5, 0.045]
+    serials = [str(k) for k in range(20)]
+    bounded = spc.analyse(spc.Series("max |d|", "mm", skewed, serials, None, 0.05,
+                                     spc.Kind.BOUNDED)).capability
+    assert bounded.cpk.value is None and "not normal" in bounded.cpk.reason
+    assert bounded.normality_p < 0.001
+    assert spc.analyse(spc.Series("x", "mm", skewed, serials, None, 0.05)).capability.cpk.value
+    json.dumps(spc.to_json(spc.analyse(spc.Series("m", "mm", skewed, serials, None, 0.05,
+                                                  "bounded"))), allow_nan=False)
+
+
+def test_a_count_is_a_c_chart_with_rule_one_only():
+    """Points out of tolerance per part: c̄ = 14 / 20 = 0.7, UCL = 0.7 + 3 sqrt(0.7) = 3.21,
+    LCL = max(0, 0.7 - 2.51) = 0 by hand; the 9 only breaks rule 1. Ten zeros in a row below c̄
+    break no rule (rule 2 is not applied to a count); no capability, no trend; the parts with
+    any point out (the limit is 0) are counted."""
+    counts = [0, 1, 0, 2, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9, 0, 1]
+    s = spc.Series("points out", "1", counts, [f"p{k}" for k in range(20)], None, 0.0,
+                   spc.Kind.COUNT)
+    a = spc.analyse(s)
+    c = a.chart
+    assert c.centre == pytest.approx(0.7) and c.sigma_within == pytest.approx(math.sqrt(0.7))
+    assert c.ucl == pytest.approx(0.7 + 3 * math.sqrt(0.7)) and c.lcl == 0.0
+    assert round(c.ucl, 2) == 3.21 and c.mr_centre is None
+    assert [(v.rule, v.indices) for v in a.violations] == [(1, (17,))]
+    assert a.capability.cpk.value is None and "count" in a.capability.cpk.reason
+    assert a.drift.slope is None and a.out_of_tolerance == 5
+    assert a.flags == ["R1", "5 out of tol."]
+    assert spc.c_chart(np.zeros(5)).ucl is None  # nothing out anywhere: nothing to chart
+
+
+@pytest.mark.parametrize("kind, values, lower, error, words", [
+    (spc.Kind.BOUNDED, [0.1, -0.01], None, InputError, "cannot be negative"),
+    (spc.Kind.BOUNDED, [0.1, 0.2], 0.0, SettingsError, "upper limit only"),
+    (spc.Kind.COUNT, [1.0, 2.5], None, InputError, "whole numbers"),
+    (spc.Kind.COUNT, [1.0, -1.0], None, InputError, "cannot be negative"),
+])
+def test_a_value_its_kind_cannot_have_is_refused(kind, values, lower, error, words):
+    with pytest.raises(error, match=words):
+        spc.Series("q", "mm", values, ["a", "b"], lower, 1.0, kind)
+
+
 # --- run rules -------------------------------------------------------------------------------
 
 STABLE = np.array([0.5, -0.3, -0.8, 0.2, 0.9, -0.1, -0.6, 0.2] * 5)
