@@ -496,7 +496,7 @@ def _cmd_batch(args) -> int:
     try:
         parts = qb.find_parts(args.measured)
         info, identity = _certificate_identity(args, "batch")
-        job = qb.Batch(parts, args.out, info, identity)
+        job = qb.Batch(parts, args.out, info, identity, args.part_number)
         qb.check_batch_outputs(job, [args.nominal, args.plan, args.sign]
                                + [p.path for p in parts])
         # Absolute paths: the workers may run elsewhere (the same files at the same paths).
