@@ -258,7 +258,9 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--sign-pass-env", metavar="VAR",
                    help="read the PKCS#12 passphrase from environment variable VAR (default: "
                         "ask without echo)")
-    _add_part_fields(c, [f for f in PART_FIELDS if f[0] != "serial"])
+    _add_part_fields(c, [(name, "part number (also the title of the lot's spc.pdf, with or "
+                          "without --report)" if name == "part-number" else text)
+                         for name, text in PART_FIELDS if name != "serial"])
     _add_traceability_options(c)
     d = b.add_argument_group("cluster")
     d.add_argument("--scheduler", metavar="ADDRESS",

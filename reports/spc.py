@@ -476,12 +476,17 @@ def _numbers(fig: Figure, a: Analysis, top: float) -> None:
 
 def _capability_lines(a: Analysis) -> list[tuple[str, tuple | None]]:
     cap, d = a.capability, a.drift
-    lines = [(f"Cp {_index_text(cap.cp)}   Cpk {_index_text(cap.cpk)}", None),
-             (f"Cpu {_index_text(cap.cpu)}   Cpl {_index_text(cap.cpl)}", None)]
+    if a.series.kind is Kind.BOUNDED:  # Cp and Cpl have no meaning for it: not listed
+        lines = [(f"Cpu {_index_text(cap.cpu)} (one-sided Cpk, upper limit)", None)]
+    else:
+        lines = [(f"Cp {_index_text(cap.cp)}   Cpk {_index_text(cap.cpk)}", None),
+                 (f"Cpu {_index_text(cap.cpu)}   Cpl {_index_text(cap.cpl)}", None)]
     if cap.normality_p is not None and cap.cpk.value is not None:
         lines.append((f"normality: Shapiro-Wilk p = {cap.normality_p:.2g}", None))
-    if cap.cpk.value is None or cap.cp.value is None:
-        lines.append(("capability: " + (cap.cpk.reason or cap.cp.reason), None))
+    if cap.cpk.value is None:
+        lines.append(("capability: " + cap.cpk.reason, None))
+    elif cap.cp.value is None and a.series.kind is not Kind.BOUNDED:
+        lines.append(("capability: " + cap.cp.reason, None))
     lines.append(("drift: " + (d.reason or d.text), DRIFT_RGB if d.warning else None))
     return lines
 
