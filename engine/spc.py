@@ -41,6 +41,29 @@ value, e.g. one whose inspection failed, and its tolerance limits, either of whi
   further parts after which the line reaches that limit; a warning when that is within
   ``horizon`` parts (default: as many parts again as the lot has).
 
+**Kinds of quantity** (:class:`Kind`, a property of the series, not of its name): what SPC may
+say about a quantity depends on what it is.
+
+* ``MEASURED``, a value of the part against its tolerance limits (a diameter): all of the above.
+* ``BOUNDED``, a value that is >= 0 by definition with an upper limit only (max |d|, a profile,
+  flatness or position value): all of the above, its one index Cpu = (USL - X̄) / (3 sigma) (a
+  one-sided Cpk against the upper limit; 0 is a natural bound, not a specification limit, so no
+  Cpl). Such a value is skewed near its bound (a zone width of a good process piles up at 0, the
+  largest of many |d| follows an extreme-value law), and Cpu is a normal-theory index: it is given
+  only when the Shapiro-Wilk test (D'Agostino-Pearson beyond 5000 values) does not reject
+  normality at ``NORMALITY_ALPHA`` (0.01); otherwise it is None with the p value in its reason,
+  rather than a number that misstates the tail (Minitab would fit a non-normal law there; a lot
+  is rarely long enough to choose one).
+* ``COUNT``, a count per part (the points out of tolerance): a c chart (Montgomery §7.3.1):
+  centre c̄ = mean count, sigma = sqrt(c̄) (Poisson), UCL = c̄ + 3 sqrt(c̄), LCL = max(0, c̄ - 3
+  sqrt(c̄)); no capability index, no moving-range chart, no trend test, and rule 1 only: rules 2-4
+  count runs, and a count that is mostly 0 makes runs by chance (nine zeros in a row below
+  c̄ = 0.3 happen in 7 % of windows).
+* ``FORCED``, a quantity the fit forces to ~0 (the mean deviation after a least-squares fit,
+  :func:`mean_deviation_kind`): information only. Its values and mean are kept for the chart,
+  but no control limits, capability index, run rule or trend is derived from it: they would
+  judge the solver's tolerance (a lot's mean d of 1e-6 mm with sigma 4e-6 mm had Cpk 20,000).
+
 Undefined numbers are None with the reason in words (:class:`Index`, :class:`ControlChart`);
 :func:`to_json` gives all of it as a NaN-free dict.
 """
@@ -48,7 +71,8 @@ Undefined numbers are None with the reason in words (:class:`Index`, :class:`Con
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from enum import Enum
 
 import numpy as np
 from scipy import stats
@@ -66,8 +90,59 @@ with intervals wider than any conclusion)."""
 DRIFT_ALPHA = 0.01
 RULE_RUN = {2: 9, 3: 6, 4: 14}
 """Points in a row that break Nelson's rules 2, 3 and 4."""
+NORMALITY_ALPHA = 0.01
+"""A BOUNDED quantity's Cpu is given only when normality is not rejected at this level."""
+SHAPIRO_MAX = 5000
+"""Above this many values scipy's Shapiro-Wilk p value is not accurate: D'Agostino-Pearson."""
 RULES = {1: "one point beyond 3 sigma", 2: "9 points in a row on one side of the centre",
          3: "6 points in a row rising or falling", 4: "14 points in a row alternating"}
+
+
+class Kind(str, Enum):
+    """What a tracked quantity is (module docstring, "Kinds of quantity"): MEASURED, BOUNDED
+    (>= 0, upper limit only), COUNT (a whole number per part) or FORCED (set to ~0 by the fit:
+    information only)."""
+
+    MEASURED = "measured"
+    BOUNDED = "bounded"
+    COUNT = "count"
+    FORCED = "forced"
+
+    @property
+    def rules(self) -> tuple[int, ...]:
+        """Nelson's rules applied to it."""
+        return {Kind.COUNT: (1,), Kind.FORCED: ()}.get(self, (1, 2, 3, 4))
+
+    @property
+    def process(self) -> bool:
+        """Whether it is judged as a process variable (I-MR limits, capability, trend)."""
+        return self in (Kind.MEASURED, Kind.BOUNDED)
+
+    @property
+    def note(self) -> str:
+        """What the reader must know about its chart, in words ("" when nothing)."""
+        return {Kind.COUNT: "a count per part: c chart, rule 1 only, no capability index",
+                Kind.FORCED: "information only: the fit sets it to ~0, so no control limits, "
+                             "capability index, run rule or trend is derived from it"
+                }.get(self, "")
+
+
+def mean_deviation_kind(fit: str) -> Kind:
+    """What the mean signed deviation over a part's points is after the pose fit ``fit``.
+
+    "lsq": FORCED. The least-squares fit leaves its residuals orthogonal to every motion of the
+    part; where a motion moves every point along its normal alike (a translation along the
+    normal of a plate, or of a fairing measured from one side) the mean deviation is therefore
+    zero up to the solver's tolerance. On a part measured all round no motion does that, and the
+    mean keeps a uniform offset; which case holds depends on the points' normals, which a lot's
+    summary does not carry, so the mean is information only in both: the side that never
+    invents a capability. "minimax": MEASURED (that fit centres the largest excursions in the
+    zone, not the mean).
+    """
+    kinds = {"lsq": Kind.FORCED, "minimax": Kind.MEASURED}
+    if fit not in kinds:
+        raise SettingsError(f"unknown fit {fit!r}: expected one of {', '.join(kinds)}")
+    return kinds[fit]
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,7 +151,8 @@ class Series:
 
     values : (n,) float, in ``unit``; NaN for a part without a value. serials : n names of the
     parts. lower, upper : the tolerance limits in ``unit``, either may be None (max |d| has an
-    upper limit only).
+    upper limit only). kind : what the quantity is (:class:`Kind`): a BOUNDED one has values
+    >= 0 and no lower limit, a COUNT whole numbers >= 0.
     """
 
     name: str
@@ -85,6 +161,7 @@ class Series:
     serials: tuple[str, ...]
     lower: float | None = None
     upper: float | None = None
+    kind: Kind = Kind.MEASURED
 
     def __post_init__(self):
         v = np.array(self.values, dtype=float).reshape(-1)
@@ -104,13 +181,25 @@ class Series:
         if self.lower is not None and self.upper is not None and not self.lower < self.upper:
             raise SettingsError(f"{self.name}: the tolerance zone is empty: lower limit "
                                 f"{self.lower:g} is not below upper limit {self.upper:g}")
+        object.__setattr__(self, "kind", Kind(self.kind))
+        self._check_kind(v[~np.isnan(v)])
+
+    def _check_kind(self, present: np.ndarray) -> None:
+        if self.kind in (Kind.BOUNDED, Kind.COUNT) and np.any(present < 0):
+            raise InputError(f"{self.name}: a {self.kind.value} quantity cannot be negative")
+        if self.kind is Kind.BOUNDED and self.lower is not None:
+            raise SettingsError(f"{self.name}: a bounded quantity (>= 0) has an upper limit only")
+        if self.kind is Kind.COUNT and np.any(present != np.round(present)):
+            raise InputError(f"{self.name}: a count must hold whole numbers")
 
 
 @dataclass(frozen=True, eq=False)
 class ControlChart:
-    """The I-MR chart. Limits are None when undefined (``reason`` says why: fewer than two values,
-    or no variation). ``moving_ranges`` (n,) has NaN where a part has no value or no predecessor
-    with one."""
+    """The I-MR chart (a COUNT's c chart: ``sigma_within`` is then the Poisson sigma sqrt(c̄) and
+    the moving-range fields are None; a FORCED quantity's chart has its centre only). Limits are
+    None when undefined (``reason`` says why: fewer than two values, no variation, information
+    only). ``moving_ranges`` (n,) has NaN where a part has no value or no predecessor with
+    one."""
 
     n: int
     centre: float | None
@@ -136,11 +225,15 @@ class Index:
 
 @dataclass(frozen=True)
 class Capability:
+    """The indices; ``normality_p`` the normality test's p value where one was made (a BOUNDED
+    quantity's, see the module docstring)."""
+
     cp: Index
     cpk: Index
     cpu: Index
     cpl: Index
     confidence: float
+    normality_p: float | None = None
 
 
 @dataclass(frozen=True)
@@ -195,14 +288,26 @@ class Analysis:
 
 def analyse(series: Series, *, confidence: float = CONFIDENCE, drift_alpha: float = DRIFT_ALPHA,
             horizon: int | None = None) -> Analysis:
-    """The whole SPC of one characteristic (see the module docstring)."""
+    """The whole SPC of one characteristic, as its kind allows (see the module docstring)."""
     if not isinstance(series, Series):
         series = Series(*series)
-    v, lo, hi = series.values, series.lower, series.upper
-    chart = individuals_chart(v)
-    cap = capability(chart, lo, hi, confidence)
-    viol = tuple(run_rules(v, chart.centre, chart.sigma_within))
-    drift = trend(v, lo, hi, alpha=drift_alpha, horizon=horizon)
+    v, lo, hi, kind = series.values, series.lower, series.upper, series.kind
+    if kind is Kind.COUNT:
+        chart = c_chart(v)
+    elif kind is Kind.FORCED:
+        chart = information_chart(v, kind.note)
+    else:
+        chart = individuals_chart(v)
+    if kind.process:
+        cap = capability(chart, lo, hi, confidence)
+        if kind is Kind.BOUNDED:
+            cap = _normal_or_none(cap, v)
+        drift = trend(v, lo, hi, alpha=drift_alpha, horizon=horizon)
+    else:
+        none = Index(None, None, kind.note)
+        cap = Capability(none, none, none, none, confidence)
+        drift = Drift(None, None, None, False, None, None, False, "", kind.note)
+    viol = tuple(run_rules(v, chart.centre, chart.sigma_within, kind.rules))
     present = v[~np.isnan(v)]
     out = int(np.sum(present > hi)) if hi is not None else 0
     out += int(np.sum(present < lo)) if lo is not None else 0
@@ -233,6 +338,57 @@ def individuals_chart(values: np.ndarray) -> ControlChart:
     sigma = mr_bar / D2
     return ControlChart(n, centre, sigma, centre + 3 * sigma, centre - 3 * sigma, mr_bar,
                         D4 * mr_bar, 0.0, std, mr)
+
+
+def c_chart(counts: np.ndarray) -> ControlChart:
+    """The c chart of ``counts`` (n,) (whole numbers, NaN skipped): c̄ ± 3 sqrt(c̄), LCL at
+    least 0 (module docstring)."""
+    v = np.asarray(counts, dtype=float)
+    x = v[~np.isnan(v)]
+    n = len(x)
+    mr = np.full(len(v), np.nan)
+    if n < 2:
+        return ControlChart(n, float(x[0]) if n else None, None, None, None, None, None, None,
+                            None, mr, "no values" if n == 0 else "one value: no control limits")
+    c = float(np.mean(x))
+    std = float(np.std(x, ddof=1))
+    if c == 0:
+        return ControlChart(n, 0.0, None, None, None, None, None, None, std, mr,
+                            "every count is 0: nothing to chart")
+    sigma = math.sqrt(c)
+    return ControlChart(n, c, sigma, c + 3 * sigma, max(0.0, c - 3 * sigma), None, None, None,
+                        std, mr)
+
+
+def information_chart(values: np.ndarray, note: str) -> ControlChart:
+    """The values' centre and spread without limits (a FORCED quantity: information only)."""
+    chart = individuals_chart(values)
+    return replace(chart, sigma_within=None, ucl=None, lcl=None, mr_centre=None, mr_ucl=None,
+                   mr_lcl=None, reason=note)
+
+
+def normality_p(values: np.ndarray) -> float | None:
+    """The p value of the Shapiro-Wilk test of normality of ``values`` (n,) (NaN skipped;
+    D'Agostino-Pearson beyond SHAPIRO_MAX values); None for fewer than 3 values or no spread."""
+    x = np.asarray(values, dtype=float)
+    x = x[~np.isnan(x)]
+    if len(x) < 3 or np.all(x == x[0]):
+        return None
+    test = stats.shapiro if len(x) <= SHAPIRO_MAX else stats.normaltest
+    return float(test(x).pvalue)
+
+
+def _normal_or_none(cap: Capability, values: np.ndarray) -> Capability:
+    """A BOUNDED quantity's capability: its indices only when normality is not rejected."""
+    if cap.cpk.value is None:
+        return cap
+    p = normality_p(values)
+    if p is None or p >= NORMALITY_ALPHA:
+        return replace(cap, normality_p=p)
+    none = Index(None, None, f"values not normal (Shapiro-Wilk p = {p:.2g} < "
+                             f"{NORMALITY_ALPHA:g}): a normal-theory index would misstate the "
+                             "tail")
+    return Capability(none, none, none, none, cap.confidence, p)
 
 
 def cp_interval(cp: float, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
@@ -290,29 +446,30 @@ def _parts(indices) -> str:
     return f"part {first}" if first == last else f"parts {first}-{last}"
 
 
-def run_rules(values: np.ndarray, centre: float | None,
-              sigma: float | None) -> list[Violation]:
-    """Nelson's rules 1-4 on ``values`` (n,) with NaN skipped (a run goes on across a part
-    without a value); rule 1 needs sigma, rule 2 the centre. Sorted by rule, then position."""
+def run_rules(values: np.ndarray, centre: float | None, sigma: float | None,
+              rules: tuple[int, ...] = (1, 2, 3, 4)) -> list[Violation]:
+    """Nelson's ``rules`` (of 1-4) on ``values`` (n,) with NaN skipped (a run goes on across a
+    part without a value); rule 1 needs sigma, rule 2 the centre. Sorted by rule, then
+    position."""
     v = np.asarray(values, dtype=float)
     idx = np.flatnonzero(~np.isnan(v))
     x = v[idx]
     out: list[Violation] = []
-    if sigma:  # consecutive points beyond the same limit are one violation
+    if sigma and 1 in rules:  # consecutive points beyond the same limit are one violation
         for sign, word in ((1, "above the upper"), (-1, "below the lower")):
             for a, b in _runs(sign * (x - centre) > 3 * sigma):
                 out.append(_run_violation(1, idx[a:b + 1], f"{word} control limit"))
-    if centre is not None:
+    if centre is not None and 2 in rules:
         for sign, word in ((1, "above"), (-1, "below")):
             for a, b in _runs(np.sign(x - centre) == sign):
                 if b - a + 1 >= RULE_RUN[2]:
                     out.append(_run_violation(2, idx[a:b + 1], f"in a row {word} the centre line"))
     steps = np.sign(np.diff(x))
     for sign, word in ((1, "rising"), (-1, "falling")):
-        for a, b in _runs(steps == sign):
+        for a, b in _runs(steps == sign) if 3 in rules else ():
             if b - a + 2 >= RULE_RUN[3]:
                 out.append(_run_violation(3, idx[a:b + 2], f"in a row {word}"))
-    for a, b in _runs(steps[:-1] * steps[1:] < 0):
+    for a, b in _runs(steps[:-1] * steps[1:] < 0) if 4 in rules else ():
         if b - a + 3 >= RULE_RUN[4]:
             out.append(_run_violation(4, idx[a:b + 3], "in a row alternating up and down"))
     return sorted(out, key=lambda w: (w.rule, w.indices[0]))
@@ -392,7 +549,8 @@ def to_json(a: Analysis) -> dict:
     positions in the lot."""
     s, c, d = a.series, a.chart, a.drift
     return {
-        "name": s.name, "unit": s.unit, "parts": len(s.values), "n": c.n,
+        "name": s.name, "unit": s.unit, "kind": s.kind.value, "note": s.kind.note,
+        "parts": len(s.values), "n": c.n,
         "lower": s.lower, "upper": s.upper, "out_of_tolerance": a.out_of_tolerance,
         "individuals": {"centre": _num(c.centre), "sigma_within": _num(c.sigma_within),
                         "ucl": _num(c.ucl), "lcl": _num(c.lcl), "reason": c.reason},
@@ -400,6 +558,7 @@ def to_json(a: Analysis) -> dict:
                          "lcl": _num(c.mr_lcl)},
         "overall": {"mean": _num(c.centre), "std": _num(c.std_overall)},
         "capability": {"confidence": a.capability.confidence, "sigma": "within",
+                       "normality_p": _num(a.capability.normality_p),
                        **{k: _index_json(getattr(a.capability, k))
                           for k in ("cp", "cpk", "cpu", "cpl")}},
         "violations": [{"rule": w.rule, "indices": list(w.indices),

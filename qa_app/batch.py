@@ -34,6 +34,7 @@ from engine.errors import InputError, SettingsError
 from engine.io import sha256_of
 from engine.pipeline import LoadedNominal, inspect_measured, load_nominal
 from engine.settings import InspectionSettings
+from engine.spc import Kind, mean_deviation_kind
 
 ERROR = "ERROR"
 VERDICTS = ("ACCEPT", "REJECT", "INCONCLUSIVE", ERROR)
@@ -218,7 +219,9 @@ class Tracked:
     """A characteristic tracked over the parts of a batch (for SPC): its value's limits.
 
     lower, upper : the limits the value must respect (None: no limit on that side), in
-        ``unit``; definition : what the value is, in words.
+        ``unit``; definition : what the value is, in words; kind : what SPC may judge of it
+        (engine.spc.Kind: a value, a value >= 0 with an upper limit, a count, or information
+        only when the fit forces it to ~0).
     """
 
     id: str
@@ -227,26 +230,30 @@ class Tracked:
     lower: float | None
     upper: float | None
     definition: str
-    capability: bool = True
-    """Whether SPC judges the values' capability against the limits (False: a proportion whose
-    limit is its largest possible value, charted for its run rules and drift only)."""
+    kind: Kind = Kind.MEASURED
 
 
 def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
     """The characteristics whose values a batch summarises: the plan's (with ``tol``, the
     profile over all points, first when the zone is part of the verdict), or without a plan
-    max |d|, mean d and the fraction of points in tolerance."""
+    max |d|, mean d (information only after a least-squares fit, which sets it to ~0) and the
+    count of points out of tolerance."""
     settings = loaded.settings
     lo, hi = settings.tol_lower, settings.tol_upper
     if loaded.plan is None:
+        mean = mean_deviation_kind(settings.fit)
+        judged = mean is not Kind.FORCED
         return [Tracked("max_abs", "max |d|", "mm", None, max(abs(lo), abs(hi)),
                         "largest |signed deviation| over the part's points; upper: the "
-                        "largest |limit| of the zone (beyond it a point is outside)"),
-                Tracked("mean", "mean d", "mm", lo, hi,
-                        "mean signed deviation over the part's points; limits: the zone's"),
-                Tracked("fraction_in", "fraction in tolerance", "1", 1.0, None,
-                        "points inside the zone / all points; lower: 1 (every point inside, "
-                        "as the simple decision rule requires)", capability=False)]
+                        "largest |limit| of the zone (beyond it a point is outside)",
+                        Kind.BOUNDED),
+                Tracked("mean", "mean d", "mm", lo if judged else None, hi if judged else None,
+                        "mean signed deviation over the part's points; " + (
+                            "limits: the zone's" if judged else "no limits: the least-squares "
+                            "fit sets it to ~0 (information only)"), mean),
+                Tracked("n_out", "points out of tolerance", "points", None, 0.0,
+                        "points outside the zone (the part document's deviations.n_out); "
+                        "upper: 0", Kind.COUNT)]
     from engine.plan import RESERVED_ID, Characteristic
 
     chars = list(loaded.plan.characteristics)
@@ -258,11 +265,11 @@ def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
         if c.type == "size":
             out.append(Tracked(c.id, name, "mm", c.nominal + c.lower, c.nominal + c.upper,
                                "least-squares diameter; limits: nominal + the zone's"))
-        else:
+        else:  # a width or a diameter about the true position: >= 0, an upper limit only
             out.append(Tracked(c.id, name, "mm", None, c.width,
                                f"{c.type} value (the width of the smallest zone holding the "
                                "region, see the part's characteristic_value_definition); "
-                               "upper: the zone"))
+                               "upper: the zone", Kind.BOUNDED))
     return out
 
 
@@ -270,7 +277,7 @@ def _values(doc: dict, tracked: list[Tracked]) -> dict[str, float | None]:
     """Each tracked characteristic's value in a part's JSON document (None where it has none)."""
     dev = doc["deviations"]
     by_id = {c["id"]: c.get("value") for c in doc.get("characteristics", [])}
-    plain = {"max_abs": dev["max_abs"], "mean": dev["mean"], "fraction_in": dev["fraction_in"]}
+    plain = {"max_abs": dev["max_abs"], "mean": dev["mean"], "n_out": dev["n_out"]}
     return {t.id: (by_id.get(t.id) if "characteristics" in doc else plain.get(t.id))
             for t in tracked}
 
@@ -308,13 +315,15 @@ class Batch:
 
     out : the output folder DIR; info : the certificate fields (reports.certificate.
     CertificateInfo) with --report, else None; identity : the signing identity (key
-    included: it stays in this process) with --sign, else None.
+    included: it stays in this process) with --sign, else None; part_number : the part number
+    given (--part-number, with or without --report), which the lot's SPC names.
     """
 
     parts: list[Part]
     out: str
     info: object | None = None
     identity: object | None = None
+    part_number: str | None = None
 
     def files(self, serial: str) -> dict[str, str]:
         """The output files of part ``serial``: json, csv, pdf (with --report) and key."""
@@ -655,16 +664,15 @@ def summary_document(batch: Batch, loaded: LoadedNominal, rows: list[dict],
 
 def lot_series(tracked: list[Tracked], rows: list[dict]) -> list:
     """Each tracked characteristic over the lot (engine.spc.Series): its values in measurement
-    order (NaN for a part without one: an ERROR), the parts' serials, and its limits where SPC
-    judges capability against them."""
+    order (NaN for a part without one: an ERROR), the parts' serials, its limits and kind."""
     from engine.spc import Series
 
     serials = [r["serial"] for r in rows]
     out = []
     for t in tracked:
         values = [np.nan if r["values"].get(t.id) is None else r["values"][t.id] for r in rows]
-        limits = (t.lower, t.upper) if t.capability else (None, None)
-        out.append(Series(t.name, t.unit, np.array(values, float), serials, *limits))
+        out.append(Series(t.name, t.unit, np.array(values, float), serials, t.lower, t.upper,
+                          t.kind))
     return out
 
 
@@ -702,15 +710,24 @@ def write_summary(batch: Batch, loaded: LoadedNominal, rows: list[dict]) -> list
     tracked = tracked_characteristics(loaded)
     analyses = [analyse(series) for series in lot_series(tracked, rows)]  # once, for both
     counts = verdict_counts(rows)
-    title = (f"{os.path.basename(loaded.path)}: {len(rows)} parts"
+    number = part_number(batch, loaded)
+    title = (f"{number or os.path.splitext(os.path.basename(loaded.path))[0]}: {len(rows)} parts"
              + (f", plan {os.path.basename(loaded.plan.path)}" if loaded.plan else ""))
+    facts = {"part number": number or "none given (--part-number, or the plan's [part]): the "
+                                      "title names the nominal's file",
+             "parts": len(rows), **counts, "nominal": loaded.path}
     doc = summary_document(batch, loaded, rows, tracked, analyses)
     write_all([Output(files["csv"], summary_csv(tracked, rows)),
                Output(files["json"], result_json(doc)),
-               Output(files["spc"], spc_pdf(analyses, title,
-                                            {"parts": len(rows), **counts,
-                                             "nominal": loaded.path}))])
+               Output(files["spc"], spc_pdf(analyses, title, facts))])
     return [files["csv"], files["json"], files["spc"]]
+
+
+def part_number(batch: Batch, loaded: LoadedNominal) -> str:
+    """The lot's part number: --part-number, else the plan's [part] number, else "" (the
+    SPC's title then names the nominal's file, without its extension)."""
+    given = (batch.part_number or "").strip()
+    return given or (loaded.plan.part.number.strip() if loaded.plan is not None else "")
 
 
 # ---------------------------------------------------------------------------- progress

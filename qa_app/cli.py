@@ -273,7 +273,9 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--sign-pass-env", metavar="VAR",
                    help="read the PKCS#12 passphrase from environment variable VAR (default: "
                         "ask without echo)")
-    _add_part_fields(c, [f for f in PART_FIELDS if f[0] != "serial"])
+    _add_part_fields(c, [(name, "part number (also the title of the lot's spc.pdf, with or "
+                          "without --report)" if name == "part-number" else text)
+                         for name, text in PART_FIELDS if name != "serial"])
     _add_traceability_options(c)
     d = b.add_argument_group("cluster")
     d.add_argument("--scheduler", metavar="ADDRESS",
@@ -512,7 +514,7 @@ def _cmd_batch(args) -> int:
     try:
         parts = qb.find_parts(args.measured)
         info, identity = _certificate_identity(args, "batch")
-        job = qb.Batch(parts, args.out, info, identity)
+        job = qb.Batch(parts, args.out, info, identity, args.part_number)
         qb.check_batch_outputs(job, [args.nominal, args.plan, args.sign]
                                + [p.path for p in parts])
         # Absolute paths: the workers may run elsewhere (the same files at the same paths).

@@ -5,8 +5,9 @@
 Twenty parts made from the belly-fairing sample (samples/belly_fairing): its measured points
 brought into the nominal's frame (truth.json), 2 um of noise, a bump on the 12 points nearest
 (150, 60) along the surface's normal (~ +z there) of 0.14 mm growing 4 um a part (every part inside
-+-0.25 mm), each part in a seeded random pose. `qa-inspect batch` inspects them on one
-local worker; the page of max |d| in spc.pdf is rendered with pdftoppm.
++-0.25 mm), each part in a seeded random pose, serials SN0001-SN0020. `qa-inspect batch`
+inspects them on one local worker (the part number BF-0150, made up for the sample, titles
+the report); the page of max |d| in spc.pdf is rendered with pdftoppm.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ def main(out_dir: str) -> str:
             files.append(path)
         out = os.path.join(tmp, "lot")
         cli(["batch", os.path.join(sample, "nominal.csv"), *files, "--tol", "0.25", "--out", out,
-             "--workers", "1", "--quiet"])
+             "--workers", "1", "--quiet", "--part-number", "BF-0150"])
         os.makedirs(out_dir, exist_ok=True)
         target = os.path.join(out_dir, "spc")
         subprocess.run(["pdftoppm", "-r", "70", "-png", "-f", "2", "-l", "2", "-singlefile",

@@ -137,6 +137,40 @@ def test_one_nominal_for_many_parts_gives_the_single_run_results(lot, tmp_path):
                 points_csv(fresh.result, fresh.measured.points, None)
 
 
+def test_what_spc_tracks_and_judges_follows_the_fit_and_the_plan(lot, tmp_path):
+    """Without a plan: max |d| (>= 0, the zone's largest |limit| above it), mean d, and the
+    points out of tolerance (a count, at most 0). After a least-squares fit mean d is
+    information only, with no limits to judge it by (the fit sets it to ~0); after the minimax
+    fit, which centres the extremes and not the mean, it is a value against the zone. With a
+    plan: a size is a value, a form or profile value is >= 0 with its zone above it."""
+    from engine.spc import Kind
+
+    d, _ = lot
+    nominal = str(d / "nominal.csv")
+
+    def tracked(**kw):
+        settings = inspection_settings(Tolerance(-0.1, 0.3), **kw)
+        return [(t.id, t.kind, t.lower, t.upper)
+                for t in qb.tracked_characteristics(load_nominal(nominal, settings))]
+
+    assert tracked() == [("max_abs", Kind.BOUNDED, None, 0.3), ("mean", Kind.FORCED, None, None),
+                         ("n_out", Kind.COUNT, None, 0.0)]
+    assert tracked(fit="minimax")[1] == ("mean", Kind.MEASURED, -0.1, 0.3)
+    plan = tmp_path / "plan.toml"
+    plan.write_text('[part]\nnumber = "PL-7"\n[[region]]\nname = "all"\n'
+                    'box = [[-1e3, -1e3, -1e3], [1e3, 1e3, 1e3]]\n'
+                    '[[characteristic]]\nid = "f"\ntype = "flatness"\nregion = "all"\n'
+                    'zone = 0.4\n')
+    with_plan = load_nominal(nominal, inspection_settings(None, str(plan)))
+    assert [(t.id, t.kind, t.upper) for t in qb.tracked_characteristics(with_plan)] == [
+        ("f", Kind.BOUNDED, 0.4)]
+    # The part number the SPC's title names: --part-number, else the plan's, else none.
+    plain = load_nominal(nominal, inspection_settings(Tolerance(-0.1, 0.3)))
+    assert qb.part_number(qb.Batch([], "out", part_number=" SB-1 "), with_plan) == "SB-1"
+    assert qb.part_number(qb.Batch([], "out"), with_plan) == "PL-7"
+    assert qb.part_number(qb.Batch([], "out"), plain) == ""
+
+
 # ---------------------------------------------------------------------------- the local cluster
 def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys):
     d, truth = lot
@@ -170,11 +204,12 @@ def test_local_cluster_matches_inspect_errors_and_resumes(lot, tmp_path, capsys)
         assert r["n_out"] == want["deviations"]["n_out"]
         assert r["values"] == {"max_abs": want["deviations"]["max_abs"],
                                "mean": want["deviations"]["mean"],
-                               "fraction_in": want["deviations"]["fraction_in"]}
+                               "n_out": want["deviations"]["n_out"]}
         assert r["sha256"] == next(i["sha256"] for i in want["inputs"]
                                    if i["role"] == "measured")
-    assert [(c["id"], c["lower"], c["upper"]) for c in first["characteristics"]] == [
-        ("max_abs", None, 0.1), ("mean", -0.1, 0.1), ("fraction_in", 1.0, None)]
+    assert [(c["id"], c["lower"], c["upper"], c["kind"]) for c in first["characteristics"]] \
+        == [("max_abs", None, 0.1, "bounded"), ("mean", None, None, "forced"),
+            ("n_out", None, 0.0, "count")]
     with open(out / "summary.csv") as f:
         table = list(csv.DictReader(f))
     assert [(t["serial"], t["verdict"]) for t in table] == [(r["serial"], r["verdict"])
@@ -329,8 +364,10 @@ def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
     SPC of max |d| warns of the drift towards the upper limit, after as many more parts as the
     least-squares line of the summary's own values says (numpy's polyfit, the independent
     line), with Nelson's rule 3 (six or more in a row rising) among its flags; spc.pdf says so in
-    words, one page for the lot and one per characteristic. A stable lot's max |d| (the
-    fixture's good parts) shows no drift."""
+    words, one page for the lot and one per characteristic, titled by the part number given,
+    the charts naming the parts by serial. mean d is ~0 in every part (the least-squares fit's
+    doing: far below the 2 um noise and the 4 um steps) and has no index or rule. A stable
+    lot's max |d| (the fixture's good parts) shows no drift."""
     d, _ = lot
     rng = np.random.default_rng(31)
     files = []
@@ -352,7 +389,7 @@ def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
             taken.bind(("0.0.0.0", 8787))
             taken.listen()
         assert run("batch", d / "nominal.csv", *files, "--tol", "0.06", "--out", out,
-                   "--workers", "1", "--quiet") == 0
+                   "--workers", "1", "--quiet", "--part-number", "FA-12") == 0
     doc = _summary(out)
     spc = {c["id"]: c for c in doc["spc"]}
     values = np.array([r["values"]["max_abs"] for r in doc["parts"]])
@@ -363,13 +400,20 @@ def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
     assert drift["parts_to_limit"] == int(np.ceil((0.06 - (intercept + 11 * slope)) / slope))
     assert any(v["rule"] == 3 for v in spc["max_abs"]["violations"])
     assert spc["max_abs"]["n"] == 12 and spc["max_abs"]["upper"] == 0.06
+    means = np.array([r["values"]["mean"] for r in doc["parts"]])
+    assert np.abs(means).max() < 1e-4 and spc["mean"]["kind"] == "forced"
+    assert spc["mean"]["capability"]["cpk"]["value"] is None and spc["mean"]["violations"] == []
+    assert spc["n_out"]["kind"] == "count" and spc["n_out"]["out_of_tolerance"] == 0
     text = subprocess.run(["pdftotext", "-layout", str(out / "spc.pdf"), "-"],
                           capture_output=True, text=True, check=True).stdout
+    assert text.lstrip().startswith("FA-12: 12 parts") and "nominal.csv:" not in text
+    chart = text.split("\f")[1]
+    assert all(f"d{k:02d}" in chart for k in range(1, 13))
     assert "drift towards the upper limit" in text
     assert re.search(r"R3: \d+ points in a row rising", text)
     pages = subprocess.run(["pdfinfo", str(out / "spc.pdf")], capture_output=True, text=True,
                            check=True).stdout
-    assert re.search(r"^Pages:\s+4$", pages, re.M)  # the lot, max |d|, mean d, fraction in
+    assert re.search(r"^Pages:\s+4$", pages, re.M)  # the lot, max |d|, mean d, points out
     stable = qb.lot_series(qb.tracked_characteristics(load_nominal(
         str(d / "nominal.csv"), inspection_settings(Tolerance.symmetric(0.06)))),
         [{"serial": "x", "values": {"max_abs": v}} for v in

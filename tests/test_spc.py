@@ -6,6 +6,7 @@ series, and the PDF (pages, text, same bytes twice)."""
 
 import json
 import math
+import re
 import subprocess
 
 import numpy as np
@@ -79,6 +80,100 @@ def test_one_sided_limit_gives_cpu_only():
     assert cap.cpk == cap.cpu and cap.cpk.ci is not None
     lower_only = spc.analyse(series([1.0, 1.2, 0.9, 1.1], lower=0.0)).capability
     assert lower_only.cpk.value == pytest.approx(1.05 / (3 * (0.2 + 0.3 + 0.2) / 3 / 1.128))
+
+
+# --- kinds of quantity -----------------------------------------------------------------------
+
+def test_a_quantity_the_fit_forces_to_zero_is_information_only():
+    """The issue's lot: mean d after a least-squares fit, ~1e-6 mm with µm noise, against a
+    +-0.25 mm zone. As a process variable it gets Cpk in the tens of thousands and run rules on
+    the noise; as FORCED (what mean_deviation_kind says of the lsq fit) it keeps its values and
+    mean, and nothing is judged."""
+    rng = np.random.default_rng(22)
+    x = rng.normal(1e-6, 4e-6, 20)
+    x[5:14] = np.abs(x[5:14]) + 6e-6  # nine in a row above the mean: rule 2 on noise
+    x[16] = 4e-5
+    s = spc.Series("mean d", "mm", x, [f"SN{k}" for k in range(20)], -0.25, 0.25)
+    as_process = spc.analyse(s)
+    assert as_process.capability.cpk.value > 1000 and {2, 1} <= {v.rule for v in
+                                                                  as_process.violations}
+    assert spc.mean_deviation_kind("lsq") is spc.Kind.FORCED
+    forced = spc.analyse(spc.Series(*[getattr(s, f) for f in ("name", "unit", "values",
+                                                              "serials", "lower", "upper")],
+                                    spc.mean_deviation_kind("lsq")))
+    c = forced.chart
+    assert c.centre == pytest.approx(sum(x) / 20) and c.n == 20
+    assert (c.ucl, c.lcl, c.sigma_within, c.mr_ucl) == (None, None, None, None)
+    assert "information only" in c.reason
+    cap = forced.capability
+    assert [i.value for i in (cap.cp, cap.cpk, cap.cpu, cap.cpl)] == [None] * 4
+    assert "information only" in cap.cpk.reason
+    assert forced.violations == () and forced.flags == []
+    assert forced.drift.slope is None and not forced.drift.warning
+    doc = spc.to_json(forced)
+    assert doc["kind"] == "forced" and doc["capability"]["cpk"]["value"] is None
+    json.dumps(doc, allow_nan=False)
+
+
+def test_mean_deviation_kind_by_fit():
+    assert spc.mean_deviation_kind("lsq") is spc.Kind.FORCED
+    assert spc.mean_deviation_kind("minimax") is spc.Kind.MEASURED  # centres the extremes
+    with pytest.raises(SettingsError, match="unknown fit"):
+        spc.mean_deviation_kind("rps")
+
+
+def test_a_bounded_quantity_gets_cpu_only_while_its_values_look_normal():
+    """max |d| (>= 0, upper limit only): Cpu = (USL - mean) / (3 sigma_within) by hand, with the
+    normality test's p value kept; a lot of equal values but one far above them (clearly not
+    normal) gets no index, though a MEASURED quantity with the same values would."""
+    values = [0.020, 0.024, 0.021, 0.025, 0.022, 0.023]
+    a = spc.analyse(spc.Series("max |d|", "mm", values, list("abcdef"), None, 0.05,
+                               spc.Kind.BOUNDED))
+    sigma = ((0.004 + 0.003 + 0.004 + 0.003 + 0.001) / 5) / 1.128
+    cap = a.capability
+    assert cap.cpk.value == pytest.approx((0.05 - 0.0225) / (3 * sigma))
+    assert cap.cpk == cap.cpu and cap.cp.value is None and cap.cpl.value is None
+    assert cap.normality_p is not None and cap.normality_p >= spc.NORMALITY_ALPHA
+    skewed = np.r_[np.full(19, 0.010) + 1e-5 * np.arange(19) % 3e-5, 0.045]
+    serials = [str(k) for k in range(20)]
+    bounded = spc.analyse(spc.Series("max |d|", "mm", skewed, serials, None, 0.05,
+                                     spc.Kind.BOUNDED)).capability
+    assert bounded.cpk.value is None and "not normal" in bounded.cpk.reason
+    assert bounded.normality_p < 0.001
+    assert spc.analyse(spc.Series("x", "mm", skewed, serials, None, 0.05)).capability.cpk.value
+    json.dumps(spc.to_json(spc.analyse(spc.Series("m", "mm", skewed, serials, None, 0.05,
+                                                  "bounded"))), allow_nan=False)
+
+
+def test_a_count_is_a_c_chart_with_rule_one_only():
+    """Points out of tolerance per part: c̄ = 14 / 20 = 0.7, UCL = 0.7 + 3 sqrt(0.7) = 3.21,
+    LCL = max(0, 0.7 - 2.51) = 0 by hand; the 9 only breaks rule 1. Ten zeros in a row below c̄
+    break no rule (rule 2 is not applied to a count); no capability, no trend; the parts with
+    any point out (the limit is 0) are counted."""
+    counts = [0, 1, 0, 2, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9, 0, 1]
+    s = spc.Series("points out", "1", counts, [f"p{k}" for k in range(20)], None, 0.0,
+                   spc.Kind.COUNT)
+    a = spc.analyse(s)
+    c = a.chart
+    assert c.centre == pytest.approx(0.7) and c.sigma_within == pytest.approx(math.sqrt(0.7))
+    assert c.ucl == pytest.approx(0.7 + 3 * math.sqrt(0.7)) and c.lcl == 0.0
+    assert round(c.ucl, 2) == 3.21 and c.mr_centre is None
+    assert [(v.rule, v.indices) for v in a.violations] == [(1, (17,))]
+    assert a.capability.cpk.value is None and "count" in a.capability.cpk.reason
+    assert a.drift.slope is None and a.out_of_tolerance == 5
+    assert a.flags == ["R1", "5 out of tol."]
+    assert spc.c_chart(np.zeros(5)).ucl is None  # nothing out anywhere: nothing to chart
+
+
+@pytest.mark.parametrize("kind, values, lower, error, words", [
+    (spc.Kind.BOUNDED, [0.1, -0.01], None, InputError, "cannot be negative"),
+    (spc.Kind.BOUNDED, [0.1, 0.2], 0.0, SettingsError, "upper limit only"),
+    (spc.Kind.COUNT, [1.0, 2.5], None, InputError, "whole numbers"),
+    (spc.Kind.COUNT, [1.0, -1.0], None, InputError, "cannot be negative"),
+])
+def test_a_value_its_kind_cannot_have_is_refused(kind, values, lower, error, words):
+    with pytest.raises(error, match=words):
+        spc.Series("q", "mm", values, ["a", "b"], lower, 1.0, kind)
 
 
 # --- run rules -------------------------------------------------------------------------------
@@ -293,3 +388,138 @@ def test_lots_too_small_for_capability_say_so_and_draw_without_warnings():
         serials = [f"p{i}" for i in range(len(values))]
         assert spc_pdf([Series("d", "mm", np.array(values), serials, None, 0.05)], "t",
                        {"parts": len(values)}).startswith(b"%PDF")
+
+
+# --- the PDF's layout ------------------------------------------------------------------------
+
+def pdf_words(path, page: int) -> list[tuple[str, float, float, float, float]]:
+    """(text, xMin, yMin, xMax, yMax) in points of each word on ``page`` (1-based), by
+    poppler's pdftotext -bbox: where the PDF really put it."""
+    import html
+
+    out = subprocess.run(["pdftotext", "-bbox", "-f", str(page), "-l", str(page), str(path),
+                          "-"], capture_output=True, text=True, check=True).stdout
+    return [(html.unescape(m[5]), *map(float, m.groups()[:4])) for m in re.finditer(
+        r'<word xMin="([\d.]+)" yMin="([\d.]+)" xMax="([\d.]+)" yMax="([\d.]+)">(.*?)</word>',
+        out)]
+
+
+TABLE_HEAD = ("characteristic", "unit", "n", "mean", "σ", "tolerance", "Cpk", "flags")
+PAGE_WIDTH = 11.69 * 72
+
+
+def table_cells(path, page: int):
+    """The table of a lot page as laid out: the heading words' x (each column's start) and
+    every word of the rows below it, above the note at the page's foot."""
+    words = pdf_words(path, page)
+    flags = next(w for w in words if w[0] == "flags")
+    heading = [w for w in words if abs(w[2] - flags[2]) < 1.0]
+    starts = [next(w[1] for w in heading if w[0] == h) for h in TABLE_HEAD]
+    foot = next(w[2] for w in words if w[0] == "Run" and w[2] > flags[2])
+    rows = [w for w in words if flags[4] + 1.0 < w[2] and w[4] < foot]
+    return starts, rows, foot
+
+
+def test_no_column_of_the_lot_table_runs_into_the_next(tmp_path):
+    """Issue 22 item 12: the Cpk column of page 1 ran into the flags ("20178.12 [13762.52,
+    26593.71]" over them). A lot whose first characteristic has Cpk in the tens of thousands
+    (µm noise in a ±0.25 mm zone), a long name, and long flags (every rule, a drift, parts out
+    of tolerance): each word of each row ends before the next column's heading starts (1 pt
+    apart at least), and the flags end inside the page's right margin."""
+    from reports.spc import spc_pdf
+
+    rng = np.random.default_rng(12)
+    serials = [f"P{k:03d}" for k in range(30)]
+    noise = rng.normal(0.0, 2e-6, 30)
+    wild = np.r_[np.tile([-0.004, 0.004], 7) - 0.02, -0.02, -0.01, 0.0, 0.005, 0.01, 0.015,
+                 0.02, 0.025, 0.03, 0.06, 0.07, 0.02, 0.025, 0.03, 0.035, 0.04]
+    lot_ = [spc.Series("size of the bore in the left-hand mounting bracket, as drawn", "mm",
+                       noise, serials, -0.25, 0.25),
+            spc.Series("profile of the flange", "mm", wild, serials, -0.05, 0.05)] + lot()[:1]
+    a = spc.analyse(lot_[0])
+    assert a.capability.cpk.value > 10_000 and len(", ".join(spc.analyse(lot_[1]).flags)) > 40
+    path = tmp_path / "spc.pdf"
+    path.write_bytes(spc_pdf(lot_, "SB-1020: 30 parts", {"parts": 30}))
+    starts, rows, _ = table_cells(path, 1)
+    assert rows
+    for text, x0, _, x1, _ in rows:
+        column = max(k for k, s in enumerate(starts) if s <= x0 + 0.5)
+        end = starts[column + 1] if column + 1 < len(starts) else 0.97 * PAGE_WIDTH
+        assert x1 <= end - 1.0, (text, TABLE_HEAD[column], x1, end)
+
+
+def test_a_long_table_stops_above_the_foot_of_its_page(tmp_path, monkeypatch):
+    """Thirty characteristics after eight facts: every row on a page of the table ends above
+    the note at its foot, and each characteristic is listed once over the pages (their own
+    pages left blank: only the table is looked at)."""
+    from matplotlib.figure import Figure
+
+    from reports import spc as report
+
+    monkeypatch.setattr(report, "_characteristic_page", lambda title, a: Figure())
+    spc_pdf = report.spc_pdf
+
+    serials = [f"P{k:03d}" for k in range(12)]
+    rng = np.random.default_rng(30)
+    lot_ = [spc.Series(f"flatness F{k:02d}", "mm", np.abs(rng.normal(0.02, 0.002, 12)),
+                       serials, None, 0.05) for k in range(30)]
+    facts = {"part number": "SB-1020", "parts": 12, "ACCEPT": 12, "REJECT": 0,
+             "INCONCLUSIVE": 0, "ERROR": 0, "nominal": "/data/sb1020.stp", "plan": "sb.toml"}
+    path = tmp_path / "spc.pdf"
+    path.write_bytes(spc_pdf(lot_, "SB-1020: 12 parts", facts))
+    names = []
+    for page in range(1, pages(path) - 30 + 1):
+        _, _, foot = table_cells(path, page)
+        listed = [w for w in pdf_words(path, page) if re.fullmatch(r"F\d\d", w[0])]
+        assert all(w[4] < foot for w in listed), page
+        names += [w[0] for w in listed]
+    assert names == [f"F{k:02d}" for k in range(30)]  # none drawn off the page
+
+
+def test_the_charts_name_the_parts_by_serial_and_text_from_files_is_escaped(tmp_path):
+    """Each characteristic's page names the parts under its chart by serial (every k-th beyond
+    40 parts); a line break in a serial or in the title is shown escaped, never as a line of
+    its own (a forged "ACCEPT" line)."""
+    from reports.spc import spc_pdf
+
+    serials = [f"SN{k:04d}" for k in range(1, 31)]
+    serials[4] = "S5\nACCEPT"  # escaped, as many characters as a chart shows
+    values = np.random.default_rng(8).normal(0.02, 0.002, 30)
+    path = tmp_path / "spc.pdf"
+    path.write_bytes(spc_pdf([spc.Series("max |d|", "mm", values, serials, None, 0.05)],
+                             "SB-1020\nACCEPT: 30 parts", {"parts": 30}))
+    text = pdf_text(path)
+    chart = text.split("\f")[1]
+    for s in serials[:4] + serials[5:]:
+        assert s in chart, s
+    assert "S5\\u000aACCEPT" in chart and "SB-1020\\u000aACCEPT: 30 parts" in text
+    assert not any(line.strip() == "ACCEPT" for line in text.splitlines())
+    many = [f"SN{k:04d}" for k in range(100)]
+    path.write_bytes(spc_pdf([spc.Series("max |d|", "mm", np.full(100, 0.02), many, None,
+                                         0.05)], "t", {}))
+    named = {w[0] for w in pdf_words(path, 2) if w[0].startswith("SN")}
+    assert named == {f"SN{k:04d}" for k in range(0, 100, 3)}  # ceil(100 / 40) = every 3rd
+
+
+def test_a_forced_quantity_and_a_count_are_drawn_as_what_they_are(tmp_path):
+    """The lot table says "information only" for mean d after a least-squares fit and gives it
+    no Cpk; its page has no control limit, index or rule; the count's page is a c chart with
+    its limits (c̄ = 0.7, UCL = 3.21 by hand) and rule 1 only."""
+    from reports.spc import spc_pdf
+
+    serials = [f"p{k:02d}" for k in range(20)]
+    mean = np.random.default_rng(4).normal(1e-6, 4e-6, 20)
+    counts = [0, 1, 0, 2, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9, 0, 1]
+    path = tmp_path / "spc.pdf"
+    path.write_bytes(spc_pdf([spc.Series("mean d", "mm", mean, serials, None, None,
+                                         spc.mean_deviation_kind("lsq")),
+                              spc.Series("points out", "points", counts, serials, None, 0.0,
+                                         spc.Kind.COUNT)], "BF-1: 20 parts", {}))
+    lot_page, forced, count = (" ".join(p.split()) for p in pdf_text(path).split("\f")[:3])
+    assert "mean d mm 20/20" in lot_page and "information only" in lot_page
+    assert "information only" in forced and "run rules: not applied" in forced
+    for word in ("UCL", "LCL", "Cpk", "σ within", "drift"):
+        assert word not in forced, word
+    assert "c chart" in count and "UCL 3.21" in count and "LCL 0" in count
+    assert "R1: part 18 above the upper control limit" in count
+    assert "run rules (R1 only) broken" in count and "Cpk" not in count
