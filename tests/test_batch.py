@@ -480,13 +480,13 @@ def _gear_lot(folder, serials):
     """Parts on the gear's contours as drawn (mm), 2 um noise, each in its own pose (x y)."""
     from engine.contour import points_on
     from engine.io.templates import read_dxf_template
-    from engine.registration2d import _pose, apply2
+    from engine.pose import apply_transform, pose_2d
 
     t = read_dxf_template(GEAR, units="mm").template
     rng = np.random.default_rng(31)
     for serial in serials:
-        q = apply2(_pose(rng.uniform(0, 2 * np.pi), rng.uniform(-200, 200, 2)),
-                   points_on(t, 300, rng))
+        q = apply_transform(pose_2d(rng.uniform(0, 2 * np.pi), rng.uniform(-200, 200, 2)),
+                            points_on(t, 300, rng))
         np.savetxt(folder / f"{serial}.csv", q + rng.normal(0, 0.002, q.shape), delimiter=",",
                    header="x,y", comments="")
     return [folder / f"{s}.csv" for s in serials]
