@@ -109,3 +109,22 @@ def test_the_work_of_a_region_is_done_once(bracket, monkeypatch):
     assert len(many.characteristics) == 100
     assert all(v > 0 for v in once.values()), once
     assert calls == once
+
+
+def test_a_plan_over_the_limit_is_bad_input_naming_it(tmp_path, monkeypatch, capsys):
+    """More characteristics than MAX_CHARACTERISTICS (lowered to 5 here): exit 65, the message
+    names the plan, the count and the limit, before any work."""
+    import engine.io.plan
+    from qa_app.cli import EX_DATAERR, main
+
+    monkeypatch.setattr(engine.io.plan, "MAX_CHARACTERISTICS", 5)
+    with open(os.path.join(HERE, "plan.toml")) as f:
+        text = f.read()
+    plan = tmp_path / "six.toml"
+    plan.write_text(text + '\n[[characteristic]]\nid = "6"\ntype = "flatness"\nregion = "A"\n'
+                    'zone = 0.02\n')
+    code = main(["inspect", os.path.join(HERE, "nominal.xyz"), os.path.join(HERE, "measured.csv"),
+                 "--plan", str(plan)])
+    err = capsys.readouterr().err
+    assert code == EX_DATAERR
+    assert f"{plan}: holds 6 characteristics; a plan may hold at most 5" in err
