@@ -38,6 +38,7 @@ from .datums import Alignment, align, align_rps
 from .errors import InputError
 from .fits import minimax_pose
 from .plan import FEATURES_2D, FEATURES_3D, MIN_POINTS, RESERVED_ID, Characteristic, Plan
+from .progress import report, within
 from .tolerance import Tolerance
 from .verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, pointwise_verdict
 
@@ -172,9 +173,14 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
         alignment = _rps(plan, geo, fit_idx)
         T_part = alignment.T_nominal_measured
     results = []
-    for c in plan.characteristics:
+    n_chars = len(plan.characteristics)
+    every = max(1, n_chars // PROGRESS_REPORTS)
+    for k, c in enumerate(plan.characteristics):
+        if k % every == 0:
+            report(f"judging characteristic {k + 1:,} of {n_chars:,}", k / n_chars)
         try:
-            results.append(_judge(c, members[c.region], geo, shared, T_part))
+            with within(k / n_chars, (k + 1) / n_chars):  # a minimax refit reports too
+                results.append(_judge(c, members[c.region], geo, shared, T_part))
         except InputError as e:  # a plan the nominal shows wrong: name the plan
             if e.path is not None:
                 raise
@@ -185,6 +191,11 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
     return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
                       tuple(results),
                       features=region_features(plan, geo, members, T_part))
+
+
+PROGRESS_REPORTS = 200
+"""At most this many progress reports over a plan's characteristics (engine.progress): one for
+each would cost the desktop app a repaint per characteristic."""
 
 
 class _Shared:

@@ -122,6 +122,8 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")
+    i.add_argument("--quiet", action="store_true",
+                   help="no progress line on the terminal (drawn when a run lasts over 2 s)")
     _add_certificate_options(i)
 
 
@@ -329,8 +331,9 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
 
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
-                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U]
-                  [--scale CHORD] [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
+                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--quiet]
+                  [--layer NAME] [--units U] [--scale CHORD]
+                  [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
                   [--remove-plane [--remove-plane-distance MM]]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
@@ -733,7 +736,8 @@ def _run_inspect(args, tol, renderer) -> int:
                                        decision_rule=args.decision_rule,
                                        instrument=_instrument(args, "inspect"),
                                        **_scene_options(args, "inspect"))
-        run = run_files(args.nominal, args.measured, settings)
+        run = _with_progress(args, lambda progress: run_files(args.nominal, args.measured,
+                                                              settings, progress))
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
     result = run.result
@@ -772,6 +776,20 @@ def _run_inspect(args, tol, renderer) -> int:
     else:
         print(_summary(result, written, run.selection))
     return EXIT[result.verdict]
+
+
+def _with_progress(args, run):
+    """run(progress listener or None), with a progress line on standard error when it is a
+    terminal (qa_app.progress; not with --quiet), erased before anything else is printed."""
+    if args.quiet or not sys.stderr.isatty():
+        return run(None)
+    from qa_app.progress import StageLine
+
+    line = StageLine(sys.stderr)
+    try:
+        return run(line)
+    finally:
+        line.close()
 
 
 def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
