@@ -23,7 +23,7 @@ from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pipeline import Run
 
 from . import callouts, figures
-from .messages import VERDICT_RGB, VERDICT_WORD, limits_text
+from .messages import VERDICT_RGB, VERDICT_WORD, limits_text, printable
 from .qif import qif_results_document
 from .results import SOFTWARE_NAME, points_csv, result_json, run_document, software_version
 from .signing import (
@@ -364,9 +364,11 @@ def _styles():
 
 
 def _esc(text) -> str:
+    """``text`` for a Paragraph, which reads markup (<font size=80>, &amp;): shown literally,
+    its control characters written out (reports.messages.printable)."""
     from xml.sax.saxutils import escape
 
-    return escape("" if text is None else str(text))
+    return escape(printable("" if text is None else text))
 
 
 class _Slot:
@@ -1468,8 +1470,10 @@ _SECTIONS = (_identification, _result, _requirement, _method, _inputs, _registra
 
 
 def _point_name(run: Run, i: int) -> str:
+    """Point ``i``'s label (printable: a table cell or callout would break a line at a line
+    break in it), or its number."""
     labels = run.measured.labels
-    return str(labels[i]) if labels is not None and str(labels[i]) else f"#{i + 1}"
+    return printable(labels[i]) if labels is not None and str(labels[i]) else f"#{i + 1}"
 
 
 def _worst_labels(run: Run) -> list[tuple[int, str]]:

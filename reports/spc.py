@@ -24,13 +24,16 @@ from matplotlib.lines import Line2D
 
 from engine.spc import Analysis, Series, analyse
 
-from .messages import VERDICT_RGB
+from .messages import VERDICT_RGB, printable
 from .results import SOFTWARE_NAME
 
 A4_LANDSCAPE = (11.69, 8.27)
 RC = {"pdf.fonttype": 42, "font.size": 8, "font.family": "DejaVu Sans", "axes.titlesize": 9,
-      "axes.titleweight": "bold", "legend.fontsize": 7, "svg.hashsalt": "qa-inspect"}
-"""TrueType text (copyable, found by pdftotext) and one font whatever the user's matplotlibrc."""
+      "axes.titleweight": "bold", "legend.fontsize": 7, "svg.hashsalt": "qa-inspect",
+      "text.parse_math": False}
+"""TrueType text (copyable, found by pdftotext) and one font whatever the user's matplotlibrc;
+no mathtext: a '$' in a file name or an id is a dollar sign, not the start of a formula (an
+unbalanced formula would raise)."""
 TOLERANCE_RGB = (0.84, 0.37, 0.0)
 CONTROL_RGB = (0.0, 0.45, 0.70)
 CENTRE_RGB = (0.0, 0.55, 0.35)
@@ -61,6 +64,9 @@ def spc_pdf(series: Iterable[Series | Analysis | tuple], title: str,
     """
     analyses = [s if isinstance(s, Analysis) else analyse(s if isinstance(s, Series)
                                                           else Series(*s)) for s in series]
+    # File names and ids, whose line breaks would break the page's lines.
+    title = printable(title)
+    facts = {printable(k): printable(v) if isinstance(v, str) else v for k, v in facts.items()}
     buf = io.BytesIO()
     meta = {"Title": title, "Creator": SOFTWARE_NAME, "Producer": SOFTWARE_NAME,
             "CreationDate": None}
@@ -122,7 +128,7 @@ def _table(fig: Figure, rows: list[Analysis], top: float) -> None:
     for a in rows:
         s, c = a.series, a.chart
         flags = a.flags
-        cells = (s.name, s.unit, f"{c.n}/{len(s.values)}", _fmt(c.centre), _fmt(c.sigma_within),
+        cells = (printable(s.name), s.unit, f"{c.n}/{len(s.values)}", _fmt(c.centre), _fmt(c.sigma_within),
                  _limits_text(s), _index_text(a.capability.cpk), ", ".join(flags) or "—")
         colour = FLAG_RGB if flags else POINT_RGB
         for x, cell in zip(xs, cells):
@@ -142,7 +148,7 @@ def _characteristic_page(title: str, a: Analysis) -> Figure:
     s = a.series
     fig = Figure(figsize=A4_LANDSCAPE)
     fig.text(0.04, 0.965, title, fontsize=9, va="top", color=(0.3, 0.3, 0.3))
-    fig.text(0.04, 0.94, f"{s.name} ({s.unit})", fontsize=14, weight="bold", va="top")
+    fig.text(0.04, 0.94, f"{printable(s.name)} ({s.unit})", fontsize=14, weight="bold", va="top")
     if a.flags:
         fig.text(0.96, 0.94, "  ".join(a.flags), fontsize=11, weight="bold", va="top",
                  ha="right", color=FLAG_RGB)
