@@ -128,3 +128,28 @@ def test_a_plan_over_the_limit_is_bad_input_naming_it(tmp_path, monkeypatch, cap
     err = capsys.readouterr().err
     assert code == EX_DATAERR
     assert f"{plan}: holds 6 characteristics; a plan may hold at most 5" in err
+
+
+def test_a_certificate_of_many_rejected_characteristics_fits_its_pages(tmp_path):
+    """Sixty rejected characteristics made the verdict's block taller than a page: exit 70
+    (reportlab LayoutError), no certificate. It names ten and says how many more."""
+    import subprocess
+
+    from qa_app.cli import main
+
+    with open(os.path.join(HERE, "plan.toml")) as f:
+        head, *chars = f.read().split("[[characteristic]]")
+    plan = tmp_path / "sixty.toml"
+    plan.write_text(head + "".join("[[characteristic]]" + chars[0].replace(
+        'id = "1"', f'id = "1.{k}"') for k in range(60)))
+    pdf = tmp_path / "c.pdf"
+    code = main(["inspect", os.path.join(HERE, "nominal.xyz"), os.path.join(HERE, "measured.csv"),
+                 "--plan", str(plan), "--report", str(pdf)])
+    assert code == 1
+    text = subprocess.run(["pdftotext", "-raw", str(pdf), "-"], capture_output=True, text=True,
+                          check=True).stdout
+    words = " ".join(text.split())
+    assert "; and 50 more, listed in section 2" in words
+    assert "characteristics 1.0 (surface profile of region skin)" in words
+    assert "and 50 more lie outside their tolerances (section 2; 60 characteristics in all)" \
+        in words
