@@ -12,6 +12,13 @@ Cases, each the median of 5 runs in one warm process (the compiled kernels loade
 "inspect" is the registration and judging without a plan; "plan" is engine.characteristics
 .inspect_plan on its result (regions, alignments, characteristics, per-point outputs at the
 plan's pose).
+
+Then the scale table (issue 22 item 6): the seat bracket with its plan's five characteristics
+repeated (new ids) to 100, 1,000 and 10,000 characteristics on its five regions; "read s" is
+engine.io.plan.read_plan of the file, "plan s" inspect_plan after one registration (median of
+3 runs, one for 10,000), "ms each" their sum over the count.
+
+    .venv/bin/python benchmarks/bench_plan.py scale [N ...]   # the scale table only
 """
 
 from __future__ import annotations
@@ -96,12 +103,59 @@ def case(nominal_path: str, measured_path: str, plan_path: str, tol: float):
     return statistics.median(t_inspect), statistics.median(t_plan), out
 
 
+def many_characteristics(n: int) -> str:
+    """The seat bracket's plan with its characteristics repeated to ``n`` (ids 1..n)."""
+    import re
+
+    with open(os.path.join(ROOT, "samples", "seat_bracket", "plan.toml")) as f:
+        head, *chars = f.read().split("[[characteristic]]")
+    return head + "".join("[[characteristic]]" + re.sub(r'id = "\d+"', f'id = "{k + 1}"',
+                                                         chars[k % len(chars)])
+                          for k in range(n))
+
+
+def scale(sizes) -> None:
+    import tempfile
+
+    from engine.characteristics import inspect_plan
+    from engine.inspection import Tolerance, inspect
+    from engine.io import load_point_set
+    from engine.io.plan import read_plan
+    from engine.nominal import Nominal
+
+    s = os.path.join(ROOT, "samples", "seat_bracket")
+    nps, mps = load_point_set(f"{s}/nominal.xyz"), load_point_set(f"{s}/measured.csv")
+    nominal = Nominal.from_point_set(nps)
+    res = inspect(nominal, mps.points, Tolerance.symmetric(0.05))
+    print(f"{'characteristics':>15s} {'read s':>8s} {'plan s':>8s} {'ms each':>8s}  verdict")
+    with tempfile.TemporaryDirectory() as d:
+        for n in sizes:
+            path = os.path.join(d, f"plan{n}.toml")
+            with open(path, "w") as f:
+                f.write(many_characteristics(n))
+            t_read, t_plan = [], []
+            for _ in range(1 if n >= 10_000 else 3):
+                t0 = time.perf_counter()
+                plan = read_plan(path)
+                t1 = time.perf_counter()
+                out = inspect_plan(res, plan, nominal, nps.labels, mps.points, mps.labels,
+                                   False)
+                t_read.append(t1 - t0)
+                t_plan.append(time.perf_counter() - t1)
+            tr, tp = statistics.median(t_read), statistics.median(t_plan)
+            print(f"{n:15,d} {tr:8.3f} {tp:8.3f} {1000 * (tr + tp) / n:8.2f}  {out.verdict}",
+                  flush=True)
+
+
 def main() -> None:
     import tempfile
 
     from engine import warm_up
 
     warm_up()
+    if sys.argv[1:2] == ["scale"]:
+        scale([int(n) for n in sys.argv[2:]] or [100, 1_000, 10_000])
+        return
     s = os.path.join(ROOT, "samples")
     with tempfile.TemporaryDirectory() as d:
         fairing_plan = os.path.join(d, "fairing.toml")
@@ -118,6 +172,8 @@ def main() -> None:
         chars = ", ".join(f"{r.characteristic.id} {r.verdict}" for r in out.plan.characteristics)
         print(f"{name:40s} {ti:10.3f} {tp:8.3f}  {out.verdict} / {chars}")
     print(f"numpy {np.__version__}, {os.cpu_count()} cores")
+    print()
+    scale([100, 1_000, 10_000])
 
 
 if __name__ == "__main__":

@@ -40,6 +40,7 @@ from .errors import InputError
 from .fits import minimax_pose
 from .pose import apply_transform
 from .plan import FEATURES_2D, FEATURES_3D, MIN_POINTS, RESERVED_ID, Characteristic, Plan
+from .progress import report, within
 from .tolerance import Tolerance
 from .verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, pointwise_verdict
 
@@ -161,25 +162,12 @@ def statistics_zone(plan: Plan) -> Tolerance:
 def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,
                regions: np.ndarray) -> PlanResult:
     """Evaluate ``plan`` on the registered part (module docstring)."""
-    datums = {d.label: d for d in plan.datums}
-    cache: dict = {}
-
-    def placed(labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
-        key = (labels, best_fit, id(T_start))
-        if key not in cache:
-            ds = [datums[x] for x in labels]
-            fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
-                if best_fit else None
-            cache[key] = align(geo.evaluate, T_start, ds, [members[d.region] for d in ds],
-                               geo.centre, geo.length, fit_idx,
-                               [_invariants(d, geo) for d in ds])
-        return cache[key]
-
+    shared = _Shared(plan, geo, members)
     a = plan.alignment
     alignment = None
     T_part = geo.T0
     if a.method == "datums":
-        alignment = placed(tuple(a.reference), tuple(a.best_fit_regions), geo.T0)
+        alignment = shared.placed(tuple(a.reference), tuple(a.best_fit_regions), geo.T0)
         T_part = alignment.T_nominal_measured
     elif a.method == "rps":
         fit_idx = np.unique(np.concatenate([members[r] for r in a.best_fit_regions])) \
@@ -187,9 +175,14 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
         alignment = _rps(plan, geo, fit_idx)
         T_part = alignment.T_nominal_measured
     results = []
-    for c in plan.characteristics:
+    n_chars = len(plan.characteristics)
+    every = max(1, n_chars // PROGRESS_REPORTS)
+    for k, c in enumerate(plan.characteristics):
+        if k % every == 0:
+            report(f"judging characteristic {k + 1:,} of {n_chars:,}", k / n_chars)
         try:
-            results.append(_judge(c, members[c.region], geo, placed, T_part))
+            with within(k / n_chars, (k + 1) / n_chars):  # a minimax refit reports too
+                results.append(_judge(c, members[c.region], geo, shared, T_part))
         except InputError as e:  # a plan the nominal shows wrong: name the plan
             if e.path is not None:
                 raise
@@ -200,6 +193,54 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
     return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
                       tuple(results),
                       features=region_features(plan, geo, members, T_part))
+
+
+PROGRESS_REPORTS = 200
+"""At most this many progress reports over a plan's characteristics (engine.progress): one for
+each would cost the desktop app a repaint per characteristic."""
+
+
+class _Shared:
+    """What the characteristics of one plan evaluation share, computed once each: the poses
+    their datums give, and each region's fits and deviations (a plan may hold thousands of
+    characteristics on a few regions; only the judgement against each one's zone is its
+    own). Every entry depends on the plan, the part and its key alone, never on the order in
+    which the characteristics ask for it, so a shared result is the one a plan of that single
+    characteristic gives."""
+
+    def __init__(self, plan: Plan, geo: Geometry, members: dict[str, np.ndarray]):
+        self.datums = {d.label: d for d in plan.datums}
+        self.geo, self.members = geo, members
+        self.memo: dict = {}
+
+    def once(self, key: tuple, compute):
+        """compute()'s value, computed on the first call with ``key`` only; a FeatureError
+        (the region's points do not determine its feature) is kept and raised again."""
+        from .features import FeatureError
+
+        if key not in self.memo:
+            try:
+                self.memo[key] = compute()
+            except FeatureError as e:
+                self.memo[key] = e
+        got = self.memo[key]
+        if isinstance(got, FeatureError):
+            raise got.with_traceback(None)
+        return got
+
+    def placed(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
+        """The part placed by the datums ``labels`` (primary first), the freedom they leave
+        best-fitted on the regions ``best_fit``, from ``T_start`` (engine.datums.align)."""
+        return self.once(("placed", labels, best_fit, id(T_start)),
+                         lambda: self._align(labels, best_fit, T_start))
+
+    def _align(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
+        geo, members = self.geo, self.members
+        ds = [self.datums[x] for x in labels]
+        fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
+            if best_fit else None
+        return align(geo.evaluate, T_start, ds, [members[d.region] for d in ds], geo.centre,
+                     geo.length, fit_idx, [_invariants(d, geo) for d in ds])
 
 
 def _verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:
@@ -224,7 +265,7 @@ def part_verdict(results) -> tuple[str, tuple[str, ...]]:
     return ACCEPT, (f"all {len(results)} characteristics are within tolerance",)
 
 
-def _judge(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
+def _judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: _Shared, T_part):
     planar = geo.nominal_points.shape[1] == 2
     need = {"profile": 1, "flatness": MIN_POINTS["line" if planar else "plane"]}.get(
         c.type, MIN_POINTS["circle" if planar else "cylinder"])
@@ -236,10 +277,10 @@ def _judge(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
 
     try:
         if c.type == "profile":
-            return _profile(c, idx, geo, placed)
+            return _profile(c, idx, geo, shared)
         if c.type == "flatness":
-            return _flatness(c, idx, geo)
-        return _hole(c, idx, geo, placed, T_part)
+            return _flatness(c, idx, geo, shared)
+        return _hole(c, idx, geo, shared, T_part)
     except FeatureError as e:
         # The region's points do not determine its feature (all on a line, ...): say so.
         return CharacteristicResult(c, None, INCONCLUSIVE, f"region '{c.region}': {e.message}",
@@ -252,11 +293,37 @@ def _untrusted(c, idx, al: Alignment):
                                 facts={"datums": [f.label for f in al.datums]})
 
 
-def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, placed):
+def _own(shared_result: CharacteristicResult, c: Characteristic) -> CharacteristicResult:
+    """A result computed for another characteristic on the same region, as ``c``'s: its
+    reason names only the region, its points and its datums, which they share."""
+    return replace(shared_result, characteristic=c)
+
+
+def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: _Shared):
     tol = Tolerance(c.lower, c.upper)
+    # The pose depends on the region and the datums or the refit; a minimax refit also on the
+    # zone it centres on.
+    key = ("profile", c.region, tuple(c.datums)) if c.datums else \
+        ("profile", c.region, c.fit) + ((c.lower, c.upper) if c.fit == "minimax" else ())
+    got = shared.once(key, lambda: _profile_pose(c, idx, geo, shared))
+    if isinstance(got, CharacteristicResult):
+        return _own(got, c)
+    T, d, margin, facts = got
+    verdict, reason = pointwise_verdict(d, tol, margin)
+    centre = 0.5 * (c.lower + c.upper)
+    value = float(2.0 * np.max(np.abs(d - centre)))
+    ex = tol.excess(d)
+    worst = tuple(int(idx[i]) for i in np.argsort(-ex, kind="stable")[:WORST])
+    return CharacteristicResult(c, value, verdict, reason, idx, d, worst,
+                                {**facts, "T_nominal_measured": T})
+
+
+def _profile_pose(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: _Shared):
+    """(pose T, the region's deviations d there, their guard band, facts) of a profile, or an
+    INCONCLUSIVE result when its datums cannot place the part."""
     facts: dict = {}
     if c.datums:
-        al = placed(tuple(c.datums), (c.region,), geo.T0)
+        al = shared.placed(tuple(c.datums), (c.region,), geo.T0)
         if not al.complete:
             return _untrusted(c, idx, al)
         T = al.T_nominal_measured
@@ -268,18 +335,20 @@ def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, placed):
         T = minimax_pose(evaluate, geo.T0, c.lower, c.upper).T
     else:
         T = align(geo.evaluate, geo.T0, [], [], geo.centre, geo.length, idx).T_nominal_measured
-    d = geo.evaluate(T, idx)[1]
-    margin = geo.margin(idx, T)
-    verdict, reason = pointwise_verdict(d, tol, margin)
-    centre = 0.5 * (c.lower + c.upper)
-    value = float(2.0 * np.max(np.abs(d - centre)))
-    ex = tol.excess(d)
-    worst = tuple(int(idx[i]) for i in np.argsort(-ex, kind="stable")[:WORST])
-    facts["T_nominal_measured"] = T
-    return CharacteristicResult(c, value, verdict, reason, idx, d, worst, facts)
+    return T, geo.evaluate(T, idx)[1], geo.margin(idx, T), facts
 
 
-def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry):
+def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: _Shared):
+    got = shared.once(("flatness", c.region), lambda: _flat(c, idx, geo))
+    if isinstance(got, CharacteristicResult):
+        return _own(got, c)
+    width, normal, guard = got
+    return _by_value(c, idx, width, {"normal": normal}, "minimum-zone width", guard)
+
+
+def _flat(c: Characteristic, idx: np.ndarray, geo: Geometry):
+    """(minimum-zone width, its normal, the width's uncertainty bound) of the region's points,
+    or an INCONCLUSIVE result when they do not determine its plane."""
     from .features import flatness
 
     X, _, n = geo.evaluate(geo.T0, idx)
@@ -298,8 +367,7 @@ def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry):
         return CharacteristicResult(c, None, INCONCLUSIVE, f"the points' minimum zone stands "
                                     f"at {turn:.0f}° to the nominal face: they do not "
                                     "determine its plane", idx)
-    return _by_value(c, idx, f.width, {"normal": f.normal}, "minimum-zone width",
-                     _value_guard(geo, idx, geo.T0, form_only=True))
+    return f.width, f.normal, _value_guard(geo, idx, geo.T0, form_only=True)
 
 
 def _value_guard(geo: Geometry, idx: np.ndarray, T, form_only: bool) -> float | None:
@@ -338,36 +406,66 @@ def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
     return CharacteristicResult(c, float(value), verdict, reason, idx, facts=facts)
 
 
-def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
+def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: _Shared, T_part):
     """Size or position of the hole of ``c``'s region (a cylinder in 3D, a circle in 2D)."""
-    from .features import position_value
+    nom, normals = shared.once(("hole", c.region), lambda: _nominal_hole(geo, c.region))
+    if nom.form_error > HOLE_FORM * nom.radius:
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no hole: its "
+                         f"nominal points lie up to {nom.form_error:.3g} mm off their "
+                         f"best {'circle' if normals.shape[1] == 2 else 'cylinder'}")
+    if c.type == "size":
+        got = shared.once(("size", c.region), lambda: _size(c, idx, geo, normals, nom))
+        if isinstance(got, CharacteristicResult):
+            return _own(got, c)
+        diameter, form_error, guard = got
+        return _by_value(c, idx, diameter, {"fit": "least squares", "form_error": form_error},
+                         "least-squares diameter", guard)
+    al = shared.placed(tuple(c.datums), (), T_part)
+    if not al.complete:
+        return _untrusted(c, idx, al)
+    _check_located(c, shared.once(("loose", c.region, tuple(c.datums)),
+                                  lambda: _loose(al, nom, geo)))
+    got = shared.once(("position", c.region, tuple(c.datums)),
+                      lambda: _position(c, idx, geo, normals, nom, al))
+    if isinstance(got, CharacteristicResult):
+        return _own(got, c)
+    value, facts, guard = got
+    return _by_value(c, idx, value, dict(facts), "position (diameter)", guard)
 
-    mask = geo.nominal_masks[c.region]
+
+def _nominal_hole(geo: Geometry, region: str):
+    """(the region's nominal hole: the model's exact cylinder where it has one, else the fit
+    to its samples; the samples' normals)."""
+    mask = geo.nominal_masks[region]
     nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
     nom = _hole_fit(nominal, normals)
     exact = _exact_nominal(geo, "cylinder", mask) if nominal.shape[1] == 3 else None
     if exact is not None:  # the model's own axis and radius, not a fit to its samples
         nom = replace(nom, point=exact["point"], direction=exact["direction"],
                       radius=0.5 * exact["diameter"], form_error=0.0)
-    if nom.form_error > HOLE_FORM * nom.radius:
-        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no hole: its "
-                         f"nominal points lie up to {nom.form_error:.3g} mm off their "
-                         f"best {'circle' if nominal.shape[1] == 2 else 'cylinder'}")
-    if c.type == "size":
-        got = _measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
-        if isinstance(got, CharacteristicResult):
-            return got
-        return _by_value(c, idx, 2.0 * got.radius, {"fit": "least squares",
-                                                    "form_error": got.form_error},
-                         "least-squares diameter", _value_guard(geo, idx, geo.T0, True))
-    al = placed(tuple(c.datums), (), T_part)
-    if not al.complete:
-        return _untrusted(c, idx, al)
-    _check_located(c, al, nom, geo)
+    return nom, normals
+
+
+def _size(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom):
+    """(least-squares diameter, form error, its uncertainty bound) of the region's measured
+    hole, or an INCONCLUSIVE result when its points do not determine it."""
+    got = _measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
+    if isinstance(got, CharacteristicResult):
+        return got
+    return 2.0 * got.radius, got.form_error, _value_guard(geo, idx, geo.T0, True)
+
+
+def _position(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom,
+              al: Alignment):
+    """(position diameter, facts, its uncertainty bound) of the region's measured hole at
+    the pose its datums give (``al``), or an INCONCLUSIVE result when its points do not
+    determine it."""
+    from .features import position_value
+
     got = _measured_hole(c, idx, geo.evaluate(al.T_nominal_measured, idx)[0], normals, nom)
     if isinstance(got, CharacteristicResult):
         return got
-    if nominal.shape[1] == 2:
+    if normals.shape[1] == 2:
         value = position_value(got.centre, nom.centre).value
         facts = {"centre": got.centre, "nominal_centre": nom.centre}
     else:
@@ -375,20 +473,24 @@ def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, placed, T_part):
         facts = {"axis_ends": got.ends, "nominal_point": nom.point,
                  "nominal_direction": nom.direction}
     facts["free"] = [f.describe() for f in al.free]
-    return _by_value(c, idx, value, facts, "position (diameter)",
-                     _value_guard(geo, idx, al.T_nominal_measured, form_only=False))
+    return value, facts, _value_guard(geo, idx, al.T_nominal_measured, form_only=False)
 
 
-def _check_located(c: Characteristic, al: Alignment, nom, geo: Geometry) -> None:
-    """A position is relative to datums that locate the hole: none of the motions they leave
-    free may move the nominal hole (a plane alone leaves it free to slide)."""
+def _loose(al: Alignment, nom, geo: Geometry) -> list:
+    """The motions the datums of ``al`` leave free that move the nominal hole ``nom``."""
     from .datums import invariant_motions, moving
 
     feature = {"centre": nom.centre} if geo.nominal_points.shape[1] == 2 else \
         {"point": nom.point, "direction": nom.direction}
     kind = "circle" if geo.nominal_points.shape[1] == 2 else "cylinder"
-    loose = moving(al.free_basis, invariant_motions(kind, feature, geo.centre, geo.length),
-                   geo.centre, geo.length)
+    return moving(al.free_basis, invariant_motions(kind, feature, geo.centre, geo.length),
+                  geo.centre, geo.length)
+
+
+def _check_located(c: Characteristic, loose: list) -> None:
+    """A position is relative to datums that locate the hole: none of the motions they leave
+    free (``loose``: :func:`_loose`) may move the nominal hole (a plane alone leaves it free to
+    slide)."""
     if loose:
         raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} leave "
                          f"the hole free to move ({'; '.join(f.describe() for f in loose)}): a "

@@ -26,7 +26,7 @@ from .plan import Plan
 from .pointset import PointSet
 from .neighbours import query_workers
 from .nominal import Nominal
-from .progress import Callback, report, reporting
+from .progress import Callback, report, reporting, within
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .settings import InspectionSettings
 from .tolerance import Tolerance
@@ -501,19 +501,42 @@ def _inspect_template(tpl, measured_ps: PointSet, settings: InspectionSettings, 
     from .contour import ContourIndex
 
     index = ContourIndex(tpl.template)
-    result = inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, settings.tolerance,
-                        index=index, fit=settings.fit, decision_rule=settings.decision_rule,
-                        instrument=instrument_of(settings.instrument, plan),
-                        guard=settings.guard,
-                        template_facts={"units": tpl.units, "unitless": tpl.unitless,
-                                        "flattened_curves": tpl.flattened,
-                                        "ignored_entities": tpl.ignored})
+    share = plan_share(plan)
+    with within(0.0, 1.0 - share):
+        result = _inspect_2d(tpl, index, measured_ps, settings, plan)
     if plan is None:
         return result
     from .characteristics import inspect_plan_2d
 
-    report("judging the plan's characteristics", 0.99)
-    return inspect_plan_2d(result, plan, index, measured_ps.labels, settings.zone_in_verdict)
+    with within(1.0 - share, 1.0):
+        report("judging the plan's characteristics", 0.0)
+        return inspect_plan_2d(result, plan, index, measured_ps.labels,
+                               settings.zone_in_verdict)
+
+
+PLAN_WEIGHT = 100
+"""How many characteristics take about as long to judge as the registration takes (the seat
+bracket: 100 of them on its five regions ~0.5 s, its registration ~0.3 s): the share of the
+progress bar a plan's characteristics move it over (:func:`plan_share`). An estimate, as
+every fraction of the bar is."""
+
+
+def plan_share(plan: Plan | None) -> float:
+    """The fraction of the run a plan's characteristics are expected to take (0 without one):
+    n / (n + PLAN_WEIGHT) for n characteristics."""
+    n = 0 if plan is None else len(plan.characteristics)
+    return n / (n + PLAN_WEIGHT)
+
+
+def _inspect_2d(tpl, index, measured_ps: PointSet, settings: InspectionSettings, plan):
+    """The registration and judging of the measured points against a 2D template."""
+    return inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, settings.tolerance,
+                      index=index, fit=settings.fit, decision_rule=settings.decision_rule,
+                      instrument=instrument_of(settings.instrument, plan),
+                      guard=settings.guard,
+                      template_facts={"units": tpl.units, "unitless": tpl.unitless,
+                                      "flattened_curves": tpl.flattened,
+                                      "ignored_entities": tpl.ignored})
 
 
 def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
@@ -524,21 +547,26 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
     if source.step is not None:
         distances = ExactDistances(source.step, nominal)
         exact = _exact_deviations(distances)
-    result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
-                     decision_rule=settings.decision_rule, exact=exact,
-                     instrument=instrument_of(settings.instrument, plan), guard=settings.guard)
+    share = plan_share(plan)
+    with within(0.0, 1.0 - share):
+        result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
+                         decision_rule=settings.decision_rule, exact=exact,
+                         instrument=instrument_of(settings.instrument, plan),
+                         guard=settings.guard)
     if source.step is not None:
         result = dataclasses.replace(result, extra={**result.extra,
                                                     "step": step_facts(source.step)})
     if plan is not None:
         from .characteristics import inspect_plan
 
-        report("judging the plan's characteristics", 0.99)
         ps = source.point_set
-        result = inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
-                              measured_ps.labels, settings.zone_in_verdict, ps.groups, exact,
-                              None if distances is None else _face_sample(distances),
-                              None if source.step is None else _exact_features(source.step))
+        with within(1.0 - share, 1.0):
+            report("judging the plan's characteristics", 0.0)
+            result = inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
+                                  measured_ps.labels, settings.zone_in_verdict, ps.groups,
+                                  exact, None if distances is None else _face_sample(distances),
+                                  None if source.step is None else
+                                  _exact_features(source.step))
     if distances is not None and distances.missed:
         result = distances.judged(result, measured_ps.labels)
     return result

@@ -42,6 +42,11 @@ MIN_POINTS = {"plane": 3, "cylinder": 5, "sphere": 4, "line": 2, "circle": 3}
 are INCONCLUSIVE, never guessed)."""
 
 
+MAX_CHARACTERISTICS = 10_000
+"""The most characteristics a plan may hold (engine.io.plan refuses more): a first-article
+inspection of a large assembly has a few thousand; each costs its own judgement, and ten
+thousand take a few seconds on top of their regions' work."""
+
 RESERVED_ID = "tol"
 """The characteristic id of the zone over all points that --tol adds to a plan: no plan may use
 it."""

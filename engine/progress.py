@@ -5,6 +5,8 @@ A caller that wants to follow (or stop) a computation runs it inside ``with repo
 engine calls :func:`report` at its stages and iterations, which calls ``cb(stage, fraction)`` in
 the same thread (contextvars: each worker thread has its own). The callback may raise
 :class:`engine.errors.Cancelled` to stop the computation there; nothing is returned then.
+A stage that reports its own progress from 0 to 1 (a plan's characteristics, one by one) runs
+inside ``with within(lo, hi):``, which moves the listener's fraction over its share of the run.
 """
 
 from __future__ import annotations
@@ -29,6 +31,21 @@ def report(stage: str, fraction: float) -> None:
 @contextmanager
 def reporting(callback: Callback | None) -> Iterator[None]:
     token = _current.set(callback)
+    try:
+        yield
+    finally:
+        _current.reset(token)
+
+
+@contextmanager
+def within(lo: float, hi: float) -> Iterator[None]:
+    """Inside, a report of ``fraction`` (0..1 of this part of the run) reaches the listener as
+    ``lo + fraction * (hi - lo)`` (of the whole run)."""
+    cb = _current.get()
+    if cb is None:
+        yield
+        return
+    token = _current.set(lambda stage, fraction: cb(stage, lo + fraction * (hi - lo)))
     try:
         yield
     finally:

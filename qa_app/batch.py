@@ -793,6 +793,8 @@ def check_certifiable(batch: Batch, loaded: LoadedNominal) -> None:
 
 def summary_text(rows: list[dict], seconds: float, written: list[str]) -> str:
     """What the command prints at the end: the counts, each ERROR part, the files."""
+    from reports.messages import printable
+
     counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
     skipped = sum(r["skipped"] for r in rows)
     lines = [f"{len(rows)} parts: {counts}"
@@ -802,4 +804,5 @@ def summary_text(rows: list[dict], seconds: float, written: list[str]) -> str:
               for r in rows if r["verdict"] == ERROR]
     parts = os.path.join(os.path.dirname(os.path.abspath(written[0])), "parts")
     lines.append("results: " + ", ".join(os.path.abspath(w) for w in written) + f", {parts}/")
-    return "\n".join(lines)
+    # Each line escaped before they are joined: a serial is a file's name, whatever it holds.
+    return "\n".join(printable(line) for line in lines)

@@ -119,6 +119,8 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")
+    i.add_argument("--quiet", action="store_true",
+                   help="no progress line on the terminal (drawn when a run lasts over 2 s)")
     _add_certificate_options(i)
 
 
@@ -346,8 +348,9 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
 
 
 USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
-                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--layer NAME] [--units U]
-                  [--scale CHORD] [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
+                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--quiet]
+                  [--layer NAME] [--units U] [--scale CHORD]
+                  [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
                   [--remove-plane [--remove-plane-distance MM]]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
        qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
@@ -375,7 +378,9 @@ def main(argv: list[str] | None = None) -> int:
                    "verify": _cmd_verify}
         return _guarded(command[args.command], args)
     except UsageError as e:
-        print(str(e), file=sys.stderr)
+        from reports.messages import printable
+
+        print(printable(str(e)), file=sys.stderr)  # it may quote a file name or a certificate
         print(USAGE, file=sys.stderr)
         return EX_USAGE
     except KeyboardInterrupt:
@@ -534,6 +539,7 @@ def _run_batch(args, job, loaded) -> int:
     import time
 
     from qa_app import batch as qb
+    from reports.messages import printable
 
     bar = None if args.quiet or not sys.stderr.isatty() else qb.ProgressBar(len(job.parts))
     t0 = time.monotonic()
@@ -544,12 +550,12 @@ def _run_batch(args, job, loaded) -> int:
     except KeyboardInterrupt:
         if bar is not None:
             bar.close()
-        print(f"qa-inspect batch: interrupted; each part in {os.path.join(job.out, 'parts')} "
-              "is complete, the others were not written; run the same command again to "
-              "resume", file=sys.stderr)
+        print(printable(f"qa-inspect batch: interrupted; each part in "
+                        f"{os.path.join(job.out, 'parts')} is complete, the others were not "
+                        "written; run the same command again to resume"), file=sys.stderr)
         return 130
     except ConnectionError as e:
-        print(f"qa-inspect: error: {e}", file=sys.stderr)
+        print(f"qa-inspect: error: {printable(e)}", file=sys.stderr)
         return EX_UNAVAILABLE
     if bar is not None:
         bar.close()
@@ -581,7 +587,7 @@ def _cmd_verify(args) -> int:
 
     from engine.io.points import read_bytes
     from reports.certificate import same_person
-    from reports.messages import VERDICT_WORD
+    from reports.messages import VERDICT_WORD, printable
     from reports.signing import read_trust_roots, verify_pdf
 
     _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
@@ -623,20 +629,20 @@ def _cmd_verify(args) -> int:
         problems += _recheck(doc, {"nominal": args.nominal, "measured": args.measured,
                                    "plan": args.plan}, notes)
     ok = not problems
-    print(f"{'VALID' if ok else 'INVALID'}: {args.certificate}")
+    lines = [f"{'VALID' if ok else 'INVALID'}: {args.certificate}"]
     for s in v.signatures:
         when = s.signed_at.strftime("%Y-%m-%d %H:%M:%S %Z") if s.signed_at else "time unknown"
-        print(f"  signature '{s.field}': {s.signer}"
-              f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
-              f"{'intact' if s.intact else 'NOT INTACT'}, "
-              f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
+        lines.append(f"  signature '{s.field}': {s.signer}"
+                     f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
+                     f"{'intact' if s.intact else 'NOT INTACT'}, "
+                     f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
     if doc is not None:
-        print(f"  certificate {cert.get('number')}: {VERDICT_WORD.get(doc['verdict'], '?')} — "
-              f"{'; '.join(doc.get('reasons', []))}")
-    for n in notes:
-        print(f"  {n}")
-    for p in problems:
-        print(f"  problem: {p}")
+        lines.append(f"  certificate {cert.get('number')}: "
+                     f"{VERDICT_WORD.get(doc['verdict'], '?')} — "
+                     f"{'; '.join(doc.get('reasons', []))}")
+    lines += [f"  {n}" for n in notes] + [f"  problem: {p}" for p in problems]
+    # The signer's name and the certificate's reasons come from the file being verified.
+    print("\n".join(printable(line) for line in lines))
     return 0 if ok else 1
 
 
@@ -750,7 +756,8 @@ def _run_inspect(args, tol, renderer) -> int:
                                        fit=args.fit, decision_rule=args.decision_rule,
                                        instrument=_instrument(args, "inspect"),
                                        **_scene_options(args, "inspect"))
-        run = run_files(args.nominal, args.measured, settings)
+        run = _with_progress(args, lambda progress: run_files(args.nominal, args.measured,
+                                                              settings, progress))
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
     result = run.result
@@ -782,13 +789,29 @@ def _run_inspect(args, tol, renderer) -> int:
     except OutputConflictError as e:  # the target changed into a folder, key... during the run
         raise UsageError(f"qa-inspect inspect: {e}") from e
     written = [o.path for o in outputs]
-    for w in run.warnings:
-        print(f"qa-inspect: warning: {w}", file=sys.stderr)
+    from reports.messages import printable
+
+    for w in run.warnings:  # they quote file names
+        print(f"qa-inspect: warning: {printable(w)}", file=sys.stderr)
     if stdout is not None:
         sys.stdout.write(stdout)
     else:
         print(_summary(result, written, run.selection))
     return EXIT[result.verdict]
+
+
+def _with_progress(args, run):
+    """run(progress listener or None), with a progress line on standard error when it is a
+    terminal (qa_app.progress; not with --quiet), erased before anything else is printed."""
+    if args.quiet or not sys.stderr.isatty():
+        return run(None)
+    from qa_app.progress import StageLine
+
+    line = StageLine(sys.stderr)
+    try:
+        return run(line)
+    finally:
+        line.close()
 
 
 def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
@@ -872,7 +895,10 @@ def _summary(result, written, selection=None) -> str:
                      f"valley, {flat['rms']:.4f} mm rms")
     if written:
         lines.append("results: " + ", ".join(os.path.abspath(w) for w in written))
-    return "\n".join(lines)
+    from reports.messages import printable
+
+    # Each line escaped before they are joined: a reason may quote a file name or a label.
+    return "\n".join(printable(line) for line in lines)
 
 
 if __name__ == "__main__":  # pragma: no cover

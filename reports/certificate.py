@@ -23,7 +23,7 @@ from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pipeline import Run
 
 from . import callouts, figures
-from .messages import VERDICT_RGB, VERDICT_WORD, limits_text
+from .messages import VERDICT_RGB, VERDICT_WORD, limits_text, printable
 from .qif import qif_results_document
 from .results import SOFTWARE_NAME, points_csv, result_json, run_document, software_version
 from .signing import (
@@ -364,9 +364,11 @@ def _styles():
 
 
 def _esc(text) -> str:
+    """``text`` for a Paragraph, which reads markup (<font size=80>, &amp;): shown literally,
+    its control characters written out (reports.messages.printable)."""
     from xml.sax.saxutils import escape
 
-    return escape("" if text is None else str(text))
+    return escape(printable("" if text is None else text))
 
 
 class _Slot:
@@ -465,6 +467,9 @@ def _numbered_canvas(number: str, verdict: str, draft: bool):
     return NumberedCanvas
 
 
+REASONS_SHOWN = 10
+"""Reasons (rejected characteristics) the verdict's block and the statement of conformity name;
+section 2 lists every characteristic."""
 _GRID_RGB = (0.78, 0.80, 0.84)
 _HEAD_RGB = (0.91, 0.93, 0.96)
 _ZEBRA_RGB = (0.97, 0.975, 0.98)
@@ -517,6 +522,16 @@ class _Layout:
         open have their own place in section 6."""
         res = self.res
         return "; ".join(r for r in res.reasons if r not in res.trust_statements)
+
+    @property
+    def reasons_shown(self) -> str:
+        """:attr:`reasons`, the first REASONS_SHOWN of them and how many more: a plan's
+        hundreds of rejected characteristics do not fit the verdict's block (one page)."""
+        res = self.res
+        own = [r for r in res.reasons if r not in res.trust_statements]
+        more = len(own) - REASONS_SHOWN
+        return "; ".join(own[:REASONS_SHOWN]) + (
+            f"; and {more} more, listed in section 2" if more > 0 else "")
 
     def table(self, rows, widths, header=True, zebra=False, styles=()):
         """A grid table in the certificate's style (header row shaded, zebra rows on request)."""
@@ -653,7 +668,7 @@ def _result(c: _Layout) -> list:
 
     S, W, res = c.styles, c.width, c.res
     st = res.statistics
-    reasons = c.reasons
+    reasons = c.reasons_shown
     vb = Table([[P(VERDICT_WORD[res.verdict],
                    S["verdict_long" if res.verdict == INCONCLUSIVE else "verdict"]),
                  P(_esc(reasons[:1].upper() + reasons[1:]), S["verdict_sub"])]],
@@ -1414,7 +1429,7 @@ def _statement_and_signatures(c: _Layout) -> list:
                      f"{st.n_out} of {st.count} measured points lie outside the tolerance zone "
                      f"{zone}; {excursion_words(c.run)}.")
     else:
-        statement = ("No statement of conformity can be made: " + c.reasons +
+        statement = ("No statement of conformity can be made: " + c.reasons_shown +
                      ". The part is neither accepted nor rejected by this certificate.")
     sig_text = (f"Signed digitally by {_esc(identity.common_name)}"
                 f"{', ' + _esc(identity.organisation) if identity.organisation else ''}; "
@@ -1455,6 +1470,8 @@ def _plan_statement(c: _Layout) -> str:
            + ("all points)" if ch.region == "(all points)" else f"region {ch.region})")
            for ch in (r.characteristic for r in results if r.verdict == REJECT)]
     one = len(out) == 1
+    if len(out) > REASONS_SHOWN:  # the statement and signatures keep to one page
+        out = out[:REASONS_SHOWN] + [f"{len(out) - REASONS_SHOWN} more"]
     listed = out[0] if one else ", ".join(out[:-1]) + " and " + out[-1]
     return (f"The part identified above does not conform to the inspection plan {name}: "
             f"characteristic{'' if one else 's'} {listed} {'lies' if one else 'lie'} outside "
@@ -1468,8 +1485,10 @@ _SECTIONS = (_identification, _result, _requirement, _method, _inputs, _registra
 
 
 def _point_name(run: Run, i: int) -> str:
+    """Point ``i``'s label (printable: a table cell or callout would break a line at a line
+    break in it), or its number."""
     labels = run.measured.labels
-    return str(labels[i]) if labels is not None and str(labels[i]) else f"#{i + 1}"
+    return printable(labels[i]) if labels is not None and str(labels[i]) else f"#{i + 1}"
 
 
 def _worst_labels(run: Run) -> list[tuple[int, str]]:

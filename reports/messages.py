@@ -3,6 +3,8 @@ command line, the certificate and the desktop app."""
 
 from __future__ import annotations
 
+import re
+
 from engine.errors import Cancelled, InputError, SettingsError
 
 # Keyed by engine.inspection's verdicts (the JSON contract's strings; importing the engine here
@@ -12,8 +14,32 @@ VERDICT_RGB = {"ACCEPT": (0.11, 0.49, 0.22), "REJECT": (0.72, 0.11, 0.11),
                "INCONCLUSIVE": (0.80, 0.52, 0.0)}
 
 
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028\u2029\u202a-\u202e"
+                          "\u2066-\u2069\ud800-\udfff\ufffe\uffff]")
+"""What :func:`printable` escapes: C0 and C1 controls and DEL (line breaks, tabs, the escape
+that starts ANSI terminal sequences), the Unicode line and paragraph separators, the
+bidirectional marks and overrides (which reorder what follows them on the line), lone
+surrogates (a file name's bytes that are not UTF-8) and the two noncharacters XML forbids."""
+
+
+def printable(text) -> str:
+    """``text`` from an input (a file name, a point label, a DXF layer, a STEP product name, a
+    session field, anything read from a file) as it may be shown on one line of the terminal,
+    the certificate or the QIF: each character of ``_UNPRINTABLE`` written as a Python string
+    literal writes it (``\\n``, ``\\x1b``, ``\\u2028``, ``\\udcff``), the rest as it is.
+    A line break in a file name then cannot start a forged line ("ACCEPT: ...") and an escape
+    sequence cannot clear the screen or recolour it. Escape a line's pieces before joining
+    lines: the joining line breaks are the only ones left."""
+    return _UNPRINTABLE.sub(lambda m: repr(m.group())[1:-1], str(text))
+
+
 def user_message(e: BaseException) -> str:
-    """The one-line message for ``e`` (the command line prefixes it with ``qa-inspect: error:``)."""
+    """The one-line message for ``e`` (the command line prefixes it with ``qa-inspect: error:``),
+    with whatever it quotes from the inputs :func:`printable`."""
+    return printable(_message(e))
+
+
+def _message(e: BaseException) -> str:
     from .signing import OutputExistsError
 
     if isinstance(e, (InputError, SettingsError, OutputExistsError)):

@@ -106,6 +106,8 @@ import numpy as np
 
 from engine.errors import QAError
 
+from .messages import printable
+
 QIF_NAMESPACE = "http://qifstandards.org/xsd/qif3"
 QIF_VERSION = "3.0.0"
 _UUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://qifstandards.org/xsd/qif3#qa-inspect")
@@ -113,9 +115,6 @@ _UUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://qifstandards.org/xsd/q
 _CHAR_STATUS = {"ACCEPT": "PASS", "REJECT": "FAIL", "INCONCLUSIVE": "INDETERMINATE"}
 # InspectionStatusEnumType has no INDETERMINATE; UNKNOWN is its "cannot tell".
 _INSPECTION_STATUS = {"ACCEPT": "PASS", "REJECT": "FAIL", "INCONCLUSIVE": "UNKNOWN"}
-
-_XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
-
 
 class QIFError(QAError, ValueError):
     """The arguments of :func:`qif_results_document` do not describe one inspection (arrays of
@@ -967,17 +966,20 @@ def _nmtoken(s: str) -> str:
 
 
 def _text(s) -> str:
-    s = _XML_INVALID.sub("", str(s))
-    return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    """``s`` (a file name, a label, a certificate field) as XML text: its control characters
+    written out (reports.messages.printable: most are not allowed in XML 1.0 at all, and a
+    dropped one would change the name), then the XML specials escaped."""
+    return (printable(s).replace("&", "&amp;").replace("<", "&lt;")
+            .replace(">", "&gt;"))
 
 
 def _attr(s) -> str:
-    return (_text(s).replace('"', "&quot;").replace("\n", "&#10;").replace("\r", "&#13;")
-            .replace("\t", "&#9;"))
+    return _text(s).replace('"', "&quot;")
 
 
 def _uri(path: str) -> str:
-    return quote(path.replace("\\", "/"), safe="/:._-~")
+    # A file name's bytes that are not UTF-8 (lone surrogates) are percent-encoded as they are.
+    return quote(path.replace("\\", "/"), safe="/:._-~", errors="surrogateescape")
 
 
 def _format_name(path: str, is_template: bool) -> str:

@@ -34,13 +34,16 @@ from matplotlib.transforms import offset_copy
 
 from engine.spc import Analysis, Kind, Series, analyse
 
-from .messages import VERDICT_RGB
+from .messages import VERDICT_RGB, printable
 from .results import SOFTWARE_NAME
 
 A4_LANDSCAPE = (11.69, 8.27)
 RC = {"pdf.fonttype": 42, "font.size": 8, "font.family": "DejaVu Sans", "axes.titlesize": 9,
-      "axes.titleweight": "bold", "legend.fontsize": 7, "svg.hashsalt": "qa-inspect"}
-"""TrueType text (copyable, found by pdftotext) and one font whatever the user's matplotlibrc."""
+      "axes.titleweight": "bold", "legend.fontsize": 7, "svg.hashsalt": "qa-inspect",
+      "text.parse_math": False}
+"""TrueType text (copyable, found by pdftotext) and one font whatever the user's matplotlibrc;
+no mathtext: a '$' in a file name or an id is a dollar sign, not the start of a formula (an
+unbalanced formula would raise)."""
 TOLERANCE_RGB = (0.84, 0.37, 0.0)
 CONTROL_RGB = (0.0, 0.45, 0.70)
 CENTRE_RGB = (0.0, 0.55, 0.35)
@@ -94,6 +97,9 @@ def spc_pdf(series: Iterable[Series | Analysis | tuple], title: str,
     """
     analyses = [s if isinstance(s, Analysis) else analyse(s if isinstance(s, Series)
                                                           else Series(*s)) for s in series]
+    # File names and ids, whose line breaks would break the page's lines.
+    title = printable(title)
+    facts = {printable(k): printable(v) if isinstance(v, str) else v for k, v in facts.items()}
     buf = io.BytesIO()
     meta = {"Title": title, "Creator": SOFTWARE_NAME, "Producer": SOFTWARE_NAME,
             "CreationDate": None}
@@ -126,10 +132,8 @@ def _index_text(i) -> str:
     return f"{i.value:.3g}{ci}"
 
 
-def _shown(text: object) -> str:
-    """Text from a file or the command line as the PDF shows it: a control character (a line
-    break in a serial, say) escaped, so that it cannot start a line of its own."""
-    return "".join(c if c.isprintable() or c == " " else f"\\u{ord(c):04x}" for c in str(text))
+def _printable(text: object) -> str:
+    return printable(str(text))
 
 
 @lru_cache(maxsize=4096)
@@ -154,16 +158,17 @@ def _lot_page(title: str, facts: Mapping[str, object] | None, table: "_Table",
     """A page of the lot: the title, the facts (first page), the table from row ``start`` as
     far as it fits; the figure and how many rows it holds."""
     fig = Figure(figsize=A4_LANDSCAPE)
-    fig.text(0.04, 0.955, _shown(title), fontsize=14, weight="bold", va="top", parse_math=False)
+    fig.text(0.04, 0.955, _printable(title), fontsize=14, weight="bold", va="top",
+             parse_math=False)
     fig.text(0.04, 0.915, "Statistical process control of the lot" if facts is not None
              else "Characteristics (continued)", fontsize=10, va="top")
     y = 0.87
     if facts is not None:
         for key, value in facts.items():
             colour = VERDICT_RGB.get(str(key), POINT_RGB)
-            fig.text(0.04, y, _shown(key), fontsize=10, va="top", color=colour, weight="bold",
+            fig.text(0.04, y, _printable(key), fontsize=10, va="top", color=colour, weight="bold",
                      parse_math=False)
-            fig.text(0.20, y, _shown(value), fontsize=10, va="top", color=colour,
+            fig.text(0.20, y, _printable(value), fontsize=10, va="top", color=colour,
                      parse_math=False)
             y -= 0.03
         total = len(table.rows)
@@ -203,7 +208,7 @@ class _Table:
         s, c, kind = a.series, a.chart, a.series.kind
         flags = a.flags or [TABLE_NOTES.get(kind, "—")]
         colour = FLAG_RGB if a.flags else NOTE_RGB if kind is Kind.FORCED else POINT_RGB
-        cells = (_shown(s.name), _shown(s.unit), f"{c.n}/{len(s.values)}", _fmt(c.centre),
+        cells = (_printable(s.name), _printable(s.unit), f"{c.n}/{len(s.values)}", _fmt(c.centre),
                  _fmt(c.sigma_within), _limits_text(s), _index_text(a.capability.cpk))
         return cells, flags, colour
 
@@ -262,9 +267,9 @@ def _characteristic_page(title: str, a: Analysis) -> Figure:
     lowest chart."""
     s = a.series
     fig = Figure(figsize=A4_LANDSCAPE)
-    fig.text(0.04, 0.965, _shown(title), fontsize=9, va="top", color=(0.3, 0.3, 0.3),
+    fig.text(0.04, 0.965, _printable(title), fontsize=9, va="top", color=(0.3, 0.3, 0.3),
              parse_math=False)
-    fig.text(0.04, 0.94, _shown(f"{s.name} ({s.unit})"), fontsize=14, weight="bold", va="top",
+    fig.text(0.04, 0.94, _printable(f"{s.name} ({s.unit})"), fontsize=14, weight="bold", va="top",
              parse_math=False)
     if a.flags:
         fig.text(0.96, 0.94, "  ".join(a.flags), fontsize=11, weight="bold", va="top",
@@ -294,7 +299,7 @@ def _serial_axis(ax, serials: tuple[str, ...]) -> None:
     ticks = np.arange(1, n + 1, step)
     labels = []
     for k in ticks:
-        text = _shown(serials[k - 1]).replace("$", r"\$")  # no mathtext from a file name
+        text = _printable(serials[k - 1]).replace("$", r"\$")  # no mathtext from a file name
         labels.append(text if len(text) <= SERIAL_CHARS else "…" + text[-SERIAL_CHARS + 1:])
     ax.set_xticks(ticks, labels, rotation=90, fontsize=6.5)
     ax.set_xlabel("part (serial, in measurement order)" + (f"; every {step}th named"
@@ -343,7 +348,7 @@ def _individuals_chart(ax, a: Analysis) -> None:
     if d.significant and d.slope is not None:
         _trend_line(ax, a)
     ax.set_title(_chart_title(a), loc="left")
-    ax.set_ylabel(_shown(s.unit))
+    ax.set_ylabel(_printable(s.unit))
     ax.grid(True, color=(0.9, 0.9, 0.9), lw=0.5)
     # Above the chart's title, as far above the axes whatever their height (a c chart's and an
     # information chart's axes are taller).
@@ -393,7 +398,7 @@ def _moving_range_chart(ax, a: Analysis) -> None:
     _hline(ax, c.mr_ucl, CONTROL_RGB, "--", "UCL")
     _hline(ax, c.mr_centre, CENTRE_RGB, "-", "mean MR")
     ax.set_title("Moving range", loc="left")
-    ax.set_ylabel(_shown(a.series.unit))
+    ax.set_ylabel(_printable(a.series.unit))
     ax.grid(True, color=(0.9, 0.9, 0.9), lw=0.5)
     _legend(ax, loc="lower right", bbox_to_anchor=(1.0, 1.02), ncol=2, frameon=False, fontsize=7,
               borderaxespad=0.0)
@@ -432,7 +437,7 @@ def _histogram(ax, a: Analysis) -> None:
     for limit, name in ((s.lower, "LSL"), (s.upper, "USL")):
         if limit is not None:
             ax.axvline(limit, color=TOLERANCE_RGB, lw=1.4, label=name)
-    ax.set_xlabel(_shown(s.unit))
+    ax.set_xlabel(_printable(s.unit))
     ax.set_ylabel("parts")
     ax.ticklabel_format(axis="x", useOffset=False)
     if s.kind is Kind.COUNT:
@@ -447,7 +452,7 @@ def _numbers(fig: Figure, a: Analysis, top: float) -> None:
     s, c, kind = a.series, a.chart, a.series.kind
     missing = len(s.values) - c.n
     limits = "no tolerance limits" if s.lower is None and s.upper is None else \
-        f"tolerance {_limits_text(s)} {_shown(s.unit)}"
+        f"tolerance {_limits_text(s)} {_printable(s.unit)}"
     lines = [(kind.note, NOTE_RGB)] if kind.note else []
     lines += [
         (f"n = {c.n} of {len(s.values)} parts" + (f" ({missing} without a value)" if missing

@@ -256,7 +256,7 @@ def test_invariant_motions_leave_the_ideal_feature_in_place(feature):
     """Each motion invariant_motions names moves points of the ideal feature along it (zero
     normal velocity), and there are as many as the feature leaves free: the rigid degrees of
     freedom less engine.plan.CONSTRAINED_DOFS."""
-    from engine.fits import pose_jacobian
+    from engine.pose import pose_jacobian
     from engine.plan import CONSTRAINED_DOFS
 
     rng = np.random.default_rng(13)

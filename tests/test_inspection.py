@@ -143,7 +143,7 @@ def test_exact_surface_gives_exact_deviations_where_the_sample_cannot():
     planted = rng.normal(0, 0.005, 300)
     # Free of any rigid motion's share (which a least-squares fit would take out): then the
     # least-squares pose on the exact surface is the true one.
-    from engine.fits import pose_jacobian
+    from engine.pose import pose_jacobian
 
     J = pose_jacobian(on, n, on.mean(axis=0))
     planted -= J @ np.linalg.lstsq(J, planted, rcond=None)[0]

@@ -196,6 +196,46 @@ def test_a_plan_nested_too_deeply_is_refused_not_a_recursion_error(tmp_path):
     assert "nested too deeply" in str(e)
 
 
+def _characteristics(n: int, inline: bool) -> str:
+    """A plan of ``n`` flatness characteristics on one region, as [[characteristic]] tables or
+    as one inline array of them."""
+    head = '[[region]]\nname = "A"\nlabels = "A*"\n'
+    if inline:  # top-level keys come before the first table
+        return "characteristic = [\n" + "".join(
+            f'  {{id = "{k}", type = "flatness", region = "A", zone = 0.1}},\n'
+            for k in range(n)) + "]\n" + head
+    return head + "".join(f'[[characteristic]]\nid = "{k}"\ntype = "flatness"\n'
+                          f'region = "A"\nzone = 0.1\n' for k in range(n))
+
+
+@pytest.mark.parametrize("inline", [False, True])
+def test_a_plan_holds_at_most_the_stated_number_of_characteristics(tmp_path, monkeypatch,
+                                                                   inline):
+    """Issue 22: 100,000 characteristics ran for minutes with nothing on the terminal. A plan
+    holds at most MAX_CHARACTERISTICS (10,000, README); more is bad input that names the plan,
+    the count and the limit. (The limit is lowered here to keep the test quick.)"""
+    import engine.io.plan
+    from engine.plan import MAX_CHARACTERISTICS
+
+    assert MAX_CHARACTERISTICS == 10_000
+    monkeypatch.setattr(engine.io.plan, "MAX_CHARACTERISTICS", 40)
+    assert len(read_plan(write(tmp_path, _characteristics(40, inline))).characteristics) == 40
+    e = refused(tmp_path, _characteristics(41, inline))
+    assert "holds 41 characteristics; a plan may hold at most 40" in str(e)
+
+
+def test_too_many_characteristics_are_refused_before_the_plan_is_parsed(tmp_path, monkeypatch):
+    """100,000 [[characteristic]] tables take tomllib half a minute: they are counted first."""
+    import tomllib
+
+    def parse(text):
+        raise AssertionError("the plan was parsed")
+
+    monkeypatch.setattr(tomllib, "loads", parse)
+    e = refused(tmp_path, _characteristics(100_000, inline=False))
+    assert "holds 100,000 characteristics; a plan may hold at most 10,000" in str(e)
+
+
 @pytest.mark.parametrize("value", ["A\nACCEPT: all 5 characteristics are within tolerance",
                                    "tab\there", "esc\u001b[2J", "line\u2028sep"])
 def test_ids_names_and_labels_with_control_characters_are_refused(tmp_path, value):

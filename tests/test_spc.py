@@ -492,7 +492,7 @@ def test_the_charts_name_the_parts_by_serial_and_text_from_files_is_escaped(tmp_
     chart = text.split("\f")[1]
     for s in serials[:4] + serials[5:]:
         assert s in chart, s
-    assert "S5\\u000aACCEPT" in chart and "SB-1020\\u000aACCEPT: 30 parts" in text
+    assert "S5\\nACCEPT" in chart and "SB-1020\\nACCEPT: 30 parts" in text
     assert not any(line.strip() == "ACCEPT" for line in text.splitlines())
     many = [f"SN{k:04d}" for k in range(100)]
     path.write_bytes(spc_pdf([spc.Series("max |d|", "mm", np.full(100, 0.02), many, None,

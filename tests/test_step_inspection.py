@@ -25,7 +25,7 @@ def measured_on(part, rng, n=400, sigma=0.01, true_points=False):
     """Points on the part's faces, away from their edges (offsets of +-0.05 mm stay on the same
     face, exactly), moved along the exact outward normal by planted deviations free of any rigid
     motion's share; (measured in a random pose, planted, true face ids)."""
-    from engine.fits import pose_jacobian
+    from engine.pose import pose_jacobian
     from surfaces import random_rotation
 
     ps = part.point_set

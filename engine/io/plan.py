@@ -49,7 +49,7 @@ import tomllib
 from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D, FEATURES_3D,
-                         MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Measurement,
+                         MAX_CHARACTERISTICS, MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Measurement,
                          RESERVED_ID, Part, Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
@@ -89,7 +89,10 @@ def read_plan(path: str | os.PathLike) -> Plan:
     if formats.kind_of(path) != formats.PLAN:
         raise InputError(f"an inspection plan is a {' '.join(formats.PLAN_SUFFIXES)} file, "
                          f"not '{formats.suffix_of(path) or '(no suffix)'}'", path)
+    # Counted before parsing too: tomllib takes about 30 s over 100,000 of them.
+    _not_too_many(len(_CHARACTERISTIC_HEADER.findall(raw)), path)
     tables = _tables(_parse(raw, path), path)
+    _not_too_many(len(tables["characteristic"]), path)
     regions = tuple(_region(t) for t in tables["region"])
     _unique(tables["region"], "name")
     region_names = [r.name for r in regions]
@@ -107,6 +110,18 @@ def read_plan(path: str | os.PathLike) -> Plan:
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
                 alignment=alignment, characteristics=characteristics, rps=rps,
                 measurement=_measurement(measurement[0]) if measurement else Measurement())
+
+
+_CHARACTERISTIC_HEADER = re.compile(rb'^[ \t]*\[\[[ \t]*"?characteristic"?[ \t]*\]\]', re.M)
+"""A line opening a [[characteristic]] table."""
+
+
+def _not_too_many(count: int, path: str) -> None:
+    """Refuse a plan of more than MAX_CHARACTERISTICS characteristics."""
+    if count > MAX_CHARACTERISTICS:
+        raise InputError(f"holds {count:,} characteristics; a plan may hold at most "
+                         f"{MAX_CHARACTERISTICS:,} (split it into plans of parts of the "
+                         "drawing)", path)
 
 
 def _parse(raw: bytes, path: str) -> dict:
