@@ -106,6 +106,58 @@ def test_usage_errors_exit_64(args, text, capsys):
     assert text in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", ["inspect", "batch"])
+@pytest.mark.parametrize("zone, limit", [
+    (["--tol", "1e308"], 1e308),
+    (["--tol", "1e300"], 1e300),
+    (["--tol-lower", "-1", "--tol-upper", "2e6"], 2e6),
+])
+def test_absurd_zones_are_usage_errors_before_any_work(files, tmp_path, capsys, command, zone,
+                                                       limit):
+    """Issue 22 item 9: --tol 1e308 was accepted (numpy overflowed, the zone was printed with
+    300 digits). A limit beyond 1e6 mm (1 km) is refused as --tol's other mistakes are (64)."""
+    d, _, _, _ = files
+    out = tmp_path / "out"
+    args = ["--json", out / "r.json"] if command == "inspect" else ["--out", out]
+    assert run(command, d / "nominal.csv", d / "good.csv", *zone, *args) == 64
+    err = capsys.readouterr().err
+    assert f"qa-inspect {command}: tolerance zone " in err
+    assert f"a limit {limit:g} mm from the nominal is beyond 1e6 mm" in err
+    assert "Traceback" not in err and len(err.split("\n")[0]) < 300
+    assert not out.exists()
+
+
+def test_a_zone_beyond_1000_times_the_part_is_refused(files, tmp_path, capsys):
+    """Within 1e6 mm but over 1000 x the nominal's bounding-box diagonal: a zone no part has.
+    The command line's zone is a usage error (64); a plan's is bad input naming the plan and
+    the characteristic (65)."""
+    d, _, _, _ = files
+    with open(d / "nominal.csv") as f:
+        pts = np.loadtxt(f, delimiter=",", skiprows=2)[:, :3]
+    diagonal = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    assert 1000 * diagonal < 1e6  # so that only the part's size refuses these zones
+    over, under = 1000 * diagonal * 1.01, 1000 * diagonal * 0.99
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", over) == 64
+    err = capsys.readouterr().err
+    assert f"beyond 1000 × the part's size ({diagonal:.4g} mm" in err, err
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", under) == 0
+    capsys.readouterr()
+    plan = tmp_path / "plan.toml"
+    plan.write_text('[[region]]\nname = "all"\nbox = [[-1e4, -1e4, -1e4], [1e4, 1e4, 1e4]]\n'
+                    '\n[[characteristic]]\nid = "7"\ntype = "profile"\nregion = "all"\n'
+                    f'zone = {2 * over!r}\n')
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--plan", plan) == 65
+    err = capsys.readouterr().err
+    assert err.startswith(f'qa-inspect: error: {plan}: [[characteristic]] #1 (id "7"): '
+                          "tolerance zone "), err
+    assert "1000 × the part's size" in err
+    plan.write_text(plan.read_text().replace(f"zone = {2 * over!r}", "zone = 1e300"))
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--plan", plan) == 65
+    err = capsys.readouterr().err
+    assert f'{plan}: [[characteristic]] #1 (id "7"): tolerance zone -5e+299' in err, err
+    assert "beyond 1e6 mm" in err
+
+
 def test_bad_data_exit_65_and_missing_exit_66_without_outputs(files, tmp_path, capsys):
     d, _, _, _ = files
     bad = tmp_path / "m.csv"
