@@ -106,6 +106,28 @@ def test_usage_errors_exit_64(args, text, capsys):
     assert text in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("args, command", [
+    (["inspect"], "inspect"),
+    (["batch"], "batch"),
+    (["batch", "n.csv", "m.csv", "--tol", "0.1", "--tol-lower", "-1", "--out", "o"], "batch"),
+    (["verify"], "verify"),
+    (["verify", "c.pdf", "--trust", "ca.pem", "--nominal", "n.csv"], "verify"),
+    (["keygen"], "keygen"),
+    (["bogus"], None),
+    ([], None),
+])
+def test_a_usage_error_shows_its_commands_usage(args, command, capsys):
+    """Issue 22 item 10: the usage errors of batch and verify printed inspect's usage (every
+    command's, inspect's first). Each shows its own; no command, or an unknown one, all."""
+    assert run(*args) == 64
+    err = capsys.readouterr().err
+    message, shown = err.split("\nusage: ", 1)
+    assert message.startswith(f"qa-inspect {command}: " if command else "qa-inspect: ")
+    named = re.findall(r"^(?:usage: |\s+)qa-inspect (\S+)", "usage: " + shown, re.M)
+    assert named == ([command] if command else ["inspect", "batch", "keygen", "verify",
+                                                "--version"]), err
+
+
 @pytest.mark.parametrize("command", ["inspect", "batch"])
 @pytest.mark.parametrize("zone, limit", [
     (["--tol", "1e308"], 1e308),
