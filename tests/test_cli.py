@@ -233,13 +233,17 @@ def test_the_nominal_inspected_against_itself_is_refused(files, tmp_path, capsys
 
 
 def test_unwritable_output_exit_73_and_no_partial_file(files, tmp_path, capsys):
+    """An output whose folder is a file: exit 73, the path and why, nothing written (issue 22
+    item 10: the message was "File exists")."""
     d, _, _, _ = files
     blocker = tmp_path / "file"
     blocker.write_text("")
     assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", "1",
-               "--json", blocker / "r.json") == 73
-    assert "cannot write" in capsys.readouterr().err
-    assert [p.name for p in tmp_path.iterdir()] == ["file"]
+               "--json", blocker / "sub" / "r.json", "--csv", tmp_path / "r.csv") == 73
+    target = blocker / "sub" / "r.json"
+    assert capsys.readouterr().err == (f"qa-inspect: error: cannot write {target}: its folder "
+                                       f"{blocker} is a file, not a folder\n")
+    assert [p.name for p in tmp_path.iterdir()] == ["file"] and blocker.read_text() == ""
 
 
 def test_console_script_entry_point_runs():
