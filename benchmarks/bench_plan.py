@@ -16,6 +16,7 @@ plan's pose).
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import sys
@@ -120,5 +121,12 @@ def main() -> None:
     print(f"numpy {np.__version__}, {os.cpu_count()} cores")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)  # no arguments: --help, and a stray one refused before any work
+
+
 if __name__ == "__main__":
+    parse_args()
     main()
