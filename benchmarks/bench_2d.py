@@ -12,6 +12,7 @@ is timed apart (the fuselage-frame sample).
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -79,5 +80,12 @@ def main() -> int:
     return 0
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)  # no arguments: --help, and a stray one refused before any work
+
+
 if __name__ == "__main__":
+    parse_args()
     sys.exit(main())

@@ -15,6 +15,7 @@ a 1M-point grid nominal (I J K normals) with 200,000 measured points, both as CS
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import tempfile
@@ -147,5 +148,12 @@ def main() -> None:
               f"{1000 * g_show:.0f} | {verdict} |")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)  # no arguments: --help, and a stray one refused before any work
+
+
 if __name__ == "__main__":
+    parse_args()
     main()

@@ -15,6 +15,7 @@ parts/min = parts / wall time (start-up included).
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -65,9 +66,8 @@ def run(lot: str, out: str, workers: int, n: int, extra: list[str], env) -> dict
     return {"wall": wall, "parts": len(summary["parts"]), "counts": summary["counts"]}
 
 
-def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 200
-    n_cert = int(sys.argv[2]) if len(sys.argv) > 2 else n
+def main(n: int = 200, n_cert: int | None = None) -> None:
+    n_cert = n if n_cert is None else n_cert
     env = dict(os.environ, PYTHONPATH=ROOT, QA_BENCH_PASS="benchmark")
     with tempfile.TemporaryDirectory() as tmp:
         lot = os.path.join(tmp, "lot")
@@ -97,5 +97,16 @@ def main() -> None:
               f"{'' if workers == 1 else f'{up:.2f}x'} | {counts} |")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("parts", nargs="?", type=int, default=200, metavar="PARTS",
+                   help="parts in the lot (default 200)")
+    p.add_argument("certified", nargs="?", type=int, default=None, metavar="CERTIFIED_PARTS",
+                   help="parts inspected with signed certificates (default: PARTS)")
+    return p.parse_args(argv)
+
+
 if __name__ == "__main__":
-    main()
+    args = parse_args()
+    main(args.parts, args.certified)

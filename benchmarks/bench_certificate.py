@@ -11,6 +11,7 @@ extra in-process run (after the imports) to show where the time goes.
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import subprocess
@@ -31,8 +32,7 @@ CASES = [
 ]
 
 
-def main() -> None:
-    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 5
+def main(runs: int = 5) -> None:
     env = dict(os.environ, QA_BENCH_PASS="benchmark")
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([QA, "keygen", "--name", "Bench Inspector", "--organisation", "Bench",
@@ -87,5 +87,13 @@ def stages(p12: str) -> None:
           f"|---|---|---|\n| {t_render:.3f} s | {t_layout:.3f} s | {t_sign:.3f} s |")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("runs", nargs="?", type=int, default=5, metavar="RUNS",
+                   help="runs of each case (default 5; the table gives their median)")
+    return p.parse_args(argv)
+
+
 if __name__ == "__main__":
-    main()
+    main(parse_args().runs)

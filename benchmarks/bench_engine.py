@@ -15,6 +15,7 @@ is left out of "dev err".
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import resource
@@ -115,16 +116,14 @@ def run_case(name: str) -> dict:
             "warmup_s": warm_s}
 
 
-def main(argv: list[str]) -> int:
-    if len(argv) == 3 and argv[1] == "--child":
-        print(json.dumps(run_case(argv[2])))
+def main(names: list[str], child: str | None = None) -> int:
+    """names : the cases to run, each in a child process (none: every case); child : the one
+    case this process is the child for (its row printed as JSON)."""
+    if child is not None:
+        print(json.dumps(run_case(child)))
         return 0
-    names = argv[1:] or list(CASES)
     rows = []
-    for name in names:
-        if name not in CASES:
-            print(f"unknown case {name!r}; cases: {', '.join(CASES)}", file=sys.stderr)
-            return 2
+    for name in names or list(CASES):
         out = subprocess.run([sys.executable, __file__, "--child", name], capture_output=True,
                              text=True, check=True)
         rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
@@ -141,5 +140,21 @@ def main(argv: list[str]) -> int:
     return 0
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("cases", nargs="*", metavar="CASE",
+                   help=f"the cases to run ({', '.join(CASES)}); none: every case")
+    p.add_argument("--child", metavar="CASE", choices=list(CASES),
+                   help="run one case in this process and print its row as JSON (how each "
+                        "case's child process is run)")
+    args = p.parse_args(argv)
+    unknown = [c for c in args.cases if c not in CASES]
+    if unknown:  # argparse's choices refuse an empty CASE list (Python 3.11)
+        p.error(f"unknown case {unknown[0]!r}; cases: {', '.join(CASES)}")
+    return args
+
+
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    args = parse_args()
+    sys.exit(main(args.cases, args.child))

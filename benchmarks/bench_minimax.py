@@ -10,6 +10,7 @@ kernels loaded by a first run).
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -52,5 +53,12 @@ def main() -> None:
               f"{a.verdict} → {b.verdict} |")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)  # no arguments: --help, and a stray one refused before any work
+
+
 if __name__ == "__main__":
+    parse_args()
     main()

@@ -28,6 +28,7 @@ hand-tuned one (1,000: ten times faster here).
 
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import json
 import os
@@ -139,30 +140,40 @@ def _mark(pose_err: float, dev_err: float) -> str:
     return f"{pose_err:.3g} / {dev_err:.3g}" + (" WRONG" if dev_err > 0.01 else "")
 
 
-def main(argv: list[str]) -> int:
-    if len(argv) == 4 and argv[1] == "--open3d-child":
-        print(json.dumps(open3d_child(argv[2], int(argv[3]))))
+DEFAULT_CASES = ["60k/1.1k", "60k/400 quarter", "60k/400 tenth", "200k/100 bracket",
+                 "1M points/200k"]
+
+
+def main(args: argparse.Namespace) -> int:
+    if args.open3d_child is not None:
+        npz, iterations = args.open3d_child
+        print(json.dumps(open3d_child(npz, int(iterations))))
         return 0
-    args = argv[1:]
-    repeat = 3
-    if "--repeat" in args:
-        i = args.index("--repeat")
-        repeat = int(args[i + 1])
-        del args[i:i + 2]
-    if "--open3d-python" in args:
-        i = args.index("--open3d-python")
-        python = args[i + 1]
-        del args[i:i + 2]
+    if args.open3d_python is not None:
+        python = args.open3d_python
     elif importlib.util.find_spec("open3d") is not None:
         python = sys.executable
     else:
         print("Open3D is not installed here: .venv/bin/pip install -c constraints.txt "
               "-e '.[bench]', or give --open3d-python\n\n" + __doc__, file=sys.stderr)
         return 2
-    names = args or ["60k/1.1k", "60k/400 quarter", "60k/400 tenth", "200k/100 bracket",
-                     "1M points/200k"]
-    return run(names, python, repeat)
+    return run(args.cases or DEFAULT_CASES, python, args.repeat)
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("cases", nargs="*", metavar="CASE",
+                   help=f"bench_engine.py's cases to run (default: {', '.join(DEFAULT_CASES)})")
+    p.add_argument("--repeat", type=int, default=3, metavar="N",
+                   help="runs of each side per case; the table gives the fastest (default 3)")
+    p.add_argument("--open3d-python", metavar="PYTHON",
+                   help="the interpreter that runs Open3D (default: this one, if it has Open3D)")
+    p.add_argument("--open3d-child", nargs=2, metavar=("NPZ", "ITERATIONS"),
+                   help="register one case in this interpreter with Open3D and print the "
+                        "result as JSON (how each Open3D run is started)")
+    return p.parse_args(argv)
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(main(parse_args()))

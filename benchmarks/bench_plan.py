@@ -23,6 +23,7 @@ engine.io.plan.read_plan of the file, "plan s" inspect_plan after one registrati
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import sys
@@ -176,5 +177,12 @@ def main() -> None:
     scale([100, 1_000, 10_000])
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)  # no arguments: --help, and a stray one refused before any work
+
+
 if __name__ == "__main__":
+    parse_args()
     main()

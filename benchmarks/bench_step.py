@@ -14,6 +14,7 @@ which any least-squares fit takes out).
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -48,12 +49,12 @@ def case(path: str, n: int) -> dict:
             "err": float(np.max(np.abs(res.deviations.signed - planted)))}
 
 
-def main() -> None:
+def main(large: bool = False) -> None:
     from engine import warm_up
 
     warm_up()
     rows = [(f, case(os.path.join(NIST, f), 2000)) for f in FILES]
-    if "--large" in sys.argv:
+    if large:
         rows.append((FILES[0], case(os.path.join(NIST, FILES[0]), 200_000)))
     print(f"{'file':32s} {'faces':>5s} {'tess pts':>8s} {'load s':>7s} {'points':>7s} "
           f"{'engine s':>8s} {'max error mm':>12s}  verdict")
@@ -62,5 +63,13 @@ def main() -> None:
               f"{r['engine']:8.2f} {r['err']:12.2e}  {r['verdict']}")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--large", action="store_true",
+                   help="and CTC-01 with 200,000 points")
+    return p.parse_args(argv)
+
+
 if __name__ == "__main__":
-    main()
+    main(parse_args().large)

@@ -28,6 +28,18 @@ NIST = os.path.join(ROOT, "..", "shared", "realdata", "nist_pmi_step")
 
 
 def main() -> None:
+    # The arguments first: --help before the engine and OpenCascade are loaded.
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--poses", type=int, default=1)
+    ap.add_argument("--parts", nargs="*", default=None, help="substrings of file names")
+    ap.add_argument("--defects", nargs="*", default=None,
+                    help="tests/sweep.py's DEFECTS to plant (default: every one)")
+    ap.add_argument("--points", type=int, default=2000)
+    ap.add_argument("--tol", type=float, default=0.05)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+
     import numpy as np
 
     from engine import warm_up
@@ -38,14 +50,7 @@ def main() -> None:
     from engine.pipeline import _exact_deviations
     from sweep import DEFECTS, judge, make_case, truth
 
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--poses", type=int, default=1)
-    ap.add_argument("--parts", nargs="*", default=None, help="substrings of file names")
-    ap.add_argument("--defects", nargs="*", default=list(DEFECTS))
-    ap.add_argument("--points", type=int, default=2000)
-    ap.add_argument("--tol", type=float, default=0.05)
-    ap.add_argument("--seed", type=int, default=0)
-    args = ap.parse_args()
+    args.defects = list(DEFECTS) if args.defects is None else args.defects
 
     files = sorted(glob.glob(os.path.join(NIST, "*.stp")) + glob.glob(os.path.join(NIST, "*",
                                                                                    "*.stp")))

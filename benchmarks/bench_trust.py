@@ -11,6 +11,7 @@ directions, to the runner-up pose and over the pose-uncertainty region, and re-j
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -69,5 +70,12 @@ def main() -> None:
               f"{n_probes} | {res.verdict} |")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)  # no arguments: --help, and a stray one refused before any work
+
+
 if __name__ == "__main__":
+    parse_args()
     main()

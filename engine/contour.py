@@ -105,6 +105,15 @@ def build_template(contours: list[tuple[list[dict], bool]]) -> Template2D:
                       _positive_sides(t), layer, layers)
 
 
+def diagonal(t: Template2D) -> float:
+    """The template's size, mm: the diagonal of a box around its primitives (their ends, and each
+    arc's whole circle: an upper bound of the contours' own bounding box, never below it)."""
+    arcs = t.kind == ARC
+    r = t.radius[arcs, None]
+    pts = np.concatenate([t.start, t.end, t.centre[arcs] - r, t.centre[arcs] + r])
+    return float(np.linalg.norm(np.ptp(pts, axis=0)))
+
+
 def signed_area(t: Template2D, c: int) -> float:
     """Signed area of closed contour ``c`` (positive counter-clockwise), arcs included exactly."""
     sel = t.contour == c

@@ -29,7 +29,7 @@ from .nominal import Nominal
 from .progress import Callback, report, reporting, within
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .settings import InspectionSettings
-from .tolerance import Tolerance
+from .tolerance import Tolerance, check_zone
 from .verdict import ACCEPT, INCONCLUSIVE
 
 
@@ -266,7 +266,30 @@ def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNomin
 
         plan = read_plan(settings.plan)
         record = InputRecord("plan", settings.plan, plan.sha256, None)
+    check_zones(settings, plan, part_size(source, nominal))
     return LoadedNominal(source, nominal, plan, record, settings, time.perf_counter() - t0)
+
+
+def part_size(source: "_Nominal", nominal: Nominal | None) -> float:
+    """The part's size, mm: its 3D nominal's bounding-box diagonal, or its 2D template's
+    (engine.contour.diagonal)."""
+    if nominal is not None:
+        return nominal.diagonal
+    from .contour import diagonal
+
+    return diagonal(source.template.template)
+
+
+def check_zones(settings: InspectionSettings, plan: Plan | None, size: float) -> None:
+    """Refuse a zone beyond ``PART_SIZE_RATIO`` x the part's ``size`` (mm) by the rule every
+    zone obeys (engine.tolerance.check_zone): a plan's characteristic as InputError naming the
+    plan and the characteristic, the settings' zone (--tol, the app's zone) as SettingsError.
+    The plan first: without --tol the settings' zone is the plan's."""
+    if plan is not None:
+        from .io.plan import check_zones as check_plan_zones
+
+        check_plan_zones(plan, size)
+    check_zone(settings.tol_lower, settings.tol_upper, size)
 
 
 def inspect_measured(loaded: LoadedNominal, measured_path: str,

@@ -279,7 +279,11 @@ def select_points(points: np.ndarray, box=None, remove_plane: bool = False,
 
 
 def _check_spread(kept: np.ndarray, what: str) -> None:
-    """Raise SettingsError when the kept points lie on one line (no rigid pose is fixed)."""
+    """Raise SettingsError when the kept points are one point or lie on one line (no rigid pose
+    is fixed)."""
+    if not np.ptp(kept, axis=0).any():
+        raise SettingsError(f"the {kept.shape[0]:,} {what} kept by the crop and plane removal "
+                            "are all the same point: no pose can be found from them")
     if _on_a_line(kept):
         raise SettingsError(f"the {kept.shape[0]:,} {what} kept by the crop and plane removal "
                             "lie on one straight line: no pose can be found from them")

@@ -32,14 +32,20 @@ EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_UNAVAILABLE, EX_SOFTWARE, EX_CANTCREAT = 64
 
 class UsageError(QAError, ValueError):
     """The command line was used wrongly (exit code 64, EX_USAGE): a missing or contradictory
-    option, not a problem in the files it names."""
+    option, not a problem in the files it names. ``command``: the subcommand whose usage is
+    shown with the message (None: the one parsed, else all of them)."""
+
+    def __init__(self, message: str, command: str | None = None):
+        super().__init__(message)
+        self.command = command
 
 
 class _Parser(argparse.ArgumentParser):
     """argparse exits with 2 on a usage error; 2 means INCONCLUSIVE here, so raise instead."""
 
     def error(self, message):
-        raise UsageError(f"{self.prog}: {message}")
+        # A subcommand's parser is named "qa-inspect batch": its usage goes with the message.
+        raise UsageError(f"{self.prog}: {message}", self.prog.partition(" ")[2] or None)
 
 
 def _finite_float(text: str) -> float:
@@ -347,26 +353,37 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
                         "--measured when the certificate was made with one)")
 
 
-USAGE = """usage: qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
+USAGES = {
+    "inspect": """qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
                   [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--quiet]
                   [--layer NAME] [--units U] [--scale CHORD]
                   [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
                   [--remove-plane [--remove-plane-distance MM]]
-                  [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]
-       qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
+                  [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]""",
+    "batch": """qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
                   --plan PLAN.toml) --out DIR [--layer NAME] [--units U] [--scale CHORD]
                   [--fit …] [--decision-rule …] [--crop …]
                   [--remove-plane [--remove-plane-distance MM]]
                   [--report [--sign ID.p12 --sign-pass-env VAR] [--part-number …]]
-                  [--scheduler ADDRESS] [--workers N] [--quiet]
-       qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]
-       qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE
-                  [--plan FILE]]
-       qa-inspect --version"""
+                  [--scheduler ADDRESS] [--workers N] [--quiet]""",
+    "keygen": "qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]",
+    "verify": """qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE
+                  [--plan FILE]]""",
+}
+"""Each subcommand's usage, shown with its usage errors (continuation lines aligned for the
+"usage: " before them)."""
+USAGE = "usage: " + "\n       ".join([*USAGES.values(), "qa-inspect --version"])
+"""Every subcommand's usage: shown when no subcommand was named, or a wrong one."""
+
+
+def usage(command: str | None) -> str:
+    """The usage shown with a usage error of ``command`` (None or unknown: all of them)."""
+    return "usage: " + USAGES[command] if command in USAGES else USAGE
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    args = None
     try:
         args = parser.parse_args(argv)
         if args.version:
@@ -381,7 +398,7 @@ def main(argv: list[str] | None = None) -> int:
         from reports.messages import printable
 
         print(printable(str(e)), file=sys.stderr)  # it may quote a file name or a certificate
-        print(USAGE, file=sys.stderr)
+        print(usage(e.command or getattr(args, "command", None)), file=sys.stderr)
         return EX_USAGE
     except KeyboardInterrupt:
         print("qa-inspect: interrupted; no result was written", file=sys.stderr)

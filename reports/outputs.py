@@ -36,6 +36,7 @@ writing (:func:`write_all`), both by :func:`output_kind`:
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import stat
@@ -335,9 +336,15 @@ def _undo(done: list[tuple[str, bool, str | None]]) -> list[str]:
 
 
 def _makedirs(folder: str, made: list[str]) -> None:
+    """Create ``folder`` and the folders above it that are missing (each appended to ``made``).
+    NotADirectoryError naming the first of them that exists but is no folder: mkdir said only
+    "File exists" (``--json n.csv/x.json``)."""
     missing = []
     f = folder
     while not os.path.isdir(f):
+        if os.path.lexists(f):
+            what = "a file, not a folder" if os.path.isfile(f) else "not a folder"
+            raise NotADirectoryError(errno.ENOTDIR, f"its folder {f} is {what}")
         missing.append(f)
         parent = os.path.dirname(f)
         if parent == f:

@@ -11,6 +11,7 @@ nominal drawn as a shaded display mesh). The lead's screenshot script calls
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -81,11 +82,25 @@ def shoot(case: str, path: str) -> None:
         w.close()
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("out", nargs="?", metavar="OUT_DIR", help="the folder the PNGs are written to")
+    p.add_argument("--one", nargs=2, metavar=("CASE", "PNG"),
+                   help="one screenshot of CASE on the current X display (how each screen's "
+                        "xvfb-run runs this file)")
+    args = p.parse_args(argv)
+    if (args.out is None) == (args.one is None):
+        p.error("give OUT_DIR, or --one CASE PNG")
+    if args.one is not None and args.one[0] not in CASES:
+        p.error(f"--one: unknown case {args.one[0]!r}; cases: {', '.join(CASES)}")
+    return args
+
+
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[1] == "--one":
-        shoot(sys.argv[2], sys.argv[3])
-    elif len(sys.argv) == 2:
-        for p in app_screenshots(sys.argv[1], cases=tuple(CASES)):
-            print(p)
+    args = parse_args()
+    if args.one is not None:
+        shoot(*args.one)
     else:
-        sys.exit(__doc__)
+        for p in app_screenshots(args.out, cases=tuple(CASES)):
+            print(p)

@@ -14,6 +14,7 @@ contour) and of every page of the belly fairing's certificate. It runs ``qa-insp
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -83,7 +84,15 @@ def main(out: str) -> list[str]:
             + [spc_screenshot.main(out)])
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("out", nargs="?", metavar="OUT_DIR",
+                   default=os.path.join(ROOT, "docs", "screenshots"),
+                   help="the folder the PNGs are written to (default: docs/screenshots)")
+    return p.parse_args(argv)
+
+
 if __name__ == "__main__":
-    for path in main(sys.argv[1] if len(sys.argv) > 1 else
-                     os.path.join(ROOT, "docs", "screenshots")):
+    for path in main(parse_args().out):
         print(path)

@@ -12,6 +12,7 @@ the report); the page of max |d| in spc.pdf is rendered with pdftoppm.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -62,5 +63,14 @@ def main(out_dir: str) -> str:
     return target + ".png"
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("out", nargs="?", metavar="OUT_DIR",
+                   default=os.path.join(ROOT, "docs", "screenshots"),
+                   help="the folder spc.png is written to (default: docs/screenshots)")
+    return p.parse_args(argv)
+
+
 if __name__ == "__main__":
-    print(main(sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "docs", "screenshots")))
+    print(main(parse_args().out))

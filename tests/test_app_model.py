@@ -247,6 +247,9 @@ def test_sample_session_opens_and_inspects_with_its_zone():
     ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
     ('{"format": "qa-inspect session", "inputs": [], "settings": {"tol_lower": 0.1, '
      '"tol_upper": -0.1}}', "zone is empty"),
+    # issue 22 item 9: a zone of 1e308 was accepted (numpy overflowed, 300 digits shown)
+    ('{"format": "qa-inspect session", "inputs": [], "settings": {"tol_lower": -1e308, '
+     '"tol_upper": 1e308}}', "a limit 1e+308 mm from the nominal is beyond 1e6 mm"),
 ])
 def test_bad_session_files_are_one_error(tmp_path, content, expected):
     bad = tmp_path / "x.qasession"
@@ -257,6 +260,29 @@ def test_bad_session_files_are_one_error(tmp_path, content, expected):
     c.open_session(str(tmp_path))  # a folder
     assert messages[-1][0] == "error" and str(tmp_path) in messages[-1][1]
     assert s.step == Step.NEED_NOMINAL
+
+
+def test_a_zone_wider_than_1000_parts_is_one_error_and_the_app_goes_on():
+    """A zone within the form's 1e6 mm but beyond 1000 x the part's size (its nominal's
+    bounding-box diagonal) is refused when the run knows the part: one message, no result, and
+    the next run with a sensible zone works."""
+    import numpy as np
+
+    from engine.io import load_point_set
+
+    pts = load_point_set(os.path.join(BELLY, "nominal.csv")).points
+    diagonal = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    s, c, messages = make()
+    c.open_files([os.path.join(BELLY, "nominal.csv"), os.path.join(BELLY, "measured.csv")])
+    assert 1000 * diagonal * 1.01 < 1e6
+    assert c.set_tolerance(-1000 * diagonal * 1.01, 1000 * diagonal * 1.01)
+    c.inspect()
+    level, text = messages[-1]
+    assert level == "error" and f"beyond 1000 × the part's size ({diagonal:.4g} mm" in text
+    assert s.run is None
+    assert c.set_tolerance(-0.25, 0.25)
+    c.inspect()
+    assert s.run is not None and s.run.result.verdict == "ACCEPT"
 
 
 def test_a_named_pipe_as_the_session_is_one_error_and_never_opened(tmp_path):

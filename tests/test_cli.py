@@ -106,6 +106,80 @@ def test_usage_errors_exit_64(args, text, capsys):
     assert text in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("args, command", [
+    (["inspect"], "inspect"),
+    (["batch"], "batch"),
+    (["batch", "n.csv", "m.csv", "--tol", "0.1", "--tol-lower", "-1", "--out", "o"], "batch"),
+    (["verify"], "verify"),
+    (["verify", "c.pdf", "--trust", "ca.pem", "--nominal", "n.csv"], "verify"),
+    (["keygen"], "keygen"),
+    (["bogus"], None),
+    ([], None),
+])
+def test_a_usage_error_shows_its_commands_usage(args, command, capsys):
+    """Issue 22 item 10: the usage errors of batch and verify printed inspect's usage (every
+    command's, inspect's first). Each shows its own; no command, or an unknown one, all."""
+    assert run(*args) == 64
+    err = capsys.readouterr().err
+    message, shown = err.split("\nusage: ", 1)
+    assert message.startswith(f"qa-inspect {command}: " if command else "qa-inspect: ")
+    named = re.findall(r"^(?:usage: |\s+)qa-inspect (\S+)", "usage: " + shown, re.M)
+    assert named == ([command] if command else ["inspect", "batch", "keygen", "verify",
+                                                "--version"]), err
+
+
+@pytest.mark.parametrize("command", ["inspect", "batch"])
+@pytest.mark.parametrize("zone, limit", [
+    (["--tol", "1e308"], 1e308),
+    (["--tol", "1e300"], 1e300),
+    (["--tol-lower", "-1", "--tol-upper", "2e6"], 2e6),
+])
+def test_absurd_zones_are_usage_errors_before_any_work(files, tmp_path, capsys, command, zone,
+                                                       limit):
+    """Issue 22 item 9: --tol 1e308 was accepted (numpy overflowed, the zone was printed with
+    300 digits). A limit beyond 1e6 mm (1 km) is refused as --tol's other mistakes are (64)."""
+    d, _, _, _ = files
+    out = tmp_path / "out"
+    args = ["--json", out / "r.json"] if command == "inspect" else ["--out", out]
+    assert run(command, d / "nominal.csv", d / "good.csv", *zone, *args) == 64
+    err = capsys.readouterr().err
+    assert f"qa-inspect {command}: tolerance zone " in err
+    assert f"a limit {limit:g} mm from the nominal is beyond 1e6 mm" in err
+    assert "Traceback" not in err and len(err.split("\n")[0]) < 300
+    assert not out.exists()
+
+
+def test_a_zone_beyond_1000_times_the_part_is_refused(files, tmp_path, capsys):
+    """Within 1e6 mm but over 1000 x the nominal's bounding-box diagonal: a zone no part has.
+    The command line's zone is a usage error (64); a plan's is bad input naming the plan and
+    the characteristic (65)."""
+    d, _, _, _ = files
+    with open(d / "nominal.csv") as f:
+        pts = np.loadtxt(f, delimiter=",", skiprows=2)[:, :3]
+    diagonal = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    assert 1000 * diagonal < 1e6  # so that only the part's size refuses these zones
+    over, under = 1000 * diagonal * 1.01, 1000 * diagonal * 0.99
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", over) == 64
+    err = capsys.readouterr().err
+    assert f"beyond 1000 × the part's size ({diagonal:.4g} mm" in err, err
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", under) == 0
+    capsys.readouterr()
+    plan = tmp_path / "plan.toml"
+    plan.write_text('[[region]]\nname = "all"\nbox = [[-1e4, -1e4, -1e4], [1e4, 1e4, 1e4]]\n'
+                    '\n[[characteristic]]\nid = "7"\ntype = "profile"\nregion = "all"\n'
+                    f'zone = {2 * over!r}\n')
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--plan", plan) == 65
+    err = capsys.readouterr().err
+    assert err.startswith(f'qa-inspect: error: {plan}: [[characteristic]] #1 (id "7"): '
+                          "tolerance zone "), err
+    assert "1000 × the part's size" in err
+    plan.write_text(plan.read_text().replace(f"zone = {2 * over!r}", "zone = 1e300"))
+    assert run("inspect", d / "nominal.csv", d / "good.csv", "--plan", plan) == 65
+    err = capsys.readouterr().err
+    assert f'{plan}: [[characteristic]] #1 (id "7"): tolerance zone -5e+299' in err, err
+    assert "beyond 1e6 mm" in err
+
+
 def test_bad_data_exit_65_and_missing_exit_66_without_outputs(files, tmp_path, capsys):
     d, _, _, _ = files
     bad = tmp_path / "m.csv"
@@ -159,13 +233,17 @@ def test_the_nominal_inspected_against_itself_is_refused(files, tmp_path, capsys
 
 
 def test_unwritable_output_exit_73_and_no_partial_file(files, tmp_path, capsys):
+    """An output whose folder is a file: exit 73, the path and why, nothing written (issue 22
+    item 10: the message was "File exists")."""
     d, _, _, _ = files
     blocker = tmp_path / "file"
     blocker.write_text("")
     assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", "1",
-               "--json", blocker / "r.json") == 73
-    assert "cannot write" in capsys.readouterr().err
-    assert [p.name for p in tmp_path.iterdir()] == ["file"]
+               "--json", blocker / "sub" / "r.json", "--csv", tmp_path / "r.csv") == 73
+    target = blocker / "sub" / "r.json"
+    assert capsys.readouterr().err == (f"qa-inspect: error: cannot write {target}: its folder "
+                                       f"{blocker} is a file, not a folder\n")
+    assert [p.name for p in tmp_path.iterdir()] == ["file"] and blocker.read_text() == ""
 
 
 def test_console_script_entry_point_runs():

@@ -5,7 +5,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from engine.contour import (ARC, ContourIndex, arc, build_template, contains, contour_centroid,
-                            deviations_2d, segment, signed_area)
+                            deviations_2d, diagonal, segment, signed_area)
 
 
 def naive_arc_distance(p, c, r, a0, sweep):
@@ -152,3 +152,12 @@ def test_centroid_of_the_contours_weighs_length_not_primitives():
     expect = (np.array([np.pi * 2 / np.pi, 0.0]) + np.array([100.0, 0.0]) * L_sq) / (L_half + L_sq)
     assert np.allclose(contour_centroid(t), expect, atol=1e-12)
     assert np.allclose(ContourIndex(t).centroid, expect, atol=1e-12)
+
+
+def test_diagonal_bounds_the_contours_and_takes_each_arcs_circle():
+    """The part's size a 2D zone is checked against (engine.pipeline.part_size): a 3-4-5
+    segment's box is 50 across; a quarter arc adds its whole circle's box (an upper bound)."""
+    assert diagonal(build_template([([segment((0, 0), (30, 40))], False)])) == pytest.approx(50)
+    t = build_template([([segment((0, 0), (30, 40)), arc((30, 50), 10, -np.pi / 2, np.pi / 2)],
+                         False)])
+    assert diagonal(t) == pytest.approx(np.hypot(40, 60))

@@ -479,6 +479,15 @@ BAD = [
     ("size lower eats the diameter", BASE + char("4", SIZE + "nominal = 1\nlower = -1\n"
                                                  "upper = 0.05"),
      '[[characteristic]] #1 (id "4")', "lower", "leaves no diameter"),
+    # issue 22 item 9: absurd zones are refused as coordinates beyond 1e9 mm are
+    ("zone of 1e300", BASE + char("1", PROFILE + "zone = 1e300"), '[[characteristic]] #1 (id '
+     '"1")', "", "tolerance zone -5e+299 … 5e+299 mm: a limit 5e+299 mm from the nominal is "
+     "beyond 1e6 mm (1 km)"),
+    ("upper limit of 2e6", BASE + char("1", PROFILE + "lower = -0.1\nupper = 2e6"),
+     '[[characteristic]] #1 (id "1")', "", "beyond 1e6 mm"),
+    ("size nominal of 1e300", BASE + char("4", SIZE + "nominal = 1e300\nlower = -0.05\n"
+                                          "upper = 0.05"),
+     '[[characteristic]] #1 (id "4")', "nominal", "a diameter of 1e+300 mm, beyond 1e6 mm"),
     ("size with datums", BASE + char("4", SIZE + 'nominal = 8.0\nlower = -0.05\nupper = 0.05\n'
                                      'datums = ["A"]'),
      '[[characteristic]] #1 (id "4")', "datums", "relative to no datum"),
@@ -506,7 +515,7 @@ BAD = [
 def test_bad_plans_are_refused_naming_file_table_and_key(tmp_path, text, table, key, words):
     message = str(refused(tmp_path, text))
     assert table in message, message
-    assert f"'{key}'" in message, message
+    assert not key or f"'{key}'" in message, message
     assert words in message, message
     # The table comes first after the file (a top-level problem names no table there).
     if table:

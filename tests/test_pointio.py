@@ -95,7 +95,12 @@ BAD = [
     ("# only comments\n\n", r"bad\.csv: the file holds no points"),
     ("x,y,z\n", r"bad\.csv: the file holds a header but no points"),
     ("1 2 3\n4 5 6\n", r"only 2 point\(s\); at least 3"),
-    ("1 1 1\n1 1 1\n1 1 1\n1 1 1\n", r"all 4 points coincide"),
+    ("1 1 1\n1 1 1\n1 1 1\n1 1 1\n", r"all 4 points are the same point \(1, 1, 1\): one "
+                                       "distinct point"),
+    # issue 22 item 10: their mean is not 1.1 to the last bit, and they "lay on one line"
+    ("x,y,z\n" + "1.1,2.2,3.3\n" * 1000, r"bad\.csv: all 1,000 points are the same point "
+                                          r"\(1\.1, 2\.2, 3\.3\): one distinct point$"),
+    ("x,y\n" + "1.1,2.2\n" * 1000, r"all 1,000 points are the same point \(1\.1, 2\.2\)"),
     ("0 0 0\n1 1 1\n2 2 2\n3 3 3\n", r"all 4 points lie on one straight line"),
     ("# grid: 3 x 3\n0 0 0\n1 0 0\n0 1 0\n1 1 1\n", r"declares a 3 x 3 grid \(9 points\) but"),
     ("# units: furlong\n0 0 0\n1 0 0\n0 1 0\n", r"bad\.csv:1: unknown unit 'furlong'"),

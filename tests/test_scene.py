@@ -152,6 +152,11 @@ def test_kept_points_on_one_line_are_an_error():
     pts = np.r_[lattice(5), np.c_[np.arange(10.0) + 20, np.zeros(10), np.zeros(10)]]
     with pytest.raises(SettingsError, match="one straight line"):
         select_points(pts, (19, -1, -1, 40, 1, 1))
+    # One point many times over is one point, not a line (issue 22 item 10).
+    pts = np.r_[lattice(5), np.tile([[20.1, 0.3, 0.7]], (1000, 1))]
+    with pytest.raises(SettingsError, match="the 1,000 measured points kept by the crop and "
+                                            "plane removal are all the same point"):
+        select_points(pts, (19, -1, -1, 40, 1, 1))
 
 
 # ------------------------------------------------------------------------------ extent warning

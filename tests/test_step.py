@@ -501,6 +501,32 @@ def test_reference_cycles_are_refused_by_the_command_line(tmp_path, command):
             out.rmdir()
 
 
+def test_a_direction_of_length_zero_is_named_as_damage(tmp_path, capsys):
+    """Issue 22 item 10: zero_dir.stp (DIRECTIONs #13 and #30 of length 0) was refused as "the
+    model lies beyond ±1e9 mm". It is a damaged file (65) naming the direction; a zero
+    direction the shape does not use is none of its business."""
+    from qa_app.cli import main
+
+    path = os.path.join(REDTEAM, "zero_dir.stp")
+    with pytest.raises(InputError) as e:
+        read_step(path)
+    assert str(e.value) == (f"{path}: the STEP file is damaged: entity #13, a DIRECTION, has "
+                            "length 0 (direction ratios (0.,0.,0.)), and so does #30: a "
+                            "direction must point somewhere")
+    measured = tmp_path / "m.csv"
+    measured.write_text("".join(f"{i},{i % 3},{i % 5}\n" for i in range(20)))
+    assert main(["inspect", path, str(measured), "--tol", "0.1"]) == 65
+    err = capsys.readouterr().err
+    assert "entity #13, a DIRECTION, has length 0" in err and len(err.splitlines()) == 1
+    good = sm.write_step(sm.box(), tmp_path / "good.step")
+    text = _text(good)
+    unused = tmp_path / "unused.step"
+    unused.write_text(text.replace("ENDSEC;\nEND-ISO", "#99999 = DIRECTION('',(0.,0.,0.));\n"
+                                   "ENDSEC;\nEND-ISO"), encoding="latin-1")
+    assert "#99999" in _text(unused)
+    assert read_step(str(unused)).n_faces == read_step(good).n_faces == 6
+
+
 def test_a_reference_cycle_of_any_length_is_found_without_recursion():
     """The walk over the entities is iterative: a chain 200,000 entities deep is walked, a
     cycle through all of them is found and named in short."""

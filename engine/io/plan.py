@@ -48,6 +48,7 @@ import tomllib
 
 from engine.errors import InputError
 from engine.errors import SettingsError
+from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D, FEATURES_3D,
                          MAX_CHARACTERISTICS, MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Measurement,
                          RESERVED_ID, Part, Plan, Region, RpsPoint)
@@ -106,10 +107,24 @@ def read_plan(path: str | os.PathLike) -> Plan:
                             for t in tables["characteristic"])
     _unique(tables["characteristic"], "id")
     part, measurement = tables["part"], tables["measurement"]
-    return Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
+    plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
                 alignment=alignment, characteristics=characteristics, rps=rps,
                 measurement=_measurement(measurement[0]) if measurement else Measurement())
+    check_zones(plan)
+    return plan
+
+
+def check_zones(plan: Plan, size: float | None = None) -> None:
+    """Raise InputError naming the plan and the characteristic whose zone no drawing gives, by
+    the rule every zone obeys (engine.tolerance.check_zone): :func:`read_plan` checks what needs
+    no nominal (a limit beyond 1e6 mm), engine.pipeline.load_nominal the part's ``size`` (its
+    nominal's bounding-box diagonal, mm) once the nominal is read."""
+    for i, c in enumerate(plan.characteristics, start=1):
+        try:
+            check_zone(c.lower, c.upper, size)
+        except SettingsError as e:
+            raise _Table(plan.path, "characteristic", {"id": c.id}, i).refuse(str(e)) from None
 
 
 _CHARACTERISTIC_HEADER = re.compile(rb'^[ \t]*\[\[[ \t]*"?characteristic"?[ \t]*\]\]', re.M)
@@ -434,6 +449,9 @@ def _limits(t: _Table, kind: str) -> tuple[float, float, float | None]:
         if nominal <= 0:
             raise t.fail("nominal", "must be > 0 (a diameter), got "
                          f"{_show(t.data['nominal'])}")
+        if nominal > ZONE_LIMIT_MM:
+            raise t.fail("nominal", f"is a diameter of {nominal:g} mm, beyond "
+                         "1e6 mm (1 km): no part has such a feature")
         lower, upper = _explicit_limits(t, lower, upper)
         if nominal + lower <= 0:
             raise t.fail("lower", f"leaves no diameter: nominal {nominal:g} + lower {lower:g} "

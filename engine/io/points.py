@@ -552,7 +552,7 @@ def finish_point_set(ps: PointSet) -> PointSet:
         row = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
         raise InputError(f"point {row} holds NaN or infinity", ps.path)
     check_coordinate_range(pts, ps.path)
-    check_not_degenerate(pts, ps.path)
+    check_not_degenerate(pts, ps.path, ps.dim)
     if ps.grid_shape is not None:
         nu, nv = ps.grid_shape
         if nu * nv != pts.shape[0]:
@@ -561,12 +561,16 @@ def finish_point_set(ps: PointSet) -> PointSet:
     return ps
 
 
-def check_not_degenerate(pts: np.ndarray, path: str) -> None:
-    """Raise when all points coincide or lie on one line (no rigid pose can be found from them)."""
+def check_not_degenerate(pts: np.ndarray, path: str, dim: int = 3) -> None:
+    """Raise when all points coincide or lie on one line (no rigid pose can be found from them).
+    pts : (n, 3) float; dim : the coordinates the file gave (2: x y, shown without the z)."""
+    # Equal coordinates, not a zero spread about the mean: the mean of 1,000 copies of 1.1 is
+    # not 1.1 to the last bit, and the rounding left looked like a line.
+    if not np.ptp(pts, axis=0).any():
+        raise InputError(f"all {pts.shape[0]:,} points are the same point "
+                         f"({', '.join(f'{v:g}' for v in pts[0, :dim])}): one distinct point", path)
     centred = pts - pts.mean(axis=0)
     scale = float(np.abs(centred).max())
-    if scale == 0.0:
-        raise InputError(f"all {pts.shape[0]} points coincide", path)
     sv = np.linalg.svd(centred / scale, compute_uv=False)
     if sv[1] <= 1e-9 * sv[0]:
         raise InputError(f"all {pts.shape[0]} points lie on one straight line", path)

@@ -17,8 +17,9 @@ Reading
     entities the B-rep uses are walked in the file's text (``BREP_ROOTS``, iteratively): a
     reference cycle (an oriented edge of itself, two of each other) or an oriented edge, face,
     shell or path of another of its kind is refused, naming the entities, before OpenCascade's
-    parser follows them until the process dies. OpenCascade's parser then reports
-    syntax errors and unresolved references (the model's global check) and per-entity errors: a
+    parser follows them until the process dies; so is a DIRECTION of the B-rep whose ratios are
+    all zero (OpenCascade translates it into a shape without extent). OpenCascade's parser then
+    reports syntax errors and unresolved references (the model's global check) and per-entity errors: a
     file with any of the former, or with an error on an entity the shape is made of (everything
     reached from its shape representations and product structure, ``BREP_ROOTS``: topology,
     geometry, placements, contexts, units; a face bound that is no loop would crash
@@ -364,8 +365,9 @@ def _transfer(path: str):
         mode(False)
     # Before OpenCascade parses it: its parser follows some references (an oriented edge's
     # vertices) and dies on a cycle of them.
-    instances = _instances(path)
+    instances, directions = _instances(path)
     reached = _check_references(instances, path)
+    _check_directions(directions, reached, path)
     try:
         status = reader.ReadFile(path)
     except Exception as e:  # OpenCascade's Standard_Failure
@@ -436,6 +438,7 @@ _STRING_RE = re.compile(r"'(?:[^']|'')*'")
 _INSTANCE_RE = re.compile(r"\s*#(\d+)\s*=\s*(.*)", re.S)
 _REF_RE = re.compile(r"#(\d+)")
 _KEYWORD_RE = re.compile(r"([A-Z_][A-Z0-9_]*)\s*\(")
+_DIRECTION_RE = re.compile(r"\s*DIRECTION\s*\(\s*''\s*,\s*\(([^()]*)\)\s*\)\s*$", re.I)
 BREP_ROOTS = frozenset({
     # the product structure OpenCascade's translation walks …
     "SHAPE_DEFINITION_REPRESENTATION", "SHAPE_REPRESENTATION_RELATIONSHIP",
@@ -450,22 +453,48 @@ products, occurrences and transformations. PMI, presentation and property entiti
 the B-rep, never the other way round, so they are not reached."""
 
 
-def _instances(path: str) -> list[tuple[int, list[int], set[str]]]:
+def _instances(path: str) -> tuple[list[tuple[int, list[int], set[str]]], dict[int, str]]:
     """The DATA section's entity instances in file order: (#id, the #ids it refers to, its
-    keywords; a complex instance has several). Strings are blanked first (they may hold
+    keywords; a complex instance has several); and the direction ratios of every DIRECTION
+    (#id -> its list as written, e.g. '0.,0.,1.'). Strings are blanked first (they may hold
     '#', ';' or parentheses)."""
     with open(path, "rb") as f:
         text = f.read().decode("latin-1")
     data = text.upper().find("DATA;")
     body = _STRING_RE.sub("''", text[data + 5:] if data >= 0 else "")
-    out = []
+    out, directions = [], {}
     for statement in body.split(";"):
         m = _INSTANCE_RE.match(statement)
         if m:
             rest = m.group(2)
             out.append((int(m.group(1)), [int(r) for r in _REF_RE.findall(rest)],
                         set(_KEYWORD_RE.findall(rest.upper()))))
-    return out
+            d = _DIRECTION_RE.match(rest)
+            if d:
+                directions[out[-1][0]] = re.sub(r"\s+", "", d.group(1))
+    return out, directions
+
+
+def _check_directions(directions: dict[int, str], reached: set[int], path: str) -> None:
+    """InputError naming the first DIRECTION the B-rep uses (``reached``) whose direction ratios
+    are all zero: it points nowhere, and OpenCascade's translation of it gives no error but a
+    shape without extent (its bounding box not a number, which read as "the model lies beyond
+    ±1e9 mm"). Ratios that are not numbers are left to OpenCascade's own check."""
+    zero = []
+    for eid in sorted(directions.keys() & reached):
+        try:
+            ratios = [float(v) for v in directions[eid].split(",")]
+        except ValueError:
+            continue
+        if not any(ratios):
+            zero.append(eid)
+    if zero:
+        also = ", ".join(f"#{e}" for e in zero[1:CYCLE_SHOWN + 1])
+        also += ", …" if len(zero) > CYCLE_SHOWN + 1 else ""
+        also = f", and so {'does' if len(zero) == 2 else 'do'} {also}" if also else ""
+        raise InputError(f"the STEP file is damaged: entity #{zero[0]}, a DIRECTION, has length "
+                         f"0 (direction ratios ({directions[zero[0]]})){also}: a direction must "
+                         "point somewhere", path)
 
 
 NOT_OF_ITS_OWN_KIND = frozenset({"ORIENTED_EDGE", "ORIENTED_FACE", "ORIENTED_CLOSED_SHELL",
