@@ -9,7 +9,7 @@ Cases, each the median of 5 runs in one warm process (the compiled kernels loade
   and a flatness;
 * the seat bracket sample with its own plan (samples/seat_bracket/plan.toml: datums A|B|C, two
   profiles, a flatness, a hole's position and size).
-"inspect" is the registration and judging without a plan; "plan" is engine.characteristics
+"inspect" is the registration and judging without a plan; "plan" is engine.gdt.characteristics
 .inspect_plan on its result (regions, alignments, characteristics, per-point outputs at the
 plan's pose).
 
@@ -83,7 +83,7 @@ zone = 0.5
 
 
 def case(nominal_path: str, measured_path: str, plan_path: str, tol: float):
-    from engine.characteristics import inspect_plan
+    from engine.gdt.characteristics import inspect_plan
     from engine.inspection import Tolerance, inspect
     from engine.io import load_point_set
     from engine.io.plan import read_plan
@@ -118,7 +118,7 @@ def many_characteristics(n: int) -> str:
 def scale(sizes) -> None:
     import tempfile
 
-    from engine.characteristics import inspect_plan
+    from engine.gdt.characteristics import inspect_plan
     from engine.inspection import Tolerance, inspect
     from engine.io import load_point_set
     from engine.io.plan import read_plan

@@ -30,7 +30,7 @@ from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity,
 
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
-    from .characteristics import PlanResult
+    from .gdt.results import PlanResult
     from .trust import Conditioning, PoseSensitivity
     from .uncertainty import Instrument, UncertaintyBudget
 
@@ -82,7 +82,7 @@ class InspectionResult:
     """What the measurement does not fix and what that does to the verdict, in plain words
     (engine.trust.trust_statements), for the certificate."""
     plan: "PlanResult | None" = None
-    """The inspection plan's outcome (engine.characteristics), when one was given: then
+    """The inspection plan's outcome (engine.gdt.characteristics), when one was given: then
     ``verdict`` and ``reasons`` are the plan's."""
 
     @property
@@ -128,7 +128,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                                                               EXACT_HANDOVER_ITERATIONS),
                            finish_on_all_points=False)
     t0 = time.perf_counter()
-    reg = register(nominal, measured, settings, zone_width=tolerance.upper - tolerance.lower)
+    reg = register(nominal, measured, settings, zone_width=tolerance.width)
     t1 = time.perf_counter()
     surface = exact or (lambda X: point_to_surface(nominal, X))
 
@@ -140,9 +140,9 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     extra: dict = {}
     # The flow starts from the registration's last evaluation: every point at its final pose.
     if exact is not None:
-        reg = _exact_fit(reg, measure, tolerance.upper - tolerance.lower)
+        reg = _exact_fit(reg, measure, tolerance.width)
         reg = _exact_runner_up(reg, measure, measured, nominal.diagonal, settings.outlier_floor,
-                               tolerance.upper - tolerance.lower)
+                               tolerance.width)
     T = reg.T_nominal_measured
     dev = reg.deviations
     j = _judge_pose(reg, T, apply_transform(T, measured), dev,
@@ -366,7 +366,7 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
     from .trust import conditioning
 
     cond = conditioning(X[reg.inlier], dev.normal[reg.inlier], reg.rms,
-                        RESOLUTION_OF_ZONE * (tol.upper - tol.lower))
+                        RESOLUTION_OF_ZONE * tol.width)
 
     def evaluate(Tc):
         Xc, dv = measure.at(Tc)
@@ -533,7 +533,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     best = None
     for F in frames:
         q = measured @ F[:3, :3].T + F[:3, 3]
-        reg = register_2d(index, q[:, :2], zone_width=tolerance.upper - tolerance.lower)
+        reg = register_2d(index, q[:, :2], zone_width=tolerance.width)
         if best is None or reg.score < best[1].score:
             best = (F, reg)
     F, reg = best

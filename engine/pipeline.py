@@ -22,7 +22,7 @@ from .choices import DecisionRule
 from .errors import InputError, NoDistanceError, SettingsError
 from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
-from .plan import Plan
+from .gdt.plan import Plan
 from .pointset import PointSet
 from .neighbours import query_workers
 from .nominal import Nominal
@@ -88,7 +88,7 @@ def inspection_settings(tol: Tolerance | None, plan: str | None = None,
     tol : the zone the user gave (mm), or None. Given, it is part of the verdict: the verdict
         without a plan, one more profile characteristic over all points with one. None with a
         plan: the plan's characteristics are the requirement, and the zone of the per-point
-        statistics is the plan's (engine.characteristics.statistics_zone), outside the verdict.
+        statistics is the plan's (engine.gdt.characteristics.statistics_zone), outside the verdict.
     plan : the inspection plan's path (TOML), or None; read here when it must give the zone.
     options : the other InspectionSettings fields (layers, units, scale, fit, decision_rule,
         instrument). A decision_rule of None is "guarded" when an instrument is stated (the
@@ -108,7 +108,7 @@ def inspection_settings(tol: Tolerance | None, plan: str | None = None,
     if tol is None:
         if plan is None:
             raise SettingsError("a tolerance zone or an inspection plan is required")
-        from .characteristics import statistics_zone
+        from .gdt.characteristics import statistics_zone
 
         tol = statistics_zone(read)
         return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=False,
@@ -529,7 +529,7 @@ def _inspect_template(tpl, measured_ps: PointSet, settings: InspectionSettings, 
         result = _inspect_2d(tpl, index, measured_ps, settings, plan)
     if plan is None:
         return result
-    from .characteristics import inspect_plan_2d
+    from .gdt.characteristics import inspect_plan_2d
 
     with within(1.0 - share, 1.0):
         report("judging the plan's characteristics", 0.0)
@@ -580,7 +580,7 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
         result = dataclasses.replace(result, extra={**result.extra,
                                                     "step": step_facts(source.step)})
     if plan is not None:
-        from .characteristics import inspect_plan
+        from .gdt.characteristics import inspect_plan
 
         ps = source.point_set
         with within(1.0 - share, 1.0):
@@ -678,7 +678,7 @@ vectors; lengths relative to the model's size)."""
 
 
 def _exact_features(step):
-    """feature(kind, mask) -> the nominal feature (engine.characteristics._nominal_feature's
+    """feature(kind, mask) -> the nominal feature (engine.gdt.characteristics._nominal_feature's
     keys) of a region whose tessellation samples ``mask`` all lie on faces of one plane,
     cylinder or sphere of the STEP model ``step``: its exact surface (a cylinder's axis and
     radius from the model, not a fit to samples whose edge nodes stray from it by the edges'

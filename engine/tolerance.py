@@ -59,6 +59,17 @@ class Tolerance:
             raise SettingsError(f"--tol must be positive, got {t:g}")
         return cls(-float(t), float(t))
 
+    @property
+    def width(self) -> float:
+        """upper - lower, mm."""
+        return self.upper - self.lower
+
+    @property
+    def centre(self) -> float:
+        """The zone's middle, (lower + upper) / 2, mm: a profile's value is twice the largest
+        distance of a deviation from it."""
+        return 0.5 * (self.lower + self.upper)
+
     def excess(self, d: np.ndarray) -> np.ndarray:
         """How far each deviation lies outside the zone (mm; <= 0 inside)."""
         return np.maximum(d - self.upper, self.lower - d)

@@ -127,7 +127,7 @@ def ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool, 
     if d.size > AMBIGUITY_POINTS:
         idx = np.sort(np.random.default_rng(3).choice(d.size, AMBIGUITY_POINTS, replace=False))
     spread = float(np.max(np.abs(deviations_at(reg.runner_up_T, idx) - d[idx])))
-    return spread > AMBIGUITY_DEVIATION * (tol.upper - tol.lower), spread
+    return spread > AMBIGUITY_DEVIATION * tol.width, spread
 
 
 MARGIN_NEIGHBOURS = 25
@@ -232,7 +232,7 @@ def pointwise_verdict(d: np.ndarray, tol: Tolerance,
     reason = (f"{k} of {d.size} points lie within their measurement uncertainty U of a "
               "tolerance limit (guarded decision rule, ISO 14253-1): neither conformance nor "
               "non-conformance is proven")
-    width = tol.upper - tol.lower
+    width = tol.width
     no_room = int((2.0 * np.asarray(margin) >= width).sum())
     if no_room:
         reason += (f"; at {no_room} points 2U ≥ the zone's width {width:.4g} mm: there "

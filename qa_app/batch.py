@@ -254,7 +254,7 @@ def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
                 Tracked("n_out", "points out of tolerance", "points", None, 0.0,
                         "points outside the zone (the part document's deviations.n_out); "
                         "upper: 0", Kind.COUNT)]
-    from engine.plan import RESERVED_ID, Characteristic
+    from engine.gdt.plan import RESERVED_ID, Characteristic
 
     chars = list(loaded.plan.characteristics)
     if settings.zone_in_verdict:

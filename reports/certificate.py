@@ -502,7 +502,7 @@ class _Layout:
 
     @property
     def plan(self):
-        """The inspection plan's outcome (engine.characteristics.PlanResult), or None."""
+        """The inspection plan's outcome (engine.gdt.characteristics.PlanResult), or None."""
         return self.run.result.plan
 
     @property

@@ -185,7 +185,7 @@ def region_colours(regions: np.ndarray) -> tuple[list[tuple[str, tuple, int]], n
     """The colours of the points' plan regions.
 
     regions : (n,) str, each point's regions ('a+b' for a point in two, '' for none:
-    engine.characteristics.PlanResult.regions). Returns the legend, [(name, rgb in 0..1,
+    engine.gdt.characteristics.PlanResult.regions). Returns the legend, [(name, rgb in 0..1,
     number of points)] with the named regions in sorted order and "(no region)" last, and the
     (n, 3) uint8 colour of each point.
     """

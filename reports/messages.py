@@ -70,7 +70,7 @@ def limits_text(c) -> str:
 def alignment_text(planned) -> str | None:
     """A plan's alignment in one line ("datums on A plane (tangent, 16 points), ...; free:
     none"), or None for a best fit (the registration's pose stands). planned :
-    engine.characteristics.PlanResult."""
+    engine.gdt.characteristics.PlanResult."""
     al = planned.alignment
     if al is None:
         return None

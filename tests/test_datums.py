@@ -1,12 +1,12 @@
-"""Datum reference frames (engine.datums) against analytic geometry: a block with plane faces and
+"""Datum reference frames (engine.gdt.datums) against analytic geometry: a block with plane faces and
 a hole, measured exactly, misplaced by a known rigid motion."""
 
 import numpy as np
 import pytest
 
-from engine.datums import align, align_rps, invariant_motions
+from engine.gdt.datums import align, align_rps, invariant_motions
 from engine.pose import make_transform, rotation_from_rotvec
-from engine.plan import Datum
+from engine.gdt.plan import Datum
 
 # A block [0, 100] x [0, 60] x [0, 20] with a vertical hole of radius 4 at (64, 30).
 # Outward normals: bottom -z, back -x, side -y, top +z; the hole's wall points at its axis.
@@ -69,7 +69,7 @@ class Block:
         return [np.flatnonzero(self.face == f) for f in faces]
 
     def invariants(self, *faces):
-        """The motions leaving each face's ideal nominal feature in place (engine.datums)."""
+        """The motions leaving each face's ideal nominal feature in place (engine.gdt.datums)."""
         c, length = self.frame()
         out = []
         for f in faces:
@@ -255,9 +255,9 @@ def test_rps_locks_six_labelled_points_onto_their_nominal_positions():
 def test_invariant_motions_leave_the_ideal_feature_in_place(feature):
     """Each motion invariant_motions names moves points of the ideal feature along it (zero
     normal velocity), and there are as many as the feature leaves free: the rigid degrees of
-    freedom less engine.plan.CONSTRAINED_DOFS."""
+    freedom less engine.gdt.plan.CONSTRAINED_DOFS."""
     from engine.pose import pose_jacobian
-    from engine.plan import CONSTRAINED_DOFS
+    from engine.gdt.plan import CONSTRAINED_DOFS
 
     rng = np.random.default_rng(13)
     dim = 2 if feature in ("line", "circle") else 3

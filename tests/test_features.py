@@ -1,4 +1,4 @@
-"""engine.features against independent truth: the minimum zone against an exhaustive search over
+"""engine.gdt.features against independent truth: the minimum zone against an exhaustive search over
 every candidate normal and a multi-start Nelder-Mead over the normal's angles; the least-squares
 circle, sphere and cylinder against analytic shapes in random poses (exact without noise; within
 a few standard errors of the truth with noise, the standard errors from the test's own model of
@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import minimize
 
 from engine.errors import QAError
-from engine.features import (FeatureError, fit_circle_lsq, fit_cylinder_lsq, fit_line_lsq,
+from engine.gdt.features import (FeatureError, fit_circle_lsq, fit_cylinder_lsq, fit_line_lsq,
                              fit_plane_lsq, fit_sphere_lsq, flatness, position_value)
 from surfaces import random_rotation
 

@@ -1,5 +1,5 @@
 """Named groups of a nominal (OBJ g/o, a PLY face or vertex property, DXF layers) read by
-engine.io and selected by an inspection plan's ``group = "NAME"`` (engine.regions), against
+engine.io and selected by an inspection plan's ``group = "NAME"`` (engine.gdt.regions), against
 truth known from how each file was written."""
 
 import json
@@ -12,8 +12,8 @@ import pytest
 from engine.errors import InputError
 from engine.io import load_point_set
 from engine.io.templates import read_airfoil_template, read_dxf_template
-from engine.plan import Part, Plan, Region
-from engine.regions import nominal_members
+from engine.gdt.plan import Part, Plan, Region
+from engine.gdt.regions import nominal_members
 
 # ------------------------------------------------------------------------- a stepped block
 # x in [0, 100], y in [0, 60]; 20 high over x <= 60 (the face "top"), 10 high beyond (no

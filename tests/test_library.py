@@ -58,3 +58,9 @@ def test_the_choices_are_typed_and_written_as_their_words():
     assert json.dumps({"verdict": Verdict.REJECT}) == '{"verdict": "REJECT"}'
     assert f"{Verdict.INCONCLUSIVE}: x" == "INCONCLUSIVE: x" and str(Fit.LSQ) == "lsq"
     assert InspectionSettings(-0.1, 0.1, fit="bogus").fit == "bogus"  # refused by the check
+
+
+def test_a_zone_knows_its_width_and_centre():
+    z = engine.Tolerance(-0.1, 0.3)
+    assert z.width == 0.3 - (-0.1) and z.centre == 0.5 * (-0.1 + 0.3)
+    assert engine.Tolerance.symmetric(0.05).centre == 0.0

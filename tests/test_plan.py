@@ -1,4 +1,4 @@
-"""Inspection plans end to end (engine.characteristics over the real registration): a block with a
+"""Inspection plans end to end (engine.gdt.characteristics over the real registration): a block with a
 sloped skin and a hole, measured in a random pose with planted deviations, judged by datums,
 against analytic truth and independent linear programs."""
 
@@ -7,11 +7,11 @@ import os
 import numpy as np
 import pytest
 
-from engine.characteristics import inspect_plan
+from engine.gdt.characteristics import inspect_plan
 from engine.pose import make_transform, rotation_from_rotvec
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
-from engine.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
+from engine.gdt.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
 from engine.pointset import PointSet
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 

@@ -9,7 +9,7 @@ import pytest
 from engine.errors import InputError, InputNotFoundError
 from engine.io import formats
 from engine.io.plan import read_plan
-from engine.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
+from engine.gdt.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
 
 PART = """\
 [part]
@@ -215,7 +215,7 @@ def test_a_plan_holds_at_most_the_stated_number_of_characteristics(tmp_path, mon
     holds at most MAX_CHARACTERISTICS (10,000, README); more is bad input that names the plan,
     the count and the limit. (The limit is lowered here to keep the test quick.)"""
     import engine.io.plan
-    from engine.plan import MAX_CHARACTERISTICS
+    from engine.gdt.plan import MAX_CHARACTERISTICS
 
     assert MAX_CHARACTERISTICS == 10_000
     monkeypatch.setattr(engine.io.plan, "MAX_CHARACTERISTICS", 40)
@@ -520,3 +520,29 @@ def test_bad_plans_are_refused_naming_file_table_and_key(tmp_path, text, table, 
     # The table comes first after the file (a top-level problem names no table there).
     if table:
         assert message.split(": ", 1)[1].startswith(table), message
+
+
+def test_a_run_with_a_plan_parses_it_once_and_an_edited_plan_anew(monkeypatch, tmp_path):
+    """qa-inspect --plan asks for the plan when it chooses the zone and again with the nominal:
+    its bytes are parsed once (it parsed them twice, seconds at 10,000 characteristics); the
+    same path with other bytes is parsed anew, never served stale."""
+    import os
+    import shutil
+
+    import engine.io.plan as reader
+    from qa_app.cli import main
+
+    sample = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
+                          "seat_bracket")
+    plan = tmp_path / "plan.toml"
+    shutil.copy(os.path.join(sample, "plan.toml"), plan)
+    parsed = []
+    real = reader._parse
+    monkeypatch.setattr(reader, "_parse", lambda raw, path: parsed.append(path) or real(raw, path))
+    args = ["inspect", os.path.join(sample, "nominal.xyz"), os.path.join(sample, "measured.csv"),
+            "--plan", str(plan), "--json", str(tmp_path / "r.json")]
+    assert main(args) == 1  # the sample's REJECT
+    assert parsed == [str(plan)]
+    plan.write_text(plan.read_text() + "\n# edited\n")
+    assert read_plan(plan).sha256 == hashlib.sha256(plan.read_bytes()).hexdigest()
+    assert len(parsed) == 2

@@ -8,12 +8,12 @@ import os
 import numpy as np
 import pytest
 
-from engine.characteristics import inspect_plan
+from engine.gdt.characteristics import inspect_plan
 from engine.inspection import Tolerance, inspect
 from engine.io import load_point_set
 from engine.io.plan import read_plan
 from engine.nominal import Nominal
-from engine.plan import Characteristic
+from engine.gdt.plan import Characteristic
 
 HERE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "samples",
                     "seat_bracket")
@@ -84,7 +84,7 @@ def test_the_work_of_a_region_is_done_once(bracket, monkeypatch):
     """Twenty copies of the sample's five characteristics (new ids) cost the deviations,
     cylinder fits and minimum zones of one copy: none of that work is per characteristic."""
     import engine.deviation
-    import engine.features
+    import engine.gdt.features
 
     calls = {"deviations": 0, "cylinder fits": 0, "minimum zones": 0}
 
@@ -96,10 +96,10 @@ def test_the_work_of_a_region_is_done_once(bracket, monkeypatch):
 
     monkeypatch.setattr(engine.deviation, "point_to_surface",
                         counted("deviations", engine.deviation.point_to_surface))
-    monkeypatch.setattr(engine.features, "fit_cylinder_lsq",
-                        counted("cylinder fits", engine.features.fit_cylinder_lsq))
-    monkeypatch.setattr(engine.features, "flatness",
-                        counted("minimum zones", engine.features.flatness))
+    monkeypatch.setattr(engine.gdt.features, "fit_cylinder_lsq",
+                        counted("cylinder fits", engine.gdt.features.fit_cylinder_lsq))
+    monkeypatch.setattr(engine.gdt.features, "flatness",
+                        counted("minimum zones", engine.gdt.features.flatness))
     five = bracket[1].characteristics
     judged(bracket, five)
     once = dict(calls)

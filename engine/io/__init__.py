@@ -3,7 +3,7 @@
 ``formats`` is the one table of file types; ``points`` reads text and ``.npy`` point files (and
 defines :class:`~engine.io.points.PointSet`); ``meshes`` reads PLY/OBJ/STL with numpy and VTK's
 formats through VTK; ``templates`` reads 2D contour templates (DXF drawings with ezdxf, airfoil
-ordinates); ``plan`` reads inspection plans (TOML) into :class:`engine.plan.Plan`. Only this
+ordinates); ``plan`` reads inspection plans (TOML) into :class:`engine.gdt.plan.Plan`. Only this
 package may import pyvista/VTK or ezdxf (an import-linter contract checks it), and only lazily,
 inside the readers that need them.
 

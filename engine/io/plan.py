@@ -1,4 +1,4 @@
-"""Inspection plan files (``.toml``, read with the standard library's tomllib) -> engine.plan.Plan.
+"""Inspection plan files (``.toml``, read with the standard library's tomllib) -> engine.gdt.plan.Plan.
 
 The format (units mm, coordinates in the nominal frame; issue 12 is its contract)::
 
@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import datetime as dt
 import difflib
+import functools
 import hashlib
 import json
 import math
@@ -49,9 +50,10 @@ import tomllib
 from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
-from engine.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D, FEATURES_3D,
-                         MAX_CHARACTERISTICS, MAX_DATUMS, PROFILE_FITS, Alignment, Characteristic, Datum, Measurement,
-                         RESERVED_ID, Part, Plan, Region, RpsPoint)
+from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
+                             FEATURES_3D, MAX_CHARACTERISTICS, MAX_DATUMS, PROFILE_FITS,
+                             RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
+                             Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
@@ -90,6 +92,15 @@ def read_plan(path: str | os.PathLike) -> Plan:
     if formats.kind_of(path) != formats.PLAN:
         raise InputError(f"an inspection plan is a {' '.join(formats.PLAN_SUFFIXES)} file, "
                          f"not '{formats.suffix_of(path) or '(no suffix)'}'", path)
+    return _plan_of(raw, path)
+
+
+@functools.lru_cache(maxsize=4)
+def _plan_of(raw: bytes, path: str) -> Plan:
+    """The plan these bytes of ``path`` hold. Cached by the bytes themselves: a run asks for
+    its plan when it chooses the zone and again with the nominal (engine.pipeline), and the same
+    bytes always give the same (frozen) Plan, so they are parsed once (10,000 characteristics
+    take seconds); a file changed in between is read anew."""
     # Counted before parsing too: tomllib takes about 30 s over 100,000 of them.
     _not_too_many(len(_CHARACTERISTIC_HEADER.findall(raw)), path)
     tables = _tables(_parse(raw, path), path)
@@ -438,7 +449,7 @@ def _characteristic(t: _Table, regions: list[str], datums: tuple[Datum, ...]) ->
 
 
 def _limits(t: _Table, kind: str) -> tuple[float, float, float | None]:
-    """(lower, upper, nominal) of a characteristic's zone, mm (see engine.plan.Characteristic)."""
+    """(lower, upper, nominal) of a characteristic's zone, mm (see engine.gdt.plan.Characteristic)."""
     zone, lower, upper, nominal = (t.number(k) for k in ("zone", "lower", "upper", "nominal"))
     if kind == "size":
         if zone is not None:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .uncertainty import Instrument
+from ..uncertainty import Instrument
 
 FEATURES_3D = ("plane", "cylinder", "sphere")
 FEATURES_2D = ("line", "circle")

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 _FLAT = 1e-9
 """Relative spread below which points count as lying on a line / in a plane (a singular value of

@@ -17,7 +17,7 @@ from fnmatch import fnmatchcase
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 from .plan import Plan, Region
 
 

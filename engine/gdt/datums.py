@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .pose import apply_update, pose_jacobian
+from ..pose import apply_update, pose_jacobian
 from .plan import MIN_POINTS
 
 SIZE_FEATURES = ("cylinder", "sphere", "circle")

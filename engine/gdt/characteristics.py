@@ -1,0 +1,258 @@
+"""The characteristics of an inspection plan, judged at the poses their datums give.
+
+After the soft registration (any pose, all points) every characteristic is evaluated as a
+drawing means it:
+
+* profile relative to datums: the part placed by those datums (engine.datums; freedom they leave
+  best-fitted on the characteristic's own region), the deviations of the region's points;
+* profile, form only (no datums): the region's points refitted alone (``lsq``: least squares;
+  ``minimax``: the smallest largest excursion from the zone's centre);
+* flatness: the minimum zone of the region's measured points (engine.features);
+* position: the hole's least-squares axis (3D cylinder) or centre (2D circle) at the pose its
+  datums give, against the nominal's (fitted to the region's nominal points); the freedom the
+  datums leave stays at the plan's alignment;
+* size: the least-squares diameter of the hole (pose-independent).
+
+Each reports a ``value`` in the drawing's convention (profile: twice the largest |d - zone
+centre|, the width of the smallest zone centred like the tolerance zone that holds every point;
+flatness: the minimum zone's width; position: the diameter of the smallest cylinder / circle
+about the true position holding the axis or centre; size: the diameter) and passes when the
+value lies within its zone. Profiles follow the decision rule point by point (guarded: each
+point's nominal-sampling margin); a characteristic whose points or datums are missing is
+INCONCLUSIVE, never guessed. The part: REJECT if any characteristic is out, else INCONCLUSIVE if
+any cannot be trusted, else ACCEPT.
+
+Every region a datum or characteristic uses is also reported as the feature the drawing names
+(RegionFeature: a plane, cylinder or sphere with the least-squares fits of its nominal points and
+of its measured points at the plan's alignment, or a freeform surface): what exports such as
+QIF 3.0 write as datum features and toleranced features.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..choices import DecisionRule
+from ..errors import InputError
+from ..pose import apply_transform
+from ..progress import report, within
+from ..tolerance import Tolerance
+from ..verdict import INCONCLUSIVE, Statistics
+from .judgement import PROGRESS_REPORTS, Shared, judge, plan_verdict
+from .plan import FEATURES_2D, FEATURES_3D, RESERVED_ID, Characteristic, Plan
+from .region_features import feature_masks, region_features, rps_alignment
+from .results import CharacteristicResult, Geometry, PlanResult
+
+def statistics_zone(plan: Plan) -> Tolerance:
+    """The zone of the per-point statistics when the plan alone states the requirement: the
+    widest profile zone of its characteristics (else +-half the widest zone of any); it is not
+    part of the verdict."""
+    if not plan.characteristics:
+        raise InputError("the plan has no [[characteristic]]: add one, or give a zone over all "
+                         "points (--tol)", plan.path)
+    profiles = [c for c in plan.characteristics if c.type == "profile"]
+    if profiles:
+        c = max(profiles, key=lambda c: c.width)
+        return Tolerance(c.lower, c.upper)
+    return Tolerance.symmetric(0.5 * max(c.width for c in plan.characteristics))
+
+
+def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,
+               regions: np.ndarray) -> PlanResult:
+    """Evaluate ``plan`` on the registered part (module docstring)."""
+    shared = Shared(plan, geo, members)
+    a = plan.alignment
+    alignment = None
+    T_part = geo.T0
+    if a.method == "datums":
+        alignment = shared.placed(tuple(a.reference), tuple(a.best_fit_regions), geo.T0)
+        T_part = alignment.T_nominal_measured
+    elif a.method == "rps":
+        fit_idx = np.unique(np.concatenate([members[r] for r in a.best_fit_regions])) \
+            if a.best_fit_regions else None
+        alignment = rps_alignment(plan, geo, fit_idx)
+        T_part = alignment.T_nominal_measured
+    results = []
+    n_chars = len(plan.characteristics)
+    every = max(1, n_chars // PROGRESS_REPORTS)
+    for k, c in enumerate(plan.characteristics):
+        if k % every == 0:
+            report(f"judging characteristic {k + 1:,} of {n_chars:,}", k / n_chars)
+        try:
+            with within(k / n_chars, (k + 1) / n_chars):  # a minimax refit reports too
+                results.append(judge(c, members[c.region], geo, shared, T_part))
+        except InputError as e:  # a plan the nominal shows wrong: name the plan
+            if e.path is not None:
+                raise
+            raise InputError(e.message, plan.path) from None
+    everything = np.arange(n)
+    d_part = geo.evaluate(T_part, everything)[1]
+    verdict, reasons = plan_verdict(results, alignment)
+    return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
+                      tuple(results),
+                      features=region_features(plan, geo, members, T_part))
+
+
+def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
+                 measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool,
+                 nominal_groups: dict[str, np.ndarray] | None = None, exact=None,
+                 sample_of=None, exact_feature=None):
+    """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
+    reasons become the plan's (with the zone of ``result`` as one more profile characteristic
+    over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
+    outputs are at the plan's alignment. nominal_labels, nominal_groups : the nominal file's
+    point labels and groups (engine.pointset.PointSet), which regions may select. exact(X) ->
+    Deviations from the true surface (a STEP model's faces; engine.inspection.inspect), None:
+    deviations on the nominal's sample, with its sampling margins. sample_of(feet) -> the
+    nominal sample whose regions each foot (closest surface point) takes (None: the nearest;
+    a STEP model: the nearest of the foot's own face, whose samples its edges share with the
+    next face's). exact_feature : see Geometry.exact_feature (a STEP model's faces)."""
+    from ..deviation import point_to_surface
+    from .regions import nominal_members
+    from ..uncertainty import expanded_at
+    from ..verdict import margins_3d
+
+    masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups)
+    surface = exact or (lambda X: point_to_surface(nominal, X))
+
+    def evaluate(T, idx):
+        X = apply_transform(T, measured[idx])
+        dv = surface(X)
+        return X, dv.signed, dv.normal
+
+    def sampling(idx, T):
+        if exact is not None:
+            return np.zeros(len(idx))
+        X = apply_transform(T, measured[idx])
+        return margins_3d(nominal, point_to_surface(nominal, X).foot)
+
+    def margin(idx, T, form_only=False):
+        if result.decision_rule != DecisionRule.GUARDED:
+            return None
+        if result.uncertainty is None:  # guarded by the sampling margin alone (older runs)
+            return sampling(idx, T)
+        return expanded_at(result.uncertainty, idx, sampling(idx, T),
+                           ("pose",) if form_only else ())
+
+    geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
+                   nominal.normals, masks, *_centre_and_length(result.registered), labels,
+                   exact_feature)
+    planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
+                      zone_in_verdict)
+    result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
+    if planned.alignment is None:
+        return result
+    # The per-point outputs at the plan's alignment: where the drawing places the part.
+    X = apply_transform(planned.T_nominal_measured, measured)
+    dv = surface(X)
+    return _at_plan_pose(result, X, dv, None if result.margin is None else sampling(
+        np.arange(len(X)), planned.T_nominal_measured))
+
+
+def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
+                    zone_in_verdict: bool):
+    """:func:`inspect_plan` for a 2D template (``index``: its engine.contour.ContourIndex):
+    the plan works in the template's plane on the registered points' x, y (poses 3x3 there,
+    starting from the identity); the part's pose and per-point outputs are lifted back into
+    3D. Template lines and arcs are exact: no sampling margin. A region's ``group`` selects
+    the samples of a DXF layer's contours (its name compared without case, as DXF does)."""
+    from ..contour import deviations_2d
+    from ..deviation import Deviations
+    from ..registration import in_plane
+    from .regions import nominal_members
+
+    P2 = result.registered[:, :2]
+    samples = index.tree.data
+    t = index.t
+    layers = None
+    if t.layer is not None:  # each sample's layer is its primitive's
+        of_sample = t.layer[index.owner]
+        layers = {name: np.flatnonzero(of_sample == i) for i, name in enumerate(t.layers)}
+    masks = nominal_members(plan, samples, None, layers, fold_case=True)
+
+    def evaluate(T, idx):
+        X = apply_transform(T, P2[idx])
+        dv = deviations_2d(index, X)
+        return X, dv.signed, dv.normal
+
+    def normals(idx):
+        return deviations_2d(index, samples[idx]).normal
+
+    def margin(idx, T, form_only=False):  # lines and arcs are exact: the budget's other terms
+        from ..uncertainty import expanded_at
+
+        if result.decision_rule != DecisionRule.GUARDED or result.uncertainty is None:
+            return None
+        return expanded_at(result.uncertainty, idx, np.zeros(len(idx)),
+                           ("pose",) if form_only else ())
+
+    geo = Geometry(evaluate, np.eye(3), margin, samples, normals, masks,
+                   *_centre_and_length(P2), labels)
+    planned = _judged(result, plan, geo, lambda f: index.tree.query(f)[1], zone_in_verdict)
+    T2 = planned.T_nominal_measured
+    planned = replace(planned, T_nominal_measured=in_plane(T2)
+                      @ result.registration.T_nominal_measured)
+    result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
+    if planned.alignment is None:
+        return result
+    X2 = apply_transform(T2, P2)
+    d2 = deviations_2d(index, X2)
+    zeros = np.zeros(X2.shape[0])
+    dv = Deviations(d2.signed, np.column_stack([d2.foot, zeros]),
+                    np.column_stack([d2.normal, zeros]), zeros.astype(bool))
+    return _at_plan_pose(result, np.column_stack([X2, result.registered[:, 2]]), dv, None)
+
+
+def _centre_and_length(X: np.ndarray) -> tuple[np.ndarray, float]:
+    """The points' centroid and RMS radius (mm): the centre and lever of the plan's poses."""
+    centre = X.mean(axis=0)
+    return centre, float(np.sqrt(np.mean(np.sum((X - centre) ** 2, axis=1)))) or 1.0
+
+
+def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool) -> PlanResult:
+    """The plan checked on ``geo``, with the inspection's own zone as a characteristic over all
+    points when ``zone_in_verdict``; everything INCONCLUSIVE when the registration, on which
+    the regions rest, cannot be trusted."""
+    from .regions import measured_members, region_column
+    from ..verdict import pose_trusted
+
+    dim = geo.nominal_points.shape[1]
+    for d in plan.datums:
+        if d.feature not in (FEATURES_2D if dim == 2 else FEATURES_3D):
+            raise InputError(f"[[datum]] '{d.label}': a {d.feature} datum needs a "
+                             f"{'3D nominal' if dim == 2 else '2D template'}; this nominal is "
+                             f"{'a 2D template' if dim == 2 else '3D'}", plan.path)
+    reg = result.registration
+    n = result.registered.shape[0]
+    geo = replace(geo, nominal_masks=feature_masks(plan, geo))
+    # A point belongs where it lies: in the region of the sample nearest its closest point on
+    # the surface (not its nearest sample, which may lie on the next face).
+    foot = result.deviations.foot[:, :geo.nominal_points.shape[1]]
+    members = measured_members(plan, geo.nominal_masks, sample_of(foot), geo.labels)
+    planned = check_plan(plan, geo, members, n, region_column(plan, members, n))
+    results = list(planned.characteristics)
+    if zone_in_verdict:
+        tol = result.tolerance
+        d = result.deviations.signed
+        whole = Characteristic(RESERVED_ID, "profile", "(all points)", tol.lower, tol.upper)
+        results.insert(0, CharacteristicResult(
+            whole, float(2.0 * np.max(np.abs(d - tol.centre))),
+            result.verdict, result.reasons[0], np.arange(d.size), d, result.statistics.worst))
+    verdict, reasons = plan_verdict(results, planned.alignment)
+    if not pose_trusted(reg):
+        results = [replace(r, verdict=INCONCLUSIVE, reason=f"the registration cannot be "
+                           f"trusted: {result.reasons[0]}") for r in results]
+        verdict, reasons = INCONCLUSIVE, result.reasons
+    return replace(planned, verdict=verdict, reasons=reasons, characteristics=tuple(results),
+                   zone_in_verdict=zone_in_verdict)
+
+
+def _at_plan_pose(result, X: np.ndarray, dv, margin):
+    """``result`` with its per-point outputs (points, deviations, in-tolerance, statistics,
+    margins) at the plan's alignment: where the drawing places the part."""
+    tol = result.tolerance
+    return replace(result, registered=X, deviations=dv,
+                   in_tolerance=(dv.signed >= tol.lower) & (dv.signed <= tol.upper),
+                   statistics=Statistics.of(dv.signed, tol), margin=margin)

@@ -1,0 +1,354 @@
+"""Each characteristic type judged (profile with or without datums, flatness, position, size),
+with the work a plan's characteristics share done once (Shared), and the part's verdict from
+theirs."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..choices import Fit
+from ..errors import InputError
+from ..fits import minimax_pose
+from ..tolerance import Tolerance
+from ..verdict import ACCEPT, INCONCLUSIVE, REJECT, pointwise_verdict
+from .datums import Alignment, align
+from .plan import MIN_POINTS, Characteristic, Plan
+from .region_features import (FACING, HOLE_FORM, HOLE_SPREAD, SPAN, cylinder_from_normals,
+                              datum_invariants, exact_nominal)
+from .results import WORST, CharacteristicResult, Geometry
+
+PROGRESS_REPORTS = 200
+"""At most this many progress reports over a plan's characteristics (engine.progress): one for
+each would cost the desktop app a repaint per characteristic."""
+
+
+class Shared:
+    """What the characteristics of one plan evaluation share, computed once each: the poses
+    their datums give, and each region's fits and deviations (a plan may hold thousands of
+    characteristics on a few regions; only the judgement against each one's zone is its
+    own). Every entry depends on the plan, the part and its key alone, never on the order in
+    which the characteristics ask for it, so a shared result is the one a plan of that single
+    characteristic gives."""
+
+    def __init__(self, plan: Plan, geo: Geometry, members: dict[str, np.ndarray]):
+        self.datums = {d.label: d for d in plan.datums}
+        self.geo, self.members = geo, members
+        self.memo: dict = {}
+
+    def once(self, key: tuple, compute):
+        """compute()'s value, computed on the first call with ``key`` only; a FeatureError
+        (the region's points do not determine its feature) is kept and raised again."""
+        from .features import FeatureError
+
+        if key not in self.memo:
+            try:
+                self.memo[key] = compute()
+            except FeatureError as e:
+                self.memo[key] = e
+        got = self.memo[key]
+        if isinstance(got, FeatureError):
+            raise got.with_traceback(None)
+        return got
+
+    def placed(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
+        """The part placed by the datums ``labels`` (primary first), the freedom they leave
+        best-fitted on the regions ``best_fit``, from ``T_start`` (engine.datums.align)."""
+        return self.once(("placed", labels, best_fit, id(T_start)),
+                         lambda: self._align(labels, best_fit, T_start))
+
+    def _align(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
+        geo, members = self.geo, self.members
+        ds = [self.datums[x] for x in labels]
+        fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
+            if best_fit else None
+        return align(geo.evaluate, T_start, ds, [members[d.region] for d in ds], geo.centre,
+                     geo.length, fit_idx, [datum_invariants(d, geo) for d in ds])
+
+
+def plan_verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:
+    verdict, reasons = part_verdict(results)
+    if alignment is not None and not alignment.complete:
+        reasons = (f"the part's alignment is incomplete: {alignment.message}", *reasons)
+    return verdict, reasons
+
+
+def part_verdict(results) -> tuple[str, tuple[str, ...]]:
+    """REJECT if any characteristic is out, else INCONCLUSIVE if any cannot be trusted, else
+    ACCEPT; the reasons name them."""
+    out = [r for r in results if r.verdict == REJECT]
+    unsure = [r for r in results if r.verdict == INCONCLUSIVE]
+    if out:
+        return REJECT, tuple(f"characteristic {r.characteristic.id} ({r.characteristic.type}) "
+                             f"is out of tolerance: {r.reason}" for r in out)
+    if unsure:
+        return INCONCLUSIVE, tuple(f"characteristic {r.characteristic.id} "
+                                   f"({r.characteristic.type}) cannot be decided: {r.reason}"
+                                   for r in unsure)
+    return ACCEPT, (f"all {len(results)} characteristics are within tolerance",)
+
+
+def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
+    planar = geo.nominal_points.shape[1] == 2
+    need = {"profile": 1, "flatness": MIN_POINTS["line" if planar else "plane"]}.get(
+        c.type, MIN_POINTS["circle" if planar else "cylinder"])
+    if idx.size < need:
+        return CharacteristicResult(c, None, INCONCLUSIVE,
+                                    f"region '{c.region}' has {idx.size} measured points; "
+                                    f"{c.type} needs at least {need}", idx)
+    from .features import FeatureError
+
+    try:
+        if c.type == "profile":
+            return _profile(c, idx, geo, shared)
+        if c.type == "flatness":
+            return _flatness(c, idx, geo, shared)
+        return _hole(c, idx, geo, shared, T_part)
+    except FeatureError as e:
+        # The region's points do not determine its feature (all on a line, ...): say so.
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"region '{c.region}': {e.message}",
+                                    idx)
+
+
+def _untrusted(c, idx, al: Alignment):
+    return CharacteristicResult(c, None, INCONCLUSIVE,
+                                f"its datums cannot place the part: {al.message}", idx,
+                                facts={"datums": [f.label for f in al.datums]})
+
+
+def _own(shared_result: CharacteristicResult, c: Characteristic) -> CharacteristicResult:
+    """A result computed for another characteristic on the same region, as ``c``'s: its
+    reason names only the region, its points and its datums, which they share."""
+    return replace(shared_result, characteristic=c)
+
+
+def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
+    tol = Tolerance(c.lower, c.upper)
+    # The pose depends on the region and the datums or the refit; a minimax refit also on the
+    # zone it centres on.
+    key = ("profile", c.region, tuple(c.datums)) if c.datums else \
+        ("profile", c.region, c.fit) + ((c.lower, c.upper) if c.fit == "minimax" else ())
+    got = shared.once(key, lambda: _profile_pose(c, idx, geo, shared))
+    if isinstance(got, CharacteristicResult):
+        return _own(got, c)
+    T, d, margin, facts = got
+    verdict, reason = pointwise_verdict(d, tol, margin)
+    centre = 0.5 * (c.lower + c.upper)
+    value = float(2.0 * np.max(np.abs(d - centre)))
+    ex = tol.excess(d)
+    worst = tuple(int(idx[i]) for i in np.argsort(-ex, kind="stable")[:WORST])
+    return CharacteristicResult(c, value, verdict, reason, idx, d, worst,
+                                {**facts, "T_nominal_measured": T})
+
+
+def _profile_pose(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
+    """(pose T, the region's deviations d there, their guard band, facts) of a profile, or an
+    INCONCLUSIVE result when its datums cannot place the part."""
+    facts: dict = {}
+    if c.datums:
+        al = shared.placed(tuple(c.datums), (c.region,), geo.T0)
+        if not al.complete:
+            return _untrusted(c, idx, al)
+        T = al.T_nominal_measured
+        facts["free"] = [f.describe() for f in al.free]
+    elif c.fit == Fit.MINIMAX:
+        def evaluate(Tc):
+            return geo.evaluate(Tc, idx)
+
+        T = minimax_pose(evaluate, geo.T0, c.lower, c.upper).T
+    else:
+        T = align(geo.evaluate, geo.T0, [], [], geo.centre, geo.length, idx).T_nominal_measured
+    return T, geo.evaluate(T, idx)[1], geo.margin(idx, T), facts
+
+
+def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
+    got = shared.once(("flatness", c.region), lambda: _flat(c, idx, geo))
+    if isinstance(got, CharacteristicResult):
+        return _own(got, c)
+    width, normal, guard = got
+    return _by_value(c, idx, width, {"normal": normal}, "minimum-zone width", guard)
+
+
+def _flat(c: Characteristic, idx: np.ndarray, geo: Geometry):
+    """(minimum-zone width, its normal, the width's uncertainty bound) of the region's points,
+    or an INCONCLUSIVE result when they do not determine its plane."""
+    from .features import flatness
+
+    X, _, n = geo.evaluate(geo.T0, idx)
+    hint = n.mean(axis=0) / np.linalg.norm(n.mean(axis=0))
+    if X.shape[1] == 3:
+        flat = X - X.mean(axis=0)
+        flat -= np.outer(flat @ hint, hint)
+        ev = np.linalg.eigvalsh(flat.T @ flat)  # (0, smaller, larger) spreads in the plane
+        if ev[1] < SPAN ** 2 * ev[2]:
+            return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of "
+                                        f"region '{c.region}' lie along a line: they do not "
+                                        "determine a plane", idx)
+    f = flatness(X, hint)
+    turn = float(np.degrees(np.arccos(np.clip(f.normal @ hint, -1.0, 1.0))))
+    if turn > np.degrees(FACING):
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"the points' minimum zone stands "
+                                    f"at {turn:.0f}° to the nominal face: they do not "
+                                    "determine its plane", idx)
+    return f.width, f.normal, _value_guard(geo, idx, geo.T0, form_only=True)
+
+
+def _value_guard(geo: Geometry, idx: np.ndarray, T, form_only: bool) -> float | None:
+    """Under the guarded rule, how far the points' uncertainty can move a value computed from
+    them: twice the largest expanded U among the points ``idx`` at pose T (each point's error
+    within its U moves a minimum-zone width, a least-squares diameter or a position diameter by
+    at most that), without the registration's pose term for a value no rigid motion changes
+    (``form_only``: a flatness, a diameter); None under the simple rule."""
+    m = geo.margin(idx, T, form_only=form_only)
+    return None if m is None or len(m) == 0 else 2.0 * float(np.max(m))
+
+
+def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
+              guard: float | None = None):
+    """The characteristic judged by its value against its limits; with ``guard`` (the value's
+    uncertainty bound, :func:`_value_guard`) by ISO 14253-1: ACCEPT inside the limits shrunk
+    by it, REJECT outside them grown by it, else INCONCLUSIVE. Flatness and position have an
+    upper limit only (their value cannot be below 0): no guard on the lower side."""
+    lo, hi = (c.nominal or 0.0) + c.lower, (c.nominal or 0.0) + c.upper
+    inside = lo <= value <= hi
+    reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
+              f"[{lo:.4f}, {hi:.4f}] mm")
+    verdict = ACCEPT if inside else REJECT
+    if guard is not None:
+        g_lo = 0.0 if c.type in ("flatness", "position") else guard
+        facts = {**facts, "uncertainty_bound": guard}
+        if value > hi + guard or value < lo - g_lo:
+            verdict = REJECT
+            reason += f", by more than its uncertainty ±{guard:.4f} mm"
+        elif not lo + g_lo <= value <= hi - guard:
+            verdict = INCONCLUSIVE
+            reason += (f", within its uncertainty ±{guard:.4f} mm (twice the largest U of its "
+                       "points) of a limit: conformance is not proven either way (ISO 14253-1)")
+        else:
+            reason += f" by more than its uncertainty ±{guard:.4f} mm"
+    return CharacteristicResult(c, float(value), verdict, reason, idx, facts=facts)
+
+
+def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
+    """Size or position of the hole of ``c``'s region (a cylinder in 3D, a circle in 2D)."""
+    nom, normals = shared.once(("hole", c.region), lambda: _nominal_hole(geo, c.region))
+    if nom.form_error > HOLE_FORM * nom.radius:
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no hole: its "
+                         f"nominal points lie up to {nom.form_error:.3g} mm off their "
+                         f"best {'circle' if normals.shape[1] == 2 else 'cylinder'}")
+    if c.type == "size":
+        got = shared.once(("size", c.region), lambda: _size(c, idx, geo, normals, nom))
+        if isinstance(got, CharacteristicResult):
+            return _own(got, c)
+        diameter, form_error, guard = got
+        return _by_value(c, idx, diameter, {"fit": "least squares", "form_error": form_error},
+                         "least-squares diameter", guard)
+    al = shared.placed(tuple(c.datums), (), T_part)
+    if not al.complete:
+        return _untrusted(c, idx, al)
+    _check_located(c, shared.once(("loose", c.region, tuple(c.datums)),
+                                  lambda: _loose(al, nom, geo)))
+    got = shared.once(("position", c.region, tuple(c.datums)),
+                      lambda: _position(c, idx, geo, normals, nom, al))
+    if isinstance(got, CharacteristicResult):
+        return _own(got, c)
+    value, facts, guard = got
+    return _by_value(c, idx, value, dict(facts), "position (diameter)", guard)
+
+
+def _nominal_hole(geo: Geometry, region: str):
+    """(the region's nominal hole: the model's exact cylinder where it has one, else the fit
+    to its samples; the samples' normals)."""
+    mask = geo.nominal_masks[region]
+    nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
+    nom = _hole_fit(nominal, normals)
+    exact = exact_nominal(geo, "cylinder", mask) if nominal.shape[1] == 3 else None
+    if exact is not None:  # the model's own axis and radius, not a fit to its samples
+        nom = replace(nom, point=exact["point"], direction=exact["direction"],
+                      radius=0.5 * exact["diameter"], form_error=0.0)
+    return nom, normals
+
+
+def _size(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom):
+    """(least-squares diameter, form error, its uncertainty bound) of the region's measured
+    hole, or an INCONCLUSIVE result when its points do not determine it."""
+    got = _measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
+    if isinstance(got, CharacteristicResult):
+        return got
+    return 2.0 * got.radius, got.form_error, _value_guard(geo, idx, geo.T0, True)
+
+
+def _position(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom,
+              al: Alignment):
+    """(position diameter, facts, its uncertainty bound) of the region's measured hole at
+    the pose its datums give (``al``), or an INCONCLUSIVE result when its points do not
+    determine it."""
+    from .features import position_value
+
+    got = _measured_hole(c, idx, geo.evaluate(al.T_nominal_measured, idx)[0], normals, nom)
+    if isinstance(got, CharacteristicResult):
+        return got
+    if normals.shape[1] == 2:
+        value = position_value(got.centre, nom.centre).value
+        facts = {"centre": got.centre, "nominal_centre": nom.centre}
+    else:
+        value = position_value(got.ends, nom.point, nom.direction).value
+        facts = {"axis_ends": got.ends, "nominal_point": nom.point,
+                 "nominal_direction": nom.direction}
+    facts["free"] = [f.describe() for f in al.free]
+    return value, facts, _value_guard(geo, idx, al.T_nominal_measured, form_only=False)
+
+
+def _loose(al: Alignment, nom, geo: Geometry) -> list:
+    """The motions the datums of ``al`` leave free that move the nominal hole ``nom``."""
+    from .datums import invariant_motions, moving
+
+    feature = {"centre": nom.centre} if geo.nominal_points.shape[1] == 2 else \
+        {"point": nom.point, "direction": nom.direction}
+    kind = "circle" if geo.nominal_points.shape[1] == 2 else "cylinder"
+    return moving(al.free_basis, invariant_motions(kind, feature, geo.centre, geo.length),
+                  geo.centre, geo.length)
+
+
+def _check_located(c: Characteristic, loose: list) -> None:
+    """A position is relative to datums that locate the hole: none of the motions they leave
+    free (``loose``: :func:`_loose`) may move the nominal hole (a plane alone leaves it free to
+    slide)."""
+    if loose:
+        raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} leave "
+                         f"the hole free to move ({'; '.join(f.describe() for f in loose)}): a "
+                         "position needs datums that locate it")
+
+
+def _hole_fit(X: np.ndarray, normals: np.ndarray):
+    """The least-squares circle (2D) or cylinder (3D, its axis started from the normals)."""
+    from .features import fit_circle_lsq, fit_cylinder_lsq
+
+    return fit_circle_lsq(X) if X.shape[1] == 2 else cylinder_from_normals(fit_cylinder_lsq, X, normals)
+
+
+def _measured_hole(c: Characteristic, idx: np.ndarray, X: np.ndarray, normals: np.ndarray,
+                   nom):
+    """The measured hole's fit, or an INCONCLUSIVE result when its points do not determine it
+    (the fit did not settle, or its axis turned from the nominal's by more than FACING: a hole
+    probed on a narrow arc)."""
+    radial = X - (nom.centre if X.shape[1] == 2 else nom.point)
+    if X.shape[1] == 3:
+        radial -= np.outer(radial @ nom.direction, nom.direction)
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    across = np.linalg.svd(np.column_stack([radial, np.ones(len(X))]) / np.sqrt(len(X)),
+                           compute_uv=False)
+    if across[2] < HOLE_SPREAD:  # (3D: a 4th, along the axis, is zero)
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
+                                    f"'{c.region}' do not determine the hole (they cover too "
+                                    "little of its circumference)", idx)
+    got = _hole_fit(X, normals)
+    turn = 0.0 if X.shape[1] == 2 else float(np.degrees(np.arccos(np.clip(
+        abs(got.direction @ nom.direction), 0.0, 1.0))))
+    if got.converged and turn <= np.degrees(FACING):
+        return got
+    why = f"its axis turns {turn:.0f}° from the nominal's" if got.converged else \
+        "the fit does not settle"
+    return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
+                                f"'{c.region}' do not determine the hole ({why})", idx)

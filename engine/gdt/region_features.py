@@ -1,0 +1,197 @@
+"""The feature each region of a plan is (a plane, cylinder or sphere fitted to its nominal and
+measured points, or a freeform surface), the motions that leave a datum's feature in place, and
+the 3-2-1 (RPS) alignment."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from .datums import Alignment, align_rps
+from .plan import MIN_POINTS, Plan
+from .results import Geometry, RegionFeature
+
+_IMPLIED_FEATURE = {"flatness": "plane", "position": "cylinder", "size": "cylinder"}
+FACING = np.radians(10.0)
+"""How far a sample's normal may turn from its feature's and still be of it (engine.regions
+boxes take in strips of the neighbouring faces), and how far a measured feature's fitted plane
+or axis may turn from the nominal's before its points are taken not to determine it."""
+SPAN = 0.05
+"""A flatness needs its points spread both ways over the face: the smaller in-plane spread at
+least this fraction of the larger (points along a line leave the plane free to turn about it)."""
+HOLE_SPREAD = 0.05
+"""A hole's points determine its centre and size apart when the smallest singular value of
+[radial direction, 1] per point (over the square root of their number) is at least this: about
+a 75-degree arc; a 45-degree arc has 0.018, which turns 1 um of probing noise into 50 um of
+size."""
+HOLE_FORM = 0.02
+"""A region is a hole when its nominal points lie within this fraction of its radius of their
+least-squares cylinder (circle); a tessellated hole of 32 facets is within 0.5%."""
+
+
+def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
+                    T: np.ndarray) -> tuple[RegionFeature, ...]:
+    """Every region a datum or characteristic uses, in the plan's order, as its feature
+    (RegionFeature): the nominal fitted to the region's nominal points, the measured to its
+    measured points at pose ``T``."""
+    kinds = _region_kinds(plan)
+    datums: dict[str, list] = {}
+    for d in plan.datums:
+        datums.setdefault(d.region, []).append((d.label, d.fit))
+    out = []
+    for r in plan.regions:
+        kind = kinds.get(r.name)
+        if kind is None:
+            continue
+        on = tuple(datums.get(r.name, ()))
+        if kind not in ("plane", "cylinder", "sphere") or geo.nominal_points.shape[1] != 3:
+            out.append(RegionFeature(r.name, "freeform", datums=on))
+            continue
+        mask = geo.nominal_masks[r.name]
+        normals = geo.nominal_normals(np.flatnonzero(mask))
+        idx = members[r.name]
+        measured = _fit_feature(kind, geo.evaluate(T, idx)[0], normals) if idx.size else None
+        out.append(RegionFeature(r.name, kind, _region_nominal(kind, geo, mask), measured, on))
+    return tuple(out)
+
+
+def _region_kinds(plan: Plan) -> dict[str, str]:
+    """{region: the feature it is}: its datum's feature, else what its characteristic implies
+    (flatness a plane, position and size a hole), else freeform (a profile's surface)."""
+    kinds: dict[str, str] = {}
+    for d in plan.datums:
+        kinds.setdefault(d.region, d.feature)
+    for c in plan.characteristics:
+        kinds.setdefault(c.region, _IMPLIED_FEATURE.get(c.type, "freeform"))
+    return kinds
+
+
+def feature_masks(plan: Plan, geo: Geometry) -> dict[str, np.ndarray]:
+    """The regions' nominal masks, those of a plane (line) or a cylinder kept to the samples
+    that face as the feature does (within FACING of the region's mean normal; at right angles
+    to a hole's axis within FACING): a box takes in strips of the neighbouring faces, whose
+    points must not join a datum or tilt its nominal."""
+    out = dict(geo.nominal_masks)
+    planar = geo.nominal_points.shape[1] == 2
+    for name, kind in _region_kinds(plan).items():
+        if kind not in ("plane", "line", "cylinder") or (planar and kind == "cylinder"):
+            continue
+        idx = np.flatnonzero(out[name])
+        n = geo.nominal_normals(idx)
+        if kind == "cylinder":
+            axis = np.linalg.eigh(n.T @ n)[1][:, 0]
+            keep = np.abs(n @ axis) <= np.sin(FACING)
+        else:
+            mean = n.sum(axis=0)
+            keep = n @ (mean / (np.linalg.norm(mean) or 1.0)) >= np.cos(FACING)
+        if keep.sum() < MIN_POINTS[kind]:
+            raise InputError(f"[[region]] '{name}': its nominal points do not form a {kind} "
+                             f"(only {int(keep.sum())} of {idx.size} face as one does)",
+                             plan.path)
+        mask = np.zeros_like(out[name])
+        mask[idx[keep]] = True
+        out[name] = mask
+    return out
+
+
+def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict | None:
+    """The least-squares ``kind`` of a region's nominal points (kept by feature_masks to those
+    facing as the feature does); a cylinder or sphere says whether it is a hole (internal: the
+    outward normals point towards its axis / centre)."""
+    fit = _fit_feature(kind, points, normals)
+    if fit is None:
+        return None
+    out = {k: v for k, v in fit.items() if k not in ("form_error", "n_points")}
+    if kind not in ("plane", "line"):
+        radial = points - out.get("centre", out.get("point"))
+        if kind == "cylinder":
+            radial -= np.outer(radial @ out["direction"], out["direction"])
+        out["internal"] = bool(np.sum(radial * normals) < 0.0)
+    return out
+
+
+def exact_nominal(geo: Geometry, kind: str, mask: np.ndarray) -> dict | None:
+    """The region's nominal ``kind`` from the model's exact surface, or None (see
+    Geometry.exact_feature)."""
+    return None if geo.exact_feature is None else geo.exact_feature(kind, mask)
+
+
+def _region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
+    """A region's nominal feature: the model's exact surface where it has one, else the
+    least-squares fit to the region's nominal samples (``mask``)."""
+    exact = exact_nominal(geo, kind, mask)
+    if exact is not None:
+        return exact
+    return _nominal_feature(kind, geo.nominal_points[mask],
+                            geo.nominal_normals(np.flatnonzero(mask)))
+
+
+def datum_invariants(datum, geo: Geometry) -> np.ndarray | None:
+    """The motions that leave datum's ideal nominal feature in place (engine.datums), from the
+    least-squares feature of its region's nominal points; None when they do not form it."""
+    from .datums import invariant_motions
+
+    nominal = _region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
+    if nominal is None:
+        return None
+    return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
+
+
+def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:
+    """The least-squares ``kind`` of the points X (the region's nominal outward ``normals``
+    orient a plane and start a cylinder's axis); None when X does not determine it."""
+    from .features import (FeatureError, fit_circle_lsq, fit_cylinder_lsq, fit_plane_lsq,
+                           fit_sphere_lsq)
+
+    try:
+        if kind in ("plane", "line"):
+            f = fit_plane_lsq(X, normals.sum(axis=0))
+            out = {"point": f.centroid, "normal": f.normal}
+        elif kind == "circle":
+            f = fit_circle_lsq(X)
+            out = {"centre": f.centre, "diameter": 2.0 * f.radius}
+        elif kind == "cylinder":
+            f = cylinder_from_normals(fit_cylinder_lsq, X, normals)
+            out = {"point": f.point, "direction": f.direction, "diameter": 2.0 * f.radius}
+        else:
+            f = fit_sphere_lsq(X)
+            out = {"centre": f.centre, "diameter": 2.0 * f.radius}
+    except FeatureError:
+        return None
+    return {**out, "form_error": f.form_error, "n_points": f.n_points}
+
+
+def rps_alignment(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Alignment:
+    """The RPS alignment: each [[rps]] point's measured point (by its label) locked onto its
+    nominal position along its locked axes."""
+    if geo.labels is None:
+        raise InputError("[alignment] method 'rps' finds its points by their labels, and the "
+                         "measured file has none", plan.path)
+    where: dict = {}
+    for i, s in enumerate(geo.labels):
+        where.setdefault(str(s), []).append(i)
+    dim = geo.nominal_points.shape[1]
+    idx, targets, axes = [], [], []
+    for p in plan.rps:
+        found = where.get(p.label, [])
+        if len(found) != 1:
+            raise InputError(f"[[rps]] '{p.label}': {len(found)} measured points carry this "
+                             "label; it must name exactly one", plan.path)
+        if dim == 2 and "z" in p.lock:
+            raise InputError(f"[[rps]] '{p.label}': a 2D template's points lock x and y only, "
+                             "not z", plan.path)
+        for a in p.lock:
+            e = np.zeros(dim)
+            e["xyz".index(a)] = 1.0
+            idx.append(found[0])
+            targets.append(np.asarray(p.nominal, float)[:dim])
+            axes.append(e)
+    return align_rps(geo.evaluate, geo.T0, np.array(idx), np.array(targets), np.array(axes),
+                     geo.centre, geo.length, best_fit)
+
+
+def cylinder_from_normals(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
+    """The least-squares cylinder of X, started from the nominal region's axis direction: the
+    one its surface normals are all perpendicular to (the smallest eigenvector of sum n n^T)."""
+    _, vecs = np.linalg.eigh(normals.T @ normals)
+    return fit_cylinder_lsq(X, vecs[:, 0])
