@@ -47,7 +47,7 @@ def main() -> None:
     from engine.inspection import Tolerance, inspect
     from engine.io.step import read_step
     from engine.nominal import Nominal
-    from engine.pipeline import _exact_deviations
+    from engine.step_model import exact_deviations
     from sweep import DEFECTS, judge, make_case, truth
 
     args.defects = list(DEFECTS) if args.defects is None else args.defects
@@ -74,7 +74,7 @@ def main() -> None:
             continue
         print(f"{name:34s} read in {load:.2f} s, {part.n_faces} faces, "
               f"{part.point_set.n} tessellation points")
-        exact = _exact_deviations(part)
+        exact = exact_deviations(part)
         for defect in args.defects:
             for k in range(args.poses):
                 seed = args.seed + 1000 * k + DEFECTS.index(defect) if defect in DEFECTS \

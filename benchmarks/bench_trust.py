@@ -1,4 +1,4 @@
-"""What judging the verdict's pose sensitivity costs (engine.trust.pose_sensitivity); prints a table.
+"""What judging the verdict's pose sensitivity costs (engine.pose_sensitivity); prints a table.
 
     .venv/bin/python benchmarks/bench_trust.py
 

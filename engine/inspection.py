@@ -22,8 +22,8 @@ from .choices import DecisionRule, Fit, Verdict
 from .fits import FITS, minimax
 from .pose import apply_transform, apply_update, pose_jacobian
 from .nominal import Nominal
-from .registration import (RegistrationResult, RegistrationSettings, distinct_poses, pose_score,
-                           register)
+from .registration import distinct_poses, pose_score, register
+from .registration_types import RegistrationResult, RegistrationSettings
 from .tolerance import Tolerance
 from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
                       margins_3d, plausible_runner_up, pointwise_verdict, pose_trusted)
@@ -31,7 +31,8 @@ from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity,
 if TYPE_CHECKING:
     from .contour import ContourIndex, Template2D
     from .gdt.results import PlanResult
-    from .trust import Conditioning, PoseSensitivity
+    from .pose_sensitivity import PoseSensitivity
+    from .trust import Conditioning
     from .uncertainty import Instrument, UncertaintyBudget
 
 
@@ -80,7 +81,7 @@ class InspectionResult:
     when the pose cannot be trusted at all (not converged, not this part)."""
     trust_statements: tuple[str, ...] = ()
     """What the measurement does not fix and what that does to the verdict, in plain words
-    (engine.trust.trust_statements), for the certificate."""
+    (engine.pose_sensitivity.trust_statements), for the certificate."""
     plan: "PlanResult | None" = None
     """The inspection plan's outcome (engine.gdt.characteristics), when one was given: then
     ``verdict`` and ``reasons`` are the plan's."""
@@ -404,7 +405,7 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
 
 
 def _deviations_and_border(nominal: Nominal, measured: np.ndarray, surface=None):
-    """(deviations_at, beyond_at)(T, idx) for engine.trust.pose_sensitivity: the signed
+    """(deviations_at, beyond_at)(T, idx) for engine.pose_sensitivity.pose_sensitivity: the signed
     deviations (mm) of measured points ``idx`` at pose T, and which of them lie past the
     nominal's border: the direction from its closest point to the point more than
     acos(BORDER_COSINE) from the nominal's normal at the sample nearest that closest point
@@ -412,7 +413,7 @@ def _deviations_and_border(nominal: Nominal, measured: np.ndarray, surface=None)
     the facet continued ends too). surface(X) -> Deviations: how deviations are measured (None:
     on the nominal's sample, engine.deviation.point_to_surface); the border is the sample's."""
     from .deviation import point_to_surface
-    from .trust import BORDER_COSINE, BORDER_MIN_MM
+    from .pose_sensitivity import BORDER_COSINE, BORDER_MIN_MM
 
     surface = surface or (lambda X: point_to_surface(nominal, X))
 
@@ -470,7 +471,8 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     (``margin``) is each point's expanded uncertainty, which holds the pose's own uncertainty
     already: neither the uncertainty region nor the weak directions' +-sigma are probed again
     (that would widen the band twice); free directions and the runner-up still are."""
-    from .trust import pose_sensitivity, trust_statements, uncertainty_poses
+    from .pose_sensitivity import pose_sensitivity, trust_statements
+    from .trust import uncertainty_poses
 
     if not pose_trusted(reg):
         return None, ()

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from . import icp_kernels
+
 PARALLEL_QUERIES = 2048
 """A kd-tree query of fewer points runs on one thread: starting the threads costs more than
 they save (a plan's datum fits query a few dozen points, many times)."""
@@ -29,7 +31,7 @@ LOOKUP_NEIGHBOURS = 8
 @dataclass(frozen=True)
 class SampleLookup:
     """Constant-time nearest-sample pairing for a small, fixed set of samples (a coarse level of
-    the nominal), for the compiled ICP of the global search (``kernels.icp_poses``), which pairs
+    the nominal), for the compiled ICP of the global search (``icp_kernels.icp_poses``), which pairs
     some 10^5 points with a 10^3-sample level: scipy's kd-tree answers each in about 0.5 us, this
     in a few tens of nanoseconds.
 
@@ -74,3 +76,22 @@ class SampleLookup:
         _, nb = tree.query(pts, k=k)
         graph = np.ascontiguousarray(np.asarray(nb).reshape(len(pts), k)[:, 1:], np.int32)
         return cls(lo.astype(np.float64), float(cell), owner, graph)
+
+
+SPREAD_SEED = 7
+"""The seed of :func:`spread_subset`'s random subsets."""
+
+
+def spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
+    """Indices of up to ``m`` points spread over ``pts``: farthest-point sampling for small ``m``,
+    a seeded random subset for large ``m`` (where it spreads well enough and costs nothing)."""
+    n = pts.shape[0]
+    if n <= m:
+        return np.arange(n)
+    if m > 128:
+        return np.sort(np.random.default_rng(SPREAD_SEED).choice(n, m, replace=False))
+    pool = np.arange(n)
+    if n > 8192:
+        pool = np.sort(np.random.default_rng(SPREAD_SEED).choice(n, 8192, replace=False))
+    P = np.ascontiguousarray(pts[pool], np.float64)
+    return np.sort(pool[icp_kernels.farthest_points(P, P.mean(0), m)])

@@ -21,7 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 from scipy.spatial import cKDTree
 
-from . import kernels
+from . import icp_kernels, kernels
 from .errors import InputError
 from .neighbours import SampleLookup, query_workers
 from .pointset import PointSet
@@ -239,7 +239,7 @@ class Nominal:
         dx = self.points[nb] - p[:, None, :]
         dn = self.normals(nb) - n[:, None, :]
         S = np.empty((p.shape[0], 3, 3))
-        kernels.shape_fit(np.ascontiguousarray(n), dx, dn, S)
+        icp_kernels.shape_fit(np.ascontiguousarray(n), dx, dn, S)
         return S
 
     # ------------------------------------------------------------------ normals

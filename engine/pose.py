@@ -13,7 +13,7 @@ template's plane) as 3x3 ones.
 Names follow the frames: ``T_nominal_measured`` maps measured coordinates into the nominal's.
 An update's parameters are [rotation, translation]: (6,) = [w (rotation vector, radians), t (mm)]
 in 3D, (3,) = [angle (radians), tx, ty] in 2D; the compiled ICP kernel
-(``kernels._apply_step``) applies the same update inside its loop.
+(``icp_kernels._apply_step``) applies the same update inside its loop.
 """
 
 from __future__ import annotations
@@ -180,3 +180,35 @@ def gauss_newton_step(X: np.ndarray, normals: np.ndarray, d: np.ndarray):
     J = pose_jacobian(X, normals, c)
     step = min_norm_solve(J.T @ J, J.T @ d, 3 if X.shape[1] == 3 else 1, rms_radius(X - c))
     return -step, c
+
+
+def in_plane(T2: np.ndarray) -> np.ndarray:
+    """The 2D homogeneous transform T2 (3, 3) as the 3D one (4, 4) that leaves z alone."""
+    E = np.eye(4)
+    E[:2, :2] = T2[:2, :2]
+    E[:2, 3] = T2[:2, 2]
+    return E
+
+
+def screw_motion(twist, amplitude: float, centre, length: float) -> np.ndarray:
+    """The exact rigid motion (4x4, or 3x3 in 2D) of ``amplitude`` along a unit ``twist``
+    (engine.trust.WeakDirection.twist: rotations first, in mm at ``length`` from ``centre``,
+    then translations) about ``centre``: the screw motion exp(amplitude x twist), so a rotation
+    about a cylinder's axis stays on the cylinder however large it is."""
+    from scipy.linalg import expm
+
+    v = np.asarray(twist, float) * amplitude
+    c = np.asarray(centre, float)
+    if c.size == 3:
+        w, t = v[:3] / length, v[3:]
+        W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+        G = np.zeros((4, 4))
+        G[:3, :3] = W
+        G[:3, 3] = t - W @ c  # velocity w x (x - c) + t
+    else:
+        th, t = v[0] / length, v[1:]
+        W = np.array([[0.0, -th], [th, 0.0]])
+        G = np.zeros((3, 3))
+        G[:2, :2] = W
+        G[:2, 2] = t - W @ c
+    return expm(G)

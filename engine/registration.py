@@ -9,7 +9,7 @@ The method is the paper's modified ICP (section 4) with a global stage in front 
    few ICP iterations on a coarse sample of the nominal, paired point-to-quadric (each sample
    carries its local curvature, so a coarse sample still scores close fits correctly); poses
    that arrive at the same place merge and only the best distinct ones go on. These some
-   10^5 pairings are compiled (kernels.icp_poses) and find their sample in constant time
+   10^5 pairings are compiled (icp_kernels.icp_poses) and find their sample in constant time
    (neighbours.SampleLookup: the owner of the point's grid cell, then a walk to nearer
    neighbours), not by a kd-tree query each. A pose scores the
    mean over every point of its squared distance, each point's capped at 3 sample spacings: a
@@ -48,190 +48,21 @@ from __future__ import annotations
 import os
 import threading
 import time
-import dataclasses
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .contour import Deviations2D
-from .deviation import Deviations, point_to_surface
-from . import kernels
-from .neighbours import PARALLEL_QUERIES, SampleLookup, query_workers
-from .pose import (apply_transform, apply_update, gauss_newton_step, make_transform,
-                   rotation_angle_deg, rotation_from_rotvec, uniform_rotations)
+from . import icp_kernels
+from .deviation import point_to_surface
+from .neighbours import PARALLEL_QUERIES, SampleLookup, query_workers, spread_subset
 from .nominal import Nominal
-from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
-                       gross_rule, robust_centre_sigma)
+from .outliers import gross_outliers, gross_rule
+from .pose import (apply_transform, make_transform, rotation_angle_deg, rotation_from_rotvec,
+                   uniform_rotations)
 from .progress import report
-
-_SEED = 7
-
-
-@dataclass(frozen=True)
-class RegistrationSettings:
-    """Settings of :func:`register`; the defaults need no tuning for parts from 10 mm to 5 m."""
-
-    n_rotations: int = 24
-    """Evenly spread rotations tried by the global search (plus 4 principal-axes alignments)."""
-    min_anchors: int = 4
-    """Anchors (spread over the nominal) where the evenly spread rotations are tried."""
-    max_anchors: int = 256
-    """At most this many anchors for the normal-aligned hypotheses (one per voxel of a tenth of
-    the measured extent, the voxel grown until no more remain)."""
-    n_spins: int = 18
-    """Spins about the normal tried at each anchor by the normal-aligned hypotheses (20 degrees
-    apart: the right anchor's nearest spin starts within 10 degrees of the answer; 30 degrees
-    apart left a cube with a boss, whose faces fit at 24 poses, without a start that the global
-    search's few ICP iterations bring home, now and then)."""
-    coarse_size: int = 1000
-    """Nominal points in the coarsest ICP level, at least …"""
-    coarse_samples_per_area: float = 500.0
-    """… and this x (nominal diagonal / measured extent)^2, at most 16 x coarse_size."""
-    coarse_measured: int = 32
-    """Measured points (farthest-point spread) used by the global search."""
-    quadric_max_level: int = 4096
-    """Levels up to this many nominal points use point-to-quadric pairing; denser ones the plane
-    (their spacing makes the curvature term negligible)."""
-    icp_measured: int = 4096
-    """Measured points (seeded random subset) used by the ICP levels, at most."""
-    fit_measured: int = 16384
-    """Measured points the point-to-surface fit iterates on before its last full-set steps."""
-    keep_per_level: tuple[int, ...] = (32, 8, 4, 2)
-    """Distinct poses kept after the coarsest level, the next, …; the last number repeats."""
-    max_final_iterations: int = 50
-    """Point-to-surface Gauss-Newton iterations at most."""
-    outlier_sigmas: float = 6.0
-    """Robust cut of the coarse point-to-surface iterations, in robust standard deviations of
-    the deviations (the final fit uses the gross-outlier rule)."""
-    near_fraction_of_size: float = 0.01
-    """A point lies *near* the nominal within this fraction of its bounding-box diagonal …"""
-    min_near_fraction: float = 0.5
-    """… and a pose is only worth fitting (and trusting) when at least this fraction of the
-    measured points lies near the nominal."""
-    outlier_floor: float = 1e-4
-    """The robust cut, and the gross-outlier threshold when the tolerance zone is known, are never
-    below this fraction of the nominal's bounding-box diagonal; it is also the scale of the
-    candidates' scores (:func:`pose_score`: least squares below it, logarithmic beyond)."""
-    gross_floor_without_zone: float = 1e-3
-    """Without a tolerance zone (the registration used on its own), the gross-outlier threshold
-    is never below this fraction of the nominal's diagonal: nothing then says what deviation is
-    plausible, and a dent's slope between sparse points must not look isolated."""
-    convergence_mm: float = 1e-6
-    """The point-to-surface fit has converged when a step would move no point by more than this."""
-    finish_step_mm: float = 0.01
-    """The single all-point step after a subset fit is taken, with deviations updated to first
-    order, when it moves no point by more than this (error ~ step^2 x curvature); otherwise
-    iteration over all points continues."""
-    finish_on_all_points: bool = True
-    """After a subset fit, finish over every point (the step or iterations above). False when
-    another fit finishes the pose (engine.inspection.inspect on a STEP model's exact surface):
-    every point is then only evaluated and judged by the gross-outlier rule at the subset's
-    pose."""
-
-
-SURFACE_RMS = ("RMS of signed point-to-surface deviations over the points used by the final fit: "
-               "all but those excluded from the alignment as gross outliers (mm)")
-CONTOUR_RMS = ("RMS of signed point-to-contour deviations over the points the final fit used: "
-               "every point but the gross outliers (mm)")
-
-
-@dataclass(frozen=True)
-class RegistrationResult:
-    """Outcome of :func:`register` (3D) and of :func:`engine.registration2d.register_2d` (2D): one
-    type for both, so the verdict, the trust statements and the outputs read either alike.
-
-    T_nominal_measured : homogeneous transform mapping measured coordinates into the nominal
-        frame: (4, 4) in 3D; in 2D (3, 3), from the measured points' plane coordinates (x, y as
-        given, or in their fitted plane's frame) into the template's (``inspect_2d`` lifts it to
-        (4, 4) with :meth:`lifted`).
-    rms : root mean square of the signed deviations over the ``n_inliers`` points the final fit
-        used (every point but the gross outliers), mm; ``rms_definition`` says it in words.
-    inlier : (n,) bool, the points the final least-squares fit used: False only on the gross
-        outliers of ``gross_rule``, which are excluded from the alignment (and judged).
-    outlier_cut : the gross-outlier threshold (``gross_rule.threshold_mm``), mm.
-    score : how well the pose fits, mm, over a seeded subset of at most 4,096 measured points
-        (all of them when fewer), outliers included: in 3D :func:`pose_score` (the RMS of the
-        deviations while they are small against ``outlier_floor`` x the nominal's diagonal, a
-        point beyond that counting by the logarithm of its distance); in 2D the truncated RMS
-        sqrt(mean(min(d^2, cut^2))) at the smallest robust cut among the candidates; lower is
-        better; the same measure on the same points scores the runner-up pose.
-    runner_up_score, runner_up_T : score and pose of the best pose distinct from the chosen one
-        (None when the global search ended with a single distinct pose); in 3D never below
-        ``score`` (engine.verdict.better_runner_up makes the verdict INCONCLUSIVE if it were).
-    symmetric : the runner-up fits as well and maps the nominal onto itself, so that every
-        deviation is the same at both poses (tested for 2D templates; always False in 3D, where
-        weak and free directions are the concern of engine.trust).
-    """
-
-    T_nominal_measured: np.ndarray
-    converged: bool
-    iterations: int
-    rms: float
-    n_inliers: int
-    inlier: np.ndarray
-    outlier_cut: float
-    score: float
-    hypotheses: int
-    runner_up_score: float | None
-    runner_up_T: np.ndarray | None
-    deviations: Deviations | Deviations2D
-    """Signed deviations of every measured point at ``T_nominal_measured``."""
-    deviation_s: float
-    """Seconds the evaluation of ``deviations`` took (part of the registration's run time)."""
-    near_distance: float
-    """A small fraction of the nominal's size, mm (``near_fraction_of_size`` x the bounding-box
-    diagonal in 3D, 1% of the template's extent in 2D)."""
-    gross_rule: GrossRule
-    """The gross-outlier rule at the final pose (engine.outliers): which points were excluded
-    from the alignment, and why."""
-    message: str = ""
-    rms_definition: str = SURFACE_RMS
-    symmetric: bool = False
-
-    @property
-    def near_fraction(self) -> float:
-        """Fraction of all measured points within ``near_distance`` of the nominal at
-        ``T_nominal_measured``: derived from ``deviations``, so that it describes the pose
-        reported however often the pose is refined (a stored fraction outlived the exact fit
-        that moved a STEP model's pose 11 mm: "only 24% of the points lie within 3.07 mm" with
-        max |d| 0.006 mm, issue 22)."""
-        d = self.deviations.signed
-        return float(np.mean(np.abs(d) <= self.near_distance)) if d.size else 0.0
-
-    @classmethod
-    def from_fit(cls, T_nominal_measured: np.ndarray, deviations, inlier: np.ndarray,
-                 rule: GrossRule, near_distance: float, **fields) -> "RegistrationResult":
-        """The result of a final fit at ``T_nominal_measured``: rms, inlier count and outlier
-        cut follow from its deviations, inliers and gross rule; ``fields`` gives
-        the rest (converged, iterations, score, hypotheses, runner_up_score, runner_up_T, ...)."""
-        d_in = deviations.signed[inlier]
-        rms = float(np.sqrt(np.mean(d_in * d_in))) if inlier.any() else float("nan")
-        fields.setdefault("deviation_s", 0.0)
-        return cls(T_nominal_measured=T_nominal_measured, rms=rms, n_inliers=int(inlier.sum()),
-                   inlier=inlier, outlier_cut=rule.threshold_mm, deviations=deviations,
-                   near_distance=near_distance, gross_rule=rule, **fields)
-
-    def lifted(self, F: np.ndarray, T2: np.ndarray, deviations: Deviations2D
-               ) -> "RegistrationResult":
-        """A 2D result in 3D: ``T_nominal_measured`` (4, 4) = the in-plane pose T2 (3, 3; the
-        registered pose or a refit of it) after the plane frame F (4, 4) that carried the
-        measured points into the template's plane; ``deviations`` (2D, at T2) gain a zero z
-        component; the runner-up pose is lifted alike."""
-        zeros = np.zeros(deviations.signed.size)
-        dev = Deviations(deviations.signed, np.column_stack([deviations.foot, zeros]),
-                         np.column_stack([deviations.normal, zeros]), zeros.astype(bool))
-        runner = None if self.runner_up_T is None else in_plane(self.runner_up_T) @ F
-        return dataclasses.replace(self, T_nominal_measured=in_plane(T2) @ F, deviations=dev,
-                                   runner_up_T=runner)
-
-
-def in_plane(T2: np.ndarray) -> np.ndarray:
-    """The 2D homogeneous transform T2 (3, 3) as the 3D one (4, 4) that leaves z alone."""
-    E = np.eye(4)
-    E[:2, :2] = T2[:2, :2]
-    E[:2, 3] = T2[:2, 2]
-    return E
+from .registration_types import RegistrationResult, RegistrationSettings
+from .surface_fit import ALTERNATIVE_ITERATIONS, MAX_FINISHES, gross_floor, point_to_surface_fit
 
 
 def register(nominal: Nominal, measured: np.ndarray,
@@ -266,12 +97,12 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
     h0 = nominal.level_spacing(coarse)
 
     report("global search: pose hypotheses", 0.02)
-    sub = _spread_subset(measured, settings.coarse_measured)
+    sub = spread_subset(measured, settings.coarse_measured)
     T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings)
     n_hyp = T.shape[0]
     # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
     # distinct ones go on.
-    first = sub[_spread_subset(measured[sub], settings.coarse_measured // 2)]
+    first = sub[spread_subset(measured[sub], settings.coarse_measured // 2)]
     lookup = nominal.level_lookup(coarse)
     report(f"global search over {n_hyp} poses", 0.05)
     T, score = _icp_poses(T, measured[first], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
@@ -304,7 +135,7 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
         else:
             pts_l, nrm_l, tree = nominal.level(size)
         h = nominal.level_spacing(size)
-        msub = _spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
+        msub = spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
         last = size >= finest
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
             else None
@@ -333,7 +164,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     full); the pose chosen is then fitted on every point. The answer is the best finished
     pose: no candidate scores better. The best distinct other pose is the runner-up."""
     near = settings.near_fraction_of_size * nominal.diagonal
-    ssub = _spread_subset(measured, settings.icp_measured)
+    ssub = spread_subset(measured, settings.icp_measured)
     report("comparing the candidate poses", 0.8)
     devs = [point_to_surface(nominal, apply_transform(Tc, measured[ssub])).signed
             for Tc in refined]
@@ -355,7 +186,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     short = replace(settings, max_final_iterations=min(settings.max_final_iterations,
                                                        ALTERNATIVE_ITERATIONS))
     while best is not None:
-        finished[best] = (_unfitted if unfit else _point_to_surface_fit)(
+        finished[best] = (_unfitted if unfit else point_to_surface_fit)(
             nominal, compared, refined[best], short if finished else settings, zone_width)
         final[best] = pose_score(finished[best][5].signed, scale)
         chosen = min(final, key=final.get)
@@ -372,13 +203,13 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     # it worse than another, which is then the one chosen.
     complete = {order[0]}
     while chosen not in complete and not finished[chosen][1] and not unfit:
-        finished[chosen] = _point_to_surface_fit(nominal, compared, finished[chosen][0],
+        finished[chosen] = point_to_surface_fit(nominal, compared, finished[chosen][0],
                                                  settings, zone_width)
         final[chosen] = pose_score(finished[chosen][5].signed, scale)
         complete.add(chosen)
         chosen = min(final, key=final.get)
     if ssub.size < measured.shape[0]:
-        finished[chosen] = (_unfitted if unfit else _point_to_surface_fit)(
+        finished[chosen] = (_unfitted if unfit else point_to_surface_fit)(
             nominal, measured, finished[chosen][0], settings, zone_width)
         final[chosen] = pose_score(finished[chosen][5].signed[ssub], scale)
     Tb, converged, _, inlier, rule, dev_b, dev_s, message = finished[chosen]
@@ -399,12 +230,12 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
 def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
               settings: RegistrationSettings, zone_width: float | None):
     """The candidate pose T measured as it is, unfitted (no pose there is worth fitting), in
-    the form of _point_to_surface_fit's result."""
+    the form of point_to_surface_fit's result."""
     X = apply_transform(T, measured)
     t0 = time.perf_counter()
     dev = point_to_surface(nominal, X)
     dev_s = time.perf_counter() - t0
-    rule = gross_rule(dev.signed, zone_width, _gross_floor(nominal, settings, zone_width))
+    rule = gross_rule(dev.signed, zone_width, gross_floor(nominal, settings, zone_width))
     inlier = ~gross_outliers(dev.signed, dev.foot, rule)
     return (T, False, 0, inlier, rule, dev, dev_s,
             "the measured points do not match the nominal at any pose found")
@@ -451,7 +282,7 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     p0, n0 = _reference_point(measured, extent)
 
     U = uniform_rotations(settings.n_rotations)
-    few = lvl_pts[_spread_subset(lvl_pts, settings.min_anchors)]
+    few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors)]
     R_all = [pca, U, np.repeat(U, few.shape[0], axis=0)]
     t_all = [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
 
@@ -469,7 +300,7 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
 
 def _reference_point(measured: np.ndarray, extent: float):
     """A measured point near the centroid whose neighbourhood is planar, and its unit normal."""
-    measured = measured[_spread_subset(measured, 4096)]
+    measured = measured[spread_subset(measured, 4096)]
     n = measured.shape[0]
     k = min(8, n)
     cm = measured.mean(axis=0)
@@ -524,21 +355,6 @@ def _principal_axes(c: np.ndarray):
     return E, vals[::-1]
 
 
-def _spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
-    """Indices of up to ``m`` points spread over ``pts``: farthest-point sampling for small ``m``,
-    a seeded random subset for large ``m`` (where it spreads well enough and costs nothing)."""
-    n = pts.shape[0]
-    if n <= m:
-        return np.arange(n)
-    if m > 128:
-        return np.sort(np.random.default_rng(_SEED).choice(n, m, replace=False))
-    pool = np.arange(n)
-    if n > 8192:
-        pool = np.sort(np.random.default_rng(_SEED).choice(n, 8192, replace=False))
-    P = np.ascontiguousarray(pts[pool], np.float64)
-    return np.sort(pool[kernels.farthest_points(P, P.mean(0), m)])
-
-
 def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, nrm: np.ndarray,
                spacing: float, iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
                reach: float = np.inf, shape: np.ndarray | None = None,
@@ -568,7 +384,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
     no_shape = np.empty((0, m, 3, 3))
     e2, delta = np.empty((H, m)), np.empty((H, 6))
     for k in range(iterations + 1):
-        # Pairs from scipy's kd-tree; the arithmetic compiled (kernels.icp_paired).
+        # Pairs from scipy's kd-tree; the arithmetic compiled (icp_kernels.icp_paired).
         X = apply_transform(T, src)
         dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
                              distance_upper_bound=reach)
@@ -580,7 +396,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
             report(f"{stage[0]}, ICP iteration {k + 1}",
                    stage[1] + (stage[2] - stage[1]) * k / iterations)
         T_next = np.empty_like(T)
-        kernels.icp_paired(np.ascontiguousarray(T), np.ascontiguousarray(X), j, far, pts,
+        icp_kernels.icp_paired(np.ascontiguousarray(T), np.ascontiguousarray(X), j, far, pts,
                            np.ascontiguousarray(n, np.float64),
                            no_shape if shape is None else np.ascontiguousarray(shape[j]),
                            float(spacing), float(lam2), float(reach), update, T_next, e2, delta)
@@ -597,7 +413,7 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, n
 def _icp_poses(T: np.ndarray, src: np.ndarray, lookup: SampleLookup, pts: np.ndarray,
                nrm: np.ndarray, shape: np.ndarray | None, spacing: float, iterations: int,
                lam2: float = 0.0, reach: float = np.inf):
-    """_icp_batch's iterations (without early stop) compiled (kernels.icp_poses), the points
+    """_icp_batch's iterations (without early stop) compiled (icp_kernels.icp_poses), the points
     paired by the constant-time ``lookup`` of the samples ``pts`` instead of their kd-tree:
     (poses (H, 4, 4), truncated scores (H,)). The poses are split over the cores' threads; each
     is computed alone, so the answer does not depend on the split."""
@@ -611,12 +427,12 @@ def _icp_poses(T: np.ndarray, src: np.ndarray, lookup: SampleLookup, pts: np.nda
             float(spacing), int(iterations), float(lam2), float(reach))
     chunks = max(1, min(os.cpu_count() or 1, H * src.shape[0] // PARALLEL_QUERIES))
     bounds = np.linspace(0, H, chunks + 1).astype(int)
-    threads = [threading.Thread(target=kernels.icp_poses,
+    threads = [threading.Thread(target=icp_kernels.icp_poses,
                                 args=args + (int(a), int(b), out_T, out_s))
                for a, b in zip(bounds[1:-1], bounds[2:])]
     for t in threads:
         t.start()
-    kernels.icp_poses(*args, int(bounds[0]), int(bounds[1]), out_T, out_s)
+    icp_kernels.icp_poses(*args, int(bounds[0]), int(bounds[1]), out_T, out_s)
     for t in threads:
         t.join()
     return out_T, out_s
@@ -638,274 +454,9 @@ def distinct_poses(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: fl
 def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int) -> np.ndarray:
     """The ``keep`` best-scoring poses (H, 4, 4), skipping any that lands within 1% of the
     measured extent of a better one (poses compared by where they put a few spread points)."""
-    ref = src[_spread_subset(src, 4)]
+    ref = src[spread_subset(src, 4)]
     extent = float(np.linalg.norm(src.max(0) - src.min(0)))
     tol = 0.01 * max(extent, 1e-12)
     order = np.argsort(score, kind="stable")
     feat = np.einsum("hij,mj->hmi", T[order, :3, :3], ref) + T[order, None, :3, 3]
-    return T[order[kernels.distinct_first(np.ascontiguousarray(feat), tol, keep)]]
-
-
-# ---------------------------------------------------------------------------- final stage
-MAX_FINISHES = 4
-"""Point-to-surface finishes at most, of the best-scoring distinct candidate poses: each costs
-a full fit over every measured point, and the global stage alone (a nominal no larger than its
-coarsest level) leaves up to 32 candidates."""
-ALTERNATIVE_ITERATIONS = 10
-"""Gauss-Newton iterations at most of the finish of each candidate after the best-scoring one
-(a candidate near the right pose settles in a few; the exact finish of a STEP nominal hands
-over after EXACT_HANDOVER_ITERATIONS, 8, anyway)."""
-ROBUST_ITERATIONS = 3
-"""Gauss-Newton iterations of the point-to-surface fit that still use the robust cut (they bring
-the pose from the ICP stages into the least-squares basin); the iterations after them are plain
-least squares over every point but the gross outliers."""
-MAX_ROUNDS = 4
-"""Least-squares fits, each followed by the gross-outlier rule at its pose, until the excluded
-set no longer changes."""
-
-
-def _point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
-                          settings: RegistrationSettings, zone_width: float | None):
-    """Least squares of the signed point-to-surface deviations over every point but the gross
-    outliers of :mod:`engine.outliers`.
-
-    The first ``ROBUST_ITERATIONS`` Gauss-Newton iterations use the robust cut (a pose from the
-    ICP stages may still be off by more than the spread of the deviations); then the fit is
-    plain least squares over the points the gross-outlier rule keeps at the current pose, run to
-    convergence, the rule applied again at the new pose, until the kept set is stable; a point
-    is left out only if it is gross at the least-squares pose over every point too (one linear
-    step from there when it moves no point by more than ``LINEAR_INCLUDED`` x the threshold,
-    else iterated: _confirmed_rounds).
-    Measurements larger than ``fit_measured`` points iterate on a seeded subset of that size;
-    then the rule is applied to every point and one Gauss-Newton step over every kept point
-    moves the pose to the all-point optimum (the subset's optimum is within noise /
-    sqrt(subset) of it, so one step of a nearly linear problem suffices; should it move any
-    point by more than ``finish_step_mm``, change the kept set, or a point left out not stay
-    gross with every point included, iteration over all points continues instead). The
-    deviations follow that last step to first order (exact to ~step^2 x curvature, far below
-    a nanometre). Returns (T, converged, iterations, kept mask
-    (all points), GrossRule at T, Deviations of all points at T, seconds the evaluation of those
-    deviations took, message).
-    """
-    floor = settings.outlier_floor * nominal.diagonal
-    n = measured.shape[0]
-    fsub = _spread_subset(measured, settings.fit_measured)
-    sub = measured[fsub]
-    budget = settings.max_final_iterations
-    T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
-                                               min(ROBUST_ITERATIONS, budget))
-    floor = _gross_floor(nominal, settings, zone_width)
-    # On a subset, the final stage over every point checks the points left out.
-    rounds = _confirmed_rounds if fsub.size == n else _least_squares_rounds
-    T, converged, it, keep, rule, dev, dev_s = rounds(
-        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)[:7]
-    total += it
-    if fsub.size < n:
-        X = apply_transform(T, measured)
-        t0 = time.perf_counter()
-        dev = point_to_surface(nominal, X)
-        dev_s = time.perf_counter() - t0
-        rule = gross_rule(dev.signed, zone_width, floor)
-        keep = ~gross_outliers(dev.signed, dev.foot, rule)
-        finished = not settings.finish_on_all_points
-        if not finished and converged and keep.sum() >= 6:
-            delta, c = gauss_newton_step(X[keep], dev.normal[keep], dev.signed[keep])
-            total += 1
-            if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
-                moved, X_m = _moved(dev, X, delta, c)
-                rule_m = gross_rule(moved.signed, zone_width, floor)
-                keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
-                # Points left out must stay gross with them included (engine.outliers); else
-                # iterate over all points, which fits with them.
-                ok = np.array_equal(keep_m, keep)
-                if ok and not keep.all():
-                    gross = _gross_included(X_m, moved, zone_width, floor)
-                    ok = gross is not None and bool(np.all(gross[~keep]))
-                if ok:
-                    T = apply_update(T, delta, c)
-                    dev, rule, finished = moved, rule_m, True
-        if not finished:
-            T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
-                nominal, measured, T, dev, dev_s, settings, zone_width, floor, budget)
-            total += it
-    message = ""
-    if not converged:
-        message = (f"the point-to-surface fit did not settle within "
-                   f"{settings.max_final_iterations} iterations (or the points it excludes as "
-                   f"gross outliers within {MAX_ROUNDS} fits)")
-    if keep.sum() < 6:
-        converged = False
-        message = (f"only {int(keep.sum())} points are not gross outliers (beyond "
-                   f"{rule.threshold_mm:.3g} mm)")
-    return T, converged, total, keep, rule, dev, dev_s, message
-
-
-def _gross_floor(nominal: Nominal, settings: RegistrationSettings,
-                 zone_width: float | None) -> float:
-    """The gross-outlier threshold's floor, mm."""
-    fraction = settings.outlier_floor if zone_width is not None else \
-        settings.gross_floor_without_zone
-    return fraction * nominal.diagonal
-
-
-def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
-    """Least squares over every point of ``pts`` but the gross outliers, a point left out only
-    if it is gross with it included too (engine.outliers.fit_without_gross): _least_squares_rounds
-    once, and when it leaves points out, the rule at the least-squares pose over every point (the
-    probe: one linear step when that suffices, else at most ``INCLUDED_FIT_ITERATIONS``
-    iterations), and then _least_squares_rounds again. Same arguments and returns as
-    _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
-    used = 0
-
-    def fit(start, included, cap=None):
-        nonlocal used
-        left = budget - used if cap is None else min(budget - used, cap)
-        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
-                                    included)
-        used += out[2]
-        T1, converged, _, keep, _, d1, s1, gross = out
-        return (T1, d1, s1), gross, keep, converged, out
-
-    def probe(start):
-        nonlocal used
-        T0, d0, _ = start
-        # Every point included usually moves the pose so little that the deviations can
-        # follow to first order: no new evaluation (mis-probes among many points). Only which
-        # points are gross there is used: the final fit is a real one.
-        gross = _gross_included(apply_transform(T0, pts), d0, zone_width, floor)
-        used += 1
-        if gross is not None:
-            return start, gross
-        return fit(start, np.zeros(len(pts), bool), INCLUDED_FIT_ITERATIONS)[:2]
-
-    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0], probe)
-    T1, _, _, keep, rule, d1, s1, _ = out
-    return T1, converged and used <= budget, used, keep, rule, d1, s1
-
-
-def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget,
-                          included=None):
-    """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
-    (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
-    at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
-    Gauss-Newton iterations in all). included : (m,) bool, only these may be left out (None:
-    any; all False: plain least squares over every point). Returns (T, converged, iterations,
-    kept mask, GrossRule, Deviations at T, seconds their evaluation took, (m,) bool gross by the
-    rule alone at T)."""
-    total, converged, keep = 0, False, None
-    for _ in range(MAX_ROUNDS):
-        rule = gross_rule(dev.signed, zone_width, floor)
-        gross = _gross(dev, rule, included)
-        new = ~gross if included is None else ~(gross & included)
-        if keep is not None and converged and np.array_equal(new, keep):
-            break
-        keep = new
-        if total >= budget:
-            converged = False
-            break
-        T, converged, it, _, dev, dev_s = _gauss_newton(nominal, pts, T, settings, keep, floor,
-                                                        budget - total, dev, dev_s)
-        total += it
-    else:
-        # The last fit's set is the one its pose was fitted on; the rule at that pose may
-        # differ by a point at the threshold (the fit is reported as not settled then).
-        rule = gross_rule(dev.signed, zone_width, floor)
-        gross = _gross(dev, rule, included)
-        if not np.array_equal(~gross if included is None else ~(gross & included), keep):
-            converged = False
-    if included is not None and not included.any():
-        gross = gross_outliers(dev.signed, dev.foot, rule)
-    return T, converged, total, keep, rule, dev, dev_s, gross
-
-
-def _gross(dev, rule, included):
-    """The rule's gross outliers at ``dev`` (none looked for where ``included`` is all False)."""
-    if included is not None and not included.any():
-        return np.zeros(dev.signed.size, bool)
-    return gross_outliers(dev.signed, dev.foot, rule)
-
-
-def _moved(dev: Deviations, X: np.ndarray, delta: np.ndarray, c: np.ndarray):
-    """The deviations ``dev`` of the points ``X`` (n, 3) after the small step ``delta`` about
-    ``c`` (from gauss_newton_step), to first order (exact to ~step^2 x curvature), and the moved points."""
-    motion = np.cross(delta[:3], X - c) + delta[3:]
-    along = np.einsum("ij,ij->i", motion, dev.normal)
-    return Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
-                      dev.normal, dev.curved), X + motion
-
-
-LINEAR_INCLUDED = 0.1
-"""The fit over every point that decides which points stay gross with them included is one
-linear step when that step moves no point by more than this fraction of the gross threshold."""
-
-
-def _gross_included(X: np.ndarray, dev: Deviations, zone_width, floor):
-    """(n,) bool: the points of ``X`` (n, 3), deviations ``dev``, gross at the least-squares pose
-    over all of them, when one linear step reaches it; None when the step is too long to trust
-    (then iterate instead).
-
-    The step moves no point by more than m <= LINEAR_INCLUDED x the gross threshold; a distance
-    changes by no more than the point moves, so the deviations followed to first order are
-    within 2 m of the true ones whatever the nominal's shape (an edge crossed, a kink): a point
-    counts as gross only beyond the threshold + 2 m."""
-    delta, c = gauss_newton_step(X, dev.normal, dev.signed)
-    moved, _ = _moved(dev, X, delta, c)
-    rule = gross_rule(moved.signed, zone_width, floor)
-    m = _largest_motion(delta, X - c)
-    if m > LINEAR_INCLUDED * rule.threshold_mm:
-        return None
-    return gross_outliers(moved.signed, moved.foot,
-                          dataclasses.replace(rule, threshold_mm=rule.threshold_mm + 2.0 * m))
-
-
-def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
-    """Largest displacement (mm) a small step moves any of the points ``rel`` (about its centre)."""
-    reach = float(np.sqrt(np.max(np.einsum("ij,ij->i", rel, rel)))) if rel.size else 0.0
-    return float(np.linalg.norm(delta[:3]) * reach + np.linalg.norm(delta[3:]))
-
-
-def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev_s=0.0):
-    """Iterate the linearised point-to-surface least squares on ``pts`` (m, 3) from pose ``T``.
-
-    use : (m,) bool, the fixed set of points fitted (the iteration converges to the
-    least-squares optimum over them); None: the robust cut (``outlier_sigmas`` robust standard
-    deviations, at least ``floor`` mm) re-estimated at every iteration (the coarse iterations
-    only). Converged when a step would move no fitted point by more than ``convergence_mm``;
-    that last step is not applied, so the returned deviations belong to the returned pose.
-    ``dev`` (and the seconds ``dev_s`` it took): the deviations at ``T`` when known already.
-    Returns (T, converged, iterations, fitted mask, Deviations of ``pts`` at T, seconds their
-    evaluation took).
-    """
-    mask = use
-    for it in range(1, max_iter + 1):
-        report(f"point-to-surface fit on {pts.shape[0]:,} points, iteration {it}",
-               0.85 + 0.1 * it / max(max_iter, 10))
-        X = apply_transform(T, pts)
-        if dev is None:
-            t0 = time.perf_counter()
-            dev = point_to_surface(nominal, X)
-            dev_s = time.perf_counter() - t0
-        d = dev.signed
-        if use is None:
-            mask = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, floor)
-        if mask.sum() < 6:
-            return T, False, it, mask, dev, dev_s
-        delta, c = gauss_newton_step(X[mask], dev.normal[mask], d[mask])
-        if _largest_motion(delta, X[mask] - c) < settings.convergence_mm:
-            return T, True, it, mask, dev, dev_s
-        T = apply_update(T, delta, c)
-        dev = None
-    X = apply_transform(T, pts)
-    t0 = time.perf_counter()
-    dev = point_to_surface(nominal, X)
-    dev_s = time.perf_counter() - t0
-    if use is None:
-        mask = np.abs(dev.signed) <= robust_cut(dev.signed, settings.outlier_sigmas, floor)
-    return T, False, max_iter, mask, dev, dev_s
-
-
-def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
-    """Outlier cut for deviations d (mm): |median| + ``sigmas`` x 1.4826 x median absolute
-    deviation, never below ``floor``. Shared by the 3D and 2D fits."""
-    med, sigma = robust_centre_sigma(d)
-    return float(max(abs(med) + sigmas * sigma, floor))
+    return T[order[icp_kernels.distinct_first(np.ascontiguousarray(feat), tol, keep)]]

@@ -33,7 +33,8 @@ from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gr
 from .progress import report
 from .pose import (apply_transform, apply_update, compose_updates, gauss_newton_step,
                    min_norm_solve, pose_2d, pose_jacobian, rotation_2d)
-from .registration import CONTOUR_RMS, RegistrationResult, robust_cut
+from .registration_types import CONTOUR_RMS, RegistrationResult
+from .surface_fit import robust_cut
 
 _SEED = 11
 GROSS_FLOOR = 1e-4

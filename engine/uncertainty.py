@@ -22,7 +22,7 @@ The terms, each a standard uncertainty u (mm) per point, and their assumptions:
 * ``pose``: the registration's pose is fitted to the points by least squares; its covariance
   s^2 (J^T J)^+ (s from the fit's residuals, engine.trust.pose_covariance) propagated to the
   point: u = sqrt(J_i cov J_i^T) (normal). Directions the points do not fix at all carry no
-  variance here: engine.trust.pose_sensitivity scans them instead.
+  variance here: engine.pose_sensitivity scans them instead.
 * ``sampling``: the nominal-sampling margin m (curvature x spacing^2 / 8; 0 against exact lines,
   arcs and B-rep faces), the most a chord between samples can sag below the true surface, taken
   as rectangular over +-m: u = m / sqrt(3).

@@ -18,7 +18,7 @@ better than the one it reports (it is not the best fit; engine.registration repo
 so this is a safety net). It is INCONCLUSIVE too when the verdict depends on
 a pose the measurement does not fix: when moving the part along a direction the measured points
 leave unconstrained (within +-3 sigma of the pose's uncertainty, or far along a free direction)
-or to another pose that fits about as well changes the verdict (engine.trust.pose_sensitivity).
+or to another pose that fits about as well changes the verdict (engine.pose_sensitivity).
 A weak or free direction along which the verdict holds (a cylinder measured all round, slid along
 its axis) and a runner-up at which it is the same are reported, in plain words, and the verdict
 stands.
@@ -36,7 +36,7 @@ from .nominal import Nominal
 from .tolerance import Tolerance
 
 if TYPE_CHECKING:
-    from .trust import PoseSensitivity
+    from .pose_sensitivity import PoseSensitivity
 
 ACCEPT, REJECT, INCONCLUSIVE = Verdict.ACCEPT, Verdict.REJECT, Verdict.INCONCLUSIVE
 MIN_NEAR_FRACTION = 0.5
@@ -173,7 +173,7 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
     about as well with deviations up to ``spread`` mm apart; margin : per-point guard band, mm,
     for the guarded decision rule: the expanded uncertainty U (None: the simple rule).
     sensitivity : whether the pointwise verdict holds over the poses the measurement allows
-    (engine.trust.pose_sensitivity), with ``statements`` saying so in plain words. Given, a weak
+    (engine.pose_sensitivity), with ``statements`` saying so in plain words. Given, a weak
     direction or a runner-up makes the verdict INCONCLUSIVE only when the verdict differs at
     some of those poses (they are reported as facts otherwise); None: any of them does.
     """

@@ -522,7 +522,7 @@ def _cmd_inspect(args) -> int:
 def _cmd_batch(args) -> int:
     from engine.errors import SettingsError
     from engine.pipeline import inspection_settings, load_nominal
-    from qa_app import batch as qb
+    from qa_app import batch as qb, lot
 
     _no_empty_paths("batch", {"NOMINAL": args.nominal, "MEASURED": args.measured,
                               "--out": args.out, "--sign": args.sign, "--plan": args.plan})
@@ -534,10 +534,10 @@ def _cmd_batch(args) -> int:
         raise UsageError("qa-inspect batch: --workers N (N >= 1) sets the local cluster's "
                          "workers; an existing cluster (--scheduler) has its own")
     try:
-        parts = qb.find_parts(args.measured)
+        parts = lot.find_parts(args.measured)
         info, identity = _certificate_identity(args, "batch")
-        job = qb.Batch(parts, args.out, info, identity, args.part_number)
-        qb.check_batch_outputs(job, [args.nominal, args.plan, args.sign]
+        job = lot.Batch(parts, args.out, info, identity, args.part_number)
+        lot.check_batch_outputs(job, [args.nominal, args.plan, args.sign]
                                + [p.path for p in parts])
         # Absolute paths: the workers may run elsewhere (the same files at the same paths).
         settings = inspection_settings(tol, args.plan and os.path.abspath(args.plan),
@@ -555,7 +555,7 @@ def _cmd_batch(args) -> int:
 def _run_batch(args, job, loaded) -> int:
     import time
 
-    from qa_app import batch as qb
+    from qa_app import batch as qb, cluster, lot, lot_summary
     from reports.messages import printable
 
     bar = None if args.quiet or not sys.stderr.isatty() else qb.ProgressBar(len(job.parts))
@@ -563,7 +563,7 @@ def _run_batch(args, job, loaded) -> int:
     try:
         # The cluster is started (or reached) only if some part is left to inspect.
         rows = qb.run_batch(job, loaded, on_row=bar and bar.update,
-                            connect=lambda: qb.dask_client(args.scheduler, args.workers))
+                            connect=lambda: cluster.dask_client(args.scheduler, args.workers))
     except KeyboardInterrupt:
         if bar is not None:
             bar.close()
@@ -576,9 +576,9 @@ def _run_batch(args, job, loaded) -> int:
         return EX_UNAVAILABLE
     if bar is not None:
         bar.close()
-    written = qb.write_summary(job, loaded, rows)
-    print(qb.summary_text(rows, time.monotonic() - t0, written))
-    return qb.exit_code([r["verdict"] for r in rows])
+    written = lot_summary.write_summary(job, loaded, rows)
+    print(lot_summary.summary_text(rows, time.monotonic() - t0, written))
+    return lot.exit_code([r["verdict"] for r in rows])
 
 
 def _cmd_keygen(args) -> int:

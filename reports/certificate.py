@@ -214,7 +214,7 @@ def check_trustworthy(run: Run) -> None:
                                    "trustworthy or a characteristic is not within its limits")
         return
     # Weak or free directions and a runner-up pose are facts; the verdict is trusted when it
-    # is the same at every pose they allow (engine.trust.pose_sensitivity).
+    # is the same at every pose they allow (engine.pose_sensitivity).
     sens = res.pose_sensitivity
     trusted = (_registration_trusted(res) and res.conditioning is not None and sens is not None
                and sens.verdict_stable)

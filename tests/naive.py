@@ -74,7 +74,7 @@ def boxes_nearer(p, boxes, limit, done):
 
 
 def nearest_sample(p, lookup, pts):
-    """Slow twin of engine.kernels.nearest_sample: (sample, squared distance) -- the owner of the
+    """Slow twin of engine.icp_kernels.nearest_sample: (sample, squared distance) -- the owner of the
     point's cell (clamped to the grid), then the first nearer graph neighbour while there is
     one."""
     cell = []
@@ -112,7 +112,7 @@ class LookupAsTree:
 
 
 def farthest_points(P, centre, m):
-    """Slow twin of engine.kernels.farthest_points."""
+    """Slow twin of engine.icp_kernels.farthest_points."""
     d0 = [math.dist(p, centre) for p in P]
     chosen = [d0.index(min(d0))]
     d = [math.dist(p, P[chosen[0]]) for p in P]
@@ -124,7 +124,7 @@ def farthest_points(P, centre, m):
 
 
 def distinct_first(feat, tol, keep):
-    """Slow twin of engine.kernels.distinct_first."""
+    """Slow twin of engine.icp_kernels.distinct_first."""
     kept = []
     for i in range(len(feat)):
         if len(kept) < keep and all(
@@ -134,7 +134,7 @@ def distinct_first(feat, tol, keep):
 
 
 def shape_operators(n, dx, dn):
-    """Slow twin of engine.kernels.shape_fit (numpy over all points at once, LAPACK's solve): the
+    """Slow twin of engine.icp_kernels.shape_fit (numpy over all points at once, LAPACK's solve): the
     shape operators (m, 3, 3) from unit normals n (m, 3), neighbour offsets dx (m, k, 3) and
     normal changes dn (m, k, 3)."""
     helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
@@ -170,7 +170,7 @@ def shape_operators(n, dx, dn):
 def icp_batch(T, src, tree, pts, nrm, spacing, iterations, stop_rad=0.0, lam2=0.0,
               reach=np.inf, shape=None):
     """Slow twin of engine.registration._icp_batch and of the compiled ICP kernels
-    (kernels.icp_paired, kernels.icp_poses): the same ICP in numpy over all poses at once, LAPACK
+    (icp_kernels.icp_paired, icp_kernels.icp_poses): the same ICP in numpy over all poses at once, LAPACK
     for the steps; pairing by ``tree.query`` (scipy's kd-tree, or LookupAsTree). Returns (poses,
     truncated scores, iterations run)."""
     from engine.pose import skew

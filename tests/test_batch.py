@@ -18,7 +18,8 @@ import pytest
 from engine.pose import apply_transform, make_transform
 from engine.pipeline import inspection_settings, load_nominal
 from engine.tolerance import Tolerance
-from qa_app import batch as qb
+from qa_app import batch as qb, lot_summary
+from qa_app import lot as lot_model
 from qa_app.cli import main
 from surfaces import (height, height_normal, random_rotation, write_grid_nominal,
                       write_labelled_points)
@@ -76,11 +77,11 @@ def _complete_parts(out):
 
 # ---------------------------------------------------------------------------- without a cluster
 def test_exit_codes_in_order_of_precedence():
-    assert qb.exit_code(["ACCEPT", "ACCEPT"]) == 0
-    assert qb.exit_code(["ACCEPT", "INCONCLUSIVE", "REJECT", "ERROR"]) == 1
-    assert qb.exit_code(["ACCEPT", "INCONCLUSIVE", "ERROR"]) == 2
-    assert qb.exit_code(["ACCEPT", "ERROR"]) == 65
-    assert qb.exit_code(["ERROR"]) == 65
+    assert lot_model.exit_code(["ACCEPT", "ACCEPT"]) == 0
+    assert lot_model.exit_code(["ACCEPT", "INCONCLUSIVE", "REJECT", "ERROR"]) == 1
+    assert lot_model.exit_code(["ACCEPT", "INCONCLUSIVE", "ERROR"]) == 2
+    assert lot_model.exit_code(["ACCEPT", "ERROR"]) == 65
+    assert lot_model.exit_code(["ERROR"]) == 65
 
 
 def test_progress_line_counts_rate_and_time_left():
@@ -92,7 +93,7 @@ def test_progress_line_counts_rate_and_time_left():
 
 def test_parts_in_measurement_order_and_usage_errors(lot, tmp_path, capsys):
     d, _ = lot
-    parts = qb.find_parts([str(d / "parts" / "s1*.csv"), str(d / "parts" / "s02.csv"),
+    parts = lot_model.find_parts([str(d / "parts" / "s1*.csv"), str(d / "parts" / "s02.csv"),
                            str(d / "parts" / "s0[12].csv")])
     assert [p.serial for p in parts] == ["s10", "s11", "s12", "s02", "s01"]
     os.mkdir(tmp_path / "other")
@@ -151,7 +152,7 @@ def test_what_spc_tracks_and_judges_follows_the_fit_and_the_plan(lot, tmp_path):
     def tracked(**kw):
         settings = inspection_settings(Tolerance(-0.1, 0.3), **kw)
         return [(t.id, t.kind, t.lower, t.upper)
-                for t in qb.tracked_characteristics(load_nominal(nominal, settings))]
+                for t in lot_summary.tracked_characteristics(load_nominal(nominal, settings))]
 
     assert tracked() == [("max_abs", Kind.BOUNDED, None, 0.3), ("mean", Kind.FORCED, None, None),
                          ("n_out", Kind.COUNT, None, 0.0)]
@@ -162,13 +163,13 @@ def test_what_spc_tracks_and_judges_follows_the_fit_and_the_plan(lot, tmp_path):
                     '[[characteristic]]\nid = "f"\ntype = "flatness"\nregion = "all"\n'
                     'zone = 0.4\n')
     with_plan = load_nominal(nominal, inspection_settings(None, str(plan)))
-    assert [(t.id, t.kind, t.upper) for t in qb.tracked_characteristics(with_plan)] == [
+    assert [(t.id, t.kind, t.upper) for t in lot_summary.tracked_characteristics(with_plan)] == [
         ("f", Kind.BOUNDED, 0.4)]
     # The part number the SPC's title names: --part-number, else the plan's, else none.
     plain = load_nominal(nominal, inspection_settings(Tolerance(-0.1, 0.3)))
-    assert qb.part_number(qb.Batch([], "out", part_number=" SB-1 "), with_plan) == "SB-1"
-    assert qb.part_number(qb.Batch([], "out"), with_plan) == "PL-7"
-    assert qb.part_number(qb.Batch([], "out"), plain) == ""
+    assert lot_summary.part_number(lot_model.Batch([], "out", part_number=" SB-1 "), with_plan) == "SB-1"
+    assert lot_summary.part_number(lot_model.Batch([], "out"), with_plan) == "PL-7"
+    assert lot_summary.part_number(lot_model.Batch([], "out"), plain) == ""
 
 
 # ---------------------------------------------------------------------------- the local cluster
@@ -414,7 +415,7 @@ def test_a_lot_that_passes_but_drifts_is_flagged_by_spc(lot, tmp_path):
     pages = subprocess.run(["pdfinfo", str(out / "spc.pdf")], capture_output=True, text=True,
                            check=True).stdout
     assert re.search(r"^Pages:\s+4$", pages, re.M)  # the lot, max |d|, mean d, points out
-    stable = qb.lot_series(qb.tracked_characteristics(load_nominal(
+    stable = lot_summary.lot_series(lot_summary.tracked_characteristics(load_nominal(
         str(d / "nominal.csv"), inspection_settings(Tolerance.symmetric(0.06)))),
         [{"serial": "x", "values": {"max_abs": v}} for v in
          np.random.default_rng(4).normal(0.02, 0.002, 12)])
@@ -565,8 +566,8 @@ def _batch(lot, out, serials):
     d, _ = lot
     settings = inspection_settings(Tolerance.symmetric(0.1))
     loaded = load_nominal(os.path.abspath(d / "nominal.csv"), settings)
-    parts = qb.find_parts([str(d / "parts" / f"{s}.csv") for s in serials])
-    return qb.Batch(parts, str(out)), loaded
+    parts = lot_model.find_parts([str(d / "parts" / f"{s}.csv") for s in serials])
+    return lot_model.Batch(parts, str(out)), loaded
 
 
 def test_worker_killed_mid_batch_every_part_once(lot, cluster, tmp_path):

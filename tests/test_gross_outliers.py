@@ -19,7 +19,8 @@ from engine.pose import apply_transform, make_transform, rotation_from_rotvec
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.outliers import gross_outliers, gross_rule
-from engine.registration import RegistrationSettings, register
+from engine.registration import register
+from engine.registration_types import RegistrationSettings
 from engine.io import load_point_set
 from surfaces import height, height_grid, height_normal, point_set, random_rotation
 
@@ -298,7 +299,7 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft
     Sum d^2 is within 2% of an independent optimiser's (scipy, from the true pose): a point
     can end exactly at the flat's edge, where the one point that constrains the turn has a
     lever under 1 mm and the Gauss-Newton step leaves that direction alone."""
-    from engine.registration import _point_to_surface_fit
+    from engine.surface_fit import point_to_surface_fit
 
     rng = np.random.default_rng(5)
     m, R0 = 600, 40.0
@@ -310,7 +311,7 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft
         q[bad, :2] *= (R0 + 10.0) / R0
     T0 = np.eye(4)
     T0[:3, :3] = rotation_from_rotvec(np.radians(turn_deg) * np.array([[0, 0, 1.0]]))[0]
-    T, converged, _, keep, rule, dev = _point_to_surface_fit(
+    T, converged, _, keep, rule, dev = point_to_surface_fit(
         d_shaft, q, T0, RegistrationSettings(fit_measured=subset or 16384), 0.06)[:6]
     assert converged and rule.threshold_mm == pytest.approx(0.3)
     assert np.flatnonzero(~keep).tolist() == ([bad] if mis_probe else [])

@@ -7,7 +7,8 @@ from engine.errors import SettingsError
 from engine.pose import apply_transform, make_transform
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
-from engine.registration import RegistrationSettings, register
+from engine.registration import register
+from engine.registration_types import RegistrationSettings
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT, Statistics, judge
 from surfaces import height, height_grid, height_normal, point_set, random_rotation
 
@@ -174,7 +175,7 @@ def test_the_near_fraction_is_that_of_the_pose_reported(monkeypatch):
 
     import engine.inspection as ins
     from engine.deviation import point_to_surface
-    from engine.registration import RegistrationResult
+    from engine.registration_types import RegistrationResult
 
     nominal, measured, planted = _paraboloid_part(np.random.default_rng(21))
     real = ins.register

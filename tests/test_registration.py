@@ -7,7 +7,8 @@ import pytest
 from engine.pose import apply_transform, make_transform
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
-from engine.registration import RegistrationSettings, register
+from engine.registration import register
+from engine.registration_types import RegistrationSettings
 from engine.verdict import ACCEPT, REJECT
 from surfaces import (bracket_two_faces, height, height_grid, height_normal, point_set,
                       random_rotation)

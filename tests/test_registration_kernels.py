@@ -1,4 +1,4 @@
-"""The compiled ICP of the global search (engine.kernels.icp_poses) and its constant-time pairing
+"""The compiled ICP of the global search (engine.icp_kernels.icp_poses) and its constant-time pairing
 (engine.neighbours.SampleLookup), each against an independent twin: scipy's kd-tree, LAPACK's
 eigh, and the numpy ICP of engine.registration run with the same pairing."""
 
@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from engine import kernels
+from engine import icp_kernels, kernels
 from engine.pose import apply_transform, make_transform
 from engine.nominal import Nominal
 from engine.pose import min_norm_solve
-from engine.registration import (RegistrationSettings, _hypotheses, _icp_batch, _icp_poses,
-                                 _spread_subset)
+from engine.neighbours import spread_subset
+from engine.registration import _hypotheses, _icp_batch, _icp_poses
+from engine.registration_types import RegistrationSettings
 from naive import LookupAsTree, icp_batch, nearest_sample
 from surfaces import height, height_grid, point_set, random_rotation
 
@@ -31,7 +32,7 @@ def _surface_points(rng, n, noise):
 
 
 def _pair(lookup, pts, X):
-    out = [kernels.nearest_sample(x[0], x[1], x[2], lookup.lo, lookup.cell, lookup.owner,
+    out = [icp_kernels.nearest_sample(x[0], x[1], x[2], lookup.lo, lookup.cell, lookup.owner,
                                   lookup.graph, pts) for x in X]
     return np.array([o[0] for o in out]), np.array([o[1] for o in out])
 
@@ -74,7 +75,7 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
         A = B @ B.T
         ref = np.linalg.eigh(A)[0]
         work = A.copy()
-        kernels.symmetric_eigen(work, w, V)
+        icp_kernels.symmetric_eigen(work, w, V)
         assert np.allclose(np.sort(w), ref, rtol=0, atol=1e-13 * ref[-1])
         assert np.allclose(A @ V, V * w, rtol=0, atol=1e-12 * ref[-1])
         assert np.allclose(V.T @ V, np.eye(6), atol=1e-13)
@@ -91,7 +92,7 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
         A = (Q * ev) @ Q.T / np.outer(s, s)
         A = 0.5 * (A + A.T)
         b = rng.normal(size=6) * np.abs(A).max()
-        kernels._min_norm_step(A, b, length, As, w, V, out)
+        icp_kernels._min_norm_step(A, b, length, As, w, V, out)
         expect = min_norm_solve(A, b, 3, length)
         assert np.allclose(-out, expect, rtol=0, atol=1e-9 * np.max(np.abs(expect)))
     # Well-conditioned systems take the Cholesky path (checked to be taken), same answer.
@@ -101,9 +102,9 @@ def test_symmetric_eigen_and_the_min_norm_step_match_lapack():
         A = B @ B.T + 10.0 ** rng.uniform(-3, 1) * np.eye(6)
         b, length = rng.normal(size=6), 10.0 ** rng.uniform(-1, 1)
         s = np.r_[np.full(3, 1.0 / length), np.ones(3)]
-        taken += kernels._well_conditioned_solve(A * s[:, None] * s[None, :], b, 1.0 / length,
+        taken += icp_kernels._well_conditioned_solve(A * s[:, None] * s[None, :], b, 1.0 / length,
                                                  V, out)
-        kernels._min_norm_step(A, b, length, As, w, V, out)
+        icp_kernels._min_norm_step(A, b, length, As, w, V, out)
         expect = min_norm_solve(A, b, 3, length)
         assert np.allclose(-out, expect, rtol=1e-9, atol=1e-12 * np.max(np.abs(expect)))
     assert taken > 200
@@ -122,7 +123,7 @@ def test_compiled_icp_is_the_numpy_icp_with_the_same_pairing(level, shape, reach
     q = _surface_points(rng, 600, 0.004)
     measured = apply_transform(make_transform(random_rotation(rng), rng.uniform(-900, 900, 3)), q)
     T = _hypotheses(nominal, measured, pts, nrm, RegistrationSettings())[::9]
-    src = measured[_spread_subset(measured, m)]  # an even and an odd count: the median
+    src = measured[spread_subset(measured, m)]  # an even and an odd count: the median
     S = S if shape else None
     T_fast, s_fast = _icp_poses(T, src, lookup, pts, nrm, S, h, iterations=3, lam2=lam2,
                                 reach=reach)
@@ -139,7 +140,7 @@ def test_compiled_icp_is_the_numpy_icp_with_the_same_pairing(level, shape, reach
     assert np.allclose(s_fast, s_slow, rtol=1e-9, atol=1e-12)
     # The split over threads does not change the answer.
     one = np.empty_like(T_fast), np.empty(len(T))
-    kernels.icp_poses(T, src, lookup.lo, lookup.cell, lookup.owner, lookup.graph, pts, nrm,
+    icp_kernels.icp_poses(T, src, lookup.lo, lookup.cell, lookup.owner, lookup.graph, pts, nrm,
                       np.zeros((0, 3, 3)) if S is None else S, h, 3, lam2, reach, 0, len(T), *one)
     assert np.array_equal(one[0], T_fast) and np.array_equal(one[1], s_fast)
 
@@ -153,12 +154,12 @@ def test_farthest_points_and_distinct_poses_match_their_twins():
     grid = np.stack(np.meshgrid(np.arange(6.0), np.arange(5.0), [0.0, 1.0]), -1).reshape(-1, 3)
     for P in (rng.normal(size=(300, 3)), grid):
         for m in (1, 4, 16, 40):
-            assert list(kernels.farthest_points(P, P.mean(0), m)) == \
+            assert list(icp_kernels.farthest_points(P, P.mean(0), m)) == \
                 farthest_points(P, P.mean(0), m)
     base = rng.normal(size=(40, 4, 3)) * 10
     feat = np.concatenate([base, base + rng.normal(size=base.shape) * 0.05])[rng.permutation(80)]
     for tol, keep in ((0.01, 100), (0.2, 100), (0.2, 7), (50.0, 100)):
-        assert list(kernels.distinct_first(feat, tol, keep)) == distinct_first(feat, tol, keep)
+        assert list(icp_kernels.distinct_first(feat, tol, keep)) == distinct_first(feat, tol, keep)
 
 
 def test_shape_operators_match_their_twin_and_a_sphere():
@@ -279,7 +280,7 @@ def test_degenerate_samples_take_the_tangent_plane_and_the_lookup_still_builds()
     dx[3:5] = rng.normal(size=(2, 9, 3)) * 1e-90
     dn = np.zeros((6, 9, 3))
     S = np.full((6, 3, 3), np.nan)
-    kernels.shape_fit(n, dx, dn, S)
+    icp_kernels.shape_fit(n, dx, dn, S)
     assert np.array_equal(S, np.zeros((6, 3, 3)))
     assert np.array_equal(shape_operators(n[:3], dx[:3], dn[:3]), np.zeros((3, 3, 3)))
     x, y = np.meshgrid(np.linspace(0, 100, 30), np.linspace(0, 60, 20))

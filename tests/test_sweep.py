@@ -19,7 +19,7 @@ import pytest
 from engine.inspection import Tolerance, inspect
 from engine.io.step import read_step
 from engine.nominal import Nominal
-from engine.pipeline import _exact_deviations
+from engine.step_model import exact_deviations
 from sweep import judge, make_case, truth
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "step")
@@ -32,7 +32,7 @@ TOL = 0.05
 @pytest.mark.parametrize("name", PARTS)
 def test_sweep_over_a_real_part(name):
     part = read_step(os.path.join(DATA, name))
-    exact = _exact_deviations(part)
+    exact = exact_deviations(part)
     rows = []
     for k, defect in enumerate(DEFECTS):
         for pose in range(2):
@@ -72,7 +72,7 @@ def test_a_plain_block_with_a_hole_a_boss_and_a_slot_is_accepted_from_any_pose(t
         R, t = random_pose(seed)
         measured = P @ R.T + t
     res = inspect(Nominal.from_point_set(part.point_set), measured, Tolerance.symmetric(TOL),
-                  exact=_exact_deviations(part))
+                  exact=exact_deviations(part))
     assert res.verdict == "ACCEPT", res.reasons
     assert res.registration.converged
     assert np.max(np.abs(res.deviations.signed)) < 1e-4
@@ -91,7 +91,7 @@ def _inspect_case(name, defect, seed, judged=True):
     part = read_step(os.path.join(DATA, name))
     case = make_case(part, defect, seed=seed)
     res = inspect(Nominal.from_point_set(part.point_set), case["measured"],
-                  Tolerance.symmetric(TOL), exact=_exact_deviations(part))
+                  Tolerance.symmetric(TOL), exact=exact_deviations(part))
     return res, judge(res, truth(part, case), TOL) if judged else None
 
 

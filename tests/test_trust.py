@@ -613,7 +613,8 @@ def test_pose_sensitivity_on_a_subset_agrees_with_every_point(seed):
     the subset. The part: points on the plane z = 0 (deviation = z), weakly held along x; the
     deviation change of a probe is known exactly (a translation leaves z alone, a tilt about y
     changes z by -angle * x)."""
-    from engine.trust import Conditioning, WeakDirection, pose_sensitivity
+    from engine.pose_sensitivity import pose_sensitivity
+    from engine.trust import Conditioning, WeakDirection
 
     rng = np.random.default_rng(seed)
     n = 5000
@@ -673,7 +674,7 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     verdict is seen to depend on the pose; truth: all points evaluated at that pose."""
     from engine.deviation import point_to_surface
     from engine.verdict import pointwise_verdict
-    from engine.trust import SENSITIVITY_POINTS, pose_sensitivity
+    from engine.pose_sensitivity import SENSITIVITY_POINTS, pose_sensitivity
 
     nominal = _d_shaft()
     rng = np.random.default_rng(1)
@@ -709,8 +710,8 @@ def test_a_change_confined_to_a_few_points_of_a_large_cloud_is_seen():
     # Truth at the smallest turn found that changes the verdict, every point: some of the three
     # near the flat, and only they, are out.
     w = next(w for w in cond.weak if w.type == "rotation")
-    from engine.trust import _twist_matrix
-    moved = deviations_at(_twist_matrix(w.twist, rot.amplitudes[k], cond.centre, cond.length),
+    from engine.pose import screw_motion
+    moved = deviations_at(screw_motion(w.twist, rot.amplitudes[k], cond.centre, cond.length),
                           np.arange(m))
     out = set(np.flatnonzero(np.abs(moved) > 0.05))
     assert out and out <= set(three)
@@ -726,7 +727,7 @@ def test_a_d_shaft_measured_clear_of_its_flat_is_inconclusive_from_every_pose():
     some turn keeps the RMS within the plausibility limit and puts a point out."""
     from engine.deviation import point_to_surface
     from engine.pose import rotation_from_rotvec
-    from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
+    from engine.pose_sensitivity import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
 
     nominal = _d_shaft()
     rng = np.random.default_rng(1)
@@ -762,7 +763,7 @@ def test_a_2d_d_profile_measured_clear_of_its_flat_is_inconclusive_from_every_po
     from engine.contour import ContourIndex, arc, build_template, deviations_2d, segment
     from engine.inspection import inspect_2d
     from engine.pose import apply_transform, pose_2d
-    from engine.trust import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
+    from engine.pose_sensitivity import INVARIANT_FRACTION, PLAUSIBLE_RMS_RATIO
 
     al = np.radians(20)
     p0, p1 = (30 * np.cos(al), 30 * np.sin(al)), (30 * np.cos(al), -30 * np.sin(al))

@@ -74,7 +74,7 @@ def test_a_file_name_cannot_forge_a_line_on_the_terminal(tmp_path, capsys):
 
 def test_a_batch_summary_shows_file_names_on_their_lines():
     """A lot's ERROR rows name the part's file and serial (its name): one line each."""
-    from qa_app.batch import summary_text
+    from qa_app.lot_summary import summary_text
 
     row = {"serial": NAME, "file": f"lot/{NAME}.csv", "verdict": "ERROR", "skipped": False,
            "message": f"lot/{NAME}.csv:2: 'oops' is not a number"}

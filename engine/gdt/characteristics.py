@@ -36,7 +36,7 @@ import numpy as np
 
 from ..choices import DecisionRule
 from ..errors import InputError
-from ..pose import apply_transform
+from ..pose import apply_transform, in_plane
 from ..progress import report, within
 from ..tolerance import Tolerance
 from ..verdict import INCONCLUSIVE, Statistics
@@ -160,7 +160,6 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
     the samples of a DXF layer's contours (its name compared without case, as DXF does)."""
     from ..contour import deviations_2d
     from ..deviation import Deviations
-    from ..registration import in_plane
     from .regions import nominal_members
 
     P2 = result.registered[:, :2]

@@ -1,0 +1,286 @@
+"""The point-to-surface finish of a registration: Gauss-Newton least squares of the signed
+point-to-surface deviations (engine.deviation) over every measured point but the gross outliers
+(engine.outliers), in rounds that re-apply the gross-outlier rule at each new pose, after a few
+robust iterations that bring a pose from the ICP stages into the least-squares basin
+(engine.registration's step 3)."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from .deviation import Deviations, point_to_surface
+from .neighbours import spread_subset
+from .nominal import Nominal
+from .outliers import (INCLUDED_FIT_ITERATIONS, fit_without_gross, gross_outliers, gross_rule,
+                       robust_centre_sigma)
+from .pose import apply_transform, apply_update, gauss_newton_step
+from .progress import report
+from .registration_types import RegistrationSettings
+
+
+# ---------------------------------------------------------------------------- final stage
+MAX_FINISHES = 4
+"""Point-to-surface finishes at most, of the best-scoring distinct candidate poses: each costs
+a full fit over every measured point, and the global stage alone (a nominal no larger than its
+coarsest level) leaves up to 32 candidates."""
+ALTERNATIVE_ITERATIONS = 10
+"""Gauss-Newton iterations at most of the finish of each candidate after the best-scoring one
+(a candidate near the right pose settles in a few; the exact finish of a STEP nominal hands
+over after EXACT_HANDOVER_ITERATIONS, 8, anyway)."""
+ROBUST_ITERATIONS = 3
+"""Gauss-Newton iterations of the point-to-surface fit that still use the robust cut (they bring
+the pose from the ICP stages into the least-squares basin); the iterations after them are plain
+least squares over every point but the gross outliers."""
+MAX_ROUNDS = 4
+"""Least-squares fits, each followed by the gross-outlier rule at its pose, until the excluded
+set no longer changes."""
+
+
+def point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
+                          settings: RegistrationSettings, zone_width: float | None):
+    """Least squares of the signed point-to-surface deviations over every point but the gross
+    outliers of :mod:`engine.outliers`.
+
+    The first ``ROBUST_ITERATIONS`` Gauss-Newton iterations use the robust cut (a pose from the
+    ICP stages may still be off by more than the spread of the deviations); then the fit is
+    plain least squares over the points the gross-outlier rule keeps at the current pose, run to
+    convergence, the rule applied again at the new pose, until the kept set is stable; a point
+    is left out only if it is gross at the least-squares pose over every point too (one linear
+    step from there when it moves no point by more than ``LINEAR_INCLUDED`` x the threshold,
+    else iterated: _confirmed_rounds).
+    Measurements larger than ``fit_measured`` points iterate on a seeded subset of that size;
+    then the rule is applied to every point and one Gauss-Newton step over every kept point
+    moves the pose to the all-point optimum (the subset's optimum is within noise /
+    sqrt(subset) of it, so one step of a nearly linear problem suffices; should it move any
+    point by more than ``finish_step_mm``, change the kept set, or a point left out not stay
+    gross with every point included, iteration over all points continues instead). The
+    deviations follow that last step to first order (exact to ~step^2 x curvature, far below
+    a nanometre). Returns (T, converged, iterations, kept mask
+    (all points), GrossRule at T, Deviations of all points at T, seconds the evaluation of those
+    deviations took, message).
+    """
+    floor = settings.outlier_floor * nominal.diagonal
+    n = measured.shape[0]
+    fsub = spread_subset(measured, settings.fit_measured)
+    sub = measured[fsub]
+    budget = settings.max_final_iterations
+    T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
+                                               min(ROBUST_ITERATIONS, budget))
+    floor = gross_floor(nominal, settings, zone_width)
+    # On a subset, the final stage over every point checks the points left out.
+    rounds = _confirmed_rounds if fsub.size == n else _least_squares_rounds
+    T, converged, it, keep, rule, dev, dev_s = rounds(
+        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)[:7]
+    total += it
+    if fsub.size < n:
+        X = apply_transform(T, measured)
+        t0 = time.perf_counter()
+        dev = point_to_surface(nominal, X)
+        dev_s = time.perf_counter() - t0
+        rule = gross_rule(dev.signed, zone_width, floor)
+        keep = ~gross_outliers(dev.signed, dev.foot, rule)
+        finished = not settings.finish_on_all_points
+        if not finished and converged and keep.sum() >= 6:
+            delta, c = gauss_newton_step(X[keep], dev.normal[keep], dev.signed[keep])
+            total += 1
+            if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
+                moved, X_m = _moved(dev, X, delta, c)
+                rule_m = gross_rule(moved.signed, zone_width, floor)
+                keep_m = ~gross_outliers(moved.signed, moved.foot, rule_m)
+                # Points left out must stay gross with them included (engine.outliers); else
+                # iterate over all points, which fits with them.
+                ok = np.array_equal(keep_m, keep)
+                if ok and not keep.all():
+                    gross = _gross_included(X_m, moved, zone_width, floor)
+                    ok = gross is not None and bool(np.all(gross[~keep]))
+                if ok:
+                    T = apply_update(T, delta, c)
+                    dev, rule, finished = moved, rule_m, True
+        if not finished:
+            T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
+                nominal, measured, T, dev, dev_s, settings, zone_width, floor, budget)
+            total += it
+    message = ""
+    if not converged:
+        message = (f"the point-to-surface fit did not settle within "
+                   f"{settings.max_final_iterations} iterations (or the points it excludes as "
+                   f"gross outliers within {MAX_ROUNDS} fits)")
+    if keep.sum() < 6:
+        converged = False
+        message = (f"only {int(keep.sum())} points are not gross outliers (beyond "
+                   f"{rule.threshold_mm:.3g} mm)")
+    return T, converged, total, keep, rule, dev, dev_s, message
+
+
+def gross_floor(nominal: Nominal, settings: RegistrationSettings,
+                 zone_width: float | None) -> float:
+    """The gross-outlier threshold's floor, mm."""
+    fraction = settings.outlier_floor if zone_width is not None else \
+        settings.gross_floor_without_zone
+    return fraction * nominal.diagonal
+
+
+def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+    """Least squares over every point of ``pts`` but the gross outliers, a point left out only
+    if it is gross with it included too (engine.outliers.fit_without_gross): _least_squares_rounds
+    once, and when it leaves points out, the rule at the least-squares pose over every point (the
+    probe: one linear step when that suffices, else at most ``INCLUDED_FIT_ITERATIONS``
+    iterations), and then _least_squares_rounds again. Same arguments and returns as
+    _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
+    used = 0
+
+    def fit(start, included, cap=None):
+        nonlocal used
+        left = budget - used if cap is None else min(budget - used, cap)
+        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
+                                    included)
+        used += out[2]
+        T1, converged, _, keep, _, d1, s1, gross = out
+        return (T1, d1, s1), gross, keep, converged, out
+
+    def probe(start):
+        nonlocal used
+        T0, d0, _ = start
+        # Every point included usually moves the pose so little that the deviations can
+        # follow to first order: no new evaluation (mis-probes among many points). Only which
+        # points are gross there is used: the final fit is a real one.
+        gross = _gross_included(apply_transform(T0, pts), d0, zone_width, floor)
+        used += 1
+        if gross is not None:
+            return start, gross
+        return fit(start, np.zeros(len(pts), bool), INCLUDED_FIT_ITERATIONS)[:2]
+
+    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0], probe)
+    T1, _, _, keep, rule, d1, s1, _ = out
+    return T1, converged and used <= budget, used, keep, rule, d1, s1
+
+
+def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget,
+                          included=None):
+    """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
+    (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
+    at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
+    Gauss-Newton iterations in all). included : (m,) bool, only these may be left out (None:
+    any; all False: plain least squares over every point). Returns (T, converged, iterations,
+    kept mask, GrossRule, Deviations at T, seconds their evaluation took, (m,) bool gross by the
+    rule alone at T)."""
+    total, converged, keep = 0, False, None
+    for _ in range(MAX_ROUNDS):
+        rule = gross_rule(dev.signed, zone_width, floor)
+        gross = _gross(dev, rule, included)
+        new = ~gross if included is None else ~(gross & included)
+        if keep is not None and converged and np.array_equal(new, keep):
+            break
+        keep = new
+        if total >= budget:
+            converged = False
+            break
+        T, converged, it, _, dev, dev_s = _gauss_newton(nominal, pts, T, settings, keep, floor,
+                                                        budget - total, dev, dev_s)
+        total += it
+    else:
+        # The last fit's set is the one its pose was fitted on; the rule at that pose may
+        # differ by a point at the threshold (the fit is reported as not settled then).
+        rule = gross_rule(dev.signed, zone_width, floor)
+        gross = _gross(dev, rule, included)
+        if not np.array_equal(~gross if included is None else ~(gross & included), keep):
+            converged = False
+    if included is not None and not included.any():
+        gross = gross_outliers(dev.signed, dev.foot, rule)
+    return T, converged, total, keep, rule, dev, dev_s, gross
+
+
+def _gross(dev, rule, included):
+    """The rule's gross outliers at ``dev`` (none looked for where ``included`` is all False)."""
+    if included is not None and not included.any():
+        return np.zeros(dev.signed.size, bool)
+    return gross_outliers(dev.signed, dev.foot, rule)
+
+
+def _moved(dev: Deviations, X: np.ndarray, delta: np.ndarray, c: np.ndarray):
+    """The deviations ``dev`` of the points ``X`` (n, 3) after the small step ``delta`` about
+    ``c`` (from gauss_newton_step), to first order (exact to ~step^2 x curvature), and the moved points."""
+    motion = np.cross(delta[:3], X - c) + delta[3:]
+    along = np.einsum("ij,ij->i", motion, dev.normal)
+    return Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
+                      dev.normal, dev.curved), X + motion
+
+
+LINEAR_INCLUDED = 0.1
+"""The fit over every point that decides which points stay gross with them included is one
+linear step when that step moves no point by more than this fraction of the gross threshold."""
+
+
+def _gross_included(X: np.ndarray, dev: Deviations, zone_width, floor):
+    """(n,) bool: the points of ``X`` (n, 3), deviations ``dev``, gross at the least-squares pose
+    over all of them, when one linear step reaches it; None when the step is too long to trust
+    (then iterate instead).
+
+    The step moves no point by more than m <= LINEAR_INCLUDED x the gross threshold; a distance
+    changes by no more than the point moves, so the deviations followed to first order are
+    within 2 m of the true ones whatever the nominal's shape (an edge crossed, a kink): a point
+    counts as gross only beyond the threshold + 2 m."""
+    delta, c = gauss_newton_step(X, dev.normal, dev.signed)
+    moved, _ = _moved(dev, X, delta, c)
+    rule = gross_rule(moved.signed, zone_width, floor)
+    m = _largest_motion(delta, X - c)
+    if m > LINEAR_INCLUDED * rule.threshold_mm:
+        return None
+    return gross_outliers(moved.signed, moved.foot,
+                          dataclasses.replace(rule, threshold_mm=rule.threshold_mm + 2.0 * m))
+
+
+def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
+    """Largest displacement (mm) a small step moves any of the points ``rel`` (about its centre)."""
+    reach = float(np.sqrt(np.max(np.einsum("ij,ij->i", rel, rel)))) if rel.size else 0.0
+    return float(np.linalg.norm(delta[:3]) * reach + np.linalg.norm(delta[3:]))
+
+
+def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev_s=0.0):
+    """Iterate the linearised point-to-surface least squares on ``pts`` (m, 3) from pose ``T``.
+
+    use : (m,) bool, the fixed set of points fitted (the iteration converges to the
+    least-squares optimum over them); None: the robust cut (``outlier_sigmas`` robust standard
+    deviations, at least ``floor`` mm) re-estimated at every iteration (the coarse iterations
+    only). Converged when a step would move no fitted point by more than ``convergence_mm``;
+    that last step is not applied, so the returned deviations belong to the returned pose.
+    ``dev`` (and the seconds ``dev_s`` it took): the deviations at ``T`` when known already.
+    Returns (T, converged, iterations, fitted mask, Deviations of ``pts`` at T, seconds their
+    evaluation took).
+    """
+    mask = use
+    for it in range(1, max_iter + 1):
+        report(f"point-to-surface fit on {pts.shape[0]:,} points, iteration {it}",
+               0.85 + 0.1 * it / max(max_iter, 10))
+        X = apply_transform(T, pts)
+        if dev is None:
+            t0 = time.perf_counter()
+            dev = point_to_surface(nominal, X)
+            dev_s = time.perf_counter() - t0
+        d = dev.signed
+        if use is None:
+            mask = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, floor)
+        if mask.sum() < 6:
+            return T, False, it, mask, dev, dev_s
+        delta, c = gauss_newton_step(X[mask], dev.normal[mask], d[mask])
+        if _largest_motion(delta, X[mask] - c) < settings.convergence_mm:
+            return T, True, it, mask, dev, dev_s
+        T = apply_update(T, delta, c)
+        dev = None
+    X = apply_transform(T, pts)
+    t0 = time.perf_counter()
+    dev = point_to_surface(nominal, X)
+    dev_s = time.perf_counter() - t0
+    if use is None:
+        mask = np.abs(dev.signed) <= robust_cut(dev.signed, settings.outlier_sigmas, floor)
+    return T, False, max_iter, mask, dev, dev_s
+
+
+def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:
+    """Outlier cut for deviations d (mm): |median| + ``sigmas`` x 1.4826 x median absolute
+    deviation, never below ``floor``. Shared by the 3D and 2D fits."""
+    med, sigma = robust_centre_sigma(d)
+    return float(max(abs(med) + sigmas * sigma, floor))
