@@ -18,7 +18,7 @@ class PointSet:
     grid_shape : (nu, nv) when the points form a u-v grid (u fastest), else None.
     triangles : (m, 3) int64 vertex indices of a mesh's triangles, or None.
     groups : {name: (k,) int64 ascending indices of its points}, the named groups of a mesh's
-        faces (OBJ ``g``/``o``, a PLY face property; engine.io.meshes) with the vertices of
+        faces (OBJ ``g``/``o``, a PLY face property; engine.io.obj, engine.io.ply) with the vertices of
         their faces: a vertex on the edge between faces of two groups is in both. None when
         the file names no group. Indices rather than (n,) masks: a CAD export may name a group
         per face, hundreds of them over a million vertices.

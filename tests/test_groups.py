@@ -216,10 +216,10 @@ def test_obj_g_and_o_name_the_groups_of_the_faces_that_follow(tmp_path, monkeypa
     it leaves the g groups behind), ``g`` alone and faces before any group: 'default'; a
     name no face follows names no group. (flags: the vertices found with a flag per (group,
     vertex), else by sorting, as for many groups over many vertices.)"""
-    from engine.io import meshes
+    from engine.io import mesh_data
 
     if not flags:
-        monkeypatch.setattr(meshes, "GROUP_FLAGS_MAX", 0)
+        monkeypatch.setattr(mesh_data, "GROUP_FLAGS_MAX", 0)
     f = tmp_path / "g.obj"
     f.write_text(OBJ)
     g = load_point_set(f).groups

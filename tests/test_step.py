@@ -163,7 +163,7 @@ def test_trim_polylines_classify_as_opencascade_does_right_up_to_their_band():
     them: on every face of NIST FTC-06, random (u, v) points over the face's box and points just
     outside the band on both sides of every polyline segment classify exactly as OpenCascade's
     classifier (IntTools_FClass2d) does, and the polylines are drawn for every face."""
-    from engine.io.step import TRIM_BAND  # noqa: F401  (the band is the polylines' own)
+    from engine.io.step.faces import TRIM_BAND  # noqa: F401  (the band is the polylines' own)
 
     nominal = read_step(NIST)
     rng = np.random.default_rng(8)
@@ -182,7 +182,7 @@ def test_trim_polylines_classify_as_opencascade_does_right_up_to_their_band():
         near = np.concatenate([mid + 1.5 * band * normal, mid - 1.5 * band * normal])
         uv = np.concatenate([box, near])
         got = nominal._brep.contains(np.full(uv.shape[0], fid), uv)
-        truth = tools._classify(uv)
+        truth = tools.classify(uv)
         assert np.array_equal(got, truth), f"face {fid}: {np.count_nonzero(got != truth)} differ"
         checked += uv.shape[0]
     assert checked > 50_000
@@ -216,12 +216,12 @@ def test_closed_forms_agree_with_opencascade_extrema(tmp_path):
     from OCP.GeomLProp import GeomLProp_SLProps
     from OCP.gp import gp_Pnt
 
-    from engine.io.step import _FaceTools
+    from engine.io.step.faces import FaceTools
     faces = sm.faces_of(sm.read_faces(NIST)) + sm.faces_of(sm.cone_and_torus())
     rng = np.random.default_rng(13)
     seen, compared = set(), 0
     for face in faces:
-        tools = _FaceTools(face)
+        tools = FaceTools(face)
         if tools.elementary is None:
             continue
         seen.add(tools.elementary.kind)
@@ -244,8 +244,8 @@ def test_closed_forms_agree_with_opencascade_extrema(tmp_path):
             assert abs(d[j] - twin.LowerDistance()) < 1e-9
             assert np.abs(foot[j] - twin.NearestPoint().Coord()).max() < 1e-8
     assert seen == {"Plane", "Cylinder", "Cone", "Sphere", "Torus"} and compared > 2500
-    cone = _FaceTools(next(f for f in sm.faces_of(sm.cone_and_torus())
-                           if _FaceTools(f).elementary.kind == "Cone")).elementary
+    cone = FaceTools(next(f for f in sm.faces_of(sm.cone_and_torus())
+                          if FaceTools(f).elementary.kind == "Cone")).elementary
     q = rng.uniform([-15, -15, -10], [15, 15, 50], (200, 3))  # around both nappes (apex z=25)
     U, V = np.meshgrid(np.linspace(0, 2 * np.pi, 721), np.linspace(-80, 80, 1601))
     sa, ca = np.sin(cone.alpha), np.cos(cone.alpha)
@@ -530,7 +530,7 @@ def test_a_direction_of_length_zero_is_named_as_damage(tmp_path, capsys):
 def test_a_reference_cycle_of_any_length_is_found_without_recursion():
     """The walk over the entities is iterative: a chain 200,000 entities deep is walked, a
     cycle through all of them is found and named in short."""
-    from engine.io.step import _check_references
+    from engine.io.step.reader import _check_references
 
     n = 200_000
     chain = [(1, [2], {"CLOSED_SHELL"})] + [(i, [i + 1], {"TRIMMED_CURVE"})

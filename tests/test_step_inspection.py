@@ -194,7 +194,7 @@ def test_no_exact_distance_to_any_face_is_inconclusive_naming_the_point(tmp_path
     empty), and one measured point lies 3 mm off: the run says which point and why, the
     tessellation's distance stands in for it, and the verdict is INCONCLUSIVE (2), with and
     without a plan."""
-    from engine.io import step as step_module
+    from engine.io.step import brep as step_brep
 
     rng = np.random.default_rng(5)
     M, planted, face, true, N = measured_on(part, rng, n=300, true_points=True)
@@ -203,13 +203,13 @@ def test_no_exact_distance_to_any_face_is_inconclusive_naming_the_point(tmp_path
     k = 41
     M[k] += 3.0 * (R @ N[k])
     write(tmp_path / "m.csv", M)
-    settle = step_module._Brep.settle
+    settle = step_brep.Brep.settle
 
     def settle_finding_nothing_far_off(self, p, pairs, bound, inside, best):
         settle(self, p, pairs, bound, inside, best)
         best.face[best.dist > 1.0] = 0  # as if OpenCascade's searches had all failed there
 
-    monkeypatch.setattr(step_module._Brep, "settle", settle_finding_nothing_far_off)
+    monkeypatch.setattr(step_brep.Brep, "settle", settle_finding_nothing_far_off)
     args = ["inspect", STEP, str(tmp_path / "m.csv"), "--tol", "0.05", "--json",
             str(tmp_path / "r.json"), "--csv", str(tmp_path / "r.csv")]
     if with_plan:

@@ -3,11 +3,11 @@
 After the soft registration (any pose, all points) every characteristic is evaluated as a
 drawing means it:
 
-* profile relative to datums: the part placed by those datums (engine.datums; freedom they leave
+* profile relative to datums: the part placed by those datums (engine.gdt.datums; freedom they leave
   best-fitted on the characteristic's own region), the deviations of the region's points;
 * profile, form only (no datums): the region's points refitted alone (``lsq``: least squares;
   ``minimax``: the smallest largest excursion from the zone's centre);
-* flatness: the minimum zone of the region's measured points (engine.features);
+* flatness: the minimum zone of the region's measured points (engine.gdt.features);
 * position: the hole's least-squares axis (3D cylinder) or centre (2D circle) at the pose its
   datums give, against the nominal's (fitted to the region's nominal points); the freedom the
   datums leave stays at the plan's alignment;

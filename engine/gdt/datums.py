@@ -130,7 +130,7 @@ points, exactly."""
 def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centre: np.ndarray,
           length: float, best_fit: np.ndarray | None = None,
           invariants: list | None = None) -> Alignment:
-    """Place the part by ``datums`` (engine.plan.Datum, primary first) from the pose T0.
+    """Place the part by ``datums`` (engine.gdt.plan.Datum, primary first) from the pose T0.
 
     members[k] : indices of the measured points of datum k's region. centre (3,) or (2,), length
     (mm): the centre rotations are taken about and the lever that scales them (the measured
@@ -233,7 +233,7 @@ def invariant_motions(feature: str, nominal: dict, centre: np.ndarray,
                       length: float) -> np.ndarray:
     """(dof, k): the rigid motions, in the fits' coordinates (rotation x length, translation;
     about ``centre``), that leave the ideal feature in place. ``nominal`` as
-    engine.characteristics fits it: a plane {point, normal}, a cylinder {point, direction}, a
+    engine.gdt.characteristics fits it: a plane {point, normal}, a cylinder {point, direction}, a
     sphere {centre}; in 2D a line {point, normal}, a circle {centre}."""
     c = np.asarray(centre, float)
 

@@ -54,7 +54,7 @@ class Shared:
 
     def placed(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
         """The part placed by the datums ``labels`` (primary first), the freedom they leave
-        best-fitted on the regions ``best_fit``, from ``T_start`` (engine.datums.align)."""
+        best-fitted on the regions ``best_fit``, from ``T_start`` (engine.gdt.datums.align)."""
         return self.once(("placed", labels, best_fit, id(T_start)),
                          lambda: self._align(labels, best_fit, T_start))
 

@@ -91,7 +91,7 @@ class Region:
     labels : fnmatch glob on the nominal point file's label column;
     group : the name of a group of the nominal: a mesh's face group (OBJ ``g``/``o``, a PLY
         face property's number), a 2D template's DXF layer (compared without case), later a
-        STEP face (engine.regions);
+        STEP face (engine.gdt.regions);
     measured_labels : fnmatch glob: measured points with these labels belong here (else a
         measured point belongs to the region of its nearest nominal point).
     """

@@ -13,7 +13,7 @@ from .results import Geometry, RegionFeature
 
 _IMPLIED_FEATURE = {"flatness": "plane", "position": "cylinder", "size": "cylinder"}
 FACING = np.radians(10.0)
-"""How far a sample's normal may turn from its feature's and still be of it (engine.regions
+"""How far a sample's normal may turn from its feature's and still be of it (engine.gdt.regions
 boxes take in strips of the neighbouring faces), and how far a measured feature's fitted plane
 or axis may turn from the nominal's before its points are taken not to determine it."""
 SPAN = 0.05
@@ -127,7 +127,7 @@ def _region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
 
 
 def datum_invariants(datum, geo: Geometry) -> np.ndarray | None:
-    """The motions that leave datum's ideal nominal feature in place (engine.datums), from the
+    """The motions that leave datum's ideal nominal feature in place (engine.gdt.datums), from the
     least-squares feature of its region's nominal points; None when they do not form it."""
     from .datums import invariant_motions
 

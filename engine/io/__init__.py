@@ -1,8 +1,9 @@
 """Files -> engine objects: the only part of the engine that opens input files.
 
 ``formats`` is the one table of file types; ``points`` reads text and ``.npy`` point files (and
-defines :class:`~engine.io.points.PointSet`); ``meshes`` reads PLY/OBJ/STL with numpy and VTK's
-formats through VTK; ``templates`` reads 2D contour templates (DXF drawings with ezdxf, airfoil
+defines :class:`~engine.io.points.PointSet`); ``meshes`` reads PLY/OBJ/STL with numpy (``ply``,
+``obj``, ``stl``, one module per format, sharing ``mesh_data``) and ``vtk`` VTK's formats through
+VTK; ``templates`` reads 2D contour templates (DXF drawings with ezdxf, airfoil
 ordinates); ``plan`` reads inspection plans (TOML) into :class:`engine.gdt.plan.Plan`. Only this
 package may import pyvista/VTK or ezdxf (an import-linter contract checks it), and only lazily,
 inside the readers that need them.
@@ -48,7 +49,7 @@ def load_point_set(path: str | os.PathLike) -> PointSet:
         from .meshes import read_mesh
         return read_mesh(path, suffix)
     if kind in (formats.VTK, formats.GRID):
-        from .meshes import read_vtk
+        from .vtk import read_vtk
         return read_vtk(path, suffix)
     if kind == formats.E57:
         from .e57 import read_e57

@@ -3,7 +3,7 @@ scan's pose into the file's frame, in millimetres (E57 coordinates are metres), 
 intensity and the surface normals (the ``nor:`` extension) when every scan has them.
 
 E57 is read with pye57, which wraps libE57Format (native code). A damaged file must never take
-the program down with it, so, as VTK's formats are (engine.io.meshes.read_vtk), the file is
+the program down with it, so, as VTK's formats are (engine.io.vtk.read_vtk), the file is
 read in a child process (``python -m engine.io.e57`` is that child) after its header has been
 checked here: the signature, the version, the declared length against the file's (a truncated
 file), the page size and where the XML section lies. libE57Format then checks each page's
@@ -86,7 +86,7 @@ def _head(path: str) -> bytes:
 
 def _point_set(arrays: dict, path: str) -> PointSet:
     """The child's arrays (metres) as a checked PointSet in mm."""
-    from .meshes import unit_normals_or_none
+    from .mesh_data import unit_normals_or_none
 
     pts = arrays["points"] * MM_PER_M
     if pts.shape[0] == 0:

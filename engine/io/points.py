@@ -18,7 +18,8 @@ Every problem raises :class:`~engine.errors.InputError` naming the file and 1-ba
 coordinate beyond ``COORD_LIMIT_MM`` (1e9 mm, 1000 km) is refused: no part is that large, and
 squaring such numbers overflows. ``.npy`` files must hold real numbers (float or integer) in an
 (n, 2), (n, 3) or (n, 6) array whose declared size matches the file's length.
-Meshes are read by ``engine.io.meshes`` (numpy, VTK), which builds the same :class:`PointSet`.
+Meshes are read by ``engine.io.meshes`` (numpy: ``ply``, ``obj``, ``stl``) and ``engine.io.vtk``
+(VTK), which build the same :class:`PointSet`.
 """
 
 from __future__ import annotations
