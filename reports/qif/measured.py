@@ -140,8 +140,8 @@ def _traceability(w, cert: dict, issued: str | None) -> None:
     if issued:
         parts.append(f"          <ReportPreparationDate>{issued}</ReportPreparationDate>\n")
     parts.append(attributes([("D1", "qa-inspect:temperature-c", cert.get("temperature_c")),
-                              ("Str", "qa-inspect:measurement-program", cert.get("program"))],
-                             10))
+                             ("Str", "qa-inspect:measurement-program", cert.get("program"))],
+                            10))
     if any(parts):
         w("        <InspectionTraceability>\n" + "".join(parts)
           + "        </InspectionTraceability>\n")

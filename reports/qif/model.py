@@ -262,10 +262,10 @@ def _whole_profile(doc: dict, refs: _Refs, whole: _Feature, dev: np.ndarray, app
         worst = (float(finite.max()), float(finite.min()))
     reasons = "; ".join(str(r) for r in doc.get("reasons", []))
     return Char("LineProfile" if is_2d else "SurfaceProfile", refs.char_def, refs.char_nom,
-                 refs.char_item, refs.char_meas, whole,
-                 f"{'Line' if is_2d else 'Surface'} profile", None, _profile_text(lower, upper),
-                 lower, upper, None, None, doc["verdict"], value,
-                 f"{app} verdict {doc['verdict']}: {reasons}", worst)
+                refs.char_item, refs.char_meas, whole,
+                f"{'Line' if is_2d else 'Surface'} profile", None, _profile_text(lower, upper),
+                lower, upper, None, None, doc["verdict"], value,
+                f"{app} verdict {doc['verdict']}: {reasons}", worst)
 
 
 def _profile_text(lower: float, upper: float) -> str:
@@ -362,9 +362,9 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
     name = f"{c['type']} {c['region']}" + (" |" + "|".join(datums) if datums else "")
     value = c.get("value")
     return Char(kind, ids.take(), ids.take(), ids.take(), ids.take(), feature, name,
-                 str(c["id"]), text, lower, upper, target, frame, c["verdict"],
-                 None if value is None else float(value),
-                 f"{app} verdict {c['verdict']}: {c.get('reason', '')}")
+                str(c["id"]), text, lower, upper, target, frame, c["verdict"],
+                None if value is None else float(value),
+                f"{app} verdict {c['verdict']}: {c.get('reason', '')}")
 
 
 def _xs_datetime(value) -> str:

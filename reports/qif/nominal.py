@@ -105,7 +105,7 @@ def write_resources(w, q: Qif) -> None:
         if "device_serial" in cert:
             w(f"        <SerialNumber>{xml_text(cert['device_serial'])}</SerialNumber>\n")
         w(attributes([("Str", "qa-inspect:probe", cert.get("probe")),
-                       ("Str", "qa-inspect:calibration-date", cert.get("calibration_date"))], 8))
+                      ("Str", "qa-inspect:calibration-date", cert.get("calibration_date"))], 8))
         w("      </MeasurementDevice>\n")
         w("    </MeasurementDevices>\n  </MeasurementResources>\n")
 
