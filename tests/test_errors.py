@@ -54,7 +54,7 @@ def test_every_exception_the_product_defines_is_a_qa_error():
     assert not strays, f"exceptions outside the QAError family: {strays}"
     # The walk found the classes it should (a walk that found nothing would pass vacuously).
     assert {"engine.errors.InputError", "qa_app.cli.UsageError",
-            "reports.signing.OutputExistsError", "reports.figures.RenderError"} <= set(named)
+            "reports.signing.OutputExistsError", "reports.figures.process.RenderError"} <= set(named)
 
 
 @pytest.mark.parametrize("cls, builtin", [

@@ -186,13 +186,13 @@ def test_every_measured_point_faces_some_view(bracket_run):
 
 @pytest.fixture(scope="module")
 def bracket_views(bracket_run):
-    from reports.certificate import _worst_labels
+    from reports.certificate import worst_labels
 
     run, res = bracket_run, bracket_run.result
     nom = run.nominal
     return figures.render_3d(nom.points, nom.triangles, res.deviations.foot,
                              res.deviations.normal, res.deviations.signed, res.tolerance,
-                             _worst_labels(run), size=(320, 240),
+                             worst_labels(run), size=(320, 240),
                              nominal_normals=nom.normals(np.arange(nom.n)))
 
 
@@ -220,8 +220,8 @@ def test_the_point_nominal_is_drawn_as_a_surface_and_flags_land_on_their_points(
     import io
 
     flagged = {i for v in bracket_views for i, _, _ in v.anchors}
-    from reports.certificate import _worst_labels
-    assert flagged == {i for i, _ in _worst_labels(bracket_run)}
+    from reports.certificate import worst_labels
+    assert flagged == {i for i, _ in worst_labels(bracket_run)}
     for v in bracket_views:
         img = np.asarray(Image.open(io.BytesIO(v.png)).convert("RGB")).astype(int)
         part = np.any(img < 245, axis=2)

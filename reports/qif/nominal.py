@@ -1,0 +1,231 @@
+"""The sections of a QIF document that define the part: the header, the standard and units,
+the datums and datum reference frames, the measuring device, the product, the features and the
+characteristics (each one's definition, nominal and item)."""
+
+from __future__ import annotations
+
+import math
+
+from .model import QIF_NAMESPACE, QIF_VERSION, Char, Qif
+from .text import (algorithm, attributes, file_description, fixed, format_name, geometry,
+                   id_list, nmtoken, xml_attr, xml_text)
+
+
+def write_header(w, q: Qif) -> None:
+    """The root element, QPId, creation time and Header (application, author)."""
+    cert = q.cert
+    w('<?xml version="1.0" encoding="UTF-8"?>\n')
+    w(f'<QIFDocument xmlns="{QIF_NAMESPACE}" versionQIF="{QIF_VERSION}" idMax="{q.id_max}">\n')
+    w(f"  <QPId>{q.qpid}</QPId>\n")
+    if q.issued:
+        w(f"  <Version>\n    <TimeCreated>{q.issued}</TimeCreated>\n  </Version>\n")
+    w("  <Header>\n    <Application>\n")
+    w(f"      <Name>{xml_text(q.app)}</Name>\n")
+    w("    </Application>\n")
+    if "inspector" in cert or "organisation" in cert:
+        w("    <Author>\n")
+        if "inspector" in cert:
+            w(f"      <Name>{xml_text(cert['inspector'])}</Name>\n")
+        if "organisation" in cert:
+            w(f"      <Organization>{xml_text(cert['organisation'])}</Organization>\n")
+        w("    </Author>\n")
+    w(f"    <Description>Dimensional inspection results: {q.n} measured points against "
+      f"{xml_text(q.nominal_name)}, signed deviations along the nominal's outward normal "
+      "(positive = excess material), mm</Description>\n")
+    w("  </Header>\n")
+
+
+def write_definitions(w, q: Qif) -> None:
+    """StandardsDefinitions (ASME Y14.5) and FileUnits (mm)."""
+    # Characteristics must cite a formal standard; OuterDisposition is the ASME form of an
+    # unequally disposed profile zone.
+    w(f'  <StandardsDefinitions n="1">\n    <Standard id="{q.ids.standard}">\n'
+      "      <Organization>\n        <StandardsOrganizationEnum>ASME</StandardsOrganizationEnum>\n"
+      "      </Organization>\n      <Designator>Y14.5</Designator>\n      <Year>2018</Year>\n"
+      "    </Standard>\n  </StandardsDefinitions>\n")
+    w("  <FileUnits>\n    <PrimaryUnits>\n      <LinearUnit>\n"
+      "        <SIUnitName>meter</SIUnitName>\n        <UnitName>mm</UnitName>\n"
+      "        <UnitConversion>\n          <Factor>0.001</Factor>\n        </UnitConversion>\n"
+      "      </LinearUnit>\n    </PrimaryUnits>\n  </FileUnits>\n")
+
+
+_PRECEDENCE = ("PRIMARY", "SECONDARY", "TERTIARY", "QUATERNARY", "QUINARY", "SENARY")
+
+
+def write_datums(w, q: Qif) -> None:
+    """A plan's DatumDefinitions (label, datum feature) and DatumReferenceFrames (the datums
+    in precedence, each established on the actual part by its simulator)."""
+    if q.datums:
+        w(f'  <DatumDefinitions n="{len(q.datums)}">\n')
+        for d in q.datums:
+            w(f'    <DatumDefinition id="{d.id}">\n')
+            label = nmtoken(d.label)
+            if label != d.label:
+                w('      <Attributes n="1">\n        <AttributeStr name="qa-inspect:label" '
+                  f'value="{xml_attr(d.label)}"/>\n      </Attributes>\n')
+            w(f"      <DatumLabel>{label}</DatumLabel>\n")
+            if d.feature is not None:
+                w(id_list("FeatureNominalIds", [d.feature.nominal_id], 6))
+            w("    </DatumDefinition>\n")
+        w("  </DatumDefinitions>\n")
+    if q.frames:
+        datums = {d.label: d for d in q.datums}
+        w(f'  <DatumReferenceFrames n="{len(q.frames)}">\n')
+        for f in q.frames:
+            w(f'    <DatumReferenceFrame id="{f.id}">\n      <Datums n="{len(f.labels)}">\n')
+            for precedence, label in zip(_PRECEDENCE, f.labels):
+                d = datums[label]
+                w(f"        <Datum>\n          <SimpleDatum>\n"
+                  f"            <DatumDefinitionId>{d.id}</DatumDefinitionId>\n"
+                  "            <MaterialModifier>NONE</MaterialModifier>\n"
+                  "            <ReferencedComponent>ACTUAL</ReferencedComponent>\n")
+                if d.algorithm:
+                    w(algorithm(d.algorithm, 12))
+                w("          </SimpleDatum>\n          <Precedence>\n"
+                  f"            <PrecedenceEnum>{precedence}</PrecedenceEnum>\n"
+                  "          </Precedence>\n        </Datum>\n")
+            name = "|".join(f.labels)
+            w(f"      </Datums>\n      <Name>{xml_text(name)}</Name>\n")
+            w(f"      <Description>{xml_text(f'datum reference frame {name}')}"
+              f"{'; ' + xml_text(f.alignment) if f.alignment else ''}</Description>\n")
+            w("    </DatumReferenceFrame>\n")
+        w("  </DatumReferenceFrames>\n")
+
+
+def write_resources(w, q: Qif) -> None:
+    """MeasurementResources, when the certificate names a device, its serial number, its
+    calibration date or its probe: the device's Name (or "measuring device") and SerialNumber;
+    the probe and stylus and the calibration date as attributes (a QIF Calibration needs an
+    expiry date the certificate does not state)."""
+    cert = q.cert
+    if q.ids.device:
+        w('  <MeasurementResources>\n    <MeasurementDevices n="1">\n')
+        w(f'      <MeasurementDevice id="{q.ids.device}">\n'
+          f"        <Name>{xml_text(cert.get('device', 'measuring device'))}</Name>\n")
+        if "device_serial" in cert:
+            w(f"        <SerialNumber>{xml_text(cert['device_serial'])}</SerialNumber>\n")
+        w(attributes([("Str", "qa-inspect:probe", cert.get("probe")),
+                      ("Str", "qa-inspect:calibration-date", cert.get("calibration_date"))], 8))
+        w("      </MeasurementDevice>\n")
+        w("    </MeasurementDevices>\n  </MeasurementResources>\n")
+
+
+def write_product(w, q: Qif) -> None:
+    """Product/PartSet/Part: name, part number, revision and the nominal file."""
+    ids, cert, nominal_path = q.ids, q.cert, q.nominal_path
+    w(f'  <Product>\n    <PartSet n="1">\n      <Part id="{ids.part}">\n')
+    w(attributes([("Str", "qa-inspect:drawing", cert.get("drawing"))], 8))
+    if "part_name" in cert:
+        w(f"        <Header>\n          <Name>{xml_text(cert['part_name'])}</Name>\n"
+          "        </Header>\n")
+    if "part_number" in cert:
+        w(f"        <ModelNumber>{xml_text(cert['part_number'])}</ModelNumber>\n")
+    if "revision" in cert:
+        w(f"        <Version>{xml_text(cert['revision'])}</Version>\n")
+    w(id_list("FeatureNominalIds", [f.nominal_id for f in q.features], 8))
+    w(id_list("CharacteristicNominalIds", [c.nominal_id for c in q.chars], 8))
+    w(f'        <DefinitionExternal id="{ids.definition}" n="1">\n'
+      f'          <DigitalModel id="{ids.model}">\n'
+      f"            <Name>{xml_text(q.nominal_name)}</Name>\n"
+      f"            <File>\n              <Name>{xml_text(nominal_path)}</Name>\n"
+      + (f"              <Version>{xml_text(cert['cad_revision'])}</Version>\n"
+         if "cad_revision" in cert else "") +
+      f"              <Format>\n                <OtherDigitalModelFormat>"
+      f"{xml_text(format_name(nominal_path, q.is_2d))}</OtherDigitalModelFormat>\n"
+      "              </Format>\n            </File>\n"
+      f"            <Description>{xml_text(file_description('nominal', q.nominal))}"
+      "</Description>\n"
+      "          </DigitalModel>\n        </DefinitionExternal>\n")
+    w("      </Part>\n    </PartSet>\n  </Product>\n")
+
+
+def write_features(w, q: Qif) -> None:
+    """Features: each feature's definition, nominal (with its geometry) and item."""
+    n = len(q.features)
+    w(f'  <Features>\n    <FeatureDefinitions n="{n}">\n')
+    for f in q.features:
+        if f.kind in ("Cylinder", "Sphere"):
+            internal = "INTERNAL" if f.nominal.get("internal") else "EXTERNAL"
+            w(f'      <{f.kind}FeatureDefinition id="{f.definition}">\n'
+              f"        <InternalExternal>{internal}</InternalExternal>\n"
+              f"        <Diameter>{fixed(f.nominal['diameter'])}</Diameter>\n"
+              f"      </{f.kind}FeatureDefinition>\n")
+        else:
+            w(f'      <{f.kind}FeatureDefinition id="{f.definition}"/>\n')
+    w(f'    </FeatureDefinitions>\n    <FeatureNominals n="{n}">\n')
+    for f in q.features:
+        w(f'      <{f.kind}FeatureNominal id="{f.nominal_id}">\n'
+          f"        <Name>{xml_text(f.name)}</Name>\n"
+          f"        <FeatureDefinitionId>{f.definition}</FeatureDefinitionId>\n")
+        if f.nominal:
+            w(geometry(f.kind, f.nominal, False, 8))
+        w(f"      </{f.kind}FeatureNominal>\n")
+    w(f'    </FeatureNominals>\n    <FeatureItems n="{n}">\n')
+    for f in q.features:
+        w(f'      <{f.kind}FeatureItem id="{f.item}">\n'
+          f"        <FeatureNominalId>{f.nominal_id}</FeatureNominalId>\n"
+          f"        <FeatureName>{xml_text(f.name)}</FeatureName>\n"
+          "        <DeterminationMode>\n          <Checked>\n            <CheckDetails>\n"
+          "              <Measured/>\n            </CheckDetails>\n          </Checked>\n"
+          "        </DeterminationMode>\n"
+          f"      </{f.kind}FeatureItem>\n")
+    w("    </FeatureItems>\n  </Features>\n")
+
+
+def write_characteristics(w, q: Qif) -> None:
+    """Characteristics: each one's definition (the zone, its datum reference frame), nominal
+    (its feature) and item."""
+    n = len(q.chars)
+    w("  <Characteristics>\n")
+    w(f"    <FormalStandardId>{q.ids.standard}</FormalStandardId>\n")
+    w(f'    <CharacteristicDefinitions n="{n}">\n')
+    for c in q.chars:
+        w(f'      <{c.kind}CharacteristicDefinition id="{c.definition}">\n'
+          f"        <Description>{xml_text(c.text)}</Description>\n")
+        w(_zone(c))
+        w(f"      </{c.kind}CharacteristicDefinition>\n")
+    w(f'    </CharacteristicDefinitions>\n    <CharacteristicNominals n="{n}">\n')
+    for c in q.chars:
+        w(f'      <{c.kind}CharacteristicNominal id="{c.nominal_id}">\n'
+          f"        <CharacteristicDefinitionId>{c.definition}</CharacteristicDefinitionId>\n")
+        w(id_list("FeatureNominalIds", [c.feature.nominal_id], 8))
+        if c.kind == "LineProfile":
+            w("        <Vector>0 0 1</Vector>\n")
+        if c.target is not None:
+            w(f"        <TargetValue>{fixed(c.target)}</TargetValue>\n")
+        w(f"      </{c.kind}CharacteristicNominal>\n")
+    w(f'    </CharacteristicNominals>\n    <CharacteristicItems n="{n}">\n')
+    for c in q.chars:
+        w(f'      <{c.kind}CharacteristicItem id="{c.item}">\n'
+          f"        <Name>{xml_text(c.name)}</Name>\n")
+        if c.designator is not None:
+            w("        <CharacteristicDesignator>\n"
+              f"          <Designator>{xml_text(c.designator)}</Designator>\n"
+              "        </CharacteristicDesignator>\n")
+        w(id_list("FeatureItemIds", [c.feature.item], 8))
+        if q.ids.device:
+            w(id_list("MeasurementDeviceIds", [q.ids.device], 8))
+        w(f"        <CharacteristicNominalId>{c.nominal_id}</CharacteristicNominalId>\n"
+          f"      </{c.kind}CharacteristicItem>\n")
+    w("    </CharacteristicItems>\n  </Characteristics>\n")
+
+
+def _zone(c: Char) -> str:
+    """A characteristic definition's tolerance: a profile's width (and, unless symmetric,
+    OuterDisposition = upper), flatness, position (diametrical zone, no material modifier) or
+    a diameter's limits about its target; the datum reference frame where it has one."""
+    s = " " * 8
+    frame = f"{s}<DatumReferenceFrameId>{c.frame}</DatumReferenceFrameId>\n" if c.frame else ""
+    if c.kind == "Diameter":
+        return (f"{s}<Tolerance>\n{s}  <MaxValue>{fixed(c.upper)}</MaxValue>\n"
+                f"{s}  <MinValue>{fixed(c.lower)}</MinValue>\n"
+                f"{s}  <DefinedAsLimit>false</DefinedAsLimit>\n{s}</Tolerance>\n")
+    out = f"{s}<ToleranceValue>{fixed(c.upper - c.lower)}</ToleranceValue>\n"
+    if c.kind.endswith("Profile"):
+        if not math.isclose(c.lower, -c.upper, rel_tol=0.0, abs_tol=1e-12):
+            out += f"{s}<OuterDisposition>{fixed(c.upper)}</OuterDisposition>\n"
+        return out + frame
+    if c.kind == "Position":
+        return (out + frame + f"{s}<MaterialCondition>NONE</MaterialCondition>\n"
+                f"{s}<ZoneShape>\n{s}  <DiametricalZone/>\n{s}</ZoneShape>\n")
+    return out
