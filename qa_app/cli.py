@@ -600,137 +600,21 @@ def _cmd_keygen(args) -> int:
 
 
 def _cmd_verify(args) -> int:
-    import json
-
-    from engine.io.points import read_bytes
-    from reports.certificate import same_person
-    from reports.messages import VERDICT_WORD, printable
-    from reports.signing import read_trust_roots, verify_pdf
+    """``verify``: reports.verify's outcome, printed; exit 0 when the certificate is valid."""
+    from reports.messages import printable
+    from reports.verify import RerunFilesError, outcome_lines, verify_certificate
 
     _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
                                "--nominal": args.nominal, "--measured": args.measured,
                                "--plan": args.plan})
-    if (args.nominal is None) != (args.measured is None):
-        raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
-    if args.plan is not None and args.nominal is None:
-        raise UsageError("qa-inspect verify: --plan re-runs the inspection with "
-                         "--nominal and --measured; give them too")
-    roots = [c for path in args.trust for c in read_trust_roots(path)]
-    v = verify_pdf(read_bytes(args.certificate), roots)
-    problems = list(v.problems)
-    doc = None
-    if v.valid:
-        try:
-            doc = json.loads(v.attachments["results.json"])
-            cert = doc["certificate"]
-        except (KeyError, ValueError) as e:
-            problems.append(f"the certificate carries no readable results.json ({e})")
-        else:
-            # The PDF was made to be signed by the inspector it names: a draft signed later,
-            # or by someone else, is not that certificate.
-            if cert.get("signed_by") is None:
-                problems.append("the certificate was issued as an UNSIGNED DRAFT; a signature "
-                                "added afterwards does not make it a certificate")
-            elif v.signatures and v.signatures[0].signer != cert["signed_by"]:
-                problems.append(f"the inspector's signature is by {v.signatures[0].signer}, "
-                                f"but the certificate was issued for {cert['signed_by']}")
-            # The inspector named must be the signer (an older certificate may name none:
-            # its page then named the signer).
-            elif v.signatures and cert.get("inspector") and not same_person(
-                    cert["inspector"], v.signatures[0].signer):
-                problems.append(f"the certificate names the inspector "
-                                f"'{cert.get('inspector')}', but its certification signature "
-                                f"is by {v.signatures[0].signer}")
-    notes = []
-    if doc is not None and args.nominal:
-        problems += _recheck(doc, {"nominal": args.nominal, "measured": args.measured,
-                                   "plan": args.plan}, notes)
-    ok = not problems
-    lines = [f"{'VALID' if ok else 'INVALID'}: {args.certificate}"]
-    for s in v.signatures:
-        when = s.signed_at.strftime("%Y-%m-%d %H:%M:%S %Z") if s.signed_at else "time unknown"
-        lines.append(f"  signature '{s.field}': {s.signer}"
-                     f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
-                     f"{'intact' if s.intact else 'NOT INTACT'}, "
-                     f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
-    if doc is not None:
-        lines.append(f"  certificate {cert.get('number')}: "
-                     f"{VERDICT_WORD.get(doc['verdict'], '?')} — "
-                     f"{'; '.join(doc.get('reasons', []))}")
-    lines += [f"  {n}" for n in notes] + [f"  problem: {p}" for p in problems]
+    try:
+        v = verify_certificate(args.certificate, args.trust, args.nominal, args.measured,
+                               args.plan)
+    except RerunFilesError as e:
+        raise UsageError(f"qa-inspect verify: {e}") from e
     # The signer's name and the certificate's reasons come from the file being verified.
-    print("\n".join(printable(line) for line in lines))
-    return 0 if ok else 1
-
-
-def _recheck(doc: dict, files: dict[str, str | None], notes: list[str]) -> list[str]:
-    """Compare the files (by role: nominal, measured, plan) with the certificate's SHA-256s and
-    re-run the inspection; return the problems (and append what was confirmed to ``notes``).
-    The plan is required when the certificate was made with one, and refused otherwise."""
-    import dataclasses
-
-    from engine.errors import InputNotFoundError
-    from engine.io import sha256_of
-    from engine.pipeline import run_files
-    from engine.settings import InspectionSettings
-    from reports.results import run_document
-
-    planned = next((r for r in doc["inputs"] if r["role"] == "plan"), None)
-    if planned is not None and files["plan"] is None:
-        raise UsageError(f"qa-inspect verify: the certificate was made with the inspection plan "
-                         f"{os.path.basename(planned['path'])} (SHA-256 "
-                         f"{planned['sha256'][:16]}…): give it with --plan FILE to re-run the "
-                         "inspection")
-    if planned is None and files["plan"] is not None:
-        raise UsageError("qa-inspect verify: the certificate was made without an inspection "
-                         "plan; --plan does not apply")
-    problems = []
-    for role, path in files.items():
-        if path is None:
-            continue
-        if not os.path.isfile(path):
-            raise InputNotFoundError("no such file", path)
-        want = next((r["sha256"] for r in doc["inputs"] if r["role"] == role), None)
-        got = sha256_of(path)
-        if got != want:
-            problems.append(f"{role} file {path} is not the certified one (SHA-256 {got[:16]}… "
-                            f"≠ {str(want)[:16]}…)")
-        else:
-            notes.append(f"{role} file matches the certified SHA-256: {path}")
-    if problems:
-        return problems
-    # The settings name the plan's path at the time of the inspection; the re-run reads the
-    # plan given here, whose SHA-256 was just checked.
-    settings = dataclasses.replace(InspectionSettings.from_json(doc["settings"]),
-                                   plan=files["plan"])
-    run = run_files(files["nominal"], files["measured"], settings)
-    rerun = run_document(run)
-    got = rerun["deviations"]["max_abs"]
-    want = doc["deviations"]["max_abs"]
-    changed = _changed_characteristics(doc.get("characteristics", []),
-                                       rerun.get("characteristics", []))
-    if run.result.verdict != doc["verdict"]:
-        problems.append(f"re-run verdict {run.result.verdict} differs from the certified "
-                        f"{doc['verdict']}")
-    elif want is None or abs(got - want) > 1e-6:
-        problems.append(f"re-run max |deviation| {got:.6f} mm differs from the certified "
-                        f"{want} mm")
-    elif changed:
-        problems.append(f"re-run characteristic(s) {', '.join(changed)} differ from the "
-                        "certified value or verdict")
-    else:
-        notes.append(f"re-run: {run.result.verdict}, max |deviation| {got:.6f} mm, as certified")
-    return problems
-
-
-def _changed_characteristics(certified: list[dict], rerun: list[dict]) -> list[str]:
-    """The ids of the plan's characteristics whose re-run value (to 1e-6 mm) or verdict
-    differs from the certified one (each id once, the certified order)."""
-    again = {c["id"]: c for c in rerun}
-    changed = [c["id"] for c in certified if c["id"] not in again or again[c["id"]]["verdict"]
-               != c["verdict"] or (c["value"] is None) != (again[c["id"]]["value"] is None)
-               or (c["value"] is not None and abs(c["value"] - again[c["id"]]["value"]) > 1e-6)]
-    return changed + [i for i in again if i not in {c["id"] for c in certified}]
+    print("\n".join(printable(line) for line in outcome_lines(v)))
+    return 0 if v.valid else 1
 
 
 def _certificate_identity(args, command: str):
