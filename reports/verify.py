@@ -157,22 +157,30 @@ def outcome_lines(v: CertificateVerification) -> list[str]:
     """The verification in words, a line each (as ``qa-inspect verify`` prints them, before
     they are made printable): VALID or INVALID, each signature, what the certificate states,
     what the files and the re-run confirmed, and each problem."""
-    from .messages import VERDICT_WORD
-
     lines = [f"{'VALID' if v.valid else 'INVALID'}: {v.path}"]
-    for s in v.signatures:
-        when = s.signed_at.strftime("%Y-%m-%d %H:%M:%S %Z") if s.signed_at else "time unknown"
-        lines.append(f"  signature '{s.field}': {s.signer}"
-                     f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
-                     f"{'intact' if s.intact else 'NOT INTACT'}, "
-                     f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
-    c = v.certified
-    if c is not None:
-        lines.append(f"  certificate {c.number}: "
-                     f"{VERDICT_WORD.get(c.verdict, '?')} — "
-                     f"{'; '.join(c.reasons)}")
+    lines += [f"  {signature_line(s)}" for s in v.signatures]
+    if v.certified is not None:
+        lines.append(f"  {certified_line(v.certified)}")
     lines += [f"  {k.message}" for k in v.checks if k.passed and k.subject in RERUN_SUBJECTS]
     return lines + [f"  problem: {p}" for p in v.problems]
+
+
+def signature_line(s: SignatureReport) -> str:
+    """One signature: its field, signer, time, and whether it is intact and trusted."""
+    when = s.signed_at.strftime("%Y-%m-%d %H:%M:%S %Z") if s.signed_at else "time unknown"
+    return (f"signature '{s.field}': {s.signer}"
+            f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
+            f"{'intact' if s.intact else 'NOT INTACT'}, "
+            f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
+
+
+def certified_line(c: Certified) -> str:
+    """What the certificate states: its number, verdict and reasons."""
+    from .messages import VERDICT_WORD
+
+    return (f"certificate {c.number}: "
+            f"{VERDICT_WORD.get(c.verdict, '?')} — "
+            f"{'; '.join(c.reasons)}")
 
 
 def recheck(doc: dict, files: dict[str, str | None],
