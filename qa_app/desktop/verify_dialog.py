@@ -166,7 +166,7 @@ class VerificationDialog(QDialog):
     def __init__(self, parent: QWidget | None, v: CertificateVerification):
         super().__init__(parent)
         self.setWindowTitle("Certificate verification")
-        self.setMinimumSize(640, 360)
+        self.setMinimumSize(780, 380)
         self.valid = v.valid
         rgb = VERDICT_RGB["ACCEPT" if v.valid else "REJECT"]
         colour = "#{:02x}{:02x}{:02x}".format(*(round(255 * c) for c in rgb))
