@@ -20,11 +20,13 @@ after the files.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 
 from engine.errors import QAError
+from qa_app.arguments import add_commands
+from qa_app.summary import summary_text
+from qa_app.usage import EXAMPLES, EXIT_CODES, usage
 
 EXIT = {"ACCEPT": 0, "REJECT": 1, "INCONCLUSIVE": 2}
 EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_UNAVAILABLE, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 69, 70, 73
@@ -48,42 +50,6 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}", self.prog.partition(" ")[2] or None)
 
 
-def _finite_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"'{text}' is not a finite number")
-    return v
-
-
-EXAMPLES = """examples:
-  qa-inspect inspect nominal.csv measured.csv --tol 0.25 --json r.json --csv r.csv
-  qa-inspect inspect nominal.xyz measured.csv --plan plan.toml --report cert.pdf \\
-      --sign inspector.p12 --part-number SB-1020 --serial S-17
-  qa-inspect inspect part.stp scan.ply --tol 0.1 --uncertainty 0.012
-  qa-inspect inspect frame.dxf points.csv --tol-lower -0.1 --tol-upper 0.3
-  qa-inspect batch nominal.csv 'lot-0412/*.csv' --tol 0.15 --out results/lot-0412
-  qa-inspect keygen --name "Ann Inspector" --out identity/
-  qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv"""
-EXIT_CODES = """exit codes:
-  0   ACCEPT: every point inside the tolerance zone (verify: the certificate is valid)
-  1   REJECT: a point outside it (verify: the certificate is not valid)
-  2   INCONCLUSIVE: the pose cannot be trusted, or the verdict differs at a pose the
-      measurement allows, or (guarded rule) a point lies within its uncertainty of a limit,
-      or the nominal and the measured points are a units' factor (10, 25.4, 304.8, 1000)
-      apart in size (the message says what reads either file right, e.g. --units mm)
-  64  usage error: missing or contradictory options, an output that is an input
-  65  bad input data (the message names the file, the line and the problem)
-  66  an input file does not exist
-  70  internal error (no result is written)
-  73  an output could not be written (none is)
-  69  batch: the Dask scheduler cannot be reached, or has no worker
-  130 interrupted
-  batch: 0 every part ACCEPT, else 1 any REJECT, else 2 any INCONCLUSIVE, else 65 (ERRORs)"""
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="qa-inspect", description="Dimensional inspection of measured points "
                 "against a nominal, from any pose (soft registration).",
@@ -91,67 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    _add_inspect(sub)
-    _add_batch(sub)
-    _add_keygen(sub)
-    _add_verify(sub)
+    add_commands(sub)
     return p
-
-
-NOMINAL_HELP = ("nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, '# grid: NU x "
-                "NV' header for a u-v grid), mesh (.stl .ply .obj .vtk .vtp), structured grid "
-                "(.vts), an E57 scan (.e57: every scan in the file's frame), a STEP model (.stp "
-                ".step: deviations exact to its faces), or a 2D "
-                "contour template: a DXF drawing (.dxf) or airfoil ordinates (.dat, with "
-                "--scale)")
-
-
-def _add_inspect(sub: argparse._SubParsersAction) -> None:
-    """``qa-inspect inspect NOMINAL MEASURED``: the inputs, the tolerance zone (mm), the
-    template options, the fit and decision rule, the JSON and CSV outputs, and the certificate."""
-    i = sub.add_parser("inspect", help="register measured points to a nominal and judge them",
-                       description="Register MEASURED to NOMINAL from any pose, measure every "
-                       "point's signed deviation (positive = excess material, mm) and judge it "
-                       "against the tolerance zone. Exit code 0 ACCEPT, 1 REJECT, 2 INCONCLUSIVE.",
-                       epilog=EXAMPLES + "\n\n" + EXIT_CODES,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
-    i.add_argument("nominal", metavar="NOMINAL",
-                   help=NOMINAL_HELP)
-    i.add_argument("measured", metavar="MEASURED", help="measured points (same formats)")
-    _add_zone_options(i)
-    _add_template_options(i)
-    _add_fit_options(i)
-    _add_scene_options(i)
-    i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
-    i.add_argument("--csv", metavar="FILE|-",
-                   help="write one CSV row per measured point (- for stdout)")
-    i.add_argument("--quiet", action="store_true",
-                   help="no progress line on the terminal (drawn when a run lasts over 2 s)")
-    _add_certificate_options(i)
-
-
-def _add_zone_options(i: argparse.ArgumentParser) -> None:
-    """The tolerance zone (mm) or the inspection plan, of ``inspect`` and ``batch``."""
-    i.add_argument("--tol", type=_finite_float, metavar="T",
-                   help="symmetric tolerance: deviations within ±T mm are in tolerance")
-    i.add_argument("--tol-lower", type=_finite_float, metavar="L",
-                   help="lower limit of an asymmetric zone, mm (e.g. -0.1)")
-    i.add_argument("--tol-upper", type=_finite_float, metavar="U",
-                   help="upper limit of an asymmetric zone, mm (e.g. 0.3)")
-    i.add_argument("--plan", metavar="PLAN.toml",
-                   help="inspection plan: regions, datums, alignment and characteristics "
-                        "(profile, flatness, position, size); with it --tol is optional and "
-                        "adds a profile over all points")
-
-
-def _add_template_options(i: argparse.ArgumentParser) -> None:
-    """How a 2D template file is read (engine.io.templates), of ``inspect`` and ``batch``."""
-    i.add_argument("--layer", action="append", metavar="NAME",
-                   help="DXF template: take this layer (repeatable; default: every layer)")
-    i.add_argument("--units", metavar="U", choices=["mm", "cm", "m", "in"],
-                   help="DXF template: its units, overriding the file's $INSUNITS")
-    i.add_argument("--scale", type=_finite_float, metavar="CHORD",
-                   help="airfoil ordinate template (.dat): chord length in mm")
 
 
 def _template_options(args) -> dict:
@@ -159,41 +66,6 @@ def _template_options(args) -> dict:
     engine.pipeline.check_settings when it is read)."""
     return {"layers": None if args.layer is None else tuple(args.layer), "units": args.units,
             "scale": args.scale}
-
-
-def _add_fit_options(i: argparse.ArgumentParser) -> None:
-    """The fit and the decision rule, of ``inspect`` and ``batch``."""
-    i.add_argument("--fit", choices=["lsq", "minimax"], default="lsq",
-                   help="lsq: least-squares best fit (default); minimax: the pose minimising the "
-                        "largest excursion from the zone's centre ('can the part be placed "
-                        "inside its zone?')")
-    i.add_argument("--decision-rule", choices=["simple", "guarded"], default=None,
-                   help="simple: every point inside the zone (the default without an "
-                        "instrument); guarded (ISO 14253-1, the default with --uncertainty or a "
-                        "plan's [measurement] instrument): accept inside the zone shrunk by each "
-                        "point's expanded uncertainty U, reject outside the zone grown by it, "
-                        "INCONCLUSIVE between")
-    i.add_argument("--uncertainty", type=_finite_float, metavar="U",
-                   help="the instrument's expanded measurement uncertainty, mm (k = 2); "
-                        "combined per point with the registration's pose uncertainty and the "
-                        "nominal-sampling margin (replaces a plan's [measurement] instrument)")
-
-
-def _add_scene_options(i: argparse.ArgumentParser) -> None:
-    """The measured scene's crop and plane removal (engine.scene), of ``inspect`` and
-    ``batch``."""
-    g = i.add_argument_group("measured scene (a scan holding more than the part)")
-    g.add_argument("--crop", type=_finite_float, nargs=6,
-                   metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
-                   help="inspect only the measured points inside this box (mm, the measured "
-                        "file's coordinates)")
-    g.add_argument("--remove-plane", action="store_true",
-                   help="remove the dominant plane (the table under the part) from the measured "
-                        "points, after the crop (seeded RANSAC; the distance from the data: 3 "
-                        "robust standard deviations of the plane's points, at least their "
-                        "spacing)")
-    g.add_argument("--remove-plane-distance", type=_finite_float, metavar="MM",
-                   help="with --remove-plane: remove the points within MM of the plane")
 
 
 def _scene_options(args, command: str) -> dict:
@@ -218,167 +90,6 @@ def _option_words(e: Exception) -> str:
     """A scene setting's error in the command line's words."""
     return (str(e).replace("the crop box", "--crop")
             .replace("the plane removal distance", "--remove-plane-distance"))
-
-
-def _add_certificate_options(i: argparse.ArgumentParser) -> None:
-    """The ``certificate`` group of ``inspect``: the PDF, its signing identity and the fields
-    printed on it."""
-    c = i.add_argument_group("certificate")
-    c.add_argument("--report", metavar="FILE.pdf",
-                   help="write the inspection certificate (PDF; an UNSIGNED DRAFT without "
-                        "--sign)")
-    c.add_argument("--sign", metavar="IDENTITY.p12",
-                   help="sign the certificate with this PKCS#12 identity (PAdES)")
-    c.add_argument("--sign-pass-env", metavar="VAR",
-                   help="read the PKCS#12 passphrase from environment variable VAR (default: "
-                        "ask without echo)")
-    _add_part_fields(c, PART_FIELDS)
-    _add_traceability_options(c)
-
-
-PART_FIELDS = (("part-number", "part number"), ("part-name", "part name"),
-               ("revision", "drawing/part revision"), ("serial", "serial number"),
-               ("order", "order or job number"),
-               ("inspector", "inspector's name (signed: the signer's, which is the default)"),
-               ("organisation", "inspecting organisation"),
-               ("device", "measuring device (CMM, scanner)"),
-               ("notes", "free text printed on the certificate"))
-"""The certificate's fields the inspector states (``--part-number TEXT``, ...)."""
-
-
-def _add_part_fields(group, fields) -> None:
-    for name, text in fields:
-        group.add_argument(f"--{name}", metavar="TEXT", help=text)
-
-
-def _add_batch(sub: argparse._SubParsersAction) -> None:
-    """``qa-inspect batch NOMINAL MEASURED...``: the parts, the zone or plan, the output folder,
-    the certificates, and the Dask cluster."""
-    b = sub.add_parser("batch", help="inspect many parts against one nominal (on Dask)",
-                       description="Inspect every MEASURED part against NOMINAL on a local Dask "
-                       "cluster (or an existing one, --scheduler) and write DIR/parts/SERIAL."
-                       "json/.csv (and .pdf with --report), DIR/summary.csv and "
-                       "DIR/summary.json. A part that fails is an ERROR row. Re-running skips "
-                       "the parts already done for the same inputs and settings. Exit code 0 "
-                       "all ACCEPT, else 1 any REJECT, else 2 any INCONCLUSIVE, else 65.")
-    b.add_argument("nominal", metavar="NOMINAL", help=NOMINAL_HELP)
-    b.add_argument("measured", metavar="MEASURED", nargs="+",
-                   help="measured files or quoted globs ('lot7/*.csv'), one part each, in "
-                        "measurement order (a glob's matches sorted by name); a part's serial "
-                        "is its file's stem")
-    _add_zone_options(b)
-    _add_template_options(b)
-    b.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    _add_fit_options(b)
-    _add_scene_options(b)
-    c = b.add_argument_group("certificates")
-    c.add_argument("--report", action="store_true",
-                   help="write each part's certificate DIR/parts/SERIAL.pdf (an UNSIGNED DRAFT "
-                        "without --sign)")
-    c.add_argument("--sign", metavar="IDENTITY.p12",
-                   help="sign the certificates with this PKCS#12 identity (in this process: the "
-                        "key is never sent to the workers)")
-    c.add_argument("--sign-pass-env", metavar="VAR",
-                   help="read the PKCS#12 passphrase from environment variable VAR (default: "
-                        "ask without echo)")
-    _add_part_fields(c, [(name, "part number (also the title of the lot's spc.pdf, with or "
-                          "without --report)" if name == "part-number" else text)
-                         for name, text in PART_FIELDS if name != "serial"])
-    _add_traceability_options(c)
-    d = b.add_argument_group("cluster")
-    d.add_argument("--scheduler", metavar="ADDRESS",
-                   help="the Dask scheduler of an existing cluster (tcp://HOST:PORT); its "
-                        "workers must read the files at the same paths")
-    d.add_argument("--workers", type=int, metavar="N",
-                   help="worker processes of the local cluster (default: the cores)")
-    d.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def _add_traceability_options(c) -> None:
-    """The certificate's traceability fields (also the plan's [measurement] and [part] keys,
-    which fill in what is not given here)."""
-    for name, text in (("device-serial", "the measuring device's serial number"),
-                       ("probe", "probe and stylus (e.g. 'TP20, M2 ruby 2 x 20 mm')"),
-                       ("program", "measurement program (name or file)"),
-                       ("drawing", "drawing number (its revision: --revision)"),
-                       ("cad-revision", "revision of the CAD model (the nominal)")):
-        c.add_argument(f"--{name}", metavar="TEXT", help=text)
-    c.add_argument("--calibration-date", metavar="YYYY-MM-DD", type=_iso_date,
-                   help="the measuring device's last calibration")
-    c.add_argument("--temperature", metavar="C", type=_finite_float, dest="temperature_c",
-                   help="the part's temperature during the measurement, °C")
-
-
-def _iso_date(text: str) -> str:
-    import datetime as dt
-
-    try:
-        return dt.date.fromisoformat(text.strip()).isoformat()
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a date YYYY-MM-DD") from None
-
-
-def _add_keygen(sub: argparse._SubParsersAction) -> None:
-    """``qa-inspect keygen``: a demonstration CA and inspector identity."""
-    k = sub.add_parser("keygen", help="make a DEMONSTRATION CA and inspector signing identity",
-                       description="Write DIR/ca.pem (the trust anchor to give verifiers) and "
-                       "DIR/inspector.p12 (the inspector's key and certificate, passphrase-"
-                       "protected). For trials and demonstrations only: real users sign with "
-                       "the PKCS#12 identity their organisation issues.")
-    k.add_argument("--name", required=True, help="the inspector's name")
-    k.add_argument("--organisation", default="", help="the organisation's name")
-    k.add_argument("--out", required=True, metavar="DIR", help="folder to write into")
-    k.add_argument("--pass-env", metavar="VAR",
-                   help="read the passphrase from environment variable VAR (default: ask "
-                        "twice without echo)")
-
-
-def _add_verify(sub: argparse._SubParsersAction) -> None:
-    """``qa-inspect verify CERTIFICATE.pdf``: the certificate, the trusted CAs and the files to
-    re-run it on."""
-    v = sub.add_parser("verify", help="verify a signed certificate",
-                       description="Exit 0 only if every signature is intact, the signer "
-                       "chains to a trusted CA and nothing was changed after signing (and, "
-                       "with --nominal/--measured (and --plan), the files match the "
-                       "certificate and the inspection re-run gives the same verdict); 1 "
-                       "otherwise.")
-    v.add_argument("certificate", metavar="CERTIFICATE.pdf")
-    v.add_argument("--trust", required=True, action="append", metavar="CA.pem",
-                   help="trusted CA certificate(s), PEM or DER (repeatable); nothing else is "
-                        "trusted")
-    v.add_argument("--nominal", metavar="FILE", help="the nominal file, to check and re-run")
-    v.add_argument("--measured", metavar="FILE", help="the measured file, to check and re-run")
-    v.add_argument("--plan", metavar="PLAN.toml",
-                   help="the inspection plan, to check and re-run (required with --nominal/"
-                        "--measured when the certificate was made with one)")
-
-
-USAGES = {
-    "inspect": """qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
-                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--quiet]
-                  [--layer NAME] [--units U] [--scale CHORD]
-                  [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
-                  [--remove-plane [--remove-plane-distance MM]]
-                  [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]""",
-    "batch": """qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
-                  --plan PLAN.toml) --out DIR [--layer NAME] [--units U] [--scale CHORD]
-                  [--fit …] [--decision-rule …] [--crop …]
-                  [--remove-plane [--remove-plane-distance MM]]
-                  [--report [--sign ID.p12 --sign-pass-env VAR] [--part-number …]]
-                  [--scheduler ADDRESS] [--workers N] [--quiet]""",
-    "keygen": "qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]",
-    "verify": """qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE
-                  [--plan FILE]]""",
-}
-"""Each subcommand's usage, shown with its usage errors (continuation lines aligned for the
-"usage: " before them)."""
-USAGE = "usage: " + "\n       ".join([*USAGES.values(), "qa-inspect --version"])
-"""Every subcommand's usage: shown when no subcommand was named, or a wrong one."""
-
-
-def usage(command: str | None) -> str:
-    """The usage shown with a usage error of ``command`` (None or unknown: all of them)."""
-    return "usage: " + USAGES[command] if command in USAGES else USAGE
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -600,137 +311,21 @@ def _cmd_keygen(args) -> int:
 
 
 def _cmd_verify(args) -> int:
-    import json
-
-    from engine.io.points import read_bytes
-    from reports.certificate import same_person
-    from reports.messages import VERDICT_WORD, printable
-    from reports.signing import read_trust_roots, verify_pdf
+    """``verify``: reports.verify's outcome, printed; exit 0 when the certificate is valid."""
+    from reports.messages import printable
+    from reports.verify import RerunFilesError, outcome_lines, verify_certificate
 
     _no_empty_paths("verify", {"CERTIFICATE": args.certificate, "--trust": args.trust,
                                "--nominal": args.nominal, "--measured": args.measured,
                                "--plan": args.plan})
-    if (args.nominal is None) != (args.measured is None):
-        raise UsageError("qa-inspect verify: give both --nominal and --measured, or neither")
-    if args.plan is not None and args.nominal is None:
-        raise UsageError("qa-inspect verify: --plan re-runs the inspection with "
-                         "--nominal and --measured; give them too")
-    roots = [c for path in args.trust for c in read_trust_roots(path)]
-    v = verify_pdf(read_bytes(args.certificate), roots)
-    problems = list(v.problems)
-    doc = None
-    if v.valid:
-        try:
-            doc = json.loads(v.attachments["results.json"])
-            cert = doc["certificate"]
-        except (KeyError, ValueError) as e:
-            problems.append(f"the certificate carries no readable results.json ({e})")
-        else:
-            # The PDF was made to be signed by the inspector it names: a draft signed later,
-            # or by someone else, is not that certificate.
-            if cert.get("signed_by") is None:
-                problems.append("the certificate was issued as an UNSIGNED DRAFT; a signature "
-                                "added afterwards does not make it a certificate")
-            elif v.signatures and v.signatures[0].signer != cert["signed_by"]:
-                problems.append(f"the inspector's signature is by {v.signatures[0].signer}, "
-                                f"but the certificate was issued for {cert['signed_by']}")
-            # The inspector named must be the signer (an older certificate may name none:
-            # its page then named the signer).
-            elif v.signatures and cert.get("inspector") and not same_person(
-                    cert["inspector"], v.signatures[0].signer):
-                problems.append(f"the certificate names the inspector "
-                                f"'{cert.get('inspector')}', but its certification signature "
-                                f"is by {v.signatures[0].signer}")
-    notes = []
-    if doc is not None and args.nominal:
-        problems += _recheck(doc, {"nominal": args.nominal, "measured": args.measured,
-                                   "plan": args.plan}, notes)
-    ok = not problems
-    lines = [f"{'VALID' if ok else 'INVALID'}: {args.certificate}"]
-    for s in v.signatures:
-        when = s.signed_at.strftime("%Y-%m-%d %H:%M:%S %Z") if s.signed_at else "time unknown"
-        lines.append(f"  signature '{s.field}': {s.signer}"
-                     f"{' (' + s.organisation + ')' if s.organisation else ''}, {when}; "
-                     f"{'intact' if s.intact else 'NOT INTACT'}, "
-                     f"{'trusted' if s.trusted else 'NOT TRUSTED'}")
-    if doc is not None:
-        lines.append(f"  certificate {cert.get('number')}: "
-                     f"{VERDICT_WORD.get(doc['verdict'], '?')} — "
-                     f"{'; '.join(doc.get('reasons', []))}")
-    lines += [f"  {n}" for n in notes] + [f"  problem: {p}" for p in problems]
+    try:
+        v = verify_certificate(args.certificate, args.trust, args.nominal, args.measured,
+                               args.plan)
+    except RerunFilesError as e:
+        raise UsageError(f"qa-inspect verify: {e}") from e
     # The signer's name and the certificate's reasons come from the file being verified.
-    print("\n".join(printable(line) for line in lines))
-    return 0 if ok else 1
-
-
-def _recheck(doc: dict, files: dict[str, str | None], notes: list[str]) -> list[str]:
-    """Compare the files (by role: nominal, measured, plan) with the certificate's SHA-256s and
-    re-run the inspection; return the problems (and append what was confirmed to ``notes``).
-    The plan is required when the certificate was made with one, and refused otherwise."""
-    import dataclasses
-
-    from engine.errors import InputNotFoundError
-    from engine.io import sha256_of
-    from engine.pipeline import run_files
-    from engine.settings import InspectionSettings
-    from reports.results import run_document
-
-    planned = next((r for r in doc["inputs"] if r["role"] == "plan"), None)
-    if planned is not None and files["plan"] is None:
-        raise UsageError(f"qa-inspect verify: the certificate was made with the inspection plan "
-                         f"{os.path.basename(planned['path'])} (SHA-256 "
-                         f"{planned['sha256'][:16]}…): give it with --plan FILE to re-run the "
-                         "inspection")
-    if planned is None and files["plan"] is not None:
-        raise UsageError("qa-inspect verify: the certificate was made without an inspection "
-                         "plan; --plan does not apply")
-    problems = []
-    for role, path in files.items():
-        if path is None:
-            continue
-        if not os.path.isfile(path):
-            raise InputNotFoundError("no such file", path)
-        want = next((r["sha256"] for r in doc["inputs"] if r["role"] == role), None)
-        got = sha256_of(path)
-        if got != want:
-            problems.append(f"{role} file {path} is not the certified one (SHA-256 {got[:16]}… "
-                            f"≠ {str(want)[:16]}…)")
-        else:
-            notes.append(f"{role} file matches the certified SHA-256: {path}")
-    if problems:
-        return problems
-    # The settings name the plan's path at the time of the inspection; the re-run reads the
-    # plan given here, whose SHA-256 was just checked.
-    settings = dataclasses.replace(InspectionSettings.from_json(doc["settings"]),
-                                   plan=files["plan"])
-    run = run_files(files["nominal"], files["measured"], settings)
-    rerun = run_document(run)
-    got = rerun["deviations"]["max_abs"]
-    want = doc["deviations"]["max_abs"]
-    changed = _changed_characteristics(doc.get("characteristics", []),
-                                       rerun.get("characteristics", []))
-    if run.result.verdict != doc["verdict"]:
-        problems.append(f"re-run verdict {run.result.verdict} differs from the certified "
-                        f"{doc['verdict']}")
-    elif want is None or abs(got - want) > 1e-6:
-        problems.append(f"re-run max |deviation| {got:.6f} mm differs from the certified "
-                        f"{want} mm")
-    elif changed:
-        problems.append(f"re-run characteristic(s) {', '.join(changed)} differ from the "
-                        "certified value or verdict")
-    else:
-        notes.append(f"re-run: {run.result.verdict}, max |deviation| {got:.6f} mm, as certified")
-    return problems
-
-
-def _changed_characteristics(certified: list[dict], rerun: list[dict]) -> list[str]:
-    """The ids of the plan's characteristics whose re-run value (to 1e-6 mm) or verdict
-    differs from the certified one (each id once, the certified order)."""
-    again = {c["id"]: c for c in rerun}
-    changed = [c["id"] for c in certified if c["id"] not in again or again[c["id"]]["verdict"]
-               != c["verdict"] or (c["value"] is None) != (again[c["id"]]["value"] is None)
-               or (c["value"] is not None and abs(c["value"] - again[c["id"]]["value"]) > 1e-6)]
-    return changed + [i for i in again if i not in {c["id"] for c in certified}]
+    print("\n".join(printable(line) for line in outcome_lines(v)))
+    return 0 if v.valid else 1
 
 
 def _certificate_identity(args, command: str):
@@ -813,7 +408,7 @@ def _run_inspect(args, tol, renderer) -> int:
     if stdout is not None:
         sys.stdout.write(stdout)
     else:
-        print(_summary(result, written, run.selection))
+        print(summary_text(result, written, run.selection))
     return EXIT[result.verdict]
 
 
@@ -847,75 +442,6 @@ def _passphrase(env_var: str | None, prompt: str, confirm: bool) -> bytes:
     if confirm and getpass.getpass("Repeat the passphrase: ") != value:
         raise UsageError("qa-inspect: the two passphrases differ")
     return value.encode("utf-8")
-
-
-def _plan_summary(plan) -> list[str]:
-    """The plan's alignment and one line per characteristic: id, type, region, datums, value
-    against its zone, verdict."""
-    from reports.messages import alignment_text, limits_text
-
-    lines = []
-    if plan.alignment is not None:
-        lines.append(f"  alignment: {alignment_text(plan)}")
-    for r in plan.characteristics:
-        c = r.characteristic
-        ref = f" |{'|'.join(c.datums)}" if c.datums else ""
-        value = "—" if r.value is None else f"{r.value:.4f} mm"
-        lines.append(f"  [{c.id}] {c.type} {c.region}{ref}: {value}, {limits_text(c)}, "
-                     f"{r.indices.size} points: {r.verdict}")
-    return lines
-
-
-def _selection_line(sel) -> str:
-    """The measured points a crop and plane removal kept, in words."""
-    parts = [f"{sel.n_read:,} read"]
-    if sel.box is not None:
-        parts.append(f"{sel.n_outside_box:,} outside the crop box")
-    if sel.plane is not None:
-        parts.append(f"{sel.n_on_plane:,} on the dominant plane (within "
-                     f"{sel.plane.distance:.3g} mm)")
-    return f"  measured points: {', '.join(parts)}; {sel.n_kept:,} inspected"
-
-
-def _summary(result, written, selection=None) -> str:
-    st = result.statistics
-    reg = result.registration
-    tol = result.tolerance
-    lines = [
-        f"{result.verdict}: {'; '.join(result.reasons)}",
-        f"  deviations {st.min:+.4f} … {st.max:+.4f} mm, max |d| {st.max_abs:.4f} mm, "
-        f"rms {st.rms:.4f} mm; zone {tol.lower:+.4f} … {tol.upper:+.4f} mm; "
-        f"{st.n_out} of {st.count} out of tolerance"
-        + ("" if result.plan is None or result.plan.zone_in_verdict else
-           " (the zone of the plan's widest profile, for these statistics only: the verdict "
-           "is the characteristics')"),
-        f"  registration: {'converged' if reg.converged else 'NOT converged'} after "
-        f"{reg.iterations} iterations, rms {reg.rms:.4f} mm over {reg.n_inliers} fitted points, "
-        f"{reg.hypotheses} pose hypotheses",
-    ]
-    if selection is not None:
-        lines.append(_selection_line(selection))
-    if result.normals_source == "estimated":
-        lines.append("  note: the nominal has no normals; the deviation sign comes from normals "
-                     "estimated from its points")
-    tpl = result.extra.get("template")
-    if tpl:
-        lines.append(f"  template: {tpl['contours']} contour(s), {tpl['closed']} closed, "
-                     f"{tpl['primitives']} primitives, units {tpl['units']}"
-                     + ("; symmetric: equivalent poses give the same deviations"
-                        if tpl["symmetric"] else ""))
-    if result.plan is not None:
-        lines += _plan_summary(result.plan)
-    flat = result.extra.get("flatness")
-    if flat:
-        lines.append(f"  measured plane: flatness {flat['peak_to_valley']:.4f} mm peak to "
-                     f"valley, {flat['rms']:.4f} mm rms")
-    if written:
-        lines.append("results: " + ", ".join(os.path.abspath(w) for w in written))
-    from reports.messages import printable
-
-    # Each line escaped before they are joined: a reason may quote a file name or a label.
-    return "\n".join(printable(line) for line in lines)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -211,6 +211,16 @@ def test_certificate_export_matches_the_command_line(tmp_path, monkeypatch, sign
         assert v.valid, v.problems
         doc = json.loads(v.attachments["results.json"])
         assert doc["verdict"] == "ACCEPT" and doc["certificate"]["part_number"] == "FR-1"
+        # Verified again by the controller (reports.verify in its worker), re-run included.
+        verified = []
+        c.verify_certificate(str(out), [str(ident / "ca.pem")], s.nominal_path,
+                             s.measured_path, on_done=verified.append)
+        assert verified[0].valid and verified[0].checks[-1].message.startswith("re-run: ACCEPT")
+        assert messages[-1] == ("info", f"Certificate VALID: {out}") and s.can_export
+        c.verify_certificate(str(out), [str(ident / "ca.pem")], plan=str(out),
+                             on_done=verified.append)
+        assert len(verified) == 1 and messages[-1][0] == "error"
+        assert "--plan re-runs the inspection with --nominal and --measured" in messages[-1][1]
     else:
         assert b"UNSIGNED DRAFT" in out.read_bytes()
 

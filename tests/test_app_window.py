@@ -460,6 +460,61 @@ def test_the_certificate_dialog_names_the_signer_and_says_what_it_refuses(window
     assert (tmp_path / "id" / "inspector.p12").read_bytes() == key
 
 
+def test_verify_certificate_shows_valid_and_a_flipped_byte_invalid(window, tmp_path,
+                                                                  monkeypatch):
+    """File → Verify certificate… runs reports.verify in the controller's worker and shows the
+    outcome: a signed certificate re-run on the open files is VALID; the same certificate with
+    one byte flipped is INVALID. Files that do not go together are said in the dialog."""
+    from qa_app.cli import main as cli_main
+    from qa_app.desktop.verify_dialog import VerifyDialog
+
+    monkeypatch.setenv("QA_APP_TEST_PASS", "pw")
+    ident = tmp_path / "id"
+    assert cli_main(["keygen", "--name", "Ann Inspector", "--out", str(ident), "--pass-env",
+                     "QA_APP_TEST_PASS"]) == 0
+    files = [os.path.join(FRAME, "template.dxf"), os.path.join(FRAME, "measured.csv")]
+    pdf = tmp_path / "cert.pdf"
+    assert cli_main(["inspect", *files, "--tol", "0.05", "--report", str(pdf), "--sign",
+                     str(ident / "inspector.p12"), "--sign-pass-env", "QA_APP_TEST_PASS",
+                     "--part-number", "FR-1", "--serial", "SN-1"]) == 0
+    w = window
+    w.controller.open_files(files)
+    assert w.act_verify.isEnabled() and w.act_verify in w.menuBar().actions()[0].menu().actions()
+    d = w.verify_dialog()
+    d.certificate.setText(str(pdf))
+    d.trust.setText(str(ident / "ca.pem"))
+    d.files["nominal"].setText(files[0])
+    d.accept()
+    assert d.result() != VerifyDialog.Accepted
+    assert d.problem.text() == "give both --nominal and --measured, or neither"
+    d.fill_open_files()
+    d.accept()
+    assert d.result() == VerifyDialog.Accepted
+    w.verify_certificate(dialog=d)
+    shown = w.verification
+    assert shown.isVisible() and shown.word.text() == "VALID"
+    text = shown.details.toPlainText()
+    assert "signature 'Inspector': Ann Inspector" in text and "intact, trusted" in text
+    assert "✓ re-run: ACCEPT" in text and "✗" not in text
+    assert w.statusBar().currentMessage() == f"Certificate VALID: {pdf}"
+    # One digit of page 1's content flipped: a silent, well-formed change.
+    data = bytearray(pdf.read_bytes())
+    at = data.find(b"(ACCEPTED) Tj")
+    at = max(i for i in range(at - 200, at) if data[i:i + 1].isdigit())
+    data[at] ^= 0x01
+    flipped = tmp_path / "flipped.pdf"
+    flipped.write_bytes(bytes(data))
+    d = w.verify_dialog()
+    assert d.certificate.text() == str(pdf) and d.trust.text() == str(ident / "ca.pem")
+    d.certificate.setText(str(flipped))
+    d.accept()
+    w.verify_certificate(dialog=d)
+    assert w.verification is not shown and w.verification.word.text() == "INVALID"
+    assert "✗ signature 'Inspector': the signed bytes were changed" in \
+        w.verification.details.toPlainText()
+    assert w.message_bar.text == f"Certificate INVALID: {flipped}"
+
+
 def test_exporting_the_csv_onto_the_measured_file_is_refused(window, tmp_path):
     w = window
     measured = tmp_path / "measured.csv"

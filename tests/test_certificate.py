@@ -333,6 +333,31 @@ def test_verify_rejects_a_different_measured_file(signed, tmp_path, capsys):
     assert "re-run" not in out
 
 
+def test_verify_certificate_is_a_typed_outcome(signed, tampered):
+    """reports.verify, what ``verify`` prints and the desktop app shows: a frozen result whose
+    checks each say what was checked, whether it passed and why."""
+    import dataclasses
+
+    from reports.verify import RerunFilesError, outcome_lines, verify_certificate
+
+    v = verify_certificate(str(signed.pdf), [str(signed.ca)], BELLY_NOMINAL, BELLY_MEASURED)
+    assert v.valid and v.problems == ()
+    assert [(c.subject, c.passed) for c in v.checks] == [
+        ("signatures", True), ("issue", True), ("nominal", True), ("measured", True),
+        ("re-run", True)]
+    assert v.checks[-1].message.startswith("re-run: ACCEPT")
+    assert v.certified.verdict == "ACCEPT" and v.signatures[0].signer == INSPECTOR
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        v.path = "another.pdf"
+    assert outcome_lines(v)[0] == f"VALID: {signed.pdf}"
+    flipped = verify_certificate(str(tampered.a), [str(signed.ca)])
+    assert not flipped.valid and flipped.certified is None
+    assert {c.subject for c in flipped.checks} == {"signatures"}
+    assert outcome_lines(flipped)[0] == f"INVALID: {tampered.a}"
+    with pytest.raises(RerunFilesError, match="give both --nominal and --measured"):
+        verify_certificate(str(signed.pdf), [str(signed.ca)], BELLY_NOMINAL)
+
+
 # ---------------------------------------------------------------------------- 2. tampering
 def test_verify_detects_one_flipped_byte(signed, tampered, capsys):
     code, out, err = verify(capsys, tampered.a, "--trust", signed.ca)

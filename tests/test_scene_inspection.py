@@ -12,7 +12,8 @@ import pytest
 from engine.pose import apply_transform, make_transform
 from engine.pipeline import run_files
 from engine.settings import InspectionSettings
-from qa_app.cli import _recheck, main
+from qa_app.cli import main
+from reports.verify import recheck
 from surfaces import height, height_normal, random_rotation, write_grid_nominal
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -96,7 +97,7 @@ def test_crop_and_remove_plane_keep_the_part(scene, capsys):
 
 
 def test_verify_reruns_with_the_crop_and_plane(scene, capsys):
-    """verify's re-run (qa_app.cli._recheck, what ``verify --nominal --measured`` does once the
+    """verify's re-run (reports.verify.recheck, what ``verify --nominal --measured`` does once the
     signatures hold) takes the crop and the plane from the certified settings."""
     d, box = scene
     settings = InspectionSettings(-0.05, 0.05, crop=tuple(box), remove_plane=True)
@@ -105,12 +106,12 @@ def test_verify_reruns_with_the_crop_and_plane(scene, capsys):
     doc = run_document(run_files(str(d / "nominal.csv"), str(d / "scene.xyz"), settings))
     assert doc["verdict"] == "ACCEPT"
     files = {"nominal": str(d / "nominal.csv"), "measured": str(d / "scene.xyz"), "plan": None}
-    notes = []
-    assert _recheck(doc, files, notes) == [] and "re-run: ACCEPT" in notes[-1]
+    checks = recheck(doc, files)
+    assert all(c.passed for c in checks) and "re-run: ACCEPT" in checks[-1].message
     # The same document without its crop would not re-run to the certified result.
     plain = dict(doc, settings={k: v for k, v in doc["settings"].items()
                                 if k not in ("crop", "remove_plane")})
-    assert _recheck(plain, files, []) != []
+    assert not all(c.passed for c in recheck(plain, files))
 
 
 @pytest.mark.parametrize("args, text", [

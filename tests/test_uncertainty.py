@@ -229,14 +229,14 @@ def test_verify_re_runs_a_certificate_older_than_uncertainty_budgets():
     (pose and sampling), as ISO 14253-1 applied to its reported deviations and U decides."""
     from engine.pipeline import run_files
     from engine.settings import InspectionSettings
-    from qa_app.cli import _recheck
+    from reports.verify import recheck
 
     with open(os.path.join(ROOT, "tests", "data", "results_before_uncertainty.json")) as f:
         old = json.load(f)
     assert "instrument" not in old["settings"] and old["verdict"] == ACCEPT
-    notes = []
-    assert _recheck(old, {"nominal": BELLY[0], "measured": BELLY[1], "plan": None}, notes) == []
-    assert notes[-1].startswith("re-run: ACCEPT")
+    checks = recheck(old, {"nominal": BELLY[0], "measured": BELLY[1], "plan": None})
+    assert all(c.passed for c in checks)
+    assert checks[-1].subject == "re-run" and checks[-1].message.startswith("re-run: ACCEPT")
     today = InspectionSettings.from_json(dict(old["settings"], instrument=None))
     assert today.guard == "uncertainty"
     res = run_files(*BELLY, today).result

@@ -357,6 +357,40 @@ class Controller:
         self.session.set_running(True)
         self._start(job, done, lambda: self.session.set_running(False))
 
+    # ------------------------------------------------------------------ verification
+    def verify_certificate(self, path: str, trust: list[str], nominal: str | None = None,
+                           measured: str | None = None, plan: str | None = None,
+                           on_done: Callable | None = None) -> None:
+        """Verify the certificate ``path`` as ``qa-inspect verify`` does
+        (reports.verify.verify_certificate, in the worker): its signatures against the trust
+        anchors ``trust`` only and, given the nominal and measured files (and the plan), their
+        SHA-256s and a re-run of its inspection. ``on_done`` gets the
+        reports.verify.CertificateVerification; files that do not go together, a trust anchor or
+        a file that cannot be read is one error, as on the command line. The session's result
+        is not touched."""
+        if self.busy:
+            self.session.tell("warning", "an inspection or export is running: wait for it "
+                                         "before verifying a certificate")
+            return
+        s = self.session
+
+        def job():
+            from reports.verify import verify_certificate
+
+            self._progress("verifying the signatures", 0.05)
+            return verify_certificate(path, trust, nominal, measured, plan,
+                                      progress=self._progress)
+
+        def done(v):
+            s.set_running(False)
+            s.tell("info" if v.valid else "warning",
+                   f"Certificate {'VALID' if v.valid else 'INVALID'}: {path}")
+            if on_done:
+                on_done(v)
+
+        s.set_running(True)
+        self._start(job, done, lambda: s.set_running(False))
+
     # ------------------------------------------------------------------ sessions
     def save_session(self, path: str) -> None:
         """Inputs by path with SHA-256, the settings, and the results document (none when the

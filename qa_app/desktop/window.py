@@ -33,6 +33,7 @@ from .contour_view import ContourView
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
 from .model import Session, Step
+from .verify_dialog import VerificationDialog, VerifyDialog
 from .viewport import Viewport3D
 from .widgets import (
     CharacteristicTable,
@@ -82,6 +83,8 @@ class MainWindow(QMainWindow):
         self.controller.signing_identity = self.qsettings.value("certificate/p12") or None
         self.setWindowTitle("qa-inspect — dimensional inspection")
         self.setAcceptDrops(True)
+        self.verification: VerificationDialog | None = None
+        """The outcome of the last certificate verified, while it is shown."""
         s = self.session
 
         self.message_bar = MessageBar(s)
@@ -267,6 +270,9 @@ class MainWindow(QMainWindow):
         self.act_certificate = act("Export &certificate…", self.export_certificate, "Ctrl+E")
         self.act_csv = act("Export CSV…", self.export_csv)
         self.act_qif = act("Export QIF…", self.export_qif)
+        self.act_verify = act("&Verify certificate…", lambda: self.verify_certificate(), None,
+                              "Check a certificate's signatures against a trust anchor and, "
+                              "given its files, re-run its inspection")
         self.act_quit = act("Quit", self.close, "Ctrl+Q")
         file_menu = self.menuBar().addMenu("&File")
         for a in (self.act_open_nominal, self.act_open_measured, self.act_open_plan,
@@ -279,6 +285,8 @@ class MainWindow(QMainWindow):
         file_menu.addSeparator()
         for a in (self.act_certificate, self.act_csv, self.act_qif):
             file_menu.addAction(a)
+        file_menu.addSeparator()
+        file_menu.addAction(self.act_verify)
         file_menu.addSeparator()
         file_menu.addAction(self.act_quit)
         run_menu = self.menuBar().addMenu("&Inspection")
@@ -317,6 +325,7 @@ class MainWindow(QMainWindow):
         self.act_clear_plan.setEnabled(not busy and s.plan_path is not None)
         self.clear_plan_button.setEnabled(not busy and s.plan_path is not None)
         self.act_open_session.setEnabled(not busy)
+        self.act_verify.setEnabled(not busy)
         self.act_save_session.setEnabled(not busy and s.nominal_path is not None)
         self.act_inspect.setEnabled(s.can_inspect)
         self.tolerance.inspect_button.setEnabled(s.can_inspect)
@@ -421,8 +430,10 @@ class MainWindow(QMainWindow):
             value = dialog.draft_inspector() if k == "inspector" else getattr(info, k)
             self.qsettings.setValue(f"certificate/{k}", value or "")
         self.qsettings.setValue("certificate/p12", p12 or "")
-        self.controller.export_certificate(dialog.output_path(), info, p12,
-                                           dialog.take_passphrase())
+        # The certificate written is the one File → Verify certificate… offers next.
+        self.controller.export_certificate(
+            dialog.output_path(), info, p12, dialog.take_passphrase(),
+            on_done=lambda p: self.qsettings.setValue("verify/certificate", p))
         if made_here:
             dialog.deleteLater()
         return dialog
@@ -438,6 +449,45 @@ class MainWindow(QMainWindow):
                                                    "QIF (*.qif)")[0]
         if path:
             self.controller.export_qif(path)
+
+    def verify_dialog(self) -> VerifyDialog:
+        """The verification dialog: the certificate and trust anchor last used (the last
+        certificate exported, else the last verified), the open files offered for the
+        re-run."""
+        defaults = {k: self.qsettings.value(f"verify/{k}") for k in ("certificate", "trust")}
+        s = self.session
+        return VerifyDialog(self, defaults, {"nominal": s.nominal_path,
+                                             "measured": s.measured_path, "plan": s.plan_path})
+
+    def verify_certificate(self, dialog: VerifyDialog | None = None) -> VerifyDialog | None:
+        """Ask for the certificate, the trust anchor and the files to re-run it on, then
+        verify it in the worker (reports.verify, as ``qa-inspect verify``); the outcome is
+        shown in a VerificationDialog (``verification``). Tests pass a prepared ``dialog``
+        (accepted) to drive it without a modal loop."""
+        made_here = dialog is None
+        if made_here:
+            dialog = self.verify_dialog()
+            if dialog.exec() != VerifyDialog.Accepted:
+                dialog.deleteLater()
+                return None
+        self.qsettings.setValue("verify/certificate", dialog.certificate_path())
+        self.qsettings.setValue("verify/trust", "; ".join(dialog.trust_paths()))
+        self.controller.verify_certificate(dialog.certificate_path(), dialog.trust_paths(),
+                                           *dialog.rerun_files(),
+                                           on_done=self.show_verification)
+        if made_here:
+            dialog.deleteLater()
+        return dialog
+
+    def show_verification(self, v) -> VerificationDialog:
+        """Show a verification's outcome (reports.verify.CertificateVerification), replacing
+        the last one shown."""
+        if self.verification is not None:
+            self.verification.close()
+            self.verification.deleteLater()
+        self.verification = VerificationDialog(self, v)
+        self.verification.open()
+        return self.verification
 
     def save_session(self, path: str | None = None) -> None:
         path = path or QFileDialog.getSaveFileName(
