@@ -121,6 +121,21 @@ def test_contour_view_whiskers_and_click_selects(window, qtbot):
     assert not img.isNull()
 
 
+def test_a_message_quoting_a_file_shows_its_name_as_text(window, tmp_path):
+    """A file named with markup and a line break: the message bar shows the name as the
+    characters it holds (no bold, no second line); the label renders no tag of the name."""
+    w = window
+    bad = tmp_path / "<b>big<i>\nACCEPT &amp;.csv"
+    bad.write_text("x,y,z\n1,2,3\n4,five,6\n")
+    w.controller.open_files([os.path.join(BELLY, "nominal.csv"), str(bad)])
+    w.act_inspect.trigger()
+    assert w.message_bar.level == "error"
+    text = w.message_bar.text
+    assert "<b>big<i>\\nACCEPT &amp;.csv" in text and "\n" not in text
+    label = w.message_bar.label.text()
+    assert "&lt;b&gt;big&lt;i&gt;" in label and "&amp;amp;" in label and "<b>big" not in label
+
+
 def test_bad_file_shows_the_error_and_the_window_survives(window, tmp_path):
     w = window
     bad = tmp_path / "broken.csv"

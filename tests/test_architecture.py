@@ -42,6 +42,19 @@ def test_no_function_is_a_book():
     assert [f for n, f in longest if n > 80] == [], sorted(longest)[-3:]
 
 
+def test_no_module_is_a_book():
+    """Every module of the product is at most 600 lines: a file that grows past it holds more
+    than one concern and is split along its seams (as engine/gdt/, engine/io/step/,
+    reports/certificate/ and qa_app/desktop/widgets/ were)."""
+    import pathlib
+
+    sizes = {str(p.relative_to(ROOT)): len(p.read_text(encoding="utf-8").splitlines())
+             for room in ("engine", "reports", "qa_app")
+             for p in pathlib.Path(ROOT, room).rglob("*.py")}
+    assert len(sizes) > 80  # the walk saw the rooms
+    assert {p: n for p, n in sizes.items() if n > 600} == {}
+
+
 def test_only_the_pipeline_opens_files():
     """Files are read in engine.io and opened by engine.pipeline only: no other module of the
     engine (nominal, registration, verdict, datums ...) reaches for a file, so every number

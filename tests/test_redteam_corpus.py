@@ -669,9 +669,7 @@ SESSIONS = [
         [("error", "not a qa-inspect session file")]),
     session("a-version-it-does-not-know", _json_session(
         lambda d, b: _session_doc(b.nominal, b.measured, version=99)),
-        [("error", "version 99")],
-        xfail="the session's 'version' is written but never read: a session of version 99 "
-              "opens and is inspected as version 1, nothing said"),
+        [("error", "version 99")]),
     # issue 22 item 9: a zone of 1e308 was accepted
     session("tolerance-1e308", _json_session(
         lambda d, b: _session_doc(b.nominal, b.measured, tol=1e308)),
@@ -684,10 +682,8 @@ SESSIONS = [
          ("error", "entity #20, an ORIENTED_EDGE, refers to itself")]),
     session("input-path-forging-a-line", _json_session(
         lambda d, b: _session_doc(b.nominal, d / f"m\n{FORGED}\x1b[2J.csv")),
-        [("warning", f"m\\n{FORGED}\\x1b[2J.csv no longer exists")],
-        xfail="the controller's 'Session reopened, but ...' warning quotes the session's input "
-              "paths raw (a line break, an escape sequence), not through "
-              "reports.messages.printable as the command line does (item 8)"),
+        [("warning", f"m\\n{FORGED}\\x1b[2J.csv no longer exists"),
+         ("error", f"m\\n{FORGED}\\x1b[2J.csv: no such file")]),
 ]
 
 

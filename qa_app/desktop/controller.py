@@ -22,6 +22,7 @@ from engine.settings import InspectionSettings
 from .model import Session, engine_rule
 
 SESSION_FORMAT = "qa-inspect session"
+SESSION_VERSION = 1
 SESSION_SUFFIX = ".qasession"
 INPUTS = ("nominal", "measured", "plan")
 """The input files of a session, by role (as the run's InputRecords name them)."""
@@ -422,7 +423,7 @@ class Controller:
         from reports.results import run_document
 
         s = self.session
-        return {"format": SESSION_FORMAT, "version": 1,
+        return {"format": SESSION_FORMAT, "version": SESSION_VERSION,
                "saved": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                "inputs": [{"role": role, "path": p,
                            "relative_path": _relative(p, path) if p else None,
@@ -450,6 +451,9 @@ class Controller:
                 doc = json.load(f)
             if doc.get("format") != SESSION_FORMAT:
                 raise InputError("not a qa-inspect session file", path)
+            if doc.get("version") != SESSION_VERSION:
+                raise InputError(f"a session of version {doc.get('version')!r}; this qa-app "
+                                 f"reads version {SESSION_VERSION}; it was not opened", path)
             inputs = {i["role"]: i for i in doc["inputs"]}
             st = doc["settings"]
             settings = InspectionSettings.from_json(st)

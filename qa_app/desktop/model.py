@@ -253,7 +253,12 @@ class Session:
         return self.run.result.plan.characteristics[self.characteristic].indices
 
     def tell(self, level: str, text: str) -> None:
-        self.message.emit(level, text)
+        """Say ``text`` to the user. It may quote a file name, a session's field or a label:
+        control characters (a line break, an escape sequence) are written out, so that no input
+        can start a line of its own (reports.messages.printable, as on the command line)."""
+        from reports.messages import printable
+
+        self.message.emit(level, printable(text))
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import html
+
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QToolButton
 
@@ -40,7 +42,10 @@ class MessageBar(QFrame):
         self.level = level
         self.setStyleSheet(f"#messageBar {{ background: {bg}; border: 1px solid {fg}; "
                            f"border-radius: 4px; }} QLabel {{ color: {fg}; }}")
-        self.label.setText(f"<b>{title}:</b> {text}" if title else text)
-        self.label.setToolTip(text)
+        # Rich text for the title only: the message may quote a file name or a label, shown
+        # as the characters it holds ('<b>x</b>.csv' is a name, not markup).
+        shown = html.escape(text, quote=False)
+        self.label.setText(f"<b>{title}:</b> {shown}" if title else f"<p>{shown}</p>")
+        self.label.setToolTip(f"<p>{shown}</p>")
         self.text = text
         self.show()
