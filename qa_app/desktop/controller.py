@@ -451,7 +451,9 @@ class Controller:
                 doc = json.load(f)
             if doc.get("format") != SESSION_FORMAT:
                 raise InputError("not a qa-inspect session file", path)
-            if doc.get("version") != SESSION_VERSION:
+            # Every session this app writes states its version; one written by a later app
+            # (another layout) is refused, not misread.
+            if doc.get("version", SESSION_VERSION) != SESSION_VERSION:
                 raise InputError(f"a session of version {doc.get('version')!r}; this qa-app "
                                  f"reads version {SESSION_VERSION}; it was not opened", path)
             inputs = {i["role"]: i for i in doc["inputs"]}
