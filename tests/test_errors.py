@@ -82,11 +82,11 @@ def test_warm_up_loads_the_pipeline_and_the_compiled_kernels():
     code = ("import json, sys, engine\n"
             "assert 'engine.pipeline' not in sys.modules\n"
             "engine.warm_up()\n"
-            "from engine import kernels\n"
+            "from engine import icp_kernels, kernels\n"
             "assert 'engine.pipeline' in sys.modules\n"
             "assert 'PySide6' not in sys.modules\n"
-            "print(json.dumps([n for n in dir(kernels)\n"
-            "                  if getattr(getattr(kernels, n), 'signatures', None)]))\n")
+            "print(json.dumps([n for m in (kernels, icp_kernels) for n in dir(m)\n"
+            "                  if getattr(getattr(m, n), 'signatures', None)]))\n")
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        timeout=600)
     assert r.returncode == 0, r.stderr
