@@ -62,7 +62,7 @@ class InspectionSettings:
         # for engine.inspection's check to refuse with the choices (SettingsError).
         for name, kind in (("fit", Fit), ("decision_rule", DecisionRule)):
             value = getattr(self, name)
-            if isinstance(value, str) and value in kind._value2member_map_:
+            if isinstance(value, str) and value in {m.value for m in kind}:
                 object.__setattr__(self, name, kind(value))
 
     @property
@@ -92,7 +92,8 @@ class InspectionSettings:
         return cls(float(d["tol_lower"]), float(d["tol_upper"]),
                    None if layers is None else tuple(str(x) for x in layers),
                    d.get("units"), None if d.get("scale") is None else float(d["scale"]),
-                   d.get("fit", Fit.LSQ), d.get("decision_rule", DecisionRule.SIMPLE), d.get("plan"),
+                   d.get("fit", Fit.LSQ), d.get("decision_rule", DecisionRule.SIMPLE),
+                   d.get("plan"),
                    bool(d.get("zone_in_verdict", True)),
                    Instrument.from_json(d.get("instrument")),
                    # Settings without "instrument" are older than uncertainty budgets: their

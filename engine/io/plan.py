@@ -1,4 +1,5 @@
-"""Inspection plan files (``.toml``, read with the standard library's tomllib) -> engine.gdt.plan.Plan.
+"""Inspection plan files (``.toml``, read with the standard library's tomllib) ->
+engine.gdt.plan.Plan.
 
 The format (units mm, coordinates in the nominal frame; issue 12 is its contract)::
 
