@@ -39,6 +39,19 @@ TRACEABILITY_HINTS = {"calibration_date": "YYYY-MM-DD", "temperature_c": "°C, e
 """Placeholders of the traceability fields (the certificate's section 1)."""
 
 
+def with_browse(edit: QWidget, slot) -> QWidget:
+    """``edit`` (a path's line edit) with a "Browse…" button beside it that calls ``slot``: a
+    row of the certificate and verify dialogs' forms."""
+    w = QWidget()
+    h = QHBoxLayout(w)
+    h.setContentsMargins(0, 0, 0, 0)
+    h.addWidget(edit, 1)
+    b = QPushButton("Browse…")
+    b.clicked.connect(slot)
+    h.addWidget(b)
+    return w
+
+
 class CertificateDialog(QDialog):
     SIGNER_HINT = "the signer's name, read from the signing identity"
 
@@ -68,13 +81,13 @@ class CertificateDialog(QDialog):
         form.addRow("Notes", self.notes)
         self.p12 = QLineEdit(defaults.get("p12") or "")
         self.p12.setPlaceholderText("PKCS#12 signing identity (.p12); empty: unsigned draft")
-        form.addRow("Signing identity", self._with_browse(self.p12, self._browse_p12))
+        form.addRow("Signing identity", with_browse(self.p12, self._browse_p12))
         self.passphrase = QLineEdit()
         self.passphrase.setEchoMode(QLineEdit.Password)
         self.passphrase.setObjectName("passphrase")
         form.addRow("Passphrase", self.passphrase)
         self.output = QLineEdit(output)
-        form.addRow("Save as", self._with_browse(self.output, self._browse_output))
+        form.addRow("Save as", with_browse(self.output, self._browse_output))
         note = QLabel("Without a signing identity the PDF is marked UNSIGNED DRAFT on every page. "
                       "The passphrase is used for this signature only and is not stored. "
                       "A signed certificate names its signer as the inspector.")
@@ -227,16 +240,6 @@ class CertificateDialog(QDialog):
             self._say(problem)
             return
         super().accept()
-
-    def _with_browse(self, edit, slot):
-        w = QWidget()
-        h = QHBoxLayout(w)
-        h.setContentsMargins(0, 0, 0, 0)
-        h.addWidget(edit, 1)
-        b = QPushButton("Browse…")
-        b.clicked.connect(slot)
-        h.addWidget(b)
-        return w
 
     def _browse_p12(self):
         path, _ = QFileDialog.getOpenFileName(self, "Signing identity", self.p12.text(),

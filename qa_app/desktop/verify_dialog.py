@@ -34,6 +34,8 @@ from reports.verify import (
     signature_line,
 )
 
+from .dialogs import with_browse
+
 RERUN = (("nominal", "Nominal", NOMINAL_SUFFIXES), ("measured", "Measured", MEASURED_SUFFIXES),
          ("plan", "Plan", PLAN_SUFFIXES))
 """The files a verification may re-run the inspection on: role, label, suffixes."""
@@ -58,8 +60,8 @@ class VerifyDialog(QDialog):
         self.trust = QLineEdit(defaults.get("trust") or "")
         self.trust.setPlaceholderText("CA certificate(s) to trust (.pem), separated by ';'")
         form = QFormLayout()
-        form.addRow("Certificate", self._with_browse(self.certificate, self._browse_certificate))
-        form.addRow("Trust anchor", self._with_browse(self.trust, self._browse_trust))
+        form.addRow("Certificate", with_browse(self.certificate, self._browse_certificate))
+        form.addRow("Trust anchor", with_browse(self.trust, self._browse_trust))
         self.files = {}
         rerun = QGroupBox("Re-run the inspection (optional)")
         rf = QFormLayout(rerun)
@@ -69,7 +71,7 @@ class VerifyDialog(QDialog):
             e.setPlaceholderText("optional" if role == "plan" else
                                  "the certified file, to check and re-run")
             self.files[role] = e
-            rf.addRow(label, self._with_browse(e, lambda _=False, r=role, s=suffixes:
+            rf.addRow(label, with_browse(e, lambda _=False, r=role, s=suffixes:
                                                self._browse_file(r, s)))
         self.use_open = QPushButton("Use the open files")
         self.use_open.setEnabled(bool(self.open_files))
@@ -126,16 +128,6 @@ class VerifyDialog(QDialog):
         self.problem.setVisible(bool(problem))
         if not problem:
             super().accept()
-
-    def _with_browse(self, edit, slot):
-        w = QWidget()
-        h = QHBoxLayout(w)
-        h.setContentsMargins(0, 0, 0, 0)
-        h.addWidget(edit, 1)
-        b = QPushButton("Browse…")
-        b.clicked.connect(slot)
-        h.addWidget(b)
-        return w
 
     def _browse_certificate(self):
         path, _ = QFileDialog.getOpenFileName(self, "Certificate to verify",
