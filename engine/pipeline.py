@@ -26,6 +26,7 @@ from .pointset import PointSet
 from .neighbours import query_workers
 from .nominal import Nominal
 from .progress import Callback, report, reporting, within
+from .registration_types import RegistrationSettings
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .settings import InspectionSettings
 from .step_model import (ExactDistances, exact_deviations, exact_features, face_groups,
@@ -344,6 +345,8 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     if loaded.plan_record is not None:
         inputs.append(loaded.plan_record)
     measured_ps, selection = _select(measured_ps, settings)
+    if selection is not None and selection.plane is not None and nominal is not None:
+        measured_ps, selection = _the_part(nominal, measured_ps, selection, settings)
     if nominal is not None and copies_nominal(measured_ps.points, nominal):
         raise InputError(f"every one of the {measured_ps.n:,} measured points is one of the "
                          f"nominal's points ({nominal_path}) to the last bit: they are a copy "
@@ -360,7 +363,9 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     if source.template is not None:
         result = _inspect_template(source.template, measured_ps, settings, plan)
     else:
-        result = _inspect_3d(nominal, source, measured_ps, settings, plan)
+        result = _inspect_3d(nominal, source, measured_ps, settings, plan,
+                             None if selection is None or selection.plane is None else
+                             selection.plane.sigma)
     if result.verdict != ACCEPT:
         hint = (not_planar_hint(result, measured_ps, nominal_path)
                 if source.template is not None else swap_hint(source.point_set, measured_ps))
@@ -387,6 +392,21 @@ def _select(measured_ps: PointSet, settings: InspectionSettings
     selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
                               settings.plane_distance, f"measured points of {measured_ps.path}")
     return measured_ps.take(selection.kept), selection
+
+
+def _the_part(nominal: Nominal, measured_ps: PointSet, selection: Selection,
+              settings: InspectionSettings) -> tuple[PointSet, Selection]:
+    """The measured points left on a scene's table less the other objects standing on it
+    (engine.scene_part), and the selection that says so."""
+    from .scene_part import part_in_scene
+
+    report("which object is the part", 0.0)
+    tol = settings.tolerance
+    part = part_in_scene(nominal, measured_ps.points, selection.plane.sigma,
+                         None if tol is None else tol.width)
+    return measured_ps.take(part.kept), dataclasses.replace(
+        selection, kept=selection.kept[part.kept], n_objects=part.n_objects,
+        n_other_objects=measured_ps.n - part.kept.size, object_link=part.link)
 
 
 def nominal_sizes(source: "_Nominal", nominal: Nominal | None) -> np.ndarray:
@@ -525,16 +545,18 @@ def _inspect_2d(tpl, index, measured_ps: PointSet, settings: InspectionSettings,
 
 
 def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
-                settings: InspectionSettings, plan):
+                settings: InspectionSettings, plan, noise: float | None = None):
     """A 3D inspection (exact to a STEP model's faces when the nominal is one), and its plan's
-    characteristics."""
+    characteristics; ``noise``: the measurement's noise, mm, when the scene shows it (the
+    spread of its table about its plane: engine.registration_types.RegistrationSettings)."""
     exact = distances = None
     if source.step is not None:
         distances = ExactDistances(source.step, nominal)
         exact = exact_deviations(distances)
     share = plan_share(plan)
     with within(0.0, 1.0 - share):
-        result = inspect(nominal, measured_ps.points, settings.tolerance, fit=settings.fit,
+        result = inspect(nominal, measured_ps.points, settings.tolerance,
+                         RegistrationSettings(noise_mm=noise), fit=settings.fit,
                          decision_rule=settings.decision_rule, exact=exact,
                          instrument=instrument_of(settings.instrument, plan),
                          guard=settings.guard)

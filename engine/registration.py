@@ -163,7 +163,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     best one ``ALTERNATIVE_ITERATIONS`` at most (one that ends best unsettled is finished in
     full); the pose chosen is then fitted on every point. The answer is the best finished
     pose: no candidate scores better. The best distinct other pose is the runner-up."""
-    near = settings.near_fraction_of_size * nominal.diagonal
+    near, near_rule = settings.near(nominal.diagonal)
     ssub = spread_subset(measured, settings.icp_measured)
     report("comparing the candidate poses", 0.8)
     devs = [point_to_surface(nominal, apply_transform(Tc, measured[ssub])).signed
@@ -224,7 +224,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
         iterations=iterations + sum(f[2] for f in finished.values()), score=final[chosen],
         hypotheses=hypotheses, runner_up_score=None if runner is None else scores[runner],
         runner_up_T=None if runner is None else poses[runner], deviation_s=dev_s,
-        message=message)
+        message=message, near_rule=near_rule)
 
 
 def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,

@@ -56,6 +56,24 @@ class RegistrationSettings:
     min_near_fraction: float = 0.5
     """… and a pose is only worth fitting (and trusting) when at least this fraction of the
     measured points lies near the nominal."""
+    noise_mm: float | None = None
+    """The measuring instrument's noise, mm (a standard deviation), when the measurement itself
+    shows it (engine.scene: the spread of a scene's table about its plane); None: unknown. A
+    point then lies *near* the nominal within ``near_noise_sigmas`` x this too, if that is
+    wider: a 3D camera's points scatter millimetres about a part a few centimetres long."""
+    near_noise_sigmas: float = 2.0
+    """… (two standard deviations hold 95% of a normal noise's points)."""
+    def near(self, diagonal: float) -> tuple[float, str]:
+        """(distance, mm, within which a point lies near the nominal; the rule in words) for a
+        nominal of bounding-box ``diagonal`` mm."""
+        size = self.near_fraction_of_size * diagonal
+        rule = f"{100 * self.near_fraction_of_size:g}% of the nominal's size"
+        if self.noise_mm is not None and self.near_noise_sigmas * self.noise_mm > size:
+            return (self.near_noise_sigmas * self.noise_mm,
+                    f"{self.near_noise_sigmas:g} x the measurement's noise, "
+                    f"{self.noise_mm:.3g} mm")
+        return size, rule
+
     outlier_floor: float = 1e-4
     """The robust cut, and the gross-outlier threshold when the tolerance zone is known, are never
     below this fraction of the nominal's bounding-box diagonal; it is also the scale of the
@@ -133,6 +151,8 @@ class RegistrationResult:
     """The gross-outlier rule at the final pose (engine.outliers): which points were excluded
     from the alignment, and why."""
     message: str = ""
+    near_rule: str = "1% of the nominal's size"
+    """How ``near_distance`` was chosen, in words (RegistrationSettings.near)."""
     rms_definition: str = SURFACE_RMS
     symmetric: bool = False
 

@@ -38,6 +38,10 @@ PLANE_SIGMAS = 3.0
 about it ..."""
 SEED = 0
 """Seed of every random choice here: the same points give the same plane, every run."""
+LINK_SPACINGS = 2.0
+"""Two points belong to one object when they lie within this many typical point spacings of
+each other (:func:`objects`): a scanner's rows are one spacing apart on a surface, and the gap
+between two objects on a table is wider than two."""
 
 
 def check_box(box) -> tuple[float, ...]:
@@ -219,6 +223,30 @@ def dominant_plane(points: np.ndarray, distance: float | None = None, *, seed: i
     return Plane(normal, offset, float(distance), rule, inliers, sigma, h)
 
 
+def objects(points: np.ndarray, link: float) -> np.ndarray:
+    """points (n, 3), mm; link : mm -> (n,) int64, the object each point belongs to: the
+    connected components of the points linked within ``link`` of each other, numbered from 0 by
+    size, largest first (equal sizes by their first point), the same on every run.
+
+    >>> objects(np.array([[0., 0, 0], [5, 0, 0], [1, 0, 0], [9, 0, 0]]), 1.5).tolist()
+    [0, 1, 0, 2]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    p = np.asarray(points, dtype=np.float64)
+    n = p.shape[0]
+    pairs = cKDTree(p).query_pairs(link, output_type="ndarray")
+    graph = coo_matrix((np.ones(pairs.shape[0]), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    sizes = np.bincount(label)
+    first = np.full(sizes.size, n)
+    np.minimum.at(first, label, np.arange(n))
+    rank = np.empty(sizes.size, np.int64)
+    rank[np.lexsort((first, -sizes))] = np.arange(sizes.size)
+    return rank[label]
+
+
 @dataclass(frozen=True)
 class Selection:
     """Which measured points an inspection keeps, and why the others went.
@@ -226,7 +254,10 @@ class Selection:
     kept : (k,) int64 ascending indices into the points as read; n_read : the points read;
     box : the crop box (None: no crop); n_outside_box : points outside it; plane : the plane
     removed from the points inside the box (None: none removed); n_on_plane : points removed
-    with it.
+    with it; n_objects : the objects (connected components) left on the plane, 0 when not
+    looked for; n_other_objects : points of those objects that are not the part
+    (engine.scene_part), dropped; object_link : mm, the distance that links two points of one
+    object.
     """
 
     kept: np.ndarray
@@ -235,6 +266,9 @@ class Selection:
     n_outside_box: int = 0
     plane: Plane | None = None
     n_on_plane: int = 0
+    n_objects: int = 0
+    n_other_objects: int = 0
+    object_link: float | None = None
 
     @property
     def n_kept(self) -> int:

@@ -266,17 +266,54 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
         if mask.sum() < 6:
             return T, False, it, mask, dev, dev_s
         delta, c = gauss_newton_step(X[mask], dev.normal[mask], d[mask])
-        if _largest_motion(delta, X[mask] - c) < settings.convergence_mm:
+        moved = _largest_motion(delta, X[mask] - c)
+        if moved < settings.convergence_mm:
             return T, True, it, mask, dev, dev_s
-        T = apply_update(T, delta, c)
-        dev = None
-    X = apply_transform(T, pts)
-    t0 = time.perf_counter()
-    dev = point_to_surface(nominal, X)
-    dev_s = time.perf_counter() - t0
+        if use is None or settings.noise_mm is None:
+            # Full steps: the robust cut moves with the pose (no one sum of squares to lower),
+            # and a measurement at a CMM's noise converges by them.
+            T, dev = apply_update(T, delta, c), None
+            continue
+        lower = _lower_along(nominal, pts, T, delta, c, mask, d)
+        if lower is None:
+            # No fraction of the step lowers the sum of squares: at a measurement's noise of
+            # millimetres feet flip between faces at an edge or between a thin wall's two
+            # sides, and full steps would cycle (a 3D camera's points, 5 mm of noise about a
+            # moulded housing: 1-2 mm steps, back and forth, 50 iterations). The pose is the
+            # optimum along the step to within the shortest one tried.
+            return (T, moved / 2 ** HALVINGS <= STALL_OF_NOISE * settings.noise_mm, it, mask,
+                    dev, dev_s)
+        T, dev, dev_s = lower
+    if dev is None:
+        t0 = time.perf_counter()
+        dev = point_to_surface(nominal, apply_transform(T, pts))
+        dev_s = time.perf_counter() - t0
     if use is None:
         mask = np.abs(dev.signed) <= robust_cut(dev.signed, settings.outlier_sigmas, floor)
     return T, False, max_iter, mask, dev, dev_s
+
+
+HALVINGS = 8
+"""When the measurement's noise is known (RegistrationSettings.noise_mm: a scene's), a
+Gauss-Newton step that does not lower the sum of squares is halved at most this many times …"""
+STALL_OF_NOISE = 0.01
+"""… and when none of them does, the fit has settled if the shortest step tried moved no point
+by more than this fraction of the noise."""
+
+
+def _lower_along(nominal, pts, T, delta, c, mask, d):
+    """The first of the step ``delta`` (about c) and its halves (``HALVINGS``) from pose T
+    whose sum of squared deviations over ``mask`` is below that of ``d`` (the deviations at T):
+    (T', Deviations at T', seconds their evaluation took); None when none is."""
+    cost = float(np.sum(d[mask] ** 2))
+    for k in range(HALVINGS + 1):
+        T_new = apply_update(T, delta / 2 ** k, c)
+        t0 = time.perf_counter()
+        dev = point_to_surface(nominal, apply_transform(T_new, pts))
+        seconds = time.perf_counter() - t0
+        if float(np.sum(dev.signed[mask] ** 2)) < cost:
+            return T_new, dev, seconds
+    return None
 
 
 def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:

@@ -183,7 +183,7 @@ def judge(d: np.ndarray, tol: Tolerance, reg, weak=(), ambiguous: bool = False,
         reasons.append("registration did not converge: " + (reg.message or "no reason given"))
     if reg.near_fraction < MIN_NEAR_FRACTION:
         reasons.append(f"only {100 * reg.near_fraction:.0f}% of the {d.size} points lie within "
-                       f"{reg.near_distance:.3g} mm (1% of the nominal's size) of the nominal at "
+                       f"{reg.near_distance:.3g} mm ({reg.near_rule}) of the nominal at "
                        "the best pose found; the pose cannot be trusted")
     if better_runner_up(reg):
         reasons.append(f"another pose fits better than the one found (score "

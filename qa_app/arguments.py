@@ -113,7 +113,7 @@ def _add_scene_options(i: argparse.ArgumentParser) -> None:
                    help="remove the dominant plane (the table under the part) from the measured "
                         "points, after the crop (seeded RANSAC; the distance from the data: 3 "
                         "robust standard deviations of the plane's points, at least their "
-                        "spacing)")
+                        "spacing), and the other objects standing on it")
     g.add_argument("--remove-plane-distance", type=_finite_float, metavar="MM",
                    help="with --remove-plane: remove the points within MM of the plane")
 

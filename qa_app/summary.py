@@ -32,6 +32,9 @@ def _selection_line(sel) -> str:
     if sel.plane is not None:
         parts.append(f"{sel.n_on_plane:,} on the dominant plane (within "
                      f"{sel.plane.distance:.3g} mm)")
+    if sel.n_other_objects:
+        parts.append(f"{sel.n_other_objects:,} on other objects than the part "
+                     f"({sel.n_objects:,} objects found)")
     return f"  measured points: {', '.join(parts)}; {sel.n_kept:,} inspected"
 
 

@@ -55,7 +55,7 @@ def scene_json(sel) -> dict:
     """Which measured points an inspection kept (engine.scene.Selection): the counts, the crop
     box and the plane removed."""
     plane = sel.plane
-    return {
+    doc = {
         "n_read": sel.n_read, "n_kept": sel.n_kept,
         "crop": None if sel.box is None else list(sel.box),
         "n_outside_crop": sel.n_outside_box,
@@ -70,6 +70,16 @@ def scene_json(sel) -> dict:
                       "(normal . x = offset_mm, seeded RANSAC, refitted by least squares); the "
                       "per-point outputs number the kept points from 1 in input order",
     }
+    if sel.n_objects:
+        doc["objects"] = {
+            "n_objects": sel.n_objects, "n_other_objects_points": sel.n_other_objects,
+            "link_mm": _num(sel.object_link),
+            "definition": "with the plane removed, the points linked within link_mm of each "
+                          "other are one object; each object that could be the part was "
+                          "registered to the nominal, and the objects most of whose points lie "
+                          "near the nominal at the pose that claims the most points are the "
+                          "part: the other objects' points are not inspected"}
+    return doc
 
 
 def result_document(result: InspectionResult, inputs: list[InputRecord],

@@ -71,7 +71,7 @@ def alignment_statement(run: Run) -> str:
     fits = ("so the points are of this part" if reg.near_fraction >= 0.5 else
             "so the points may not be of this part")
     return (f"{what}. {tried}; {second}. {'All' if near == 100 else f'{near}% of the'} {n:,} "
-            f"points lie within {reg.near_distance:.3g} mm (1% of the nominal's size) of the "
+            f"points lie within {reg.near_distance:.3g} mm ({reg.near_rule}) of the "
             f"nominal at this pose, {fits}.")
 
 

@@ -1,0 +1,91 @@
+"""Which objects of a scene are the part: a 3D camera's view of a table holds, once the table is
+removed (engine.scene), the part and whatever else stands on it. The objects are the scene's
+connected components (engine.scene.objects); each one that could be the part is registered to
+the nominal on its own (engine.registration), and at that pose every object is the part's
+when most of its points lie within reach of the nominal. The candidate whose pose claims the
+most points is the part.
+
+An object is kept or dropped whole, never point by point: a dent or a bump of the part is
+connected to it, so it stays in the inspection however far it lies from the nominal. What goes
+are separate objects (another device, a cable, a box) that the nominal does not fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .deviation import point_to_surface
+from .nominal import Nominal
+from .pose import apply_transform
+from .progress import report
+from .registration import register
+from .registration_types import RegistrationSettings
+from .scene import LINK_SPACINGS, MIN_KEPT, objects, typical_spacing
+
+MAX_CANDIDATES = 4
+"""Objects registered at most, largest first: each costs a registration."""
+SIZE_RATIO = 1.5
+"""An object can be the part only if its bounding-box diagonal is at most this many times the
+nominal's: a larger one is a scene, not a view of the part (a camera's mixed pixels widen a part
+by a few of its spacings)."""
+REACH_SIGMAS = 2.5
+"""A point lies within reach of the nominal within this many noise standard deviations (or the
+registration's near distance, if wider): 99% of a normal noise's points."""
+MAJORITY = 0.5
+"""An object belongs to the part at a pose when more than this fraction of its points lies
+within reach."""
+
+
+@dataclass(frozen=True)
+class PartInScene:
+    """The part's objects in a scene's points.
+
+    kept : (k,) int64 ascending indices into the points given, the points of the part's
+    objects; n_objects : objects the points hold; n_part_objects : of them, the part's;
+    candidates : objects registered; link : mm, the distance that links two points of one
+    object; reach : mm, the distance within which a point counts for an object at a pose.
+    """
+
+    kept: np.ndarray
+    n_objects: int
+    n_part_objects: int
+    candidates: int
+    link: float
+    reach: float
+
+
+def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
+                  zone_width: float | None = None) -> PartInScene:
+    """The objects of ``points`` (n, 3), mm, the measured frame) that are the part ``nominal``
+    shows, for a measurement of noise ``noise`` mm (a standard deviation). With one object
+    only, every point is kept and nothing is registered."""
+    p = np.asarray(points, dtype=np.float64)
+    link = LINK_SPACINGS * typical_spacing(p)
+    label = objects(p, link) if link > 0 else np.zeros(p.shape[0], np.int64)
+    sizes = np.bincount(label)
+    settings = RegistrationSettings(noise_mm=noise)
+    reach = max(REACH_SIGMAS * noise, settings.near(nominal.diagonal)[0])
+    if sizes.size == 1:
+        return PartInScene(np.arange(p.shape[0]), 1, 1, 0, link, reach)
+    candidates = [k for k in range(sizes.size) if sizes[k] >= MIN_KEPT
+                  and np.linalg.norm(np.ptp(p[label == k], axis=0))
+                  <= SIZE_RATIO * nominal.diagonal][:MAX_CANDIDATES]
+    best, best_key = None, None
+    for i, k in enumerate(candidates):
+        report(f"which object is the part: object {i + 1} of {len(candidates)}",
+               i / max(len(candidates), 1))
+        reg = register(nominal, p[label == k], settings, zone_width)
+        d = point_to_surface(nominal, apply_transform(reg.T_nominal_measured, p)).signed
+        near = np.abs(d) <= reach
+        share = np.bincount(label, weights=near, minlength=sizes.size) / sizes
+        members = np.flatnonzero(share > MAJORITY)
+        claimed = int(np.count_nonzero(near & np.isin(label, members)))
+        key = (claimed, -reg.score)  # the most points claimed; a tie by the better fit
+        if k in members and (best_key is None or key > best_key):
+            best, best_key = members, key
+    if best is None:  # no object fits the nominal: nothing to choose, every point is judged
+        best = np.arange(sizes.size)
+    return PartInScene(np.flatnonzero(np.isin(label, best)), int(sizes.size), int(best.size),
+                       len(candidates), link, reach)
