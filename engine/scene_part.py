@@ -12,7 +12,7 @@ are separate objects (another device, a cable, a box) that the nominal does not 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from .progress import report
 from .registration import register
 from .registration_types import RegistrationSettings
 from .scene import LINK_SPACINGS, MIN_KEPT, objects, typical_spacing
+from .surface_fit import ROBUST_ITERATIONS
 
 MAX_CANDIDATES = 4
 """Objects registered at most, largest first: each costs a registration."""
@@ -66,6 +67,9 @@ def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
     label = objects(p, link) if link > 0 else np.zeros(p.shape[0], np.int64)
     sizes = np.bincount(label)
     settings = RegistrationSettings(noise_mm=noise)
+    # A candidate's pose only counts the points it claims (the inspection then registers the
+    # part's points in full): its finishes stop after their robust iterations.
+    quick = replace(settings, max_final_iterations=ROBUST_ITERATIONS)
     reach = max(REACH_SIGMAS * noise, settings.near(nominal.diagonal)[0])
     if sizes.size == 1:
         return PartInScene(np.arange(p.shape[0]), 1, 1, 0, link, reach)
@@ -76,7 +80,7 @@ def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
     for i, k in enumerate(candidates):
         report(f"which object is the part: object {i + 1} of {len(candidates)}",
                i / max(len(candidates), 1))
-        reg = register(nominal, p[label == k], settings, zone_width)
+        reg = register(nominal, p[label == k], quick, zone_width)
         d = point_to_surface(nominal, apply_transform(reg.T_nominal_measured, p)).signed
         near = np.abs(d) <= reach
         share = np.bincount(label, weights=near, minlength=sizes.size) / sizes

@@ -281,8 +281,8 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
             # sides, and full steps would cycle (a 3D camera's points, 5 mm of noise about a
             # moulded housing: 1-2 mm steps, back and forth, 50 iterations). The pose is the
             # optimum along the step to within the shortest one tried.
-            return (T, moved / 2 ** HALVINGS <= STALL_OF_NOISE * settings.noise_mm, it, mask,
-                    dev, dev_s)
+            return (T, moved / SHORTEN ** SHORTENINGS <= STALL_OF_NOISE * settings.noise_mm, it,
+                    mask, dev, dev_s)
         T, dev, dev_s = lower
     if dev is None:
         t0 = time.perf_counter()
@@ -293,21 +293,23 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
     return T, False, max_iter, mask, dev, dev_s
 
 
-HALVINGS = 8
+SHORTEN = 4
+SHORTENINGS = 4
 """When the measurement's noise is known (RegistrationSettings.noise_mm: a scene's), a
-Gauss-Newton step that does not lower the sum of squares is halved at most this many times …"""
+Gauss-Newton step that does not lower the sum of squares is shortened ``SHORTEN``-fold at most
+this many times (to 1/256 of it: each try costs an evaluation of every point) …"""
 STALL_OF_NOISE = 0.01
 """… and when none of them does, the fit has settled if the shortest step tried moved no point
 by more than this fraction of the noise."""
 
 
 def _lower_along(nominal, pts, T, delta, c, mask, d):
-    """The first of the step ``delta`` (about c) and its halves (``HALVINGS``) from pose T
+    """The first of the step ``delta`` (about c) and its shortenings (``SHORTENINGS``) from pose T
     whose sum of squared deviations over ``mask`` is below that of ``d`` (the deviations at T):
     (T', Deviations at T', seconds their evaluation took); None when none is."""
     cost = float(np.sum(d[mask] ** 2))
-    for k in range(HALVINGS + 1):
-        T_new = apply_update(T, delta / 2 ** k, c)
+    for k in range(SHORTENINGS + 1):
+        T_new = apply_update(T, delta / SHORTEN ** k, c)
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, apply_transform(T_new, pts))
         seconds = time.perf_counter() - t0
