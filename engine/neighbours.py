@@ -95,3 +95,21 @@ def spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
         pool = np.sort(np.random.default_rng(SPREAD_SEED).choice(n, 8192, replace=False))
     P = np.ascontiguousarray(pts[pool], np.float64)
     return np.sort(pool[icp_kernels.farthest_points(P, P.mean(0), m)])
+
+
+def voxel_spread(pts: np.ndarray, voxel: float, cap: int) -> np.ndarray:
+    """Indices (ascending) of one point of ``pts`` (n, 3) per occupied voxel of edge ``voxel``
+    mm (the one nearest the voxel's centre), the voxel grown 1.25-fold until at most ``cap``
+    remain: points spread by area over a surface, whatever its shape."""
+    voxel = max(voxel, 1e-9)
+    lo = pts.min(axis=0)
+    while True:
+        cell = np.floor((pts - lo) / voxel).astype(np.int64)
+        centre = lo + (cell + 0.5) * voxel
+        d = np.linalg.norm(pts - centre, axis=1)
+        order = np.lexsort((d, cell[:, 2], cell[:, 1], cell[:, 0]))
+        c = cell[order]
+        first = order[np.r_[True, np.any(c[1:] != c[:-1], axis=1)]]
+        if first.size <= cap:
+            return np.sort(first)
+        voxel *= 1.25

@@ -55,7 +55,8 @@ from scipy.spatial import cKDTree
 
 from . import icp_kernels
 from .deviation import point_to_surface
-from .neighbours import PARALLEL_QUERIES, SampleLookup, query_workers, spread_subset
+from .neighbours import (PARALLEL_QUERIES, SampleLookup, query_workers, spread_subset,
+                         voxel_spread)
 from .nominal import Nominal
 from .outliers import gross_outliers, gross_rule
 from .pose import (apply_transform, make_transform, rotation_angle_deg, rotation_from_rotvec,
@@ -286,7 +287,7 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     R_all = [pca, U, np.repeat(U, few.shape[0], axis=0)]
     t_all = [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
 
-    anchor_idx = _voxel_anchors(lvl_pts, 0.1 * extent, settings.max_anchors)
+    anchor_idx = voxel_spread(lvl_pts, 0.1 * extent, settings.max_anchors)
     spins = np.linspace(0.0, 2 * np.pi, settings.n_spins, endpoint=False)
     a_pts, a_nrm = lvl_pts[anchor_idx], lvl_nrm[anchor_idx]
     spin = rotation_from_rotvec(a_nrm[:, None, :] * spins[None, :, None])  # (k, s, 3, 3)
@@ -312,23 +313,6 @@ def _reference_point(measured: np.ndarray, extent: float):
     dist = np.linalg.norm(measured[near] - cm, axis=1) / max(extent, 1e-12)
     best = int(np.argmin(dist + 5.0 * flatness))
     return measured[near[best]], vecs[best, :, 0]
-
-
-def _voxel_anchors(pts: np.ndarray, voxel: float, cap: int) -> np.ndarray:
-    """One point per occupied voxel (the one nearest the voxel centre), the voxel grown until at
-    most ``cap`` remain: anchors spread by area over the surface, whatever its shape."""
-    voxel = max(voxel, 1e-9)
-    lo = pts.min(axis=0)
-    while True:
-        cell = np.floor((pts - lo) / voxel).astype(np.int64)
-        centre = lo + (cell + 0.5) * voxel
-        d = np.linalg.norm(pts - centre, axis=1)
-        order = np.lexsort((d, cell[:, 2], cell[:, 1], cell[:, 0]))
-        c = cell[order]
-        first = order[np.r_[True, np.any(c[1:] != c[:-1], axis=1)]]
-        if first.size <= cap:
-            return np.sort(first)
-        voxel *= 1.25
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -15,8 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .deviation import point_to_surface
+from .neighbours import voxel_spread
 from .nominal import Nominal
 from .pose import apply_transform
 from .progress import report
@@ -25,6 +27,9 @@ from .registration_types import RegistrationSettings
 from .scene import LINK_SPACINGS, MIN_KEPT, objects, typical_spacing
 from .surface_fit import ROBUST_ITERATIONS
 
+OBJECT_POINTS = 200_000
+"""Objects are found on at most this many of the points, spread by voxels (a dense scan's
+millions would cost gigabytes of neighbour pairs)."""
 MAX_CANDIDATES = 4
 """Objects registered at most, largest first: each costs a registration."""
 SIZE_RATIO = 1.5
@@ -61,11 +66,17 @@ def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
                   zone_width: float | None = None) -> PartInScene:
     """The objects of ``points`` (n, 3), mm, the measured frame) that are the part ``nominal``
     shows, for a measurement of noise ``noise`` mm (a standard deviation). With one object
-    only, every point is kept and nothing is registered."""
+    only, every point is kept and nothing is registered. Objects are found, and the points a
+    pose claims counted, on at most ``OBJECT_POINTS`` of the points, one per voxel
+    (engine.neighbours.voxel_spread; every point takes its nearest one's object)."""
     p = np.asarray(points, dtype=np.float64)
-    link = LINK_SPACINGS * typical_spacing(p)
-    label = objects(p, link) if link > 0 else np.zeros(p.shape[0], np.int64)
-    sizes = np.bincount(label)
+    sub = np.arange(p.shape[0]) if p.shape[0] <= OBJECT_POINTS else \
+        voxel_spread(p, typical_spacing(p), OBJECT_POINTS)
+    q = p[sub]
+    link = LINK_SPACINGS * typical_spacing(q)
+    label_q = objects(q, link) if link > 0 else np.zeros(q.shape[0], np.int64)
+    label = label_q if sub.size == p.shape[0] else label_q[cKDTree(q).query(p)[1]]
+    sizes = np.bincount(label_q)
     settings = RegistrationSettings(noise_mm=noise)
     # A candidate's pose only counts the points it claims (the inspection then registers the
     # part's points in full): its finishes stop after their robust iterations.
@@ -74,18 +85,18 @@ def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
     if sizes.size == 1:
         return PartInScene(np.arange(p.shape[0]), 1, 1, 0, link, reach)
     candidates = [k for k in range(sizes.size) if sizes[k] >= MIN_KEPT
-                  and np.linalg.norm(np.ptp(p[label == k], axis=0))
+                  and np.linalg.norm(np.ptp(q[label_q == k], axis=0))
                   <= SIZE_RATIO * nominal.diagonal][:MAX_CANDIDATES]
     best, best_key = None, None
     for i, k in enumerate(candidates):
         report(f"which object is the part: object {i + 1} of {len(candidates)}",
                i / max(len(candidates), 1))
         reg = register(nominal, p[label == k], quick, zone_width)
-        d = point_to_surface(nominal, apply_transform(reg.T_nominal_measured, p)).signed
+        d = point_to_surface(nominal, apply_transform(reg.T_nominal_measured, q)).signed
         near = np.abs(d) <= reach
-        share = np.bincount(label, weights=near, minlength=sizes.size) / sizes
+        share = np.bincount(label_q, weights=near, minlength=sizes.size) / sizes
         members = np.flatnonzero(share > MAJORITY)
-        claimed = int(np.count_nonzero(near & np.isin(label, members)))
+        claimed = int(np.count_nonzero(near & np.isin(label_q, members)))
         key = (claimed, -reg.score)  # the most points claimed; a tie by the better fit
         if k in members and (best_key is None or key > best_key):
             best, best_key = members, key

@@ -153,12 +153,12 @@ def test_remove_plane_does_not_apply_to_a_2d_template(scene, capsys):
     assert code == 64 and "--remove-plane applies to 3D nominals" in capsys.readouterr().err
 
 
-def test_another_object_on_the_table_is_not_the_part(tmp_path, capsys):
+def _part_beside_a_box(folder):
     """A scanner's view of a table (every 10 mm) holding the part (the height surface every
     8 mm, 2 µm of noise, a 0.5 mm dent) and beside it a box (300 x 150 x 60 mm, its top and
-    sides every 8 mm): with --remove-plane the box goes as another object, whole, and the dent
-    stays: the part is REJECTed for its dent and for nothing else."""
-    write_grid_nominal(tmp_path / "nominal.csv", 150, 100)
+    sides every 8 mm); the nominal and the scene written to ``folder``. Returns (table, part,
+    box, dent: the planted deviation of each part point)."""
+    write_grid_nominal(folder / "nominal.csv", 150, 100)
     rng = np.random.default_rng(5)
     gx, gy = np.meshgrid(np.arange(-240, 241, 8.0), np.arange(-112, 113, 8.0))
     x, y = gx.ravel(), gy.ravel()
@@ -172,7 +172,14 @@ def test_another_object_on_the_table_is_not_the_part(tmp_path, capsys):
     tx, ty = np.meshgrid(t, t)
     table = np.c_[tx.ravel(), ty.ravel(), np.full(tx.size, floor)]
     box = _box_surface(np.array([hi[0] + 200.0, 0.0, floor]), (300.0, 150.0, 60.0), 8.0)
-    np.savetxt(tmp_path / "scene.xyz", np.vstack([table, part, box]), fmt="%.6f")
+    np.savetxt(folder / "scene.xyz", np.vstack([table, part, box]), fmt="%.6f")
+    return table, part, box, dent
+
+
+def test_another_object_on_the_table_is_not_the_part(tmp_path, capsys):
+    """The part beside a box on a table: with --remove-plane the box goes as another object,
+    whole, and the dent stays: the part is REJECTed for its dent and for nothing else."""
+    table, part, box, dent = _part_beside_a_box(tmp_path)
     code = run("inspect", tmp_path / "nominal.csv", tmp_path / "scene.xyz", "--tol", "0.05",
                "--remove-plane", "--json", tmp_path / "r.json", "--csv", tmp_path / "r.csv")
     out = capsys.readouterr().out
@@ -188,6 +195,24 @@ def test_another_object_on_the_table_is_not_the_part(tmp_path, capsys):
     assert np.abs(d - dent).max() < 0.025
     out_of_zone = np.abs(d) > 0.05
     assert out_of_zone.any() and np.all(dent[out_of_zone] < -0.04)
+
+
+def test_objects_found_on_a_spread_of_a_dense_scene_are_the_same(tmp_path, monkeypatch):
+    """A dense scan's objects are found on a voxel spread of its points (engine.scene_part's
+    OBJECT_POINTS), each point taking its nearest one's object: with the spread at a third of
+    the points the part's points kept are the same as with all of them."""
+    import engine.scene_part as scene_part
+    from engine.io import load_point_set
+    from engine.nominal import Nominal
+
+    table, part, box, _ = _part_beside_a_box(tmp_path)
+    on_table = np.vstack([part, box])
+    nominal = Nominal.from_point_set(load_point_set(str(tmp_path / "nominal.csv")))
+    whole = scene_part.part_in_scene(nominal, on_table, 0.0, 0.1)
+    monkeypatch.setattr(scene_part, "OBJECT_POINTS", on_table.shape[0] // 3)
+    spread = scene_part.part_in_scene(nominal, on_table, 0.0, 0.1)
+    assert np.array_equal(whole.kept, np.arange(part.shape[0]))
+    assert whole.n_objects == 2 and np.array_equal(spread.kept, whole.kept)
 
 
 def _box_surface(base_centre: np.ndarray, size, step: float) -> np.ndarray:
