@@ -1,4 +1,5 @@
-"""Each characteristic type judged (profile with or without datums, flatness, position, size),
+"""Each characteristic type judged (profile with or without datums, flatness, position, size;
+the other form types in engine.gdt.form, the orientation types in engine.gdt.orientation),
 with the work a plan's characteristics share done once (Shared), and the part's verdict from
 theirs."""
 
@@ -13,7 +14,9 @@ from ..tolerance import Tolerance
 from ..verdict import ACCEPT, INCONCLUSIVE, REJECT, pointwise_verdict
 from .datums import Alignment, align
 from .decision import by_value, own, untrusted, value_guard
-from .plan import MIN_POINTS, Characteristic, Plan
+from .form import judge_form
+from .orientation import judge_orientation
+from .plan import FORM, MIN_POINTS, ORIENTATION, Characteristic, Plan
 from .region_features import FACING, SPAN, datum_invariants, measured_hole, nominal_cylinder
 from .results import WORST, CharacteristicResult, Geometry
 
@@ -89,8 +92,8 @@ def part_verdict(results) -> tuple[str, tuple[str, ...]]:
 
 def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
     planar = geo.nominal_points.shape[1] == 2
-    need = {"profile": 1, "flatness": MIN_POINTS["line" if planar else "plane"]}.get(
-        c.type, MIN_POINTS["circle" if planar else "cylinder"])
+    kind = {"plane": "line", "cylinder": "circle"}.get(c.feature) if planar else c.feature
+    need = 1 if c.type == "profile" else MIN_POINTS[kind]
     if idx.size < need:
         return CharacteristicResult(c, None, INCONCLUSIVE,
                                     f"region '{c.region}' has {idx.size} measured points; "
@@ -102,6 +105,10 @@ def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_p
             return _profile(c, idx, geo, shared)
         if c.type == "flatness":
             return _flatness(c, idx, geo, shared)
+        if c.type in FORM:
+            return judge_form(c, idx, geo, shared)
+        if c.type in ORIENTATION:
+            return judge_orientation(c, idx, geo, shared, T_part)
         return _hole(c, idx, geo, shared, T_part)
     except FeatureError as e:
         # The region's points do not determine its feature (all on a line, ...): say so.

@@ -53,7 +53,7 @@ def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
         normals = geo.nominal_normals(np.flatnonzero(mask))
         idx = members[r.name]
         measured = _fit_feature(kind, geo.evaluate(T, idx)[0], normals) if idx.size else None
-        out.append(RegionFeature(r.name, kind, _region_nominal(kind, geo, mask), measured, on))
+        out.append(RegionFeature(r.name, kind, region_nominal(kind, geo, mask), measured, on))
     return tuple(out)
 
 
@@ -119,7 +119,7 @@ def exact_nominal(geo: Geometry, kind: str, mask: np.ndarray) -> dict | None:
     return None if geo.exact_feature is None else geo.exact_feature(kind, mask)
 
 
-def _region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
+def region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
     """A region's nominal feature: the model's exact surface where it has one, else the
     least-squares fit to the region's nominal samples (``mask``)."""
     exact = exact_nominal(geo, kind, mask)
@@ -134,7 +134,7 @@ def datum_invariants(datum, geo: Geometry) -> np.ndarray | None:
     least-squares feature of its region's nominal points; None when they do not form it."""
     from .datums import invariant_motions
 
-    nominal = _region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
+    nominal = region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
     if nominal is None:
         return None
     return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
@@ -214,6 +214,11 @@ def nominal_cylinder(c, geo: Geometry, shared) -> tuple:
         raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no "
                          f"{'circle' if geo.nominal_points.shape[1] == 2 else 'cylinder'} "
                          f"({e.message})") from None
+    spread = np.linalg.eigvalsh(normals.T @ normals)
+    if spread[-2] < HOLE_SPREAD * spread[-1]:  # a plane is a cylinder of infinite radius
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no "
+                         f"{'hole' if c.type in ('position', 'size') else 'cylinder'}: the "
+                         "normals of its nominal points all face one way")
     if nom.form_error > HOLE_FORM * nom.radius:
         raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no "
                          f"{'hole' if c.type in ('position', 'size') else 'cylinder'}: its "
