@@ -538,3 +538,18 @@ def test_plans_the_nominal_shows_wrong_are_refused_with_65(tmp_path, capsys, bod
     assert main(["inspect", *SEAT, "--plan", str(plan)]) == 65
     err = capsys.readouterr().err
     assert f"{plan}: [[characteristic]] '7': " in err and words in err, err
+
+
+@pytest.mark.parametrize("seed, n", [(10, 40), (11, 200), (12, 2000)])
+def test_the_minimum_zone_circle_equals_its_brute_force_twin_on_random_rounds(seed, n):
+    """engine.gdt.form.round_zone (linear programs, the rows near the zone's edges only above
+    300 points) against the grid + Nelder-Mead twin, on noisy lobed circles off the origin."""
+    from engine.gdt.form import round_zone
+
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(0, 2 * np.pi, n)
+    r = 7.0 + 0.003 * np.cos(rng.integers(2, 6) * a + 1.0) + rng.normal(0, 5e-4, n)
+    q = np.column_stack([r * np.cos(a), r * np.sin(a)]) + rng.uniform(-50, 50, 2)
+    width, centre = round_zone(q)
+    assert width == pytest.approx(_round_zone_brute(q), abs=1e-7)
+    assert np.ptp(np.linalg.norm(q - centre, axis=1)) == pytest.approx(width, abs=1e-12)

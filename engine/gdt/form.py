@@ -64,15 +64,22 @@ def chebyshev(fun: Callable, x0: np.ndarray, two_sided: bool = True, radius: flo
     """The parameters x minimising the zone of the residuals ``fun(x) -> (f (n,), J (n, k))``:
     max f - min f (``two_sided``: a minimum zone) or max f (one-sided: an enclosing radius),
     from x0 (module docstring). radius : the first trust region, in x's units (every component
-    of a step stays within it)."""
+    of a step stays within it).
+
+    Only residuals near the zone's edges can bound it: each program takes those within
+    ``band`` of the zone's width from an edge (all of a few hundred), and the band widens when
+    a step the program offered narrows them but not the whole zone. Every step is judged on
+    all residuals, and a program over fewer rows predicts a zone no wider than over all, so
+    the stop (no narrower zone predicted) is the one all rows give."""
     from scipy.optimize import linprog
 
     x = np.array(x0, dtype=np.float64)
     f, J = fun(x)
     value = _zone(f, two_sided)
-    programs = 0
+    programs, band = 0, 0.02 if f.size > FEW_ROWS else np.inf
     while programs < max_programs and value > 0.0 and radius > 1e-15:
-        step, predicted = _zone_program(linprog, f, J, radius, two_sided)
+        rows = _near_edges(f, band, two_sided)
+        step, predicted = _zone_program(linprog, f[rows], J[rows], radius, two_sided)
         programs += 1
         if step is None or not predicted < value * (1.0 - 1e-12):
             break  # no narrower zone to first order: the minimax
@@ -83,9 +90,26 @@ def chebyshev(fun: Callable, x0: np.ndarray, two_sided: bool = True, radius: flo
             x, f, J, value = x + step, f_new, J_new, new
             if gain <= 1e-14 * value:
                 break
+        elif _zone(f_new[rows], two_sided) < value:
+            band *= 4.0  # rows left out of the program bound the zone: take more
         else:
             radius = 0.25 * float(np.max(np.abs(step)))
     return Zone(x, value, programs)
+
+
+FEW_ROWS = 300
+"""Up to this many residuals every program takes them all."""
+
+
+def _near_edges(f: np.ndarray, band: float, two_sided: bool) -> np.ndarray:
+    """Indices of the residuals within ``band`` x the zone's width of its edges."""
+    if not np.isfinite(band):
+        return np.arange(f.size)
+    hi = float(f.max())
+    lo = float(f.min()) if two_sided else 0.0
+    w = band * (hi - lo)
+    return np.flatnonzero((f >= hi - w) | (f <= lo + w)) if two_sided else \
+        np.flatnonzero(f >= hi - w)
 
 
 def _zone(f: np.ndarray, two_sided: bool) -> float:
@@ -131,10 +155,11 @@ class CylinderZone:
     programs: int
 
 
-def cylindricity(points: np.ndarray, axis_hint: np.ndarray) -> CylinderZone:
+def cylindricity(points: np.ndarray, axis_hint: np.ndarray, start=None) -> CylinderZone:
     """The minimum-zone cylinder of ``points`` (n, 3), mm, from their least-squares cylinder
-    (engine.gdt.features.fit_cylinder_lsq, started along ``axis_hint``)."""
-    fit = fit_cylinder_lsq(points, axis_hint)
+    (``start``, their engine.gdt.features.CylinderFit if already fitted; else fitted, started
+    along ``axis_hint``)."""
+    fit = start if start is not None else fit_cylinder_lsq(points, axis_hint)
     frame = np.vstack([complement(fit.direction), fit.direction])
     scale = fit.radius
     q = ((points - fit.point) @ frame.T) / scale
@@ -276,7 +301,7 @@ def _on_cylinder(c: Characteristic, idx: np.ndarray, geo: Geometry, fit, hint: n
     X = geo.evaluate(geo.T0, idx)[0]
     guard = value_guard(geo, idx, geo.T0, form_only=True)
     if c.type == "cylindricity":
-        z = cylindricity(X, hint)
+        z = cylindricity(X, hint, start=fit)
         return z.width, {"axis_point": z.point, "axis_direction": z.direction,
                          "inner_radius": z.inner, "outer_radius": z.outer}, \
             "minimum-zone radial separation", guard
