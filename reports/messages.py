@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 
 from engine.errors import Cancelled, InputError, SettingsError
+from engine.gdt.plan import SYMBOLS
 
 # Keyed by engine.inspection's verdicts (the JSON contract's strings; importing the engine here
 # would load it into the desktop app's start-up).
@@ -52,8 +53,8 @@ def _message(e: BaseException) -> str:
             "this with the input files.")
 
 
-SYMBOL = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀"}
-"""The characteristic's symbol on a drawing (ASME Y14.5 / ISO 1101)."""
+SYMBOL = SYMBOLS
+"""The characteristic's symbol on a drawing (ASME Y14.5 / ISO 1101): engine.gdt.plan.SYMBOLS."""
 
 
 def limits_text(c) -> str:

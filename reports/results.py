@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from engine.gdt.plan import DEFAULT_SECTIONS, ORIENTATION, SYMBOLS
 from engine.inspection import InspectionResult
 from engine.pipeline import InputRecord, Run
 
@@ -209,7 +210,17 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
             "(the width of the smallest zone, centred like the tolerance zone, holding every "
             "point); flatness: the minimum-zone width; position: the diameter of the smallest "
             "cylinder (circle) about the true position holding the fitted axis (centre); size: "
-            "the least-squares diameter (mm)"),
+            "the least-squares diameter; straightness: the diameter of the smallest cylinder "
+            "holding the derived median line (the least-squares centres of 'sections' slabs "
+            "along the axis), or along 'direction' the largest minimum-zone width of two lines "
+            "holding a slab of the face (a line element); circularity: the largest "
+            "minimum-zone radial separation of two concentric circles over the slabs; "
+            "cylindricity: the minimum-zone radial separation of two coaxial cylinders; "
+            "parallelism, perpendicularity, angularity: at the pose the datums give, the width "
+            "of the smallest zone of two planes at the basic angle to the primary datum, or "
+            "(diametral) the diameter of the smallest cylinder at that angle holding the "
+            "least-squares axis between the planes bounding the feature along it; a rotation "
+            "the datums leave free turns the zone to its smallest (mm)"),
     }
 
 
@@ -224,6 +235,15 @@ def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
         out["nominal"] = _num(c.nominal)
     if c.type == "profile" and not c.datums:
         out["fit"] = c.fit
+    if c.type in ("straightness", "circularity"):
+        out["sections"] = c.sections or DEFAULT_SECTIONS
+    if c.type == "straightness" or c.type in ORIENTATION:
+        out["diametral"] = bool(c.diametral)
+    if c.direction is not None:
+        out["direction"] = [float(v) for v in c.direction]
+    if c.type == "angularity":
+        out["angle"] = _num(c.angle)
+    out["symbol"] = SYMBOLS.get(c.type, "")
     out.update(_json_safe({k: v for k, v in r.facts.items() if k != "T_nominal_measured"}))
     return out
 

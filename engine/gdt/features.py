@@ -168,7 +168,7 @@ def flatness(points: np.ndarray, normal_hint: np.ndarray | None = None,
     w = float(np.ptp(q @ n))
     lps = 0
     while lps < max_linear_programs:
-        basis = _complement(n)
+        basis = complement(n)
         t = _tilt_program(linprog, q, n, basis)
         lps += 1
         if t is None:
@@ -297,15 +297,15 @@ def fit_cylinder_lsq(points: np.ndarray, axis_hint: np.ndarray) -> CylinderFit:
                            "the radius free)")
     g = p.mean(axis=0)
     scale = float(np.sqrt(np.mean(np.sum((p - g) ** 2, axis=1))))
-    frame = np.vstack([_complement(d0), d0])  # rows: e1, e2, axis
+    frame = np.vstack([complement(d0), d0])  # rows: e1, e2, axis
     seen = ((p - g) @ frame[:2].T) / scale  # not on a line: the points are not in a plane
     start = _fit_round(seen, "a cylinder's cross-section")
     origin = g + scale * (start.centre @ frame[:2])
     x, ok1 = _cylinder_lm(((p - origin) @ frame.T) / scale, start.radius / scale)
-    origin, d = _cylinder_axis(origin, frame, x, scale)
-    frame = np.vstack([_complement(d), d])
+    origin, d = cylinder_axis(origin, frame, x, scale)
+    frame = np.vstack([complement(d), d])
     x, ok2 = _cylinder_lm(((p - origin) @ frame.T) / scale, x[4])
-    origin, d = _cylinder_axis(origin, frame, x, scale)
+    origin, d = cylinder_axis(origin, frame, x, scale)
     d = d if d @ d0 >= 0 else -d
     radius = scale * abs(float(x[4]))
     point = origin + ((g - origin) @ d) * d
@@ -321,31 +321,36 @@ def _cylinder_lm(q: np.ndarray, r0: float) -> tuple[np.ndarray, bool]:
     near the axis: the axis passes (x0, y0, 0) along unit((a, b, 1)). Returns (x, converged)."""
     from scipy.optimize import least_squares
 
-    def parts(x):
-        m = np.array([x[2], x[3], 1.0])
-        nm = float(np.linalg.norm(m))
-        w = q - np.array([x[0], x[1], 0.0])
-        t = w @ (m / nm)
-        perp = w - t[:, None] * (m / nm)
-        return nm, t, perp, np.linalg.norm(perp, axis=1)
-
     def residuals(x):
-        return parts(x)[3] - x[4]
+        return axis_distances(q, x)[0] - x[4]
 
     def jacobian(x):
-        # rho^2 = |w|^2 - (w . d)^2: d rho / d(x0, y0) = -perp / rho, and since d d / d(a, b)
-        # = (I - d d^T) e / |m|, d rho / d(a, b) = -t perp / (rho |m|).
-        nm, t, perp, rho = parts(x)
-        dxy = -perp[:, :2] / rho[:, None]
-        return np.column_stack([dxy, dxy * (t / nm)[:, None], -np.ones(len(q))])
+        return np.column_stack([axis_distances(q, x)[1], -np.ones(len(q))])
 
     res = least_squares(residuals, np.array([0.0, 0.0, 0.0, 0.0, r0]), jac=jacobian,
                         method="lm", xtol=_LSQ_TOL, ftol=_LSQ_TOL, gtol=_LSQ_TOL)
     return res.x, bool(res.status > 0)
 
 
-def _cylinder_axis(origin: np.ndarray, frame: np.ndarray, x: np.ndarray, scale: float):
-    """(a point of the axis, unit direction) in the points' frame from :func:`_cylinder_lm`'s
+def axis_distances(q: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rho (n,), J (n, 4)): the distances of points q (n, 3) from the axis through (x0, y0, 0)
+    along unit((a, b, 1)), x = [x0, y0, a, b, ...] (only the first four are read), and their
+    derivatives by x0, y0, a, b. Exact for any x; a frame whose z is near the axis keeps a and b
+    small."""
+    # rho^2 = |w|^2 - (w . d)^2: d rho / d(x0, y0) = -perp / rho, and since d d / d(a, b)
+    # = (I - d d^T) e / |m|, d rho / d(a, b) = -t perp / (rho |m|).
+    m = np.array([x[2], x[3], 1.0])
+    nm = float(np.linalg.norm(m))
+    w = q - np.array([x[0], x[1], 0.0])
+    t = w @ (m / nm)
+    perp = w - t[:, None] * (m / nm)
+    rho = np.linalg.norm(perp, axis=1)
+    dxy = -perp[:, :2] / np.maximum(rho, 1e-300)[:, None]
+    return rho, np.column_stack([dxy, dxy * (t / nm)[:, None]])
+
+
+def cylinder_axis(origin: np.ndarray, frame: np.ndarray, x: np.ndarray, scale: float):
+    """(a point of the axis, unit direction) in the points' frame from :func:`axis_distances`'
     x in the frame (rows of ``frame``) at ``origin``, scaled by ``scale``."""
     point = origin + scale * (np.array([x[0], x[1], 0.0]) @ frame)
     m = np.array([x[2], x[3], 1.0]) @ frame
@@ -434,7 +439,7 @@ def _unit(v, dim: int, name: str) -> np.ndarray:
     return a / nrm
 
 
-def _complement(n: np.ndarray) -> np.ndarray:
+def complement(n: np.ndarray) -> np.ndarray:
     """(dim-1, dim) orthonormal rows spanning the complement of unit n."""
     return np.linalg.svd(n[None, :])[2][1:]
 

@@ -1,10 +1,9 @@
-"""Each characteristic type judged (profile with or without datums, flatness, position, size),
+"""Each characteristic type judged (profile with or without datums, flatness, position, size;
+the other form types in engine.gdt.form, the orientation types in engine.gdt.orientation),
 with the work a plan's characteristics share done once (Shared), and the part's verdict from
 theirs."""
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import numpy as np
 
@@ -14,9 +13,11 @@ from ..fits import minimax_pose
 from ..tolerance import Tolerance
 from ..verdict import ACCEPT, INCONCLUSIVE, REJECT, pointwise_verdict
 from .datums import Alignment, align
-from .plan import MIN_POINTS, Characteristic, Plan
-from .region_features import (FACING, HOLE_FORM, HOLE_SPREAD, SPAN, cylinder_from_normals,
-                              datum_invariants, exact_nominal)
+from .decision import by_value, own, untrusted, value_guard
+from .form import judge_form
+from .orientation import judge_orientation
+from .plan import FORM, MIN_POINTS, ORIENTATION, Characteristic, Plan
+from .region_features import FACING, SPAN, datum_invariants, measured_hole, nominal_cylinder
 from .results import WORST, CharacteristicResult, Geometry
 
 PROGRESS_REPORTS = 200
@@ -91,8 +92,8 @@ def part_verdict(results) -> tuple[str, tuple[str, ...]]:
 
 def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
     planar = geo.nominal_points.shape[1] == 2
-    need = {"profile": 1, "flatness": MIN_POINTS["line" if planar else "plane"]}.get(
-        c.type, MIN_POINTS["circle" if planar else "cylinder"])
+    kind = {"plane": "line", "cylinder": "circle"}.get(c.feature) if planar else c.feature
+    need = 1 if c.type == "profile" else MIN_POINTS[kind]
     if idx.size < need:
         return CharacteristicResult(c, None, INCONCLUSIVE,
                                     f"region '{c.region}' has {idx.size} measured points; "
@@ -104,23 +105,15 @@ def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_p
             return _profile(c, idx, geo, shared)
         if c.type == "flatness":
             return _flatness(c, idx, geo, shared)
+        if c.type in FORM:
+            return judge_form(c, idx, geo, shared)
+        if c.type in ORIENTATION:
+            return judge_orientation(c, idx, geo, shared, T_part)
         return _hole(c, idx, geo, shared, T_part)
     except FeatureError as e:
         # The region's points do not determine its feature (all on a line, ...): say so.
         return CharacteristicResult(c, None, INCONCLUSIVE, f"region '{c.region}': {e.message}",
                                     idx)
-
-
-def _untrusted(c, idx, al: Alignment):
-    return CharacteristicResult(c, None, INCONCLUSIVE,
-                                f"its datums cannot place the part: {al.message}", idx,
-                                facts={"datums": [f.label for f in al.datums]})
-
-
-def _own(shared_result: CharacteristicResult, c: Characteristic) -> CharacteristicResult:
-    """A result computed for another characteristic on the same region, as ``c``'s: its
-    reason names only the region, its points and its datums, which they share."""
-    return replace(shared_result, characteristic=c)
 
 
 def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
@@ -131,7 +124,7 @@ def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
         ("profile", c.region, c.fit) + ((c.lower, c.upper) if c.fit == "minimax" else ())
     got = shared.once(key, lambda: _profile_pose(c, idx, geo, shared))
     if isinstance(got, CharacteristicResult):
-        return _own(got, c)
+        return own(got, c)
     T, d, margin, facts = got
     verdict, reason = pointwise_verdict(d, tol, margin)
     centre = 0.5 * (c.lower + c.upper)
@@ -149,7 +142,7 @@ def _profile_pose(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Sha
     if c.datums:
         al = shared.placed(tuple(c.datums), (c.region,), geo.T0)
         if not al.complete:
-            return _untrusted(c, idx, al)
+            return untrusted(c, idx, al)
         T = al.T_nominal_measured
         facts["free"] = [f.describe() for f in al.free]
     elif c.fit == Fit.MINIMAX:
@@ -165,9 +158,9 @@ def _profile_pose(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Sha
 def _flatness(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
     got = shared.once(("flatness", c.region), lambda: _flat(c, idx, geo))
     if isinstance(got, CharacteristicResult):
-        return _own(got, c)
+        return own(got, c)
     width, normal, guard = got
-    return _by_value(c, idx, width, {"normal": normal}, "minimum-zone width", guard)
+    return by_value(c, idx, width, {"normal": normal}, "minimum-zone width", guard)
 
 
 def _flat(c: Characteristic, idx: np.ndarray, geo: Geometry):
@@ -191,92 +184,39 @@ def _flat(c: Characteristic, idx: np.ndarray, geo: Geometry):
         return CharacteristicResult(c, None, INCONCLUSIVE, f"the points' minimum zone stands "
                                     f"at {turn:.0f}° to the nominal face: they do not "
                                     "determine its plane", idx)
-    return f.width, f.normal, _value_guard(geo, idx, geo.T0, form_only=True)
-
-
-def _value_guard(geo: Geometry, idx: np.ndarray, T, form_only: bool) -> float | None:
-    """Under the guarded rule, how far the points' uncertainty can move a value computed from
-    them: twice the largest expanded U among the points ``idx`` at pose T (each point's error
-    within its U moves a minimum-zone width, a least-squares diameter or a position diameter by
-    at most that), without the registration's pose term for a value no rigid motion changes
-    (``form_only``: a flatness, a diameter); None under the simple rule."""
-    m = geo.margin(idx, T, form_only=form_only)
-    return None if m is None or len(m) == 0 else 2.0 * float(np.max(m))
-
-
-def _by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
-              guard: float | None = None):
-    """The characteristic judged by its value against its limits; with ``guard`` (the value's
-    uncertainty bound, :func:`_value_guard`) by ISO 14253-1: ACCEPT inside the limits shrunk
-    by it, REJECT outside them grown by it, else INCONCLUSIVE. Flatness and position have an
-    upper limit only (their value cannot be below 0): no guard on the lower side."""
-    lo, hi = (c.nominal or 0.0) + c.lower, (c.nominal or 0.0) + c.upper
-    inside = lo <= value <= hi
-    reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
-              f"[{lo:.4f}, {hi:.4f}] mm")
-    verdict = ACCEPT if inside else REJECT
-    if guard is not None:
-        g_lo = 0.0 if c.type in ("flatness", "position") else guard
-        facts = {**facts, "uncertainty_bound": guard}
-        if value > hi + guard or value < lo - g_lo:
-            verdict = REJECT
-            reason += f", by more than its uncertainty ±{guard:.4f} mm"
-        elif not lo + g_lo <= value <= hi - guard:
-            verdict = INCONCLUSIVE
-            reason += (f", within its uncertainty ±{guard:.4f} mm (twice the largest U of its "
-                       "points) of a limit: conformance is not proven either way (ISO 14253-1)")
-        else:
-            reason += f" by more than its uncertainty ±{guard:.4f} mm"
-    return CharacteristicResult(c, float(value), verdict, reason, idx, facts=facts)
+    return f.width, f.normal, value_guard(geo, idx, geo.T0, form_only=True)
 
 
 def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
     """Size or position of the hole of ``c``'s region (a cylinder in 3D, a circle in 2D)."""
-    nom, normals = shared.once(("hole", c.region), lambda: _nominal_hole(geo, c.region))
-    if nom.form_error > HOLE_FORM * nom.radius:
-        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no hole: its "
-                         f"nominal points lie up to {nom.form_error:.3g} mm off their "
-                         f"best {'circle' if normals.shape[1] == 2 else 'cylinder'}")
+    nom, normals = nominal_cylinder(c, geo, shared)
     if c.type == "size":
         got = shared.once(("size", c.region), lambda: _size(c, idx, geo, normals, nom))
         if isinstance(got, CharacteristicResult):
-            return _own(got, c)
+            return own(got, c)
         diameter, form_error, guard = got
-        return _by_value(c, idx, diameter, {"fit": "least squares", "form_error": form_error},
+        return by_value(c, idx, diameter, {"fit": "least squares", "form_error": form_error},
                          "least-squares diameter", guard)
     al = shared.placed(tuple(c.datums), (), T_part)
     if not al.complete:
-        return _untrusted(c, idx, al)
+        return untrusted(c, idx, al)
     _check_located(c, shared.once(("loose", c.region, tuple(c.datums)),
                                   lambda: _loose(al, nom, geo)))
     got = shared.once(("position", c.region, tuple(c.datums)),
                       lambda: _position(c, idx, geo, normals, nom, al))
     if isinstance(got, CharacteristicResult):
-        return _own(got, c)
+        return own(got, c)
     value, facts, guard = got
-    return _by_value(c, idx, value, dict(facts), "position (diameter)", guard)
-
-
-def _nominal_hole(geo: Geometry, region: str):
-    """(the region's nominal hole: the model's exact cylinder where it has one, else the fit
-    to its samples; the samples' normals)."""
-    mask = geo.nominal_masks[region]
-    nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
-    nom = _hole_fit(nominal, normals)
-    exact = exact_nominal(geo, "cylinder", mask) if nominal.shape[1] == 3 else None
-    if exact is not None:  # the model's own axis and radius, not a fit to its samples
-        nom = replace(nom, point=exact["point"], direction=exact["direction"],
-                      radius=0.5 * exact["diameter"], form_error=0.0)
-    return nom, normals
+    return by_value(c, idx, value, dict(facts), "position (diameter)", guard)
 
 
 def _size(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom):
     """(least-squares diameter, form error, its uncertainty bound) of the region's measured
     hole, or an INCONCLUSIVE result when its points do not determine it."""
-    got = _measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
+    got = measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
     if isinstance(got, CharacteristicResult):
         return got
-    return 2.0 * got.radius, got.form_error, _value_guard(geo, idx, geo.T0, True)
+    return 2.0 * got.radius, got.form_error, value_guard(geo, idx, geo.T0, True)
 
 
 def _position(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom,
@@ -286,7 +226,7 @@ def _position(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.nda
     determine it."""
     from .features import position_value
 
-    got = _measured_hole(c, idx, geo.evaluate(al.T_nominal_measured, idx)[0], normals, nom)
+    got = measured_hole(c, idx, geo.evaluate(al.T_nominal_measured, idx)[0], normals, nom)
     if isinstance(got, CharacteristicResult):
         return got
     if normals.shape[1] == 2:
@@ -297,7 +237,7 @@ def _position(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.nda
         facts = {"axis_ends": got.ends, "nominal_point": nom.point,
                  "nominal_direction": nom.direction}
     facts["free"] = [f.describe() for f in al.free]
-    return value, facts, _value_guard(geo, idx, al.T_nominal_measured, form_only=False)
+    return value, facts, value_guard(geo, idx, al.T_nominal_measured, form_only=False)
 
 
 def _loose(al: Alignment, nom, geo: Geometry) -> list:
@@ -319,36 +259,3 @@ def _check_located(c: Characteristic, loose: list) -> None:
         raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} leave "
                          f"the hole free to move ({'; '.join(f.describe() for f in loose)}): a "
                          "position needs datums that locate it")
-
-
-def _hole_fit(X: np.ndarray, normals: np.ndarray):
-    """The least-squares circle (2D) or cylinder (3D, its axis started from the normals)."""
-    from .features import fit_circle_lsq, fit_cylinder_lsq
-
-    return fit_circle_lsq(X) if X.shape[1] == 2 else cylinder_from_normals(fit_cylinder_lsq, X, normals)
-
-
-def _measured_hole(c: Characteristic, idx: np.ndarray, X: np.ndarray, normals: np.ndarray,
-                   nom):
-    """The measured hole's fit, or an INCONCLUSIVE result when its points do not determine it
-    (the fit did not settle, or its axis turned from the nominal's by more than FACING: a hole
-    probed on a narrow arc)."""
-    radial = X - (nom.centre if X.shape[1] == 2 else nom.point)
-    if X.shape[1] == 3:
-        radial -= np.outer(radial @ nom.direction, nom.direction)
-    radial /= np.linalg.norm(radial, axis=1)[:, None]
-    across = np.linalg.svd(np.column_stack([radial, np.ones(len(X))]) / np.sqrt(len(X)),
-                           compute_uv=False)
-    if across[2] < HOLE_SPREAD:  # (3D: a 4th, along the axis, is zero)
-        return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
-                                    f"'{c.region}' do not determine the hole (they cover too "
-                                    "little of its circumference)", idx)
-    got = _hole_fit(X, normals)
-    turn = 0.0 if X.shape[1] == 2 else float(np.degrees(np.arccos(np.clip(
-        abs(got.direction @ nom.direction), 0.0, 1.0))))
-    if got.converged and turn <= np.degrees(FACING):
-        return got
-    why = f"its axis turns {turn:.0f}° from the nominal's" if got.converged else \
-        "the fit does not settle"
-    return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
-                                f"'{c.region}' do not determine the hole ({why})", idx)

@@ -10,8 +10,10 @@ within the zone? A plan states, like the drawing's feature control frames:
 * the alignment: how the part is placed before it is judged: a best fit (today's behaviour), a
   datum reference frame (primary, secondary, tertiary; the freedom they leave best-fitted on named
   regions), or reference point system (RPS) points;
-* characteristics: profile (relative to datums, or form only), flatness, position and size, each
-  with its zone.
+* characteristics: profile (relative to datums, or form only), the form family (flatness,
+  straightness, circularity, cylindricity: engine.gdt.form), the orientation family
+  (parallelism, perpendicularity, angularity relative to datums: engine.gdt.orientation),
+  position and size, each with its zone.
 
 Units mm; coordinates in the nominal frame. Every object here is frozen.
 """
@@ -26,7 +28,22 @@ FEATURES_3D = ("plane", "cylinder", "sphere")
 FEATURES_2D = ("line", "circle")
 DATUM_FITS = ("tangent", "lsq")
 ALIGNMENTS = ("best-fit", "datums", "rps")
-CHARACTERISTICS = ("profile", "flatness", "position", "size")
+FORM = ("flatness", "straightness", "circularity", "cylindricity")
+"""The form family (ASME Y14.5 / ISO 1101): the feature's own shape, relative to no datum."""
+ORIENTATION = ("parallelism", "perpendicularity", "angularity")
+"""The orientation family: a plane (zone between two planes) or an axis (``diametral``: a
+cylindrical zone) at the required orientation to its datums."""
+CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION
+ZONE_ONLY = ("position",) + FORM + ORIENTATION
+"""Types whose value is >= 0 by definition with an upper limit only (0 .. zone)."""
+SYMBOLS = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀",
+           "straightness": "⏤", "circularity": "○", "cylindricity": "⌭",
+           "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠"}
+"""Each characteristic type's symbol on a drawing (ASME Y14.5 / ISO 1101), in one place."""
+DEFAULT_SECTIONS = 8
+"""Cross-sections a circularity (and a straightness) is judged on by default."""
+ORIENTATION_ANGLE = {"parallelism": 0.0, "perpendicularity": 90.0}
+"""The basic angle (degrees) of parallelism and perpendicularity; angularity states its own."""
 PROFILE_FITS = ("lsq", "minimax")
 """How a form-only profile refits its region: least squares, or minimax (the smallest zone)."""
 MAX_DATUMS = 3
@@ -138,7 +155,7 @@ class Alignment:
 class Characteristic:
     """One requirement of the drawing.
 
-    id : the balloon number. type : profile | flatness | position | size.
+    id : the balloon number. type : one of ``CHARACTERISTICS``.
     lower, upper : the zone, mm. Profile: limits of the signed deviation (zone = 0.1 is
         -0.05 .. +0.05). Flatness and position: 0 .. zone (position: a diameter). Size: limits
         of the fitted diameter about ``nominal``.
@@ -156,10 +173,37 @@ class Characteristic:
     """A form-only profile's refit (``PROFILE_FITS``); not used by the other types."""
     nominal: float | None = None
     """Size only: the nominal diameter, mm (``lower`` and ``upper`` are offsets about it)."""
+    direction: tuple[float, float, float] | None = None
+    """Straightness of a surface's line elements: the direction they run along, nominal frame
+    (a unit vector); None: a cylinder's derived median line."""
+    sections: int | None = None
+    """Circularity and straightness: how many cross-sections along the feature (None: the
+    default, ``DEFAULT_SECTIONS``)."""
+    diametral: bool = False
+    """Orientation: the toleranced feature is a cylinder's axis and the zone a cylinder (else a
+    plane between two planes)."""
+    angle: float | None = None
+    """Angularity: the basic angle to the primary datum, degrees."""
 
     @property
     def width(self) -> float:
         return self.upper - self.lower
+
+    @property
+    def feature(self) -> str:
+        """The feature its region must be: plane | cylinder, or freeform (a profile)."""
+        return implied_feature(self.type, self.direction is not None, self.diametral)
+
+
+def implied_feature(kind: str, direction: bool = False, diametral: bool = False) -> str:
+    """The feature a characteristic of type ``kind`` is judged on: a plane (flatness, a
+    straightness along a ``direction``, an orientation without ``diametral``), a cylinder
+    (position, size, circularity, cylindricity, a straightness of the median line, an
+    orientation of an axis), else freeform (a profile's surface)."""
+    if kind == "flatness" or (kind == "straightness" and direction) or (
+            kind in ORIENTATION and not diametral):
+        return "plane"
+    return "freeform" if kind == "profile" else "cylinder"
 
 
 @dataclass(frozen=True)

@@ -4,14 +4,16 @@ the 3-2-1 (RPS) alignment."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import InputError
 from .datums import Alignment, align_rps
-from .plan import MIN_POINTS, Plan
-from .results import Geometry, RegionFeature
+from .plan import MIN_POINTS, Characteristic, Plan
+from ..verdict import INCONCLUSIVE
+from .results import CharacteristicResult, Geometry, RegionFeature
 
-_IMPLIED_FEATURE = {"flatness": "plane", "position": "cylinder", "size": "cylinder"}
 FACING = np.radians(10.0)
 """How far a sample's normal may turn from its feature's and still be of it (engine.gdt.regions
 boxes take in strips of the neighbouring faces), and how far a measured feature's fitted plane
@@ -51,18 +53,19 @@ def region_features(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
         normals = geo.nominal_normals(np.flatnonzero(mask))
         idx = members[r.name]
         measured = _fit_feature(kind, geo.evaluate(T, idx)[0], normals) if idx.size else None
-        out.append(RegionFeature(r.name, kind, _region_nominal(kind, geo, mask), measured, on))
+        out.append(RegionFeature(r.name, kind, region_nominal(kind, geo, mask), measured, on))
     return tuple(out)
 
 
 def _region_kinds(plan: Plan) -> dict[str, str]:
     """{region: the feature it is}: its datum's feature, else what its characteristic implies
-    (flatness a plane, position and size a hole), else freeform (a profile's surface)."""
+    (engine.gdt.plan.implied_feature: flatness a plane, position and size a hole, ...), else
+    freeform (a profile's surface)."""
     kinds: dict[str, str] = {}
     for d in plan.datums:
         kinds.setdefault(d.region, d.feature)
     for c in plan.characteristics:
-        kinds.setdefault(c.region, _IMPLIED_FEATURE.get(c.type, "freeform"))
+        kinds.setdefault(c.region, c.feature)
     return kinds
 
 
@@ -116,7 +119,7 @@ def exact_nominal(geo: Geometry, kind: str, mask: np.ndarray) -> dict | None:
     return None if geo.exact_feature is None else geo.exact_feature(kind, mask)
 
 
-def _region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
+def region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
     """A region's nominal feature: the model's exact surface where it has one, else the
     least-squares fit to the region's nominal samples (``mask``)."""
     exact = exact_nominal(geo, kind, mask)
@@ -131,7 +134,7 @@ def datum_invariants(datum, geo: Geometry) -> np.ndarray | None:
     least-squares feature of its region's nominal points; None when they do not form it."""
     from .datums import invariant_motions
 
-    nominal = _region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
+    nominal = region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
     if nominal is None:
         return None
     return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
@@ -195,3 +198,76 @@ def cylinder_from_normals(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
     one its surface normals are all perpendicular to (the smallest eigenvector of sum n n^T)."""
     _, vecs = np.linalg.eigh(normals.T @ normals)
     return fit_cylinder_lsq(X, vecs[:, 0])
+
+
+def nominal_cylinder(c, geo: Geometry, shared) -> tuple:
+    """(the nominal hole or pin of ``c``'s region (:func:`nominal_hole`), its samples'
+    normals), computed once per region (``shared``: engine.gdt.judgement.Shared); a region
+    that is no cylinder (its nominal points off their best one by more than HOLE_FORM of its
+    radius, or in one plane) is an InputError naming the characteristic."""
+    from ..errors import InputError
+    from .features import FeatureError
+
+    try:
+        nom, normals = shared.once(("hole", c.region), lambda: nominal_hole(geo, c.region))
+    except FeatureError as e:
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no "
+                         f"{'circle' if geo.nominal_points.shape[1] == 2 else 'cylinder'} "
+                         f"({e.message})") from None
+    spread = np.linalg.eigvalsh(normals.T @ normals)
+    if spread[-2] < HOLE_SPREAD * spread[-1]:  # a plane is a cylinder of infinite radius
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no "
+                         f"{'hole' if c.type in ('position', 'size') else 'cylinder'}: the "
+                         "normals of its nominal points all face one way")
+    if nom.form_error > HOLE_FORM * nom.radius:
+        raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no "
+                         f"{'hole' if c.type in ('position', 'size') else 'cylinder'}: its "
+                         f"nominal points lie up to {nom.form_error:.3g} mm off their best "
+                         f"{'circle' if normals.shape[1] == 2 else 'cylinder'}")
+    return nom, normals
+
+
+def nominal_hole(geo: Geometry, region: str):
+    """(the region's nominal hole: the model's exact cylinder where it has one, else the fit
+    to its samples; the samples' normals)."""
+    mask = geo.nominal_masks[region]
+    nominal, normals = geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))
+    nom = hole_fit(nominal, normals)
+    exact = exact_nominal(geo, "cylinder", mask) if nominal.shape[1] == 3 else None
+    if exact is not None:  # the model's own axis and radius, not a fit to its samples
+        nom = replace(nom, point=exact["point"], direction=exact["direction"],
+                      radius=0.5 * exact["diameter"], form_error=0.0)
+    return nom, normals
+
+
+def hole_fit(X: np.ndarray, normals: np.ndarray):
+    """The least-squares circle (2D) or cylinder (3D, its axis started from the normals)."""
+    from .features import fit_circle_lsq, fit_cylinder_lsq
+
+    return fit_circle_lsq(X) if X.shape[1] == 2 else cylinder_from_normals(fit_cylinder_lsq, X, normals)
+
+
+def measured_hole(c: Characteristic, idx: np.ndarray, X: np.ndarray, normals: np.ndarray,
+                   nom):
+    """The measured hole's fit, or an INCONCLUSIVE result when its points do not determine it
+    (the fit did not settle, or its axis turned from the nominal's by more than FACING: a hole
+    probed on a narrow arc)."""
+    radial = X - (nom.centre if X.shape[1] == 2 else nom.point)
+    if X.shape[1] == 3:
+        radial -= np.outer(radial @ nom.direction, nom.direction)
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    across = np.linalg.svd(np.column_stack([radial, np.ones(len(X))]) / np.sqrt(len(X)),
+                           compute_uv=False)
+    if across[2] < HOLE_SPREAD:  # (3D: a 4th, along the axis, is zero)
+        return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
+                                    f"'{c.region}' do not determine the hole (they cover too "
+                                    "little of its circumference)", idx)
+    got = hole_fit(X, normals)
+    turn = 0.0 if X.shape[1] == 2 else float(np.degrees(np.arccos(np.clip(
+        abs(got.direction @ nom.direction), 0.0, 1.0))))
+    if got.converged and turn <= np.degrees(FACING):
+        return got
+    why = f"its axis turns {turn:.0f}° from the nominal's" if got.converged else \
+        "the fit does not settle"
+    return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
+                                f"'{c.region}' do not determine the hole ({why})", idx)

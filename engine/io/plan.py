@@ -24,6 +24,11 @@ The format (units mm, coordinates in the nominal frame; issue 12 is its contract
                            flatness: zone (0 .. zone); form only, no datums
                            position: zone (a diameter, 0 .. zone); datums (at least one)
                            size:     nominal (diameter), lower and upper (offsets about it)
+                           straightness: zone; direction = [x, y, z] (a plane's line elements)
+                                     or none (a cylinder's median line, diametral); sections
+                           circularity: zone; sections (default 8); cylindricity: zone
+                           parallelism, perpendicularity, angularity: zone; datums (at least
+                                     one); diametral = true (an axis); angularity: angle (deg)
 
 Everything decidable from the file alone is checked here: TOML syntax, unknown tables and keys,
 types, choices, names that must exist and be unique, zones. Each problem raises
@@ -38,10 +43,8 @@ its feature, depend on the nominal and measured files and are checked by the ins
 from __future__ import annotations
 
 import datetime as dt
-import difflib
 import functools
 import hashlib
-import json
 import math
 import os
 import re
@@ -52,32 +55,16 @@ from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
-                             FEATURES_3D, MAX_CHARACTERISTICS, MAX_DATUMS, PROFILE_FITS,
+                             FEATURES_3D, FORM, MAX_CHARACTERISTICS, MAX_DATUMS, ORIENTATION,
+                             PROFILE_FITS,
                              RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
                              Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
+from .plan_tables import KEYS, ORDER, TABLES, Table, did_you_mean, known, notation, show
 from .points import read_bytes
 
-ARRAY_TABLES = {"region": "name", "datum": "label", "characteristic": "id", "rps": "label"}
-"""The plan's arrays of tables ([[name]]) and the key that identifies each entry."""
-TABLES = ("part", "alignment", "measurement")
-"""The plan's single tables ([name])."""
-ORDER = ("part", "measurement", "region", "datum", "alignment", "characteristic", "rps")
-KEYS = {
-    "part": ("number", "name", "revision", "drawing", "cad_revision"),
-    "measurement": ("device", "device_serial", "calibration_date", "probe", "program",
-                    "temperature_c", "uncertainty_mm", "mpe_a_um", "mpe_l_per_um", "probing_um",
-                    "expansion_per_k"),
-    "region": ("name", "box", "labels", "group", "measured_labels"),
-    "datum": ("label", "region", "feature", "fit"),
-    "alignment": ("method", "reference", "best_fit_regions"),
-    "rps": ("label", "nominal", "lock"),
-    "characteristic": ("id", "type", "region", "zone", "lower", "upper", "nominal", "datums",
-                       "fit"),
-}
-"""Every key each table may hold."""
 SELECTORS = ("box", "labels", "group")
 """A region selects its nominal points by exactly one of these."""
 
@@ -118,6 +105,7 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     characteristics = tuple(_characteristic(t, region_names, datums)
                             for t in tables["characteristic"])
     _unique(tables["characteristic"], "id")
+    _one_feature_per_region(tables["characteristic"], characteristics, datums)
     part, measurement = tables["part"], tables["measurement"]
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
@@ -136,7 +124,7 @@ def check_zones(plan: Plan, size: float | None = None) -> None:
         try:
             check_zone(c.lower, c.upper, size)
         except SettingsError as e:
-            raise _Table(plan.path, "characteristic", {"id": c.id}, i).refuse(str(e)) from None
+            raise Table(plan.path, "characteristic", {"id": c.id}, i).refuse(str(e)) from None
 
 
 _CHARACTERISTIC_HEADER = re.compile(rb'^[ \t]*\[\[[ \t]*"?characteristic"?[ \t]*\]\]', re.M)
@@ -175,131 +163,35 @@ def _parse(raw: bytes, path: str) -> dict:
         raise InputError(f"not valid TOML: {message}", path, line) from None
 
 
-class _Table:
-    """One table of the plan: its keys read with their types checked, and errors that name the
-    file, the table (``[[datum]] #2 (label "B")``) and the key."""
-
-    def __init__(self, path: str, name: str, data: dict, index: int | None = None):
-        self.path, self.data = path, data
-        self.title = _notation(name)
-        if index is not None:
-            key = ARRAY_TABLES[name]
-            ident = data.get(key)
-            self.title += f" #{index}" + (f" ({key} {_show(ident)})"
-                                          if isinstance(ident, str) and ident else "")
-        known = KEYS[name]
-        for key in data:
-            if key not in known:
-                raise self.fail(key, f"is not a key of {_notation(name)}"
-                                f"{_did_you_mean(key, known)}; its keys are {', '.join(known)}")
-
-    def fail(self, key: str, message: str) -> InputError:
-        """The error to raise about ``key`` of this table."""
-        return self.refuse(f"'{key}' {message}")
-
-    def refuse(self, message: str) -> InputError:
-        """The error to raise about this table."""
-        return InputError(f"{self.title}: {message}", self.path)
-
-    def __contains__(self, key: str) -> bool:
-        return key in self.data
-
-    def text(self, key: str, required: bool = False, choices: tuple[str, ...] = (),
-             default: str | None = None) -> str | None:
-        """A non-empty string (one of ``choices`` when given), or ``default`` when absent."""
-        if key not in self.data:
-            if required:
-                raise self.fail(key, "is missing")
-            return default
-        value = self.data[key]
-        if not isinstance(value, str):
-            raise self.fail(key, f"must be a string (in quotes), got {_show(value)} "
-                            f"({_kind(value)})")
-        if not value.strip():
-            raise self.fail(key, "must not be empty")
-        self._printable(key, value)
-        if choices and value not in choices:
-            raise self.fail(key, f"must be one of {', '.join(choices)}; got {_show(value)}")
-        return value
-
-    def number(self, key: str) -> float | None:
-        """A finite number (an integer is fine), or None when absent."""
-        if key not in self.data:
-            return None
-        value = self.data[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(key, f"must be a number, got {_show(value)} ({_kind(value)})")
-        if not math.isfinite(value):
-            raise self.fail(key, f"must be a finite number, got {_show(value)}")
-        return float(value)
-
-    def texts(self, key: str, example: str) -> tuple[str, ...]:
-        """An array of distinct non-empty strings (``example`` shows one), () when absent."""
-        value = self.data.get(key, [])
-        if not isinstance(value, list) or not all(isinstance(v, str) and v.strip()
-                                                  for v in value):
-            raise self.fail(key, f"must be an array of names, e.g. {example}; got "
-                            f"{_show(value)}")
-        for i, v in enumerate(value):
-            self._printable(key, v)
-            if v in value[:i]:
-                raise self.fail(key, f"names {_show(v)} twice")
-        return tuple(value)
-
-    def _printable(self, key: str, value: str) -> None:
-        """Refuse a string holding a control character (a line break, a tab, an escape ...):
-        it is printed on the terminal, the certificate and the QIF, where a line break in an id
-        would forge a line of the report (issue 22)."""
-        bad = _CONTROL.search(value)
-        if bad:
-            raise self.fail(key, f"holds a control character (U+{ord(bad.group()):04X}) in "
-                            f"{value!r}: names, ids and labels are printed on lines of their "
-                            "own and must be plain text")
-
-    def points(self, key: str, count: int, form: str) -> list[tuple[float, float, float]]:
-        """``count`` points [x, y, z] of finite numbers, mm (one: the key holds [x, y, z]; more:
-        an array of them), written as ``form`` in the error."""
-        value = self.data[key]
-        rows = [value] if count == 1 else value
-        if not (isinstance(rows, list) and len(rows) == count and all(
-                isinstance(row, list) and len(row) == 3 and all(
-                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in row)
-                for row in rows)):
-            raise self.fail(key, f"must be {form} (mm), got {_show(value)}")
-        if not all(math.isfinite(v) for row in rows for v in row):
-            raise self.fail(key, f"must hold finite numbers, got {_show(value)}")
-        return [(float(x), float(y), float(z)) for x, y, z in rows]
-
-
-def _tables(doc: dict, path: str) -> dict[str, list[_Table]]:
+def _tables(doc: dict, path: str) -> dict[str, list[Table]]:
     """The document's tables by name ([part] and [alignment] as lists of at most one), every
     top-level name and shape checked."""
-    out: dict[str, list[_Table]] = {name: [] for name in ORDER}
+    out: dict[str, list[Table]] = {name: [] for name in ORDER}
     for name, value in doc.items():
         if name not in out:
             what = "table" if isinstance(value, (dict, list)) else "key"
-            home = [_notation(n) for n in ORDER if name in KEYS[n]]
+            home = [notation(n) for n in ORDER if name in KEYS[n]]
             hint = f" (it belongs in {' or '.join(home)})" if home and what == "key" else ""
-            raise InputError(f"unknown {what} '{name}'{_did_you_mean(name, ORDER)} at the top "
-                             f"level{hint}; a plan has {', '.join(map(_notation, ORDER))}", path)
+            raise InputError(f"unknown {what} '{name}'{did_you_mean(name, ORDER)} at the top "
+                             f"level{hint}; a plan has {', '.join(map(notation, ORDER))}", path)
         if name in TABLES:
             if not isinstance(value, dict):
-                raise InputError(f"'{name}' must be a table [{name}], got {_show(value)}", path)
-            out[name].append(_Table(path, name, value))
+                raise InputError(f"'{name}' must be a table [{name}], got {show(value)}", path)
+            out[name].append(Table(path, name, value))
             continue
         if not isinstance(value, list):
             raise InputError(f"'{name}' must be an array of tables: write [[{name}]] (one per "
                              f"{name}), not [{name}]", path)
         for i, entry in enumerate(value, start=1):
             if not isinstance(entry, dict):
-                raise InputError(f"[[{name}]] #{i} must be a table, got {_show(entry)}", path)
-            out[name].append(_Table(path, name, entry, i))
+                raise InputError(f"[[{name}]] #{i} must be a table, got {show(entry)}", path)
+            out[name].append(Table(path, name, entry, i))
     if not out["alignment"]:
-        out["alignment"].append(_Table(path, "alignment", {}))
+        out["alignment"].append(Table(path, "alignment", {}))
     return out
 
 
-def _part(t: _Table) -> Part:
+def _part(t: Table) -> Part:
     return Part(**{key: t.text(key, default="") for key in KEYS["part"]})
 
 
@@ -308,7 +200,7 @@ INSTRUMENT_KEYS = ("uncertainty_mm", "mpe_a_um", "mpe_l_per_um", "probing_um",
 """The [measurement] keys of the instrument's performance (engine.uncertainty.Instrument)."""
 
 
-def _measurement(t: _Table) -> Measurement:
+def _measurement(t: Table) -> Measurement:
     """[measurement]: the traceability fields and the instrument (None when it states no
     term; a stated uncertainty and MPE terms together are refused)."""
     numbers = {k: t.number(k) for k in INSTRUMENT_KEYS}
@@ -337,7 +229,7 @@ def _measurement(t: _Table) -> Measurement:
                        instrument=instrument)
 
 
-def _date(t: _Table, key: str) -> str:
+def _date(t: Table, key: str) -> str:
     """A date (TOML's own, 2024-05-01, or a string "2024-05-01") as YYYY-MM-DD; "" absent."""
     value = t.data.get(key)
     if value is None:
@@ -350,10 +242,10 @@ def _date(t: _Table, key: str) -> str:
     try:
         return dt.date.fromisoformat(text.strip()).isoformat()
     except ValueError:
-        raise t.fail(key, f"must be a date YYYY-MM-DD, got {_show(value)}") from None
+        raise t.fail(key, f"must be a date YYYY-MM-DD, got {show(value)}") from None
 
 
-def _region(t: _Table) -> Region:
+def _region(t: Table) -> Region:
     name = t.text("name", required=True)
     given = [f"'{key}'" for key in SELECTORS if key in t]
     if len(given) != 1:
@@ -364,15 +256,15 @@ def _region(t: _Table) -> Region:
         low, high = t.points("box", 2, "two corners [[x, y, z], [x, y, z]]")
         for axis, a, b in zip(AXES, low, high):
             if not a < b:
-                raise t.fail("box", f"lower corner {_show(t.data['box'][0])} must be below the "
-                             f"upper corner {_show(t.data['box'][1])} on every axis ({axis}: "
+                raise t.fail("box", f"lower corner {show(t.data['box'][0])} must be below the "
+                             f"upper corner {show(t.data['box'][1])} on every axis ({axis}: "
                              f"{a:g} >= {b:g})")
         box = (low, high)
     return Region(name=name, box=box, labels=t.text("labels"), group=t.text("group"),
                   measured_labels=t.text("measured_labels"))
 
 
-def _datum(t: _Table, regions: list[str]) -> Datum:
+def _datum(t: Table, regions: list[str]) -> Datum:
     label = t.text("label", required=True)
     region = _reference(t, "region", regions, "region", "name")
     feature = t.text("feature", required=True, choices=FEATURES_3D + FEATURES_2D)
@@ -380,7 +272,7 @@ def _datum(t: _Table, regions: list[str]) -> Datum:
     return Datum(label=label, region=region, feature=feature, fit=fit)
 
 
-def _rps_point(t: _Table) -> RpsPoint:
+def _rps_point(t: Table) -> RpsPoint:
     label = t.text("label", required=True)
     if "nominal" not in t:
         raise t.fail("nominal", "is missing (the point's nominal position [x, y, z], mm)")
@@ -390,21 +282,21 @@ def _rps_point(t: _Table) -> RpsPoint:
     lock = t.texts("lock", '["x", "y", "z"]')
     if not lock or not set(lock) <= set(AXES):
         raise t.fail("lock", f"must name some of the axes {', '.join(AXES)}, got "
-                     f"{_show(list(lock))}")
+                     f"{show(list(lock))}")
     return RpsPoint(label=label, nominal=nominal, lock=tuple(a for a in AXES if a in lock))
 
 
-def _alignment(t: _Table, datums: tuple[Datum, ...], regions: list[str],
+def _alignment(t: Table, datums: tuple[Datum, ...], regions: list[str],
                has_rps: bool) -> Alignment:
     method = t.text("method", choices=ALIGNMENTS, default="best-fit")
     for key in ("reference", "best_fit_regions"):
         if key in t and method != "datums":
-            raise t.fail(key, f"applies to method \"datums\" only (method is {_show(method)})")
+            raise t.fail(key, f"applies to method \"datums\" only (method is {show(method)})")
     if method == "rps" and not has_rps:
         raise t.fail("method", "\"rps\" needs [[rps]] points (label, nominal, lock); the plan "
                      "has none")
     if method != "rps" and has_rps:
-        raise t.fail("method", f"is {_show(method)} but the plan has [[rps]] points; they "
+        raise t.fail("method", f"is {show(method)} but the plan has [[rps]] points; they "
                      "apply to method \"rps\" only")
     if method != "datums":
         return Alignment(method=method)
@@ -417,12 +309,12 @@ def _alignment(t: _Table, datums: tuple[Datum, ...], regions: list[str],
     best_fit = t.texts("best_fit_regions", '["skin"]')
     for name in best_fit:
         if name not in regions:
-            raise t.fail("best_fit_regions", f"names {_show(name)}, which is not the name of "
-                         f"any [[region]]{_known(regions)}")
+            raise t.fail("best_fit_regions", f"names {show(name)}, which is not the name of "
+                         f"any [[region]]{known(regions)}")
     return Alignment(method=method, reference=reference, best_fit_regions=best_fit)
 
 
-def _characteristic(t: _Table, regions: list[str], datums: tuple[Datum, ...]) -> Characteristic:
+def _characteristic(t: Table, regions: list[str], datums: tuple[Datum, ...]) -> Characteristic:
     ident = t.text("id", required=True)
     if ident.strip().lower() == RESERVED_ID:
         raise t.fail("id", f"'{ident}' is reserved for the zone over all points that --tol "
@@ -431,25 +323,88 @@ def _characteristic(t: _Table, regions: list[str], datums: tuple[Datum, ...]) ->
     region = _reference(t, "region", regions, "region", "name")
     lower, upper, nominal = _limits(t, kind)
     refs = _datum_references(t, "datums", datums)
-    if kind in ("flatness", "size") and refs:
-        raise t.fail("datums", "must not be given: " + ("flatness is form only" if kind ==
-                     "flatness" else "a size is the feature's own") + ", relative to no datum")
-    if kind == "position" and not refs:
-        raise t.fail("datums", "is missing or empty: a position is located relative to at "
+    if (kind in FORM or kind == "size") and refs:
+        raise t.fail("datums", "must not be given: " + (f"{kind} is form only" if kind in
+                     FORM else "a size is the feature's own") + ", relative to no datum")
+    if (kind == "position" or kind in ORIENTATION) and not refs:
+        raise t.fail("datums", f"is missing or empty: a {kind} is " + (
+                     "located" if kind == "position" else "oriented") + " relative to at "
                      "least one datum (e.g. datums = [\"A\", \"B\", \"C\"])")
     for label in refs:
         datum = next(d for d in datums if d.label == label)
         if datum.region == region:
-            raise t.fail("datums", f"names datum {_show(label)}, which is on region "
-                         f"{_show(region)} itself: a feature cannot be related to itself")
+            raise t.fail("datums", f"names datum {show(label)}, which is on region "
+                         f"{show(region)} itself: a feature cannot be related to itself")
     if "fit" in t and (kind != "profile" or refs):
         raise t.fail("fit", "applies to a form-only profile (one without 'datums') only")
     fit = t.text("fit", choices=PROFILE_FITS, default="lsq")
     return Characteristic(id=ident, type=kind, region=region, lower=lower, upper=upper,
-                          datums=refs, fit=fit, nominal=nominal)
+                          datums=refs, fit=fit, nominal=nominal, **_form_options(t, kind))
 
 
-def _limits(t: _Table, kind: str) -> tuple[float, float, float | None]:
+def _form_options(t: Table, kind: str) -> dict:
+    """``direction``, ``sections``, ``diametral`` and ``angle``, each where its type takes it
+    (engine.gdt.plan.Characteristic)."""
+    takes = {"direction": ("straightness",), "sections": ("straightness", "circularity"),
+             "diametral": ("straightness",) + ORIENTATION, "angle": ("angularity",)}
+    for key, kinds in takes.items():
+        if key in t and kind not in kinds:
+            raise t.fail(key, f"applies to {' and '.join(kinds)} only, not {kind}")
+    out: dict = {}
+    if "direction" in t:
+        d = t.points("direction", 1, "a direction [x, y, z]")[0]
+        norm = math.sqrt(sum(v * v for v in d))
+        if norm == 0.0:
+            raise t.fail("direction", "must be a non-zero vector [x, y, z]")
+        out["direction"] = tuple(v / norm for v in d)
+    if "sections" in t:
+        n = t.data["sections"]
+        least = 3 if kind == "straightness" and "direction" not in t else 1
+        if isinstance(n, bool) or not isinstance(n, int) or not least <= n <= MAX_SECTIONS:
+            raise t.fail("sections", f"must be a whole number from {least} to {MAX_SECTIONS} "
+                         f"(cross-sections along the feature), got {show(n)}")
+        out["sections"] = n
+    if "diametral" in t:
+        value = t.data["diametral"]
+        if not isinstance(value, bool):
+            raise t.fail("diametral", f"must be true or false, got {show(value)}")
+        if kind == "straightness" and value == ("direction" in t):
+            raise t.fail("diametral", "true is a cylinder's median line (no 'direction'); a "
+                         "surface's line elements along 'direction' have a zone of two lines")
+        out["diametral"] = value
+    out["diametral"] = out.get("diametral", kind == "straightness" and "direction" not in t)
+    if kind == "angularity":
+        angle = t.number("angle")
+        if angle is None:
+            raise t.fail("angle", "is missing: an angularity states its basic angle to the "
+                         "primary datum, degrees (e.g. angle = 30)")
+        if not 0.0 < angle < 180.0:
+            raise t.fail("angle", f"must be between 0 and 180 degrees, got {show(angle)}")
+        out["angle"] = angle
+    return out
+
+
+MAX_SECTIONS = 1000
+"""The most cross-sections a circularity or straightness may ask for."""
+
+
+def _one_feature_per_region(tables: list[Table], characteristics, datums) -> None:
+    """Refuse a characteristic that takes its region for another feature than its datum or an
+    earlier characteristic does (a circularity on a datum plane, a flatness on a hole)."""
+    as_3d = {"line": "plane", "circle": "cylinder"}
+    seen = {d.region: (as_3d.get(d.feature, d.feature), f"datum {show(d.label)} is a "
+                       f"{d.feature}") for d in datums}
+    for t, c in zip(tables, characteristics):
+        if c.feature == "freeform":
+            continue
+        other, why = seen.setdefault(c.region, (c.feature, f"characteristic {show(c.id)} "
+                                                f"({c.type}) takes it for a {c.feature}"))
+        if other != c.feature:
+            raise t.fail("type", f"{show(c.type)} is judged on a {c.feature} and region "
+                         f"{show(c.region)} is no {c.feature}: {why}")
+
+
+def _limits(t: Table, kind: str) -> tuple[float, float, float | None]:
     """(lower, upper, nominal) of a characteristic's zone, mm (see engine.gdt.plan.Characteristic)."""
     zone, lower, upper, nominal = (t.number(k) for k in ("zone", "lower", "upper", "nominal"))
     if kind == "size":
@@ -460,7 +415,7 @@ def _limits(t: _Table, kind: str) -> tuple[float, float, float | None]:
             raise t.fail("nominal", "is missing (the nominal diameter, mm)")
         if nominal <= 0:
             raise t.fail("nominal", "must be > 0 (a diameter), got "
-                         f"{_show(t.data['nominal'])}")
+                         f"{show(t.data['nominal'])}")
         if nominal > ZONE_LIMIT_MM:
             raise t.fail("nominal", f"is a diameter of {nominal:g} mm, beyond "
                          "1e6 mm (1 km): no part has such a feature")
@@ -482,11 +437,11 @@ def _limits(t: _Table, kind: str) -> tuple[float, float, float | None]:
     if zone is None:
         raise t.fail("zone", "is missing (the zone's total width, mm)")
     if zone <= 0:
-        raise t.fail("zone", f"must be > 0, got {_show(t.data['zone'])}")
+        raise t.fail("zone", f"must be > 0, got {show(t.data['zone'])}")
     return (-zone / 2, zone / 2, None) if kind == "profile" else (0.0, zone, None)
 
 
-def _explicit_limits(t: _Table, lower: float | None,
+def _explicit_limits(t: Table, lower: float | None,
                      upper: float | None) -> tuple[float, float]:
     for key, value in (("lower", lower), ("upper", upper)):
         if value is None:
@@ -496,90 +451,45 @@ def _explicit_limits(t: _Table, lower: float | None,
     return lower, upper
 
 
-def _reference(t: _Table, key: str, names: list[str], table: str, name_key: str) -> str:
+def _reference(t: Table, key: str, names: list[str], table: str, name_key: str) -> str:
     """The key's value, which must be the ``name_key`` of one of the [[table]] entries."""
     value = t.text(key, required=True)
     if value not in names:
-        raise t.fail(key, f"{_show(value)} is not the {name_key} of any [[{table}]]"
-                     f"{_known(names)}")
+        raise t.fail(key, f"{show(value)} is not the {name_key} of any [[{table}]]"
+                     f"{known(names)}")
     return value
 
 
-def _datum_references(t: _Table, key: str, datums: tuple[Datum, ...]) -> tuple[str, ...]:
+def _datum_references(t: Table, key: str, datums: tuple[Datum, ...]) -> tuple[str, ...]:
     """A datum reference frame: at most MAX_DATUMS distinct datum labels, primary first."""
     refs = t.texts(key, '["A", "B", "C"]')
     labels = [d.label for d in datums]
     for label in refs:
         if label not in labels:
-            raise t.fail(key, f"names {_show(label)}, which is not the label of any "
-                         f"[[datum]]{_known(labels)}")
+            raise t.fail(key, f"names {show(label)}, which is not the label of any "
+                         f"[[datum]]{known(labels)}")
     if len(refs) > MAX_DATUMS:
         raise t.fail(key, f"names {len(refs)} datums; a datum reference frame has at most "
                      f"{MAX_DATUMS} (primary, secondary, tertiary)")
     return refs
 
 
-def _unique(tables: list[_Table], key: str) -> None:
+def _unique(tables: list[Table], key: str) -> None:
     """Refuse two entries of one array of tables with the same ``key``."""
-    first: dict[str, _Table] = {}
+    first: dict[str, Table] = {}
     for t in tables:
         value = t.data[key]
         if value in first:
-            raise t.fail(key, f"{_show(value)} is also the {key} of "
+            raise t.fail(key, f"{show(value)} is also the {key} of "
                          f"{first[value].title.split(' (')[0]}")
         first[value] = t
 
 
-def _same_dimension(tables: list[_Table], datums: tuple[Datum, ...]) -> None:
+def _same_dimension(tables: list[Table], datums: tuple[Datum, ...]) -> None:
     """A plan's datums are all 3D features or all 2D features (one nominal is one or the other)."""
     for t, datum in zip(tables, datums):
         first = datums[0]
         if (datum.feature in FEATURES_2D) != (first.feature in FEATURES_2D):
-            raise t.fail("feature", f"{_show(datum.feature)} does not go with datum "
-                         f"{_show(first.label)}'s {_show(first.feature)}: a plan's datums are "
+            raise t.fail("feature", f"{show(datum.feature)} does not go with datum "
+                         f"{show(first.label)}'s {show(first.feature)}: a plan's datums are "
                          f"all 3D ({', '.join(FEATURES_3D)}) or all 2D ({', '.join(FEATURES_2D)})")
-
-
-def _notation(name: str) -> str:
-    """How the plan file writes the table: [name] or [[name]]."""
-    return f"[{name}]" if name in TABLES else f"[[{name}]]"
-
-
-def _known(names: list[str]) -> str:
-    return (f" (they are {', '.join(_show(n) for n in names)})" if names
-            else " (the plan has none)")
-
-
-def _did_you_mean(word: str, choices: tuple[str, ...]) -> str:
-    close = difflib.get_close_matches(word, choices, n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
-
-
-def _kind(value: object) -> str:
-    """The TOML type of a value, in words."""
-    for types, word in ((bool, "a boolean"), (int, "an integer"), (float, "a number"),
-                        (str, "a string"), (list, "an array"), (dict, "a table")):
-        if isinstance(value, types):
-            return word
-    return "a date or time"
-
-
-_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029]")
-"""Control characters and the Unicode line and paragraph separators."""
-
-
-def _show(value: object) -> str:
-    """A value as TOML would write it (shortened when long)."""
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, float):
-        text = repr(value)
-    elif isinstance(value, (str, int)):
-        text = json.dumps(value, ensure_ascii=False)
-    elif isinstance(value, list):
-        text = "[" + ", ".join(_show(v) for v in value) + "]"
-    elif isinstance(value, dict):
-        text = "{" + ", ".join(f"{k} = {_show(v)}" for k, v in value.items()) + "}"
-    else:
-        text = str(value)
-    return text if len(text) <= 60 else text[:57] + "..."

@@ -49,7 +49,10 @@ def result(c: Layout) -> list:
 
 
 _TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": "position",
-               "size": "size (diameter)"}
+               "size": "size (diameter)", "straightness": "straightness",
+               "circularity": "circularity", "cylindricity": "cylindricity",
+               "parallelism": "parallelism", "perpendicularity": "perpendicularity",
+               "angularity": "angularity"}
 
 
 def type_word(c: Layout, kind: str) -> str:
@@ -63,7 +66,17 @@ _VALUE_WORDS = {
                 "face's points",
     "position": "position: the diameter of the smallest cylinder about the true position (from "
                 "the datums) that holds the hole's fitted axis",
-    "size": "size: the diameter of the least-squares fit to the hole's points"}
+    "size": "size: the diameter of the least-squares fit to the hole's points",
+    "straightness": "straightness: the diameter of the smallest cylinder holding the median "
+                    "line, or the largest distance between two parallel lines holding a line "
+                    "element",
+    "circularity": "circularity: the largest radial distance between two concentric circles "
+                   "holding a cross-section",
+    "cylindricity": "cylindricity: the radial distance between two coaxial cylinders holding "
+                    "the surface",
+    **{k: f"{k}: the width (an axis: the diameter) of the smallest zone at the basic angle to "
+          "the datums holding the face (the axis)"
+       for k in ("parallelism", "perpendicularity", "angularity")}}
 
 
 def _plan_table(c: Layout) -> list:
@@ -140,7 +153,9 @@ def _symbol(kind: str):
         d.add(Circle(6, 6, 3.6, **ink))
         d.add(Line(0.5, 6, 11.5, 6, strokeWidth=0.8))
         d.add(Line(6, 0.5, 6, 11.5, strokeWidth=0.8))
-    else:  # size: the diameter sign
+    elif kind == "size":  # the diameter sign
         d.add(Circle(6, 6, 4, **ink))
         d.add(Line(1.5, 1.5, 10.5, 10.5, strokeWidth=0.8))
+    # The other types are not drawn yet (their symbols: engine.gdt.plan.SYMBOLS); the type
+    # column names them.
     return d

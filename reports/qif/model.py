@@ -139,6 +139,8 @@ class Char:
     """The measurement's Description: the verdict and its reasons."""
     worst: tuple[float, float] | None = None
     """Largest and smallest deviation (the profile over all points)."""
+    diametral: bool = False
+    """Straightness and orientation: a cylindrical zone (an axis), else two lines / planes."""
 
 
 @dataclass(frozen=True)
@@ -275,7 +277,13 @@ def _profile_text(lower: float, upper: float) -> str:
 
 _GEOMETRIC = {"plane": "Plane", "cylinder": "Cylinder", "sphere": "Sphere"}
 _PLAN_CHAR = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "Position",
-              "size": "Diameter"}
+              "size": "Diameter", "straightness": "Straightness", "circularity": "Circularity",
+              "cylindricity": "Cylindricity", "parallelism": "Parallelism",
+              "perpendicularity": "Perpendicularity", "angularity": "Angularity"}
+
+
+_FORM_AND_ORIENTATION = ("Straightness", "Circularity", "Cylindricity", "Parallelism",
+                         "Perpendicularity", "Angularity")
 
 
 def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
@@ -355,6 +363,9 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
                     f"{fixed(upper - lower)} mm about the true position",
         "Diameter": f"least-squares diameter of {where}: {fixed(target or 0.0)} mm "
                     f"{signed(lower)} / {signed(upper)} mm",
+        **{k: f"{c['type']} of {where}" + (f" at {c['angle']:g}°" if c.get("angle") else "")
+           + (" (diametral: the axis)" if c.get("diametral") else "") + ": minimum zone at "
+           f"most {fixed(upper - lower)} mm" for k in _FORM_AND_ORIENTATION},
     }.get(kind, "all points at the registration's best fit: " + _profile_text(lower, upper)
           if feature.whole else
           f"profile of {where}" + ("" if datums else f", form only ({c.get('fit', 'lsq')} "
@@ -364,7 +375,8 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
     return Char(kind, ids.take(), ids.take(), ids.take(), ids.take(), feature, name,
                 str(c["id"]), text, lower, upper, target, frame, c["verdict"],
                 None if value is None else float(value),
-                f"{app} verdict {c['verdict']}: {c.get('reason', '')}")
+                f"{app} verdict {c['verdict']}: {c.get('reason', '')}",
+                diametral=bool(c.get("diametral")))
 
 
 def _xs_datetime(value) -> str:

@@ -212,7 +212,8 @@ def write_characteristics(w, q: Qif) -> None:
 
 def _zone(c: Char) -> str:
     """A characteristic definition's tolerance: a profile's width (and, unless symmetric,
-    OuterDisposition = upper), flatness, position (diametrical zone, no material modifier) or
+    OuterDisposition = upper), flatness, circularity, cylindricity, straightness (its zone's
+    shape), position and orientation (diametrical or planar zone, no material modifier) or
     a diameter's limits about its target; the datum reference frame where it has one."""
     s = " " * 8
     frame = f"{s}<DatumReferenceFrameId>{c.frame}</DatumReferenceFrameId>\n" if c.frame else ""
@@ -228,4 +229,11 @@ def _zone(c: Char) -> str:
     if c.kind == "Position":
         return (out + frame + f"{s}<MaterialCondition>NONE</MaterialCondition>\n"
                 f"{s}<ZoneShape>\n{s}  <DiametricalZone/>\n{s}</ZoneShape>\n")
+    if c.kind == "Straightness":
+        shape = "DiametricalZone" if c.diametral else "NonDiametricalZone"
+        return out + f"{s}<ZoneShape>\n{s}  <{shape}/>\n{s}</ZoneShape>\n"
+    if c.kind in ("Parallelism", "Perpendicularity", "Angularity"):
+        shape = "DiametricalZone" if c.diametral else "PlanarZone"
+        return (out + frame + f"{s}<MaterialCondition>NONE</MaterialCondition>\n"
+                f"{s}<ZoneShape>\n{s}  <{shape}/>\n{s}</ZoneShape>\n")
     return out

@@ -1,0 +1,62 @@
+"""A characteristic judged by its value: against its limits, guarded by the value's uncertainty
+bound under the guarded decision rule (ISO 14253-1); and the results shared between the
+characteristics of one region."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..verdict import ACCEPT, INCONCLUSIVE, REJECT
+from .datums import Alignment
+from .plan import ZONE_ONLY, Characteristic
+from .results import CharacteristicResult, Geometry
+
+
+def untrusted(c, idx, al: Alignment):
+    return CharacteristicResult(c, None, INCONCLUSIVE,
+                                f"its datums cannot place the part: {al.message}", idx,
+                                facts={"datums": [f.label for f in al.datums]})
+
+
+def own(shared_result: CharacteristicResult, c: Characteristic) -> CharacteristicResult:
+    """A result computed for another characteristic on the same region, as ``c``'s: its
+    reason names only the region, its points and its datums, which they share."""
+    return replace(shared_result, characteristic=c)
+
+
+def value_guard(geo: Geometry, idx: np.ndarray, T, form_only: bool) -> float | None:
+    """Under the guarded rule, how far the points' uncertainty can move a value computed from
+    them: twice the largest expanded U among the points ``idx`` at pose T (each point's error
+    within its U moves a minimum-zone width, a least-squares diameter or a position diameter by
+    at most that), without the registration's pose term for a value no rigid motion changes
+    (``form_only``: a flatness, a diameter); None under the simple rule."""
+    m = geo.margin(idx, T, form_only=form_only)
+    return None if m is None or len(m) == 0 else 2.0 * float(np.max(m))
+
+
+def by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
+              guard: float | None = None):
+    """The characteristic judged by its value against its limits; with ``guard`` (the value's
+    uncertainty bound, :func:`value_guard`) by ISO 14253-1: ACCEPT inside the limits shrunk
+    by it, REJECT outside them grown by it, else INCONCLUSIVE. The form and
+    orientation types and position have an upper limit only (their value cannot be below 0): no guard on the lower side."""
+    lo, hi = (c.nominal or 0.0) + c.lower, (c.nominal or 0.0) + c.upper
+    inside = lo <= value <= hi
+    reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
+              f"[{lo:.4f}, {hi:.4f}] mm")
+    verdict = ACCEPT if inside else REJECT
+    if guard is not None:
+        g_lo = 0.0 if c.type in ZONE_ONLY else guard
+        facts = {**facts, "uncertainty_bound": guard}
+        if value > hi + guard or value < lo - g_lo:
+            verdict = REJECT
+            reason += f", by more than its uncertainty ±{guard:.4f} mm"
+        elif not lo + g_lo <= value <= hi - guard:
+            verdict = INCONCLUSIVE
+            reason += (f", within its uncertainty ±{guard:.4f} mm (twice the largest U of its "
+                       "points) of a limit: conformance is not proven either way (ISO 14253-1)")
+        else:
+            reason += f" by more than its uncertainty ±{guard:.4f} mm"
+    return CharacteristicResult(c, float(value), verdict, reason, idx, facts=facts)
