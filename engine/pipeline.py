@@ -28,6 +28,7 @@ from .nominal import Nominal
 from .progress import Callback, report, reporting, within
 from .registration_types import RegistrationSettings
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
+from .scene_part import on_the_table, the_part
 from .settings import InspectionSettings
 from .step_model import (ExactDistances, exact_deviations, exact_features, face_groups,
                          face_sample, step_facts)
@@ -346,7 +347,7 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
         inputs.append(loaded.plan_record)
     measured_ps, selection = _select(measured_ps, settings)
     if selection is not None and selection.plane is not None and nominal is not None:
-        measured_ps, selection = _the_part(nominal, measured_ps, selection, settings)
+        measured_ps, selection = the_part(nominal, measured_ps, selection, settings)
     if nominal is not None and copies_nominal(measured_ps.points, nominal):
         raise InputError(f"every one of the {measured_ps.n:,} measured points is one of the "
                          f"nominal's points ({nominal_path}) to the last bit: they are a copy "
@@ -374,6 +375,8 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     if units is not None:  # whatever pose was found, it fits a part of another size
         result = dataclasses.replace(result, verdict=INCONCLUSIVE,
                                      reasons=(units,) + tuple(result.reasons))
+    if selection is not None and selection.plane is not None and nominal is not None:
+        result = on_the_table(result, nominal, measured_ps, selection.plane)
     report("judging", 1.0)
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
@@ -392,21 +395,6 @@ def _select(measured_ps: PointSet, settings: InspectionSettings
     selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
                               settings.plane_distance, f"measured points of {measured_ps.path}")
     return measured_ps.take(selection.kept), selection
-
-
-def _the_part(nominal: Nominal, measured_ps: PointSet, selection: Selection,
-              settings: InspectionSettings) -> tuple[PointSet, Selection]:
-    """The measured points left on a scene's table less the other objects standing on it
-    (engine.scene_part), and the selection that says so."""
-    from .scene_part import part_in_scene
-
-    report("which object is the part", 0.0)
-    tol = settings.tolerance
-    part = part_in_scene(nominal, measured_ps.points, selection.plane.sigma,
-                         None if tol is None else tol.width)
-    return measured_ps.take(part.kept), dataclasses.replace(
-        selection, kept=selection.kept[part.kept], n_objects=part.n_objects,
-        n_other_objects=measured_ps.n - part.kept.size, object_link=part.link)
 
 
 def nominal_sizes(source: "_Nominal", nominal: Nominal | None) -> np.ndarray:

@@ -17,14 +17,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .choices import Verdict
 from .deviation import point_to_surface
 from .neighbours import voxel_spread
 from .nominal import Nominal
+from .pointset import PointSet
 from .pose import apply_transform
 from .progress import report
 from .registration import register
 from .registration_types import RegistrationSettings
-from .scene import LINK_SPACINGS, MIN_KEPT, objects, typical_spacing
+from .scene import LINK_SPACINGS, MIN_KEPT, Plane, Selection, objects, typical_spacing
 from .surface_fit import ROBUST_ITERATIONS
 
 OBJECT_POINTS = 200_000
@@ -104,3 +106,51 @@ def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
         best = np.arange(sizes.size)
     return PartInScene(np.flatnonzero(np.isin(label, best)), int(sizes.size), int(best.size),
                        len(candidates), link, reach)
+
+
+def through_the_table(nominal_points: np.ndarray, T_nominal_measured: np.ndarray, normal,
+                      offset: float, kept: np.ndarray) -> float:
+    """How far (mm) the nominal, at the pose T_nominal_measured (4, 4), reaches through the plane
+    {x : normal . x = offset} (the measured frame) to the side away from the kept measured
+    points (k, 3): 0.0 when it stays on their side. A part stands on its table: a pose that
+    puts it through the table is not the part's.
+
+    >>> box = np.array([[0., 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]])
+    >>> lifted = np.eye(4); lifted[2, 3] = -3.0  # nominal = measured - 3 in z: measured z + 3
+    >>> float(through_the_table(box, lifted, [0, 0, 1.], 5.0, np.array([[0, 0, 9.]])))
+    2.0
+    """
+    n = np.asarray(normal, dtype=np.float64)
+    side = 1.0 if np.median(kept @ n - offset) >= 0 else -1.0
+    X = apply_transform(np.linalg.inv(T_nominal_measured), nominal_points)
+    return float(max(0.0, -np.min(side * (X @ n - offset))))
+
+
+def the_part(nominal: Nominal, measured: PointSet, selection: Selection, settings
+             ) -> tuple[PointSet, Selection]:
+    """The measured points left on a scene's table (``selection``: engine.scene, its plane
+    removed) less the other objects standing on it (:func:`part_in_scene`, the table's spread
+    as the noise), and the selection that says so; ``settings``: the inspection's
+    (engine.settings.InspectionSettings), whose tolerance zone sets the gross-outlier rule."""
+    report("which object is the part", 0.0)
+    tol = settings.tolerance
+    part = part_in_scene(nominal, measured.points, selection.plane.sigma,
+                         None if tol is None else tol.width)
+    return measured.take(part.kept), replace(
+        selection, kept=selection.kept[part.kept], n_objects=part.n_objects,
+        n_other_objects=measured.n - part.kept.size, object_link=part.link)
+
+
+def on_the_table(result, nominal: Nominal, measured: PointSet, plane: Plane):
+    """The inspection ``result`` (engine.inspection.InspectionResult), INCONCLUSIVE when its pose
+    puts the nominal through the plane removed as the table beyond the removal distance
+    (:func:`through_the_table`): a part cannot stand in its table, so the pose is not the
+    part's, whatever its fit."""
+    depth = through_the_table(nominal.points, result.registration.T_nominal_measured,
+                              plane.normal, plane.offset, measured.points)
+    if not depth > plane.distance:
+        return result
+    said = (f"at the pose found the nominal reaches {depth:.3g} mm through the plane removed as "
+            f"the table, beyond its removal distance ({plane.distance:.3g} mm): a part cannot "
+            "stand in its table, so the pose is not the part's")
+    return replace(result, verdict=Verdict.INCONCLUSIVE, reasons=(said,) + tuple(result.reasons))
