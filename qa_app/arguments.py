@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from engine.choices import DecisionRule, Fit
 from qa_app.usage import EXAMPLES, EXIT_CODES
 
 
@@ -85,11 +86,11 @@ def _add_template_options(i: argparse.ArgumentParser) -> None:
 
 def _add_fit_options(i: argparse.ArgumentParser) -> None:
     """The fit and the decision rule, of ``inspect`` and ``batch``."""
-    i.add_argument("--fit", choices=["lsq", "minimax"], default="lsq",
+    i.add_argument("--fit", choices=list(Fit), default=Fit.LSQ,
                    help="lsq: least-squares best fit (default); minimax: the pose minimising the "
                         "largest excursion from the zone's centre ('can the part be placed "
                         "inside its zone?')")
-    i.add_argument("--decision-rule", choices=["simple", "guarded"], default=None,
+    i.add_argument("--decision-rule", choices=list(DecisionRule), default=None,
                    help="simple: every point inside the zone (the default without an "
                         "instrument); guarded (ISO 14253-1, the default with --uncertainty or a "
                         "plan's [measurement] instrument): accept inside the zone shrunk by each "

@@ -23,12 +23,13 @@ import argparse
 import os
 import sys
 
+from engine.choices import Verdict
 from engine.errors import QAError
 from qa_app.arguments import add_commands
 from qa_app.summary import summary_text
 from qa_app.usage import EXAMPLES, EXIT_CODES, usage
 
-EXIT = {"ACCEPT": 0, "REJECT": 1, "INCONCLUSIVE": 2}
+EXIT = {Verdict.ACCEPT: 0, Verdict.REJECT: 1, Verdict.INCONCLUSIVE: 2}
 EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_UNAVAILABLE, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 69, 70, 73
 
 
