@@ -61,7 +61,7 @@ from .outliers import gross_outliers, gross_rule
 from .pose import (apply_transform, make_transform, rotation_angle_deg, rotation_from_rotvec,
                    uniform_rotations)
 from .progress import report
-from .registration_types import RegistrationResult, RegistrationSettings
+from .registration_types import PoseFit, RegistrationResult, RegistrationSettings
 from .surface_fit import ALTERNATIVE_ITERATIONS, MAX_FINISHES, gross_floor, point_to_surface_fit
 
 
@@ -188,7 +188,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     while best is not None:
         finished[best] = (_unfitted if unfit else point_to_surface_fit)(
             nominal, compared, refined[best], short if finished else settings, zone_width)
-        final[best] = pose_score(finished[best][5].signed, scale)
+        final[best] = pose_score(finished[best].deviations.signed, scale)
         chosen = min(final, key=final.get)
         # Not only the candidates already scoring better are finished: one a millimetre off
         # the right pose scores worse before its finish than a wrong pose after its own (NIST
@@ -196,39 +196,43 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
         # mis-probes: 2.44 mm, 8.7 mm off the truth, against a wrong pose's 0.17 mm).
         best = None if unfit or len(finished) >= MAX_FINISHES else next(
             (j for j in order if j not in finished
-             and all(distinct_poses(refined[j], finished[i][0], measured[sub], nominal.diagonal)
+             and all(distinct_poses(refined[j], finished[i].T_nominal_measured, measured[sub],
+                                    nominal.diagonal)
                      for i in finished)),
             None)
     # A short finish that did not settle and scores best is finished in full; that may leave
     # it worse than another, which is then the one chosen.
     complete = {order[0]}
-    while chosen not in complete and not finished[chosen][1] and not unfit:
-        finished[chosen] = point_to_surface_fit(nominal, compared, finished[chosen][0],
-                                                 settings, zone_width)
-        final[chosen] = pose_score(finished[chosen][5].signed, scale)
+    while chosen not in complete and not finished[chosen].converged and not unfit:
+        finished[chosen] = point_to_surface_fit(
+            nominal, compared, finished[chosen].T_nominal_measured, settings, zone_width)
+        final[chosen] = pose_score(finished[chosen].deviations.signed, scale)
         complete.add(chosen)
         chosen = min(final, key=final.get)
     if ssub.size < measured.shape[0]:
         finished[chosen] = (_unfitted if unfit else point_to_surface_fit)(
-            nominal, measured, finished[chosen][0], settings, zone_width)
-        final[chosen] = pose_score(finished[chosen][5].signed[ssub], scale)
-    Tb, converged, _, inlier, rule, dev_b, dev_s, message = finished[chosen]
+            nominal, measured, finished[chosen].T_nominal_measured, settings, zone_width)
+        final[chosen] = pose_score(finished[chosen].deviations.signed[ssub], scale)
+    fit = finished[chosen]
+    Tb = fit.T_nominal_measured
     # Every candidate at its finished pose and score where it was finished.
-    poses = [finished[i][0] if i in finished else refined[i] for i in range(len(refined))]
+    poses = [finished[i].T_nominal_measured if i in finished else refined[i]
+             for i in range(len(refined))]
     scores = [final.get(i, scores[i]) for i in range(len(refined))]
     runner = min((j for j in range(len(refined)) if j != chosen
                   and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
                  key=lambda j: scores[j], default=None)
     return RegistrationResult.from_fit(
-        Tb, dev_b, inlier, rule, near, converged=converged,
-        iterations=iterations + sum(f[2] for f in finished.values()), score=final[chosen],
-        hypotheses=hypotheses, runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else poses[runner], deviation_s=dev_s,
-        message=message)
+        Tb, fit.deviations, fit.inlier, fit.rule, near, converged=fit.converged,
+        iterations=iterations + sum(f.iterations for f in finished.values()),
+        score=final[chosen], hypotheses=hypotheses,
+        runner_up_score=None if runner is None else scores[runner],
+        runner_up_T=None if runner is None else poses[runner], deviation_s=fit.deviation_s,
+        message=fit.message)
 
 
 def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
-              settings: RegistrationSettings, zone_width: float | None):
+              settings: RegistrationSettings, zone_width: float | None) -> PoseFit:
     """The candidate pose T measured as it is, unfitted (no pose there is worth fitting), in
     the form of point_to_surface_fit's result."""
     X = apply_transform(T, measured)
@@ -237,8 +241,8 @@ def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     dev_s = time.perf_counter() - t0
     rule = gross_rule(dev.signed, zone_width, gross_floor(nominal, settings, zone_width))
     inlier = ~gross_outliers(dev.signed, dev.foot, rule)
-    return (T, False, 0, inlier, rule, dev, dev_s,
-            "the measured points do not match the nominal at any pose found")
+    return PoseFit(T, False, 0, inlier, rule, dev, dev_s,
+                   "the measured points do not match the nominal at any pose found")
 
 
 def pose_score(d: np.ndarray, scale: float) -> float:
