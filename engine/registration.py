@@ -97,21 +97,22 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
     h0 = nominal.level_spacing(coarse)
 
     report("global search: pose hypotheses", 0.02)
-    sub = spread_subset(measured, settings.coarse_measured)
+    sub = spread_subset(measured, settings.coarse_measured, settings.seed)
     T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings)
     n_hyp = T.shape[0]
     # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
     # distinct ones go on.
-    first = sub[spread_subset(measured[sub], settings.coarse_measured // 2)]
+    first = sub[spread_subset(measured[sub], settings.coarse_measured // 2, settings.seed)]
     lookup = nominal.level_lookup(coarse)
     report(f"global search over {n_hyp} poses", 0.05)
     T, score = _icp_poses(T, measured[first], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
                           iterations=3, lam2=0.01)
-    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2)
+    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2, settings.seed)
     report(f"global search, best {T.shape[0]} poses", 0.25)
     T, score = _icp_poses(T, measured[sub], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
                           iterations=6, lam2=0.01)
-    return _best_distinct(T, score, measured[sub], settings.keep_per_level[0]), sub, n_hyp
+    return (_best_distinct(T, score, measured[sub], settings.keep_per_level[0], settings.seed),
+            sub, n_hyp)
 
 
 def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coarse: int,
@@ -135,7 +136,8 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
         else:
             pts_l, nrm_l, tree = nominal.level(size)
         h = nominal.level_spacing(size)
-        msub = spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
+        msub = spread_subset(measured, min(max(64, size // 32), settings.icp_measured),
+                             settings.seed)
         last = size >= finest
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
             else None
@@ -147,7 +149,7 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
                                            frac + 0.08))
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
-        T = _best_distinct(T, score, measured[msub], keep)
+        T = _best_distinct(T, score, measured[msub], keep, settings.seed)
     return T, iters
 
 
@@ -164,7 +166,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     full); the pose chosen is then fitted on every point. The answer is the best finished
     pose: no candidate scores better. The best distinct other pose is the runner-up."""
     near = settings.near_fraction_of_size * nominal.diagonal
-    ssub = spread_subset(measured, settings.icp_measured)
+    ssub = spread_subset(measured, settings.icp_measured, settings.seed)
     report("comparing the candidate poses", 0.8)
     devs = [point_to_surface(nominal, apply_transform(Tc, measured[ssub])).signed
             for Tc in refined]
@@ -283,10 +285,10 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     pca = np.asarray([En @ np.diag(s) @ Em.T
                       for s in ([1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1])])
     extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
-    p0, n0 = _reference_point(measured, extent)
+    p0, n0 = _reference_point(measured, extent, settings.seed)
 
     U = uniform_rotations(settings.n_rotations)
-    few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors)]
+    few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors, settings.seed)]
     R_all = [pca, U, np.repeat(U, few.shape[0], axis=0)]
     t_all = [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
 
@@ -302,9 +304,10 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     return make_transform(np.concatenate(R_all), np.concatenate(t_all))
 
 
-def _reference_point(measured: np.ndarray, extent: float):
-    """A measured point near the centroid whose neighbourhood is planar, and its unit normal."""
-    measured = measured[spread_subset(measured, 4096)]
+def _reference_point(measured: np.ndarray, extent: float, seed: int):
+    """A measured point near the centroid whose neighbourhood is planar, and its unit normal
+    (``seed``: the inspection's, engine.seeds)."""
+    measured = measured[spread_subset(measured, 4096, seed)]
     n = measured.shape[0]
     k = min(8, n)
     cm = measured.mean(axis=0)
@@ -455,10 +458,12 @@ def distinct_poses(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: fl
     return rotation_angle_deg(T1[:3, :3] @ T2[:3, :3].T) > 2.0 or move > 0.01 * extent
 
 
-def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int) -> np.ndarray:
+def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int,
+                   seed: int) -> np.ndarray:
     """The ``keep`` best-scoring poses (H, 4, 4), skipping any that lands within 1% of the
-    measured extent of a better one (poses compared by where they put a few spread points)."""
-    ref = src[spread_subset(src, 4)]
+    measured extent of a better one (poses compared by where they put a few spread points;
+    ``seed``: the inspection's, engine.seeds)."""
+    ref = src[spread_subset(src, 4, seed)]
     extent = float(np.linalg.norm(src.max(0) - src.min(0)))
     tol = 0.01 * max(extent, 1e-12)
     order = np.argsort(score, kind="stable")

@@ -34,9 +34,11 @@ from .progress import report
 from .pose import (apply_transform, apply_update, compose_updates, gauss_newton_step,
                    min_norm_solve, pose_2d, pose_jacobian, rotation_2d)
 from .registration_types import CONTOUR_RMS, PoseFit, RegistrationResult, RobustFit
+from .seeds import DEFAULT_SEED, rng
 from .surface_fit import robust_cut
 
-_SEED = 11
+SPREAD_SEED = 11
+"""The random stream of the 2D registration's seeded subsets of the points (engine.seeds)."""
 GROSS_FLOOR = 1e-4
 """The gross-outlier rule's floor, as a fraction of the template's diagonal (as in 3D)."""
 RULE_ROUNDS = 4
@@ -80,22 +82,25 @@ class _Samples:
 
 def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
                 max_anchors: int = 400, outlier_sigmas: float = 6.0,
-                max_iterations: int = 50, zone_width: float | None = None) -> RegistrationResult:
+                max_iterations: int = 50, zone_width: float | None = None,
+                seed: int = DEFAULT_SEED) -> RegistrationResult:
     """Find the 2D pose of measured points (n, 2) on the template of ``index``.
 
     outlier_sigmas : the robust cut of the coarse stages; zone_width : the tolerance zone's
-    width (mm), for the gross-outlier rule of the final fit (None: not known)."""
+    width (mm), for the gross-outlier rule of the final fit (None: not known); seed : the
+    inspection's, of every seeded subset of the points (engine.seeds)."""
     p = np.asarray(measured, float)
     S = _Samples(index)
     extent_t = float(np.linalg.norm(np.ptp(S.pts, axis=0)))
     extent_m = float(np.linalg.norm(np.ptp(p, axis=0)))
     h = S.spacing
-    T, n_hyp = _candidates(index, S, p, n_angles, max_anchors, outlier_sigmas, extent_t, extent_m)
+    T, n_hyp = _candidates(index, S, p, n_angles, max_anchors, outlier_sigmas, extent_t, extent_m,
+                           seed)
     # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
     # a subset of the points), the best of them to convergence; then the final least squares,
     # on the subset first (cheap), then over every point.
     near = 0.01 * extent_t
-    fsub = _spread(p, 4096)
+    fsub = _spread(p, 4096, seed)
     # (A single clear candidate needs no short round.)
     short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5 if len(T) > 1 else 0, h)
              for Tc in T[:3]]
@@ -123,7 +128,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         # Does the relative transform map the template onto itself?
         rel = short[runner].T_nominal_measured @ np.linalg.inv(Tb)
         symmetric = _maps_onto_itself(rel, S, h)
-        refit = _symmetric_pose(index, S, p[fsub], rel, Tb, outlier_sigmas, cut0, floor) \
+        refit = _symmetric_pose(index, S, p[fsub], rel, Tb, outlier_sigmas, cut0, floor, seed) \
             if symmetric else None
         if refit is not None:
             fit = final(refit, p[fsub])
@@ -144,11 +149,12 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
 
 
 def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int,
-                max_anchors: int, outlier_sigmas: float, extent_t: float, extent_m: float):
+                max_anchors: int, outlier_sigmas: float, extent_t: float, extent_m: float,
+                seed: int):
     """(T (k, 3, 3), n_hypotheses): the candidate poses of the measured points p (n, 2) on the
     template, best first, after the global search and ICP on the contour samples."""
     cm = p.mean(axis=0)
-    sub = _spread(p, 48)
+    sub = _spread(p, 48, seed)
     hyps = []
     # Rotations about the centroid, centroid on the template's centroid.
     ct = index.centroid
@@ -157,7 +163,7 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
     # The point nearest the centroid onto anchors along the contours, direction along theirs:
     # an anchor every 5% of the measured extent (so one lands near the right place however
     # little of the contour was measured), at most max_anchors.
-    p0, d0 = _reference(p)
+    p0, d0 = _reference(p, seed)
     per_anchor = max(0.05 * extent_m / max(S.spacing, 1e-12), 1.0)
     step = max(1, int(per_anchor), len(S.pts) // max_anchors)
     for k in range(0, len(S.pts), step):
@@ -168,13 +174,13 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
     n_hyp = T.shape[0]
     Sc = S.coarse(1000)
     report(f"global search over {n_hyp} poses", 0.1)
-    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], Sc, iterations=5)
+    T, score = _icp2(T, p[sub[_spread(p[sub], 24, seed)]], Sc, iterations=5)
     T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
     report(f"global search, best {T.shape[0]} poses", 0.35)
     T, score = _icp2(T, p[sub], Sc, iterations=6)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
     report("ICP on the full contour samples", 0.55)
-    T, score = _icp2(T, p[_spread(p, 256)], S, iterations=8)
+    T, score = _icp2(T, p[_spread(p, 256, seed)], S, iterations=8)
     T_icp = T
     report("point-to-contour fit", 0.75)
     order = np.argsort(score, kind="stable")
@@ -186,21 +192,22 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
         # No pose fits within the sampling (a few contours measured out of many, far apart):
         # ICP's ranking means little; rank every candidate by a few exact steps instead.
         floor0 = 1e-6 * max(extent_t, 1e-12)
-        T, xs = _short_fits(index, p[_spread(p, 256)], T_icp[order], outlier_sigmas, S.spacing,
-                            floor0, 3)
+        T, xs = _short_fits(index, p[_spread(p, 256, seed)], T_icp[order], outlier_sigmas,
+                            S.spacing, floor0, 3)
         T = T[np.argsort(xs, kind="stable")]
     return T, n_hyp
 
 
 def _symmetric_pose(index: ContourIndex, S: "_Samples", q: np.ndarray, rel: np.ndarray,
-                    Tb: np.ndarray, outlier_sigmas: float, cut: float, floor: float):
+                    Tb: np.ndarray, outlier_sigmas: float, cut: float, floor: float,
+                    seed: int):
     """A drawing is rarely exactly symmetric: of all the poses the symmetry ``rel`` (3, 3,
     template frame) gives from ``Tb`` (a gear's every tooth), the points q (m, 2) may fit one
     better. Each is refitted briefly; the pose that halves the fitted one's score, or None."""
     group = _symmetry_group(rel, S, S.spacing)
     if not group:
         return None
-    msub = _spread(q, 256)
+    msub = _spread(q, 256, seed)
     alt, alt_scores = _short_fits(index, q[msub], np.array([np.eye(3)] + group) @ Tb,
                                   outlier_sigmas, cut, floor, 3)
     k = int(np.argmin(alt_scores))
@@ -260,18 +267,19 @@ def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float
     return T, np.sqrt(np.mean(np.minimum(d * d, cut0 * cut0), axis=1))
 
 
-def _spread(p: np.ndarray, m: int) -> np.ndarray:
+def _spread(p: np.ndarray, m: int, seed: int) -> np.ndarray:
+    """Indices of a seeded random choice of at most ``m`` of the points p (n, 2), sorted."""
     if p.shape[0] <= m:
         return np.arange(p.shape[0])
-    return np.sort(np.random.default_rng(_SEED).choice(p.shape[0], m, replace=False))
+    return np.sort(rng(seed, SPREAD_SEED).choice(p.shape[0], m, replace=False))
 
 
-def _reference(p: np.ndarray):
+def _reference(p: np.ndarray, seed: int):
     """A measured point near the centroid and the local direction of its neighbours: of the 16
     points nearest the centroid, the one whose 6 nearest neighbours lie most nearly on a line
     (at a corner, or where neighbours belong to different contours, the direction means
     nothing)."""
-    q = p[_spread(p, 4096)]
+    q = p[_spread(p, 4096, seed)]
     k = min(6, q.shape[0])
     tree = cKDTree(q)
     _, near = tree.query(q.mean(axis=0), k=min(16, q.shape[0]))

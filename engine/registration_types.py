@@ -14,6 +14,7 @@ from .contour import Deviations2D
 from .deviation import Deviations
 from .outliers import GrossRule
 from .pose import in_plane
+from .seeds import DEFAULT_SEED
 
 
 @dataclass(frozen=True)
@@ -76,6 +77,8 @@ class RegistrationSettings:
     another fit finishes the pose (engine.inspection.inspect on a STEP model's exact surface):
     every point is then only evaluated and judged by the gross-outlier rule at the subset's
     pose."""
+    seed: int = DEFAULT_SEED
+    """The inspection's seed, of every seeded subset of the points (engine.seeds)."""
 
 
 SURFACE_RMS = ("RMS of signed point-to-surface deviations over the points used by the final fit: "

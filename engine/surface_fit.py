@@ -63,7 +63,7 @@ def point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     """
     floor = settings.outlier_floor * nominal.diagonal
     n = measured.shape[0]
-    fsub = spread_subset(measured, settings.fit_measured)
+    fsub = spread_subset(measured, settings.fit_measured, settings.seed)
     sub = measured[fsub]
     budget = settings.max_final_iterations
     robust = _gauss_newton(nominal, sub, T, settings, None, floor, min(ROBUST_ITERATIONS, budget))

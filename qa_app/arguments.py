@@ -7,6 +7,7 @@ import argparse
 import math
 
 from engine.choices import DecisionRule, Fit
+from engine.seeds import DEFAULT_SEED
 from qa_app.usage import EXAMPLES, EXIT_CODES
 
 
@@ -33,6 +34,16 @@ def _finite_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"'{text}' is not a finite number")
+    return v
+
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"'{text}' is negative (a seed is >= 0)")
     return v
 
 
@@ -100,6 +111,10 @@ def _add_fit_options(i: argparse.ArgumentParser) -> None:
                    help="the instrument's expanded measurement uncertainty, mm (k = 2); "
                         "combined per point with the registration's pose uncertainty and the "
                         "nominal-sampling margin (replaces a plan's [measurement] instrument)")
+    i.add_argument("--seed", type=_seed, metavar="N", default=DEFAULT_SEED,
+                   help="the seed of every random choice of the inspection (seeded subsets of "
+                        "the points, RANSAC); the same files, options and seed give the same "
+                        f"numbers (default {DEFAULT_SEED}; reported in the JSON's settings)")
 
 
 def _add_scene_options(i: argparse.ArgumentParser) -> None:
