@@ -24,6 +24,7 @@ from .pose import apply_transform, apply_update, pose_jacobian
 from .nominal import Nominal
 from .registration import distinct_poses, pose_score, register
 from .registration_types import RegistrationResult, RegistrationSettings
+from .seeds import DEFAULT_SEED, rng
 from .tolerance import Tolerance
 from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
                       margins_3d, plausible_runner_up, pointwise_verdict, pose_trusted)
@@ -141,16 +142,16 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     extra: dict = {}
     # The flow starts from the registration's last evaluation: every point at its final pose.
     if exact is not None:
-        reg = _exact_fit(reg, measure, tolerance.width)
+        reg = _exact_fit(reg, measure, tolerance.width, settings.seed)
         reg = _exact_runner_up(reg, measure, measured, nominal.diagonal, settings.outlier_floor,
-                               tolerance.width)
+                               tolerance.width, settings.seed)
     T = reg.T_nominal_measured
     dev = reg.deviations
     j = _judge_pose(reg, T, apply_transform(T, measured), dev,
                     _Measure(measure, deviations_at, beyond_at,
                              (lambda dv: np.zeros(dv.signed.size)) if exact is not None else
                              (lambda dv: margins_3d(nominal, dv.foot))),
-                    tolerance, fit, decision_rule, extra, instrument, guard)
+                    tolerance, fit, decision_rule, extra, instrument, guard, settings.seed)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
@@ -173,6 +174,8 @@ EXACT_FIT_POINTS = 8192
 """The exact least squares iterates on at most this many of the points it keeps (a seeded random
 choice), then takes one step on every point: each exact evaluation costs tens of microseconds a
 point."""
+EXACT_FIT_SEED = 11
+"""The random stream of that choice (engine.seeds)."""
 
 
 EXACT_MAX_STEPS = 20
@@ -188,7 +191,7 @@ EXACT_STALL_OF_ZONE = 0.01
 this fraction of the zone's width."""
 
 
-def _exact_fit(reg, measure, zone_width: float):
+def _exact_fit(reg, measure, zone_width: float, seed: int):
     """The registration finished on the exact surface: least squares of the exact deviations
     from the pose found on the nominal's sample (within its chordal error of the answer), over
     the points the gross-outlier rule (engine.outliers) keeps at the pose reached.
@@ -201,13 +204,13 @@ def _exact_fit(reg, measure, zone_width: float):
     least-squares optimum over the points the rule keeps there, and the deviations returned are
     exact at it. A step that does not lower the sum of squares is halved (``EXACT_HALVINGS``);
     when no fraction of it does, the fit ends there. converged, rms, inliers and rule are this
-    fit's."""
+    fit's. seed : the inspection's (engine.seeds)."""
     from .outliers import gross_outliers, gross_rule
 
     floor = reg.gross_rule.floor_mm
     rule = gross_rule(reg.deviations.signed, zone_width, floor)
     use = ~gross_outliers(reg.deviations.signed, reg.deviations.foot, rule)
-    T = _subset_fit(measure, reg.T_nominal_measured, use)
+    T = _subset_fit(measure, reg.T_nominal_measured, use, seed)
     X, dev = measure(T)
     extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
     converged = False
@@ -241,12 +244,14 @@ def _exact_fit(reg, measure, zone_width: float):
 EXACT_SCORE_POINTS = 4096
 """The exact scores of the chosen and the runner-up pose are taken over a seeded random choice of
 at most this many points (the registration scores on as many)."""
+EXACT_SCORE_SEED = 17
+"""The random stream of that choice (engine.seeds)."""
 RUNNER_UP_FIT_ITERATIONS = 20
 """Gauss-Newton iterations at most of the runner-up's exact least squares."""
 
 
 def _exact_runner_up(reg, measure, measured: np.ndarray, diagonal: float, floor: float,
-                     zone_width: float):
+                     zone_width: float, seed: int):
     """A plausible runner-up (engine.verdict.plausible_runner_up) judged on the exact surface,
     as the chosen pose was: its pose finished by least squares of the exact deviations of the
     points the gross-outlier rule keeps there, then both poses scored (``pose_score`` at
@@ -262,12 +267,12 @@ def _exact_runner_up(reg, measure, measured: np.ndarray, diagonal: float, floor:
     n = reg.deviations.signed.size
     idx = np.arange(n)
     if n > EXACT_SCORE_POINTS:
-        idx = np.sort(np.random.default_rng(17).choice(n, EXACT_SCORE_POINTS, replace=False))
+        idx = np.sort(rng(seed, EXACT_SCORE_SEED).choice(n, EXACT_SCORE_POINTS, replace=False))
     _, dev = measure(reg.runner_up_T, idx)
     rule = gross_rule(dev.signed, zone_width, reg.gross_rule.floor_mm)
     use = np.zeros(n, bool)
     use[idx[~gross_outliers(dev.signed, dev.foot, rule)]] = True
-    Tr = _subset_fit(measure, reg.runner_up_T, use, RUNNER_UP_FIT_ITERATIONS)
+    Tr = _subset_fit(measure, reg.runner_up_T, use, seed, RUNNER_UP_FIT_ITERATIONS)
     score = pose_score(reg.deviations.signed[idx], floor * diagonal)
     if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
         return replace(reg, score=score, runner_up_score=None, runner_up_T=None)
@@ -286,7 +291,8 @@ def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray):
     return step, c, moved
 
 
-def _subset_fit(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 50) -> np.ndarray:
+def _subset_fit(measure, T: np.ndarray, use: np.ndarray, seed: int,
+                max_iterations: int = 50) -> np.ndarray:
     """The pose from T by Gauss-Newton least squares of the exact deviations of a seeded random
     choice of at most EXACT_FIT_POINTS of the points ``use``, until no point moves by more
     than 1e-9 of their extent (or ``max_iterations``), or no fraction of a step
@@ -295,7 +301,7 @@ def _subset_fit(measure, T: np.ndarray, use: np.ndarray, max_iterations: int = 5
     0.1 mm, went back and forth by 1.5 um for all of its 20 iterations.)"""
     idx = np.flatnonzero(use)
     if idx.size > EXACT_FIT_POINTS:
-        idx = np.sort(np.random.default_rng(11).choice(idx, EXACT_FIT_POINTS, replace=False))
+        idx = np.sort(rng(seed, EXACT_FIT_SEED).choice(idx, EXACT_FIT_POINTS, replace=False))
     if idx.size < 6:
         return T
     X, dev = measure(T, idx)
@@ -358,7 +364,7 @@ class _Judged:
 
 def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
                 fit: str, decision_rule: str, extra: dict, instrument=None,
-                guard_by: str = "uncertainty") -> _Judged:
+                guard_by: str = "uncertainty", seed: int = DEFAULT_SEED) -> _Judged:
     """The flow both kinds share from the registration's pose T (points X and deviations
     ``dev`` there): conditioning → ambiguity → (minimax refit, its facts into ``extra``) →
     margins and uncertainty → pose sensitivity → judge → statistics. The guarded rule's guard
@@ -367,13 +373,13 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
     from .trust import conditioning
 
     cond = conditioning(X[reg.inlier], dev.normal[reg.inlier], reg.rms,
-                        RESOLUTION_OF_ZONE * tol.width)
+                        RESOLUTION_OF_ZONE * tol.width, seed)
 
     def evaluate(Tc):
         Xc, dv = measure.at(Tc)
         return Xc, dv.signed, dv.normal
 
-    ambiguous, spread = ambiguity(reg, dev.signed, tol, measure.deviations_at)
+    ambiguous, spread = ambiguity(reg, dev.signed, tol, measure.deviations_at, seed)
     if fit == Fit.MINIMAX:
         T = minimax(evaluate, T, reg.inlier, tol, extra)
         X, dev = measure.at(T)
@@ -391,7 +397,8 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
     ts = time.perf_counter()
     sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
                                     tol, guard, fit, X, measure.beyond_at, dev.normal,
-                                    pose_in_guard=unc is not None and guard is not None)
+                                    pose_in_guard=unc is not None and guard is not None,
+                                    seed=seed)
     ts = time.perf_counter() - ts
     verdict, reasons, inside = judge(dev.signed, tol, reg, cond.weak, ambiguous, spread, guard,
                                      sens, statements)
@@ -459,7 +466,8 @@ def robust_rms(d: np.ndarray, rms: float) -> float:
 
 def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margin, fit: str,
                  points: np.ndarray | None = None, beyond_at=None,
-                 normals: np.ndarray | None = None, pose_in_guard: bool = False):
+                 normals: np.ndarray | None = None, pose_in_guard: bool = False,
+                 seed: int = DEFAULT_SEED):
     """(PoseSensitivity, statements) of the pose T with deviations d (None, () when the pose
     cannot be trusted anyway). The runner-up is a plausible pose when it scores within
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
@@ -489,7 +497,8 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
         cond, weak=tuple(w for w in cond.weak if w.sigma_mm is None))
     sens = pose_sensitivity(deviations_at, T, d, tol.lower, tol.upper, probed,
                             lambda dd: pointwise_verdict(dd, tol, margin)[0], margin,
-                            alternatives, points=points, beyond_at=beyond_at, region=region)
+                            alternatives, points=points, beyond_at=beyond_at, region=region,
+                            seed=seed)
     return sens, trust_statements(sens, reg.score, reg.runner_up_score)
 
 
@@ -498,7 +507,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
                decision_rule: DecisionRule = DecisionRule.SIMPLE,
                template_facts: dict | None = None,
                instrument: "Instrument | None" = None,
-               guard: str = "uncertainty") -> InspectionResult:
+               guard: str = "uncertainty", seed: int = DEFAULT_SEED) -> InspectionResult:
     """Register measured points to a 2D contour template and judge them.
 
     measured : (n, 3) points; with ``dim == 2`` their x, y lie in the template plane already;
@@ -510,6 +519,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         is complete when built: nothing is added to it afterwards).
     The result's ``T_nominal_measured`` is the full 4x4 (measured → template frame, the template
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
+    seed : the inspection's, of every seeded subset of the points (engine.seeds).
     """
     from .contour import ContourIndex, deviations_2d
     from .registration2d import fit_plane, register_2d
@@ -535,7 +545,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     best = None
     for F in frames:
         q = measured @ F[:3, :3].T + F[:3, 3]
-        reg = register_2d(index, q[:, :2], zone_width=tolerance.width)
+        reg = register_2d(index, q[:, :2], zone_width=tolerance.width, seed=seed)
         if best is None or reg.score < best[1].score:
             best = (F, reg)
     F, reg = best
@@ -552,7 +562,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     j = _judge_pose(reg, T2, apply_transform(T2, q2), reg.deviations,
                     _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
-                    tolerance, fit, decision_rule, extra, instrument, guard)
+                    tolerance, fit, decision_rule, extra, instrument, guard, seed)
     t1 = j.fitted_at
     reg3 = reg.lifted(F, j.T, j.deviations)
     T = reg3.T_nominal_measured

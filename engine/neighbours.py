@@ -9,6 +9,7 @@ import numpy as np
 from scipy import ndimage
 
 from . import icp_kernels
+from .seeds import DEFAULT_SEED, rng
 
 PARALLEL_QUERIES = 2048
 """A kd-tree query of fewer points runs on one thread: starting the threads costs more than
@@ -79,20 +80,21 @@ class SampleLookup:
 
 
 SPREAD_SEED = 7
-"""The seed of :func:`spread_subset`'s random subsets."""
+"""The random stream of :func:`spread_subset`'s subsets (engine.seeds)."""
 
 
-def spread_subset(pts: np.ndarray, m: int) -> np.ndarray:
+def spread_subset(pts: np.ndarray, m: int, seed: int = DEFAULT_SEED) -> np.ndarray:
     """Indices of up to ``m`` points spread over ``pts``: farthest-point sampling for small ``m``,
-    a seeded random subset for large ``m`` (where it spreads well enough and costs nothing)."""
+    a seeded random subset for large ``m`` (where it spreads well enough and costs nothing);
+    ``seed``: the inspection's (engine.seeds)."""
     n = pts.shape[0]
     if n <= m:
         return np.arange(n)
     if m > 128:
-        return np.sort(np.random.default_rng(SPREAD_SEED).choice(n, m, replace=False))
+        return np.sort(rng(seed, SPREAD_SEED).choice(n, m, replace=False))
     pool = np.arange(n)
     if n > 8192:
-        pool = np.sort(np.random.default_rng(SPREAD_SEED).choice(n, 8192, replace=False))
+        pool = np.sort(rng(seed, SPREAD_SEED).choice(n, 8192, replace=False))
     P = np.ascontiguousarray(pts[pool], np.float64)
     return np.sort(pool[icp_kernels.farthest_points(P, P.mean(0), m)])
 

@@ -25,6 +25,7 @@ from . import icp_kernels, kernels
 from .errors import InputError
 from .neighbours import SampleLookup, query_workers
 from .pointset import PointSet
+from .seeds import DEFAULT_SEED, rng
 
 NORMAL_NEIGHBOURS = 12
 MAX_SUBDIVISION = 16  # a large triangle gets at most 16 x 16 / 2 interior sample points
@@ -35,7 +36,8 @@ EVEN_EDGE_RATIO = 8.0
 """A mesh's vertices cover its surface evenly (:attr:`Nominal.vertices_cover`) when its
 triangles' area-weighted mean squared longest edge is at most this many times the area per
 vertex."""
-_SEED = 20240607
+LEVELS_SEED = 20240607
+"""The random stream of a nominal's seeded permutation and area samples (engine.seeds)."""
 
 
 def surface_tree(points: np.ndarray) -> cKDTree:
@@ -55,12 +57,15 @@ class Nominal:
 
     def __init__(self, points: np.ndarray, normals: np.ndarray | None, normals_source: str,
                  triangles: np.ndarray | None = None, kind: str = "points",
-                 grid_shape: tuple[int, int] | None = None, path: str = "<array>"):
+                 grid_shape: tuple[int, int] | None = None, path: str = "<array>",
+                 seed: int = DEFAULT_SEED):
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.n = self.points.shape[0]
         self.kind = kind
         self.grid_shape = grid_shape
         self.path = path
+        self.seed = seed
+        """The inspection's seed (engine.seeds), of the coarse levels' random choices."""
         self.triangles = None if triangles is None else np.ascontiguousarray(triangles, np.int64)
         self.normals_source = normals_source
         if normals is None:
@@ -74,7 +79,7 @@ class Nominal:
         self.diagonal = float(np.linalg.norm(hi - lo))
         self._tree: cKDTree | None = None
         self._levels: dict = {}
-        self._perm = np.random.default_rng(_SEED).permutation(self.n)
+        self._perm = rng(seed, LEVELS_SEED).permutation(self.n)
         self._area_samples: tuple | None = None
         self._orient_ref: tuple[cKDTree, np.ndarray] | None = None
         if self.triangles is not None:
@@ -82,8 +87,9 @@ class Nominal:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_point_set(cls, ps: PointSet) -> "Nominal":
-        """Build the nominal from a read file: a mesh, a declared grid, or bare points."""
+    def from_point_set(cls, ps: PointSet, seed: int = DEFAULT_SEED) -> "Nominal":
+        """Build the nominal from a read file: a mesh, a declared grid, or bare points (``seed``:
+        the inspection's, engine.seeds)."""
         if ps.dim != 3:
             raise InputError("a 3D nominal needs x y z columns (a 2-column file is a 2D contour)",
                              ps.path)
@@ -93,14 +99,14 @@ class Nominal:
                 raise InputError("the mesh has no triangle of non-zero area", ps.path)
             tris, normals = _orient_mesh(ps.points, tris, ps.normals)
             return cls(ps.points, normals, "file" if ps.normals is not None else "mesh", tris,
-                       "mesh", None, ps.path)
+                       "mesh", None, ps.path, seed)
         if ps.grid_shape is not None:
             tris = _closed_grid_triangles(ps.points, *ps.grid_shape)
             tris, normals = _orient_mesh(ps.points, tris, ps.normals, closed_check=False)
             return cls(ps.points, normals, "file" if ps.normals is not None else "grid", tris,
-                       "grid", ps.grid_shape, ps.path)
+                       "grid", ps.grid_shape, ps.path, seed)
         return cls(ps.points, ps.normals, "file" if ps.normals is not None else "estimated",
-                   None, "points", None, ps.path)
+                   None, "points", None, ps.path, seed)
 
     # ------------------------------------------------------------------ neighbours
     @property
@@ -177,10 +183,10 @@ class Nominal:
             tris = self.triangles
             P = self.points
             area = self.triangle_areas
-            rng = np.random.default_rng(_SEED)
-            t = np.searchsorted(np.cumsum(area), rng.uniform(0, area.sum(), AREA_SAMPLES))
+            gen = rng(self.seed, LEVELS_SEED)
+            t = np.searchsorted(np.cumsum(area), gen.uniform(0, area.sum(), AREA_SAMPLES))
             t = np.minimum(t, len(tris) - 1)
-            r1, r2 = np.sqrt(rng.uniform(size=AREA_SAMPLES)), rng.uniform(size=AREA_SAMPLES)
+            r1, r2 = np.sqrt(gen.uniform(size=AREA_SAMPLES)), gen.uniform(size=AREA_SAMPLES)
             w = np.column_stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2])
             corner = tris[t]
             pts = np.einsum("sc,scj->sj", w, P[corner])

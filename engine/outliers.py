@@ -211,19 +211,20 @@ def fit_without_gross(fit, T: np.ndarray, n: int, probe=None):
     fit(T, included) runs least squares from pose T (opaque here: a pose, or a pose with what
     is known at it) over every one of the n points but those gross at its pose and True in
     ``included`` ((n,) bool; None: every gross point; all False: plain least squares over every
-    point) and returns (T, gross (n,) bool: the rule alone at the returned pose, kept (n,) bool,
-    converged, result). Whichever call is chosen is the final fit: its result must be a real
-    fit's, whatever ``included`` is.
+    point) and returns (T, gross (n,) bool: the rule alone at the returned pose, result: the
+    fit, whose ``inlier`` (n,) bool are the points it kept). Whichever call is chosen is the
+    final fit: its result must be a real fit's, whatever ``included`` is.
 
     probe(T) -> (T, gross (n,) bool): the rule alone at (or near) the least-squares pose over
     every point, reached from T, and a pose to start the final fit from. Only which points it
     finds gross decides; it is never the final fit, so it may be cheaper than one (a linear step,
     at most ``INCLUDED_FIT_ITERATIONS`` iterations, converged or not). None: fit(T, all False).
 
-    Returns (the chosen fit's tuple, number of calls run, the probe counted). When the first
+    Returns (the chosen fit's triple, number of calls run, the probe counted). When the first
     fit keeps every point (the usual case) nothing else runs."""
     first = fit(T, None)
-    T1, _, kept, _, _ = first
+    T1, _, result = first
+    kept = result.inlier
     if kept.all():
         return first, 1
     if probe is None:

@@ -27,6 +27,7 @@ from .neighbours import query_workers
 from .nominal import Nominal
 from .progress import Callback, report, reporting, within
 from .registration_types import RegistrationSettings
+from .seeds import rng
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .scene_part import on_the_table, the_part
 from .settings import InspectionSettings
@@ -130,7 +131,9 @@ def instrument_of(given, plan: Plan | None):
 
 def check_settings(nominal_path: str, settings: InspectionSettings) -> None:
     """Raise SettingsError for options that do not apply to this kind of nominal, or a crop
-    box or plane distance that is none."""
+    box, plane distance or seed that is none."""
+    if isinstance(settings.seed, bool) or not isinstance(settings.seed, int) or settings.seed < 0:
+        raise SettingsError(f"the seed must be a whole number >= 0, not {settings.seed!r}")
     if settings.crop is not None:
         check_box(settings.crop)
     check_plane_distance(settings.plane_distance)
@@ -262,7 +265,7 @@ def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNomin
     nominal = None
     if source.template is None:
         report("preparing the nominal", 0.0)
-        nominal = Nominal.from_point_set(source.point_set)
+        nominal = Nominal.from_point_set(source.point_set, settings.seed)
     plan = record = None
     if settings.plan is not None:
         from .io.plan import read_plan
@@ -354,7 +357,7 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
                          "of the nominal, not a measurement (a measurement carries its "
                          "instrument's noise)", measured_path)
     warnings: tuple[str, ...] = ()
-    units = units_hint(source, nominal, measured_ps.points)
+    units = units_hint(source, nominal, measured_ps.points, settings.seed)
     if source.template is None and units is None:  # the units, not a scene to crop
         said = extent_warning(measured_ps.points, source.point_set.points,
                               "measured points" if selection is None else
@@ -393,21 +396,22 @@ def _select(measured_ps: PointSet, settings: InspectionSettings
         return measured_ps, None
     report("selecting the part's points", 0.0)
     selection = select_points(measured_ps.points, settings.crop, settings.remove_plane,
-                              settings.plane_distance, f"measured points of {measured_ps.path}")
+                              settings.plane_distance, f"measured points of {measured_ps.path}",
+                              settings.seed)
     return measured_ps.take(selection.kept), selection
 
 
-def nominal_sizes(source: "_Nominal", nominal: Nominal | None) -> np.ndarray:
+def nominal_sizes(source: "_Nominal", nominal: Nominal | None, seed: int) -> np.ndarray:
     """The nominal's principal sizes (engine.units.principal_sizes, mm) over an even sampling
     of it: a template's contours by length (seeded), a mesh's surface by area (its vertices may
-    crowd where it curves), else its points."""
+    crowd where it curves), else its points. seed : the inspection's (engine.seeds)."""
     from .units import principal_sizes
 
     if source.template is not None:
         from .contour import points_on
 
         return principal_sizes(points_on(source.template.template, SIZE_SAMPLES,
-                                         np.random.default_rng(SIZE_SEED)))
+                                         rng(seed, SIZE_SEED)))
     if nominal.triangles is not None and len(nominal.triangles):
         return principal_sizes(nominal.area_samples[0])
     return principal_sizes(nominal.points)
@@ -418,9 +422,11 @@ SIZE_SAMPLES, SIZE_SEED = 16384, 7
 the contours' own."""
 
 
-def units_hint(source: "_Nominal", nominal: Nominal | None, measured: np.ndarray) -> str | None:
+def units_hint(source: "_Nominal", nominal: Nominal | None, measured: np.ndarray,
+               seed: int) -> str | None:
     """A sentence saying the nominal and the ``measured`` points (n, 3), mm, are in different
-    units, naming what would read either right (engine.units.unit_mismatch), or None."""
+    units, naming what would read either right (engine.units.unit_mismatch), or None (``seed``:
+    the inspection's, engine.seeds)."""
     from .units import principal_sizes, unit_mismatch
 
     if source.template is not None:
@@ -430,7 +436,8 @@ def units_hint(source: "_Nominal", nominal: Nominal | None, measured: np.ndarray
         kind, mm = "step", source.step.mm_per_unit or 1.0
     else:
         kind, mm = "points", 1.0
-    return unit_mismatch(nominal_sizes(source, nominal), principal_sizes(measured), kind, mm)
+    return unit_mismatch(nominal_sizes(source, nominal, seed), principal_sizes(measured), kind,
+                         mm)
 
 
 COPY_PROBE = 64
@@ -526,7 +533,7 @@ def _inspect_2d(tpl, index, measured_ps: PointSet, settings: InspectionSettings,
     return inspect_2d(tpl.template, measured_ps.points, measured_ps.dim, settings.tolerance,
                       index=index, fit=settings.fit, decision_rule=settings.decision_rule,
                       instrument=instrument_of(settings.instrument, plan),
-                      guard=settings.guard,
+                      guard=settings.guard, seed=settings.seed,
                       template_facts={"units": tpl.units, "unitless": tpl.unitless,
                                       "flattened_curves": tpl.flattened,
                                       "ignored_entities": tpl.ignored})
@@ -544,8 +551,8 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
     share = plan_share(plan)
     with within(0.0, 1.0 - share):
         result = inspect(nominal, measured_ps.points, settings.tolerance,
-                         RegistrationSettings(noise_mm=noise), fit=settings.fit,
-                         decision_rule=settings.decision_rule, exact=exact,
+                         RegistrationSettings(noise_mm=noise, seed=settings.seed),
+                         fit=settings.fit, decision_rule=settings.decision_rule, exact=exact,
                          instrument=instrument_of(settings.instrument, plan),
                          guard=settings.guard)
     if source.step is not None:

@@ -20,6 +20,7 @@ import numpy as np
 
 from .choices import Verdict
 from .pose import screw_motion
+from .seeds import DEFAULT_SEED, rng
 from .trust import Conditioning, WeakDirection
 
 
@@ -75,6 +76,8 @@ probe and the runner-up, and along a free direction at the first pose scanned be
 FREE_EVERY_POINT of the reach and the farthest pose reached each way (on a large cloud every
 point can move that far: checking every point at every scanned pose would cost the whole
 cloud's deviations 20-odd times per direction)."""
+SUBSET_SEED = 7
+"""The random stream of that subset (engine.seeds)."""
 FREE_EVERY_POINT = 0.1
 
 
@@ -85,6 +88,8 @@ every other point the motion could carry across a limit, as at every probed pose
 poses move points by micrometres, so few need it, and there are up to UNCERTAINTY_POINTS of
 them: evaluating every point at each cost 29 exact evaluations of 2,000 points on the NIST
 FTC-07 part with a bowed face, 2.5 s."""
+REGION_SEED = 13
+"""The random stream of that part (engine.seeds)."""
 
 
 @dataclass(frozen=True)
@@ -172,7 +177,8 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
                      margin: np.ndarray | None = None, alternatives=(),
                      max_points: int = SENSITIVITY_POINTS,
                      points: np.ndarray | None = None,
-                     beyond_at: Callable | None = None, region=()) -> PoseSensitivity:
+                     beyond_at: Callable | None = None, region=(),
+                     seed: int = DEFAULT_SEED) -> PoseSensitivity:
     """Does the verdict survive the pose's uncertainty?
 
     deviations_at(T', idx) : (len(idx),) signed deviations (mm) of measured points ``idx`` at
@@ -201,6 +207,7 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
         at pose T' (their closest point on it, not over the surface; see engine.inspection).
     region : poses on the edge of the pose's uncertainty region (:func:`uncertainty_poses`),
         judged together as one probe of kind "uncertainty".
+    seed : the inspection's (engine.seeds), of the seeded subsets.
     """
     d = np.asarray(d, float)
     n = d.size
@@ -212,7 +219,7 @@ def pose_sensitivity(deviations_at: Callable, T: np.ndarray, d: np.ndarray, lowe
     if not (weak or len(alternatives) or len(region)) or n == 0:
         return PoseSensitivity((), base, True, 0.0, closest, worst, 0, cond.length)
     judge = _PoseJudge(deviations_at, verdict_of, beyond_at, T, d, base, lower, upper, margin,
-                       points, max_points)
+                       points, max_points, seed)
     probes = [_direction_probe(judge, w, cond) for w in weak]
     probes += [_runner_up_probe(judge, Ta) for Ta in alternatives]
     if len(region):
@@ -242,7 +249,7 @@ class _PoseJudge:
     def __init__(self, deviations_at: Callable, verdict_of: Callable[[np.ndarray], str],
                  beyond_at: Callable | None, T: np.ndarray, d: np.ndarray, base: str,
                  lower: float, upper: float, margin: np.ndarray | None,
-                 points: np.ndarray | None, max_points: int):
+                 points: np.ndarray | None, max_points: int, seed: int):
         n = d.size
         self.deviations_at, self.verdict_of, self.beyond_at = deviations_at, verdict_of, beyond_at
         self.d, self.base = d, base
@@ -253,9 +260,9 @@ class _PoseJudge:
         if n <= max_points:
             self.idx = np.arange(n)
         else:
-            self.idx = np.sort(np.random.default_rng(7).choice(n, max_points, replace=False))
+            self.idx = np.sort(rng(seed, SUBSET_SEED).choice(n, max_points, replace=False))
         self.region_idx = self.idx if self.idx.size <= UNCERTAINTY_SUBSET else np.sort(
-            np.random.default_rng(13).choice(self.idx, UNCERTAINTY_SUBSET, replace=False))
+            rng(seed, REGION_SEED).choice(self.idx, UNCERTAINTY_SUBSET, replace=False))
         self.seen = np.zeros(n, bool)
         self.seen[self.idx] = True
         rms0 = float(np.sqrt(np.mean(d[self.idx] ** 2)))

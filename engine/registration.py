@@ -62,7 +62,7 @@ from .outliers import gross_outliers, gross_rule
 from .pose import (apply_transform, make_transform, rotation_angle_deg, rotation_from_rotvec,
                    uniform_rotations)
 from .progress import report
-from .registration_types import RegistrationResult, RegistrationSettings
+from .registration_types import PoseFit, RegistrationResult, RegistrationSettings
 from .surface_fit import ALTERNATIVE_ITERATIONS, MAX_FINISHES, gross_floor, point_to_surface_fit
 
 
@@ -98,21 +98,22 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
     h0 = nominal.level_spacing(coarse)
 
     report("global search: pose hypotheses", 0.02)
-    sub = spread_subset(measured, settings.coarse_measured)
+    sub = spread_subset(measured, settings.coarse_measured, settings.seed)
     T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings)
     n_hyp = T.shape[0]
     # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
     # distinct ones go on.
-    first = sub[spread_subset(measured[sub], settings.coarse_measured // 2)]
+    first = sub[spread_subset(measured[sub], settings.coarse_measured // 2, settings.seed)]
     lookup = nominal.level_lookup(coarse)
     report(f"global search over {n_hyp} poses", 0.05)
     T, score = _icp_poses(T, measured[first], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
                           iterations=3, lam2=0.01)
-    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2)
+    T = _best_distinct(T, score, measured[sub], settings.keep_per_level[0] * 2, settings.seed)
     report(f"global search, best {T.shape[0]} poses", 0.25)
     T, score = _icp_poses(T, measured[sub], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
                           iterations=6, lam2=0.01)
-    return _best_distinct(T, score, measured[sub], settings.keep_per_level[0]), sub, n_hyp
+    return (_best_distinct(T, score, measured[sub], settings.keep_per_level[0], settings.seed),
+            sub, n_hyp)
 
 
 def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coarse: int,
@@ -136,7 +137,8 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
         else:
             pts_l, nrm_l, tree = nominal.level(size)
         h = nominal.level_spacing(size)
-        msub = spread_subset(measured, min(max(64, size // 32), settings.icp_measured))
+        msub = spread_subset(measured, min(max(64, size // 32), settings.icp_measured),
+                             settings.seed)
         last = size >= finest
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
             else None
@@ -148,7 +150,7 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
                                            frac + 0.08))
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
-        T = _best_distinct(T, score, measured[msub], keep)
+        T = _best_distinct(T, score, measured[msub], keep, settings.seed)
     return T, iters
 
 
@@ -165,7 +167,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     full); the pose chosen is then fitted on every point. The answer is the best finished
     pose: no candidate scores better. The best distinct other pose is the runner-up."""
     near, near_rule = settings.near(nominal.diagonal)
-    ssub = spread_subset(measured, settings.icp_measured)
+    ssub = spread_subset(measured, settings.icp_measured, settings.seed)
     report("comparing the candidate poses", 0.8)
     devs = [point_to_surface(nominal, apply_transform(Tc, measured[ssub])).signed
             for Tc in refined]
@@ -189,7 +191,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     while best is not None:
         finished[best] = (_unfitted if unfit else point_to_surface_fit)(
             nominal, compared, refined[best], short if finished else settings, zone_width)
-        final[best] = pose_score(finished[best][5].signed, scale)
+        final[best] = pose_score(finished[best].deviations.signed, scale)
         chosen = min(final, key=final.get)
         # Not only the candidates already scoring better are finished: one a millimetre off
         # the right pose scores worse before its finish than a wrong pose after its own (NIST
@@ -197,39 +199,43 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
         # mis-probes: 2.44 mm, 8.7 mm off the truth, against a wrong pose's 0.17 mm).
         best = None if unfit or len(finished) >= MAX_FINISHES else next(
             (j for j in order if j not in finished
-             and all(distinct_poses(refined[j], finished[i][0], measured[sub], nominal.diagonal)
+             and all(distinct_poses(refined[j], finished[i].T_nominal_measured, measured[sub],
+                                    nominal.diagonal)
                      for i in finished)),
             None)
     # A short finish that did not settle and scores best is finished in full; that may leave
     # it worse than another, which is then the one chosen.
     complete = {order[0]}
-    while chosen not in complete and not finished[chosen][1] and not unfit:
-        finished[chosen] = point_to_surface_fit(nominal, compared, finished[chosen][0],
-                                                 settings, zone_width)
-        final[chosen] = pose_score(finished[chosen][5].signed, scale)
+    while chosen not in complete and not finished[chosen].converged and not unfit:
+        finished[chosen] = point_to_surface_fit(
+            nominal, compared, finished[chosen].T_nominal_measured, settings, zone_width)
+        final[chosen] = pose_score(finished[chosen].deviations.signed, scale)
         complete.add(chosen)
         chosen = min(final, key=final.get)
     if ssub.size < measured.shape[0]:
         finished[chosen] = (_unfitted if unfit else point_to_surface_fit)(
-            nominal, measured, finished[chosen][0], settings, zone_width)
-        final[chosen] = pose_score(finished[chosen][5].signed[ssub], scale)
-    Tb, converged, _, inlier, rule, dev_b, dev_s, message = finished[chosen]
+            nominal, measured, finished[chosen].T_nominal_measured, settings, zone_width)
+        final[chosen] = pose_score(finished[chosen].deviations.signed[ssub], scale)
+    fit = finished[chosen]
+    Tb = fit.T_nominal_measured
     # Every candidate at its finished pose and score where it was finished.
-    poses = [finished[i][0] if i in finished else refined[i] for i in range(len(refined))]
+    poses = [finished[i].T_nominal_measured if i in finished else refined[i]
+             for i in range(len(refined))]
     scores = [final.get(i, scores[i]) for i in range(len(refined))]
     runner = min((j for j in range(len(refined)) if j != chosen
                   and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
                  key=lambda j: scores[j], default=None)
     return RegistrationResult.from_fit(
-        Tb, dev_b, inlier, rule, near, converged=converged,
-        iterations=iterations + sum(f[2] for f in finished.values()), score=final[chosen],
-        hypotheses=hypotheses, runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else poses[runner], deviation_s=dev_s,
-        message=message, near_rule=near_rule)
+        Tb, fit.deviations, fit.inlier, fit.rule, near, converged=fit.converged,
+        iterations=iterations + sum(f.iterations for f in finished.values()),
+        score=final[chosen], hypotheses=hypotheses,
+        runner_up_score=None if runner is None else scores[runner],
+        runner_up_T=None if runner is None else poses[runner], deviation_s=fit.deviation_s,
+        message=fit.message, near_rule=near_rule)
 
 
 def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
-              settings: RegistrationSettings, zone_width: float | None):
+              settings: RegistrationSettings, zone_width: float | None) -> PoseFit:
     """The candidate pose T measured as it is, unfitted (no pose there is worth fitting), in
     the form of point_to_surface_fit's result."""
     X = apply_transform(T, measured)
@@ -238,8 +244,8 @@ def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     dev_s = time.perf_counter() - t0
     rule = gross_rule(dev.signed, zone_width, gross_floor(nominal, settings, zone_width))
     inlier = ~gross_outliers(dev.signed, dev.foot, rule)
-    return (T, False, 0, inlier, rule, dev, dev_s,
-            "the measured points do not match the nominal at any pose found")
+    return PoseFit(T, False, 0, inlier, rule, dev, dev_s,
+                   "the measured points do not match the nominal at any pose found")
 
 
 def pose_score(d: np.ndarray, scale: float) -> float:
@@ -280,10 +286,10 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     pca = np.asarray([En @ np.diag(s) @ Em.T
                       for s in ([1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1])])
     extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
-    p0, n0 = _reference_point(measured, extent)
+    p0, n0 = _reference_point(measured, extent, settings.seed)
 
     U = uniform_rotations(settings.n_rotations)
-    few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors)]
+    few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors, settings.seed)]
     R_all = [pca, U, np.repeat(U, few.shape[0], axis=0)]
     t_all = [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
 
@@ -299,9 +305,10 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     return make_transform(np.concatenate(R_all), np.concatenate(t_all))
 
 
-def _reference_point(measured: np.ndarray, extent: float):
-    """A measured point near the centroid whose neighbourhood is planar, and its unit normal."""
-    measured = measured[spread_subset(measured, 4096)]
+def _reference_point(measured: np.ndarray, extent: float, seed: int):
+    """A measured point near the centroid whose neighbourhood is planar, and its unit normal
+    (``seed``: the inspection's, engine.seeds)."""
+    measured = measured[spread_subset(measured, 4096, seed)]
     n = measured.shape[0]
     k = min(8, n)
     cm = measured.mean(axis=0)
@@ -435,10 +442,12 @@ def distinct_poses(T1: np.ndarray, T2: np.ndarray, src: np.ndarray, diagonal: fl
     return rotation_angle_deg(T1[:3, :3] @ T2[:3, :3].T) > 2.0 or move > 0.01 * extent
 
 
-def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int) -> np.ndarray:
+def _best_distinct(T: np.ndarray, score: np.ndarray, src: np.ndarray, keep: int,
+                   seed: int) -> np.ndarray:
     """The ``keep`` best-scoring poses (H, 4, 4), skipping any that lands within 1% of the
-    measured extent of a better one (poses compared by where they put a few spread points)."""
-    ref = src[spread_subset(src, 4)]
+    measured extent of a better one (poses compared by where they put a few spread points;
+    ``seed``: the inspection's, engine.seeds)."""
+    ref = src[spread_subset(src, 4, seed)]
     extent = float(np.linalg.norm(src.max(0) - src.min(0)))
     tol = 0.01 * max(extent, 1e-12)
     order = np.argsort(score, kind="stable")

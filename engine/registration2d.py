@@ -21,7 +21,7 @@ points may fit one tooth's pose better than the others.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -33,10 +33,12 @@ from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gr
 from .progress import report
 from .pose import (apply_transform, apply_update, compose_updates, gauss_newton_step,
                    min_norm_solve, pose_2d, pose_jacobian, rotation_2d)
-from .registration_types import CONTOUR_RMS, RegistrationResult
+from .registration_types import CONTOUR_RMS, PoseFit, RegistrationResult, RobustFit
+from .seeds import DEFAULT_SEED, rng
 from .surface_fit import robust_cut
 
-_SEED = 11
+SPREAD_SEED = 11
+"""The random stream of the 2D registration's seeded subsets of the points (engine.seeds)."""
 GROSS_FLOOR = 1e-4
 """The gross-outlier rule's floor, as a fraction of the template's diagonal (as in 3D)."""
 RULE_ROUNDS = 4
@@ -80,30 +82,35 @@ class _Samples:
 
 def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
                 max_anchors: int = 400, outlier_sigmas: float = 6.0,
-                max_iterations: int = 50, zone_width: float | None = None) -> RegistrationResult:
+                max_iterations: int = 50, zone_width: float | None = None,
+                seed: int = DEFAULT_SEED) -> RegistrationResult:
     """Find the 2D pose of measured points (n, 2) on the template of ``index``.
 
     outlier_sigmas : the robust cut of the coarse stages; zone_width : the tolerance zone's
-    width (mm), for the gross-outlier rule of the final fit (None: not known)."""
+    width (mm), for the gross-outlier rule of the final fit (None: not known); seed : the
+    inspection's, of every seeded subset of the points (engine.seeds)."""
     p = np.asarray(measured, float)
     S = _Samples(index)
     extent_t = float(np.linalg.norm(np.ptp(S.pts, axis=0)))
     extent_m = float(np.linalg.norm(np.ptp(p, axis=0)))
     h = S.spacing
-    T, n_hyp = _candidates(index, S, p, n_angles, max_anchors, outlier_sigmas, extent_t, extent_m)
+    T, n_hyp = _candidates(index, S, p, n_angles, max_anchors, outlier_sigmas, extent_t, extent_m,
+                           seed)
     # Exact point-to-contour Gauss-Newton with a robust cut: a few steps for the best three (on
     # a subset of the points), the best of them to convergence; then the final least squares,
     # on the subset first (cheap), then over every point.
     near = 0.01 * extent_t
-    fsub = _spread(p, 4096)
+    fsub = _spread(p, 4096, seed)
     # (A single clear candidate needs no short round.)
     short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5 if len(T) > 1 else 0, h)
              for Tc in T[:3]]
-    cut0 = min(f[4] for f in short)
-    scores = [float(np.sqrt(np.mean(np.minimum(f[5].signed ** 2, cut0 ** 2)))) for f in short]
+    cut0 = min(f.cut for f in short)
+    scores = [float(np.sqrt(np.mean(np.minimum(f.deviations.signed ** 2, cut0 ** 2))))
+              for f in short]
     best = int(np.argmin(scores))
-    Tb, _, it, _, _, _ = _gauss_newton2(index, p[fsub], short[best][0], outlier_sigmas,
-                                        max_iterations, h)
+    long = _gauss_newton2(index, p[fsub], short[best].T_nominal_measured, outlier_sigmas,
+                          max_iterations, h)
+    Tb, it = long.T_nominal_measured, long.iterations
     floor = GROSS_FLOOR * max(extent_t, 1e-12)
     tol = STEP_TOL * max(extent_t, float(np.max(np.abs(index.tree.data))), 1.0)
 
@@ -111,40 +118,43 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
         return _least_squares(index, pts, Tc, zone_width, floor, tol, max_iterations)
 
     fit = final(Tb, p[fsub])
-    Tb, it = fit[0], it + fit[2]
-    score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
+    Tb, it = fit.T_nominal_measured, it + fit.iterations
+    score = float(np.sqrt(np.mean(np.minimum(fit.deviations.signed ** 2, cut0 ** 2))))
     runner = next((int(j) for j in np.argsort(scores, kind="stable") if j != best
-                   and _distinct(short[j][0], Tb, p[fsub], 0.01 * max(extent_m, 1e-12))), None)
+                   and _distinct(short[j].T_nominal_measured, Tb, p[fsub],
+                                 0.01 * max(extent_m, 1e-12))), None)
     symmetric = False
     if runner is not None and scores[runner] <= 1.05 * score + 0.1 * h:
         # Does the relative transform map the template onto itself?
-        rel = short[runner][0] @ np.linalg.inv(Tb)
+        rel = short[runner].T_nominal_measured @ np.linalg.inv(Tb)
         symmetric = _maps_onto_itself(rel, S, h)
-        refit = _symmetric_pose(index, S, p[fsub], rel, Tb, outlier_sigmas, cut0, floor) \
+        refit = _symmetric_pose(index, S, p[fsub], rel, Tb, outlier_sigmas, cut0, floor, seed) \
             if symmetric else None
         if refit is not None:
             fit = final(refit, p[fsub])
-            Tb, it = fit[0], it + fit[2]
-            score = float(np.sqrt(np.mean(np.minimum(fit[5].signed ** 2, cut0 ** 2))))
+            Tb, it = fit.T_nominal_measured, it + fit.iterations
+            score = float(np.sqrt(np.mean(np.minimum(fit.deviations.signed ** 2, cut0 ** 2))))
     if fsub.size < p.shape[0]:
         fit = final(Tb, p)
-        it += fit[2]
-    Tb, conv, _, inl, rule, dev = fit
-    message = "" if conv else (f"the point-to-contour fit did not settle within "
-                               f"{max_iterations} iterations")
+        it += fit.iterations
+    message = "" if fit.converged else (f"the point-to-contour fit did not settle within "
+                                        f"{max_iterations} iterations")
     return RegistrationResult.from_fit(
-        Tb, dev, inl, rule, near, converged=conv, iterations=5 + 6 + 8 + it, score=score,
-        hypotheses=n_hyp, runner_up_score=None if runner is None else scores[runner],
-        runner_up_T=None if runner is None else short[runner][0], message=message,
+        fit.T_nominal_measured, fit.deviations, fit.inlier, fit.rule, near,
+        converged=fit.converged, iterations=5 + 6 + 8 + it, score=score, hypotheses=n_hyp,
+        runner_up_score=None if runner is None else scores[runner],
+        runner_up_T=None if runner is None else short[runner].T_nominal_measured,
+        message=message,
         rms_definition=CONTOUR_RMS, symmetric=symmetric)
 
 
 def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int,
-                max_anchors: int, outlier_sigmas: float, extent_t: float, extent_m: float):
+                max_anchors: int, outlier_sigmas: float, extent_t: float, extent_m: float,
+                seed: int):
     """(T (k, 3, 3), n_hypotheses): the candidate poses of the measured points p (n, 2) on the
     template, best first, after the global search and ICP on the contour samples."""
     cm = p.mean(axis=0)
-    sub = _spread(p, 48)
+    sub = _spread(p, 48, seed)
     hyps = []
     # Rotations about the centroid, centroid on the template's centroid.
     ct = index.centroid
@@ -153,7 +163,7 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
     # The point nearest the centroid onto anchors along the contours, direction along theirs:
     # an anchor every 5% of the measured extent (so one lands near the right place however
     # little of the contour was measured), at most max_anchors.
-    p0, d0 = _reference(p)
+    p0, d0 = _reference(p, seed)
     per_anchor = max(0.05 * extent_m / max(S.spacing, 1e-12), 1.0)
     step = max(1, int(per_anchor), len(S.pts) // max_anchors)
     for k in range(0, len(S.pts), step):
@@ -164,13 +174,13 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
     n_hyp = T.shape[0]
     Sc = S.coarse(1000)
     report(f"global search over {n_hyp} poses", 0.1)
-    T, score = _icp2(T, p[sub[_spread(p[sub], 24)]], Sc, iterations=5)
+    T, score = _icp2(T, p[sub[_spread(p[sub], 24, seed)]], Sc, iterations=5)
     T = _best_distinct(T, score, p[sub], 24, 0.01 * max(extent_m, 1e-12))
     report(f"global search, best {T.shape[0]} poses", 0.35)
     T, score = _icp2(T, p[sub], Sc, iterations=6)
     T = _best_distinct(T, score, p[sub], 12, 0.01 * max(extent_m, 1e-12))
     report("ICP on the full contour samples", 0.55)
-    T, score = _icp2(T, p[_spread(p, 256)], S, iterations=8)
+    T, score = _icp2(T, p[_spread(p, 256, seed)], S, iterations=8)
     T_icp = T
     report("point-to-contour fit", 0.75)
     order = np.argsort(score, kind="stable")
@@ -182,21 +192,22 @@ def _candidates(index: ContourIndex, S: "_Samples", p: np.ndarray, n_angles: int
         # No pose fits within the sampling (a few contours measured out of many, far apart):
         # ICP's ranking means little; rank every candidate by a few exact steps instead.
         floor0 = 1e-6 * max(extent_t, 1e-12)
-        T, xs = _short_fits(index, p[_spread(p, 256)], T_icp[order], outlier_sigmas, S.spacing,
-                            floor0, 3)
+        T, xs = _short_fits(index, p[_spread(p, 256, seed)], T_icp[order], outlier_sigmas,
+                            S.spacing, floor0, 3)
         T = T[np.argsort(xs, kind="stable")]
     return T, n_hyp
 
 
 def _symmetric_pose(index: ContourIndex, S: "_Samples", q: np.ndarray, rel: np.ndarray,
-                    Tb: np.ndarray, outlier_sigmas: float, cut: float, floor: float):
+                    Tb: np.ndarray, outlier_sigmas: float, cut: float, floor: float,
+                    seed: int):
     """A drawing is rarely exactly symmetric: of all the poses the symmetry ``rel`` (3, 3,
     template frame) gives from ``Tb`` (a gear's every tooth), the points q (m, 2) may fit one
     better. Each is refitted briefly; the pose that halves the fitted one's score, or None."""
     group = _symmetry_group(rel, S, S.spacing)
     if not group:
         return None
-    msub = _spread(q, 256)
+    msub = _spread(q, 256, seed)
     alt, alt_scores = _short_fits(index, q[msub], np.array([np.eye(3)] + group) @ Tb,
                                   outlier_sigmas, cut, floor, 3)
     k = int(np.argmin(alt_scores))
@@ -256,18 +267,19 @@ def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float
     return T, np.sqrt(np.mean(np.minimum(d * d, cut0 * cut0), axis=1))
 
 
-def _spread(p: np.ndarray, m: int) -> np.ndarray:
+def _spread(p: np.ndarray, m: int, seed: int) -> np.ndarray:
+    """Indices of a seeded random choice of at most ``m`` of the points p (n, 2), sorted."""
     if p.shape[0] <= m:
         return np.arange(p.shape[0])
-    return np.sort(np.random.default_rng(_SEED).choice(p.shape[0], m, replace=False))
+    return np.sort(rng(seed, SPREAD_SEED).choice(p.shape[0], m, replace=False))
 
 
-def _reference(p: np.ndarray):
+def _reference(p: np.ndarray, seed: int):
     """A measured point near the centroid and the local direction of its neighbours: of the 16
     points nearest the centroid, the one whose 6 nearest neighbours lie most nearly on a line
     (at a corner, or where neighbours belong to different contours, the direction means
     nothing)."""
-    q = p[_spread(p, 4096)]
+    q = p[_spread(p, 4096, seed)]
     k = min(6, q.shape[0])
     tree = cKDTree(q)
     _, near = tree.query(q.mean(axis=0), k=min(16, q.shape[0]))
@@ -328,31 +340,30 @@ def _distinct(T1, T2, p, tol) -> bool:
 
 
 def _least_squares(index: ContourIndex, p: np.ndarray, T: np.ndarray,
-                   zone_width: float | None, floor: float, tol: float, max_iter: int):
+                   zone_width: float | None, floor: float, tol: float, max_iter: int) -> PoseFit:
     """The final fit: Gauss-Newton on the exact signed point-to-contour distance over every
     point of ``p`` (n, 2) but the gross outliers, from pose ``T``; a point is left out only if
     it is gross with it included too (engine.outliers.fit_without_gross: when _rounds2 leaves
     points out, least squares over every point, then _rounds2 again with only the points gross
-    there allowed out). Returns (T, converged, iterations of every fit, kept (n,) bool,
-    GrossRule, Deviations2D at T)."""
+    there allowed out). Returns the fit (iterations: of every fit run)."""
     used = 0
 
     def fit(T0, included):
         nonlocal used
         everything = included is not None and not included.any()
-        out = _rounds2(index, p, T0, zone_width, floor, tol,
-                       min(max_iter, INCLUDED_FIT_ITERATIONS) if everything else max_iter,
-                       included)
-        used += out[2]
-        return out[0], out[6], out[3], out[1], out
+        out, gross = _rounds2(index, p, T0, zone_width, floor, tol,
+                              min(max_iter, INCLUDED_FIT_ITERATIONS) if everything else max_iter,
+                              included)
+        used += out.iterations
+        return out.T_nominal_measured, gross, out
 
-    (_, _, _, _, out), _ = fit_without_gross(fit, T, p.shape[0])
-    T1, converged, _, kept, rule, dev, _ = out
-    return T1, converged, used, kept, rule, dev
+    (_, _, out), _ = fit_without_gross(fit, T, p.shape[0])
+    return replace(out, iterations=used)
 
 
 def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: float | None,
-             floor: float, tol: float, max_iter: int, included: np.ndarray | None):
+             floor: float, tol: float, max_iter: int,
+             included: np.ndarray | None) -> tuple[PoseFit, np.ndarray | None]:
     """Gauss-Newton on the exact signed point-to-contour distance over every point of ``p``
     (n, 2) but the gross outliers (only those True in ``included`` (n,) when given; all False:
     plain least squares over every point), from pose ``T``.
@@ -365,8 +376,8 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
     points, so its size does not depend on where the coordinates lie. The deviations returned
     are exact at the returned pose.
 
-    Returns (T, converged, iterations, kept (n,) bool, GrossRule, Deviations2D at T, (n,) bool
-    gross by the rule alone at T).
+    Returns the fit and (n,) bool, the points gross by the rule alone at its pose (None when
+    only some may be left out: not asked for).
     """
     everything = included is not None and not included.any()
 
@@ -392,7 +403,7 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
                 changes += 1
             kept = ~out
         if kept.sum() < 3:
-            result = (T, False, it, kept, rule, dev)
+            result = PoseFit(T, False, it, kept, rule, dev)
             break
         delta, c, moved = _gn_step2(X, dev, kept)
         dk = d[kept]
@@ -400,7 +411,7 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
         # rounding can explain (Gauss-Newton steps shrink fast until they reach that floor).
         if (moved <= tol + 1e-4 * float(np.sqrt(np.mean(dk * dk)))
                 or (moved <= 10.0 * tol and moved >= 0.5 * last)):
-            result = (T, True, it, kept, rule, dev)
+            result = PoseFit(T, True, it, kept, rule, dev)
             break
         last = moved
         T = apply_update(T, delta, c)
@@ -409,15 +420,15 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
         if changes <= RULE_ROUNDS:
             rule, out = rule_at(dev)
             kept = ~out
-        result = (T, False, max_iter, kept, rule, dev)
-    dev, rule = result[5], result[4]
+        result = PoseFit(T, False, max_iter, kept, rule, dev)
+    dev, rule = result.deviations, result.rule
     if everything:
         gross = gross_outliers(dev.signed, dev.foot, rule)
     elif included is None:
-        gross = ~result[3]
+        gross = ~result.inlier
     else:
         gross = None  # not asked for
-    return result + (gross,)
+    return result, gross
 
 
 def _gn_step2(X: np.ndarray, dev: Deviations2D, use: np.ndarray):
@@ -439,10 +450,10 @@ def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float,
-                   max_iter: int, h: float):
+                   max_iter: int, h: float) -> RobustFit:
     """Least squares on the exact signed point-to-contour distance over the robust inliers.
 
-    Returns (T, converged, iterations, inlier, cut, Deviations2D at T).
+    Returns the fit, with its robust cut (mm).
     """
     floor = 1e-6 * max(float(np.linalg.norm(np.ptp(index.tree.data, axis=0))), 1e-12)
     inlier = None
@@ -455,16 +466,16 @@ def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: fl
             cut = robust_cut(d, sigmas, floor)
             inlier = np.abs(d) <= cut
         if inlier.sum() < 3:
-            return T, False, it, inlier, cut, dev
+            return RobustFit(T, False, it, inlier, dev, cut=cut)
         delta, c, moved = _gn_step2(X, dev, inlier)
         if moved < 1e-7:
-            return T, True, it, inlier, cut, dev
+            return RobustFit(T, True, it, inlier, dev, cut=cut)
         T = apply_update(T, delta, c)
     X = apply_transform(T, p)
     dev = deviations_2d(index, X)
     if inlier is None:  # no iteration asked for: just measure, with the robust cut
         cut = robust_cut(dev.signed, sigmas, floor)
-    return T, False, max_iter, np.abs(dev.signed) <= cut, cut, dev
+    return RobustFit(T, False, max_iter, np.abs(dev.signed) <= cut, dev, cut=cut)
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
 """What a registration takes (:class:`RegistrationSettings`) and returns
-(:class:`RegistrationResult`): shared by the 3D registration (engine.registration), the fit
+(:class:`RegistrationResult`), and the fits it is made of (:class:`RobustFit`,
+:class:`PoseFit`): shared by the 3D registration (engine.registration), the fit
 that finishes it (engine.surface_fit) and the 2D one (engine.registration2d)."""
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from .contour import Deviations2D
 from .deviation import Deviations
 from .outliers import GrossRule
 from .pose import in_plane
+from .seeds import DEFAULT_SEED
 
 
 @dataclass(frozen=True)
@@ -93,12 +95,59 @@ class RegistrationSettings:
     another fit finishes the pose (engine.inspection.inspect on a STEP model's exact surface):
     every point is then only evaluated and judged by the gross-outlier rule at the subset's
     pose."""
+    seed: int = DEFAULT_SEED
+    """The inspection's seed, of every seeded subset of the points (engine.seeds)."""
 
 
 SURFACE_RMS = ("RMS of signed point-to-surface deviations over the points used by the final fit: "
                "all but those excluded from the alignment as gross outliers (mm)")
 CONTOUR_RMS = ("RMS of signed point-to-contour deviations over the points the final fit used: "
                "every point but the gross outliers (mm)")
+
+
+@dataclass(frozen=True)
+class RobustFit:
+    """A Gauss-Newton fit over the points within a robust cut of the deviations (the short
+    fits that bring a candidate pose into the least-squares basin)."""
+
+    T_nominal_measured: np.ndarray
+    """(4, 4) 3D, (3, 3) 2D: the pose reached, mapping measured points into the nominal's frame."""
+    converged: bool
+    """Whether a step became negligible within the iterations allowed."""
+    iterations: int
+    """Gauss-Newton iterations run."""
+    inlier: np.ndarray
+    """(n,) bool: the points fitted (inside the cut at the returned pose)."""
+    deviations: Deviations | Deviations2D
+    """Of every point fitted on, at the returned pose."""
+    deviation_s: float = 0.0
+    """Seconds the evaluation of ``deviations`` took (3D only; 0 in 2D)."""
+    cut: float | None = None
+    """The robust cut, mm (2D only: the candidates are scored with it)."""
+
+
+@dataclass(frozen=True)
+class PoseFit:
+    """The final least-squares fit of a pose over every point but the gross outliers
+    (engine.outliers), as the 3D finish (engine.surface_fit) and the 2D one
+    (engine.registration2d) leave it; :meth:`RegistrationResult.from_fit` reads it."""
+
+    T_nominal_measured: np.ndarray
+    """(4, 4) 3D, (3, 3) 2D: the pose fitted, mapping measured points into the nominal's frame."""
+    converged: bool
+    """Whether the fit settled (and the points it leaves out with it) within its budget."""
+    iterations: int
+    """Gauss-Newton iterations of every fit run to reach it."""
+    inlier: np.ndarray
+    """(n,) bool: the points kept (not gross outliers) at the returned pose."""
+    rule: GrossRule
+    """The gross-outlier rule at the returned pose."""
+    deviations: Deviations | Deviations2D
+    """Of every point, at the returned pose."""
+    deviation_s: float = 0.0
+    """Seconds the last evaluation of ``deviations`` took (3D only; 0 in 2D)."""
+    message: str = ""
+    """Why the fit is not to be trusted, in words ("" when it converged)."""
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import seeds
 from .errors import SettingsError
 
 MIN_KEPT = 6
@@ -37,7 +38,8 @@ PLANE_SIGMAS = 3.0
 """The default removal distance: this many robust standard deviations of the plane's points
 about it ..."""
 SEED = 0
-"""Seed of every random choice here: the same points give the same plane, every run."""
+"""The random stream of every random choice here (engine.seeds): the same points and seed give
+the same plane, every run."""
 LINK_SPACINGS = 2.0
 """Two points belong to one object when they lie within this many typical point spacings of
 each other (:func:`objects`): a scanner's rows are one spacing apart on a surface, and the gap
@@ -106,13 +108,14 @@ class Plane:
 
 
 def typical_spacing(points: np.ndarray, samples: int = SPACING_SAMPLES,
-                    seed: int = SEED) -> float:
+                    seed: int = seeds.DEFAULT_SEED) -> float:
     """points (n, 3), mm -> the median distance from a point to its nearest other point, over a
-    seeded choice of at most ``samples`` points (mm; 0.0 for fewer than two points)."""
+    seeded choice of at most ``samples`` points (mm; 0.0 for fewer than two points; ``seed``:
+    the inspection's, engine.seeds)."""
     p = np.asarray(points, dtype=np.float64)
     if p.shape[0] < 2:
         return 0.0
-    rng = np.random.default_rng(seed)
+    rng = seeds.rng(seed, SEED)
     q = p if p.shape[0] <= samples else p[rng.choice(p.shape[0], samples, replace=False)]
     d, _ = cKDTree(p).query(q, k=2)
     return float(np.median(d[:, 1]))
@@ -133,7 +136,7 @@ def _hypotheses(p: np.ndarray, rng: np.random.Generator, k: int):
 def _best_hypothesis(p: np.ndarray, threshold: float, seed: int, iterations: int):
     """(normal (3,), offset) of the plane through three of ``p`` with the most points within
     ``threshold``; the first such among the seeded hypotheses on a tie."""
-    rng = np.random.default_rng(seed)
+    rng = seeds.rng(seed, SEED)
     normals, offsets = _hypotheses(p, rng, iterations)
     if normals.shape[0] == 0:
         raise ValueError("the points are collinear: they hold no plane")
@@ -169,7 +172,8 @@ def _refit(p: np.ndarray, mask: np.ndarray, normal: np.ndarray):
     return n, float(n @ c)
 
 
-def dominant_plane(points: np.ndarray, distance: float | None = None, *, seed: int = SEED,
+def dominant_plane(points: np.ndarray, distance: float | None = None, *,
+                   seed: int = seeds.DEFAULT_SEED,
                    iterations: int = RANSAC_ITERATIONS) -> Plane:
     """The plane holding the most points (the table under a part), by seeded RANSAC: planes
     through random triples, counted on a seeded subset of at most ``RANSAC_POINTS`` points,
@@ -181,6 +185,7 @@ def dominant_plane(points: np.ndarray, distance: float | None = None, *, seed: i
         ``PLANE_SIGMAS`` robust standard deviations of the consensus points about the refitted
         plane, at least h. (A 3D camera's ToF noise of a few mm gives ~15 mm; a clean dense
         scan one spacing.)
+    seed : the inspection's (engine.seeds).
 
     Returns a :class:`Plane`; the same points give the same plane on every run. Raises
     ValueError for fewer than 3 points or points on one line.
@@ -196,7 +201,7 @@ def dominant_plane(points: np.ndarray, distance: float | None = None, *, seed: i
     if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 3:
         raise ValueError("a plane needs at least 3 points (n, 3)")
     h = typical_spacing(p, seed=seed)
-    rng = np.random.default_rng(seed)
+    rng = seeds.rng(seed, SEED)
     sub = p if p.shape[0] <= RANSAC_POINTS else p[rng.choice(p.shape[0], RANSAC_POINTS,
                                                              replace=False)]
     search = distance if distance is not None else 2.0 * h
@@ -276,11 +281,11 @@ class Selection:
 
 
 def select_points(points: np.ndarray, box=None, remove_plane: bool = False,
-                  plane_distance: float | None = None, what: str = "measured points"
-                  ) -> Selection:
+                  plane_distance: float | None = None, what: str = "measured points",
+                  seed: int = seeds.DEFAULT_SEED) -> Selection:
     """The points an inspection keeps: those inside ``box`` (all without one), less the
     dominant plane among them when ``remove_plane`` (:func:`dominant_plane`, with
-    ``plane_distance`` mm or its default rule).
+    ``plane_distance`` mm or its default rule; ``seed``: the inspection's, engine.seeds).
 
     points : (n, 3) float, mm. Raises SettingsError when fewer than ``MIN_KEPT`` points are
     left (``what`` names them in the message): an inspection of nothing is no verdict.
@@ -299,7 +304,7 @@ def select_points(points: np.ndarray, box=None, remove_plane: bool = False,
         check_plane_distance(plane_distance)
         inside = np.flatnonzero(keep)
         try:
-            plane = dominant_plane(p[inside], plane_distance)
+            plane = dominant_plane(p[inside], plane_distance, seed=seed)
         except ValueError as e:
             raise SettingsError(f"no plane to remove from the {what}: {e}") from None
         on_plane = int(plane.inliers.sum())

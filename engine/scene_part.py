@@ -26,6 +26,7 @@ from .pose import apply_transform
 from .progress import report
 from .registration import register
 from .registration_types import RegistrationSettings
+from .seeds import DEFAULT_SEED
 from .scene import LINK_SPACINGS, MIN_KEPT, Plane, Selection, objects, typical_spacing
 from .surface_fit import ROBUST_ITERATIONS
 
@@ -65,21 +66,22 @@ class PartInScene:
 
 
 def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
-                  zone_width: float | None = None) -> PartInScene:
+                  zone_width: float | None = None, seed: int = DEFAULT_SEED) -> PartInScene:
     """The objects of ``points`` (n, 3), mm, the measured frame) that are the part ``nominal``
     shows, for a measurement of noise ``noise`` mm (a standard deviation). With one object
     only, every point is kept and nothing is registered. Objects are found, and the points a
     pose claims counted, on at most ``OBJECT_POINTS`` of the points, one per voxel
-    (engine.neighbours.voxel_spread; every point takes its nearest one's object)."""
+    (engine.neighbours.voxel_spread; every point takes its nearest one's object). ``seed``: the
+    inspection's (engine.seeds)."""
     p = np.asarray(points, dtype=np.float64)
     sub = np.arange(p.shape[0]) if p.shape[0] <= OBJECT_POINTS else \
-        voxel_spread(p, typical_spacing(p), OBJECT_POINTS)
+        voxel_spread(p, typical_spacing(p, seed=seed), OBJECT_POINTS)
     q = p[sub]
-    link = LINK_SPACINGS * typical_spacing(q)
+    link = LINK_SPACINGS * typical_spacing(q, seed=seed)
     label_q = objects(q, link) if link > 0 else np.zeros(q.shape[0], np.int64)
     label = label_q if sub.size == p.shape[0] else label_q[cKDTree(q).query(p)[1]]
     sizes = np.bincount(label_q)
-    settings = RegistrationSettings(noise_mm=noise)
+    settings = RegistrationSettings(noise_mm=noise, seed=seed)
     # A candidate's pose only counts the points it claims (the inspection then registers the
     # part's points in full): its finishes stop after their robust iterations.
     quick = replace(settings, max_final_iterations=ROBUST_ITERATIONS)
@@ -135,7 +137,7 @@ def the_part(nominal: Nominal, measured: PointSet, selection: Selection, setting
     report("which object is the part", 0.0)
     tol = settings.tolerance
     part = part_in_scene(nominal, measured.points, selection.plane.sigma,
-                         None if tol is None else tol.width)
+                         None if tol is None else tol.width, settings.seed)
     return measured.take(part.kept), replace(
         selection, kept=selection.kept[part.kept], n_objects=part.n_objects,
         n_other_objects=measured.n - part.kept.size, object_link=part.link)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from .choices import DecisionRule, Fit
+from .seeds import DEFAULT_SEED
 from .tolerance import Tolerance
 from .uncertainty import Instrument
 
@@ -56,6 +57,11 @@ class InspectionSettings:
     plane_distance: float | None = None
     """With ``remove_plane``: the points within this distance of the plane are removed, mm;
     None: the distance engine.scene.dominant_plane chooses from the data."""
+    seed: int = DEFAULT_SEED
+    """The seed of every random choice of the inspection (seeded subsets of the points, RANSAC,
+    the nominal's coarse levels), >= 0; each draws its own stream from it (engine.seeds). The
+    same files, settings and seed give the same numbers; 0, the default, gives the numbers
+    inspections had before the seed could be chosen. Always in the JSON (a re-run needs it)."""
 
     def __post_init__(self):
         # A word given for a choice becomes its member; one that names none is left as it is,
@@ -101,4 +107,6 @@ class InspectionSettings:
                    d.get("guard") or ("uncertainty" if "instrument" in d else "sampling"),
                    None if d.get("crop") is None else tuple(float(v) for v in d["crop"]),
                    bool(d.get("remove_plane", False)),
-                   None if d.get("plane_distance") is None else float(d["plane_distance"]))
+                   None if d.get("plane_distance") is None else float(d["plane_distance"]),
+                   # Settings without "seed" are older than it: their inspections drew seed 0's.
+                   int(d.get("seed", DEFAULT_SEED)))

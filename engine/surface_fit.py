@@ -18,7 +18,7 @@ from .outliers import (INCLUDED_FIT_ITERATIONS, fit_without_gross, gross_outlier
                        robust_centre_sigma)
 from .pose import apply_transform, apply_update, gauss_newton_step
 from .progress import report
-from .registration_types import RegistrationSettings
+from .registration_types import PoseFit, RegistrationSettings, RobustFit
 
 
 # ---------------------------------------------------------------------------- final stage
@@ -40,7 +40,7 @@ set no longer changes."""
 
 
 def point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
-                          settings: RegistrationSettings, zone_width: float | None):
+                          settings: RegistrationSettings, zone_width: float | None) -> PoseFit:
     """Least squares of the signed point-to-surface deviations over every point but the gross
     outliers of :mod:`engine.outliers`.
 
@@ -58,32 +58,34 @@ def point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     point by more than ``finish_step_mm``, change the kept set, or a point left out not stay
     gross with every point included, iteration over all points continues instead). The
     deviations follow that last step to first order (exact to ~step^2 x curvature, far below
-    a nanometre). Returns (T, converged, iterations, kept mask
-    (all points), GrossRule at T, Deviations of all points at T, seconds the evaluation of those
-    deviations took, message).
+    a nanometre). Returns the fit over all points (its deviation_s: the seconds their last
+    evaluation took).
     """
     floor = settings.outlier_floor * nominal.diagonal
     n = measured.shape[0]
-    fsub = spread_subset(measured, settings.fit_measured)
+    fsub = spread_subset(measured, settings.fit_measured, settings.seed)
     sub = measured[fsub]
     budget = settings.max_final_iterations
-    T, _, total, _, dev, dev_s = _gauss_newton(nominal, sub, T, settings, None, floor,
-                                               min(ROBUST_ITERATIONS, budget))
+    robust = _gauss_newton(nominal, sub, T, settings, None, floor, min(ROBUST_ITERATIONS, budget))
+    total = robust.iterations
     floor = gross_floor(nominal, settings, zone_width)
     # On a subset, the final stage over every point checks the points left out.
-    rounds = _confirmed_rounds if fsub.size == n else _least_squares_rounds
-    T, converged, it, keep, rule, dev, dev_s = rounds(
-        nominal, sub, T, dev, dev_s, settings, zone_width, floor, budget - total)[:7]
-    total += it
+    if fsub.size == n:
+        fit = _confirmed_rounds(nominal, sub, robust, settings, zone_width, floor, budget - total)
+    else:
+        fit = _least_squares_rounds(nominal, sub, robust, settings, zone_width, floor,
+                                    budget - total)[0]
+    total += fit.iterations
     if fsub.size < n:
-        X = apply_transform(T, measured)
+        X = apply_transform(fit.T_nominal_measured, measured)
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, X)
-        dev_s = time.perf_counter() - t0
         rule = gross_rule(dev.signed, zone_width, floor)
         keep = ~gross_outliers(dev.signed, dev.foot, rule)
+        fit = dataclasses.replace(fit, inlier=keep, rule=rule, deviations=dev,
+                                  deviation_s=time.perf_counter() - t0)
         finished = not settings.finish_on_all_points
-        if not finished and converged and keep.sum() >= 6:
+        if not finished and fit.converged and keep.sum() >= 6:
             delta, c = gauss_newton_step(X[keep], dev.normal[keep], dev.signed[keep])
             total += 1
             if _largest_motion(delta, X[keep] - c) <= settings.finish_step_mm:
@@ -97,22 +99,24 @@ def point_to_surface_fit(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
                     gross = _gross_included(X_m, moved, zone_width, floor)
                     ok = gross is not None and bool(np.all(gross[~keep]))
                 if ok:
-                    T = apply_update(T, delta, c)
-                    dev, rule, finished = moved, rule_m, True
+                    fit = dataclasses.replace(
+                        fit, T_nominal_measured=apply_update(fit.T_nominal_measured, delta, c),
+                        deviations=moved, rule=rule_m)
+                    finished = True
         if not finished:
-            T, converged, it, keep, rule, dev, dev_s = _confirmed_rounds(
-                nominal, measured, T, dev, dev_s, settings, zone_width, floor, budget)
-            total += it
-    message = ""
+            fit = _confirmed_rounds(nominal, measured, fit, settings, zone_width, floor, budget)
+            total += fit.iterations
+    converged, message = fit.converged, ""
     if not converged:
         message = (f"the point-to-surface fit did not settle within "
                    f"{settings.max_final_iterations} iterations (or the points it excludes as "
                    f"gross outliers within {MAX_ROUNDS} fits)")
-    if keep.sum() < 6:
+    kept = int(fit.inlier.sum())
+    if kept < 6:
         converged = False
-        message = (f"only {int(keep.sum())} points are not gross outliers (beyond "
-                   f"{rule.threshold_mm:.3g} mm)")
-    return T, converged, total, keep, rule, dev, dev_s, message
+        message = (f"only {kept} points are not gross outliers (beyond "
+                   f"{fit.rule.threshold_mm:.3g} mm)")
+    return dataclasses.replace(fit, converged=converged, iterations=total, message=message)
 
 
 def gross_floor(nominal: Nominal, settings: RegistrationSettings,
@@ -123,50 +127,49 @@ def gross_floor(nominal: Nominal, settings: RegistrationSettings,
     return fraction * nominal.diagonal
 
 
-def _confirmed_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget):
+def _confirmed_rounds(nominal, pts, start, settings, zone_width, floor, budget) -> PoseFit:
     """Least squares over every point of ``pts`` but the gross outliers, a point left out only
     if it is gross with it included too (engine.outliers.fit_without_gross): _least_squares_rounds
     once, and when it leaves points out, the rule at the least-squares pose over every point (the
     probe: one linear step when that suffices, else at most ``INCLUDED_FIT_ITERATIONS``
-    iterations), and then _least_squares_rounds again. Same arguments and returns as
-    _least_squares_rounds (iterations: of every fit run; ``budget`` for all)."""
+    iterations), and then _least_squares_rounds again. Same arguments and result as
+    _least_squares_rounds' fit (iterations: of every fit run; ``budget`` for all)."""
     used = 0
 
     def fit(start, included, cap=None):
         nonlocal used
         left = budget - used if cap is None else min(budget - used, cap)
-        out = _least_squares_rounds(nominal, pts, *start, settings, zone_width, floor, left,
-                                    included)
-        used += out[2]
-        T1, converged, _, keep, _, d1, s1, gross = out
-        return (T1, d1, s1), gross, keep, converged, out
+        out, gross = _least_squares_rounds(nominal, pts, start, settings, zone_width, floor,
+                                           left, included)
+        used += out.iterations
+        return out, gross, out
 
     def probe(start):
         nonlocal used
-        T0, d0, _ = start
         # Every point included usually moves the pose so little that the deviations can
         # follow to first order: no new evaluation (mis-probes among many points). Only which
         # points are gross there is used: the final fit is a real one.
-        gross = _gross_included(apply_transform(T0, pts), d0, zone_width, floor)
+        gross = _gross_included(apply_transform(start.T_nominal_measured, pts),
+                                start.deviations, zone_width, floor)
         used += 1
         if gross is not None:
             return start, gross
         return fit(start, np.zeros(len(pts), bool), INCLUDED_FIT_ITERATIONS)[:2]
 
-    (_, _, _, converged, out), _ = fit_without_gross(fit, (T, dev, dev_s), pts.shape[0], probe)
-    T1, _, _, keep, rule, d1, s1, _ = out
-    return T1, converged and used <= budget, used, keep, rule, d1, s1
+    (_, _, out), _ = fit_without_gross(fit, start, pts.shape[0], probe)
+    return dataclasses.replace(out, converged=out.converged and used <= budget, iterations=used)
 
 
-def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, floor, budget,
-                          included=None):
-    """Least squares over the points of ``pts`` the gross-outlier rule keeps at pose ``T``
-    (whose deviations ``dev`` are given; ``floor``: the rule's floor, mm), the rule applied again
+def _least_squares_rounds(nominal, pts, start, settings, zone_width, floor, budget,
+                          included=None) -> tuple[PoseFit, np.ndarray]:
+    """Least squares over the points of ``pts`` the gross-outlier rule keeps at the pose of
+    ``start`` (a fit whose deviations are those of ``pts`` at its pose; ``floor``: the rule's
+    floor, mm), the rule applied again
     at each new optimum until the kept set is stable (at most ``MAX_ROUNDS`` fits and ``budget``
     Gauss-Newton iterations in all). included : (m,) bool, only these may be left out (None:
-    any; all False: plain least squares over every point). Returns (T, converged, iterations,
-    kept mask, GrossRule, Deviations at T, seconds their evaluation took, (m,) bool gross by the
-    rule alone at T)."""
+    any; all False: plain least squares over every point). Returns the fit and (m,) bool, the
+    points gross by the rule alone at its pose."""
+    T, dev, dev_s = start.T_nominal_measured, start.deviations, start.deviation_s
     total, converged, keep = 0, False, None
     for _ in range(MAX_ROUNDS):
         rule = gross_rule(dev.signed, zone_width, floor)
@@ -178,9 +181,10 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
         if total >= budget:
             converged = False
             break
-        T, converged, it, _, dev, dev_s = _gauss_newton(nominal, pts, T, settings, keep, floor,
-                                                        budget - total, dev, dev_s)
-        total += it
+        step = _gauss_newton(nominal, pts, T, settings, keep, floor, budget - total, dev, dev_s)
+        T, converged, dev, dev_s = (step.T_nominal_measured, step.converged, step.deviations,
+                                    step.deviation_s)
+        total += step.iterations
     else:
         # The last fit's set is the one its pose was fitted on; the rule at that pose may
         # differ by a point at the threshold (the fit is reported as not settled then).
@@ -190,7 +194,7 @@ def _least_squares_rounds(nominal, pts, T, dev, dev_s, settings, zone_width, flo
             converged = False
     if included is not None and not included.any():
         gross = gross_outliers(dev.signed, dev.foot, rule)
-    return T, converged, total, keep, rule, dev, dev_s, gross
+    return PoseFit(T, converged, total, keep, rule, dev, dev_s), gross
 
 
 def _gross(dev, rule, included):
@@ -239,7 +243,8 @@ def _largest_motion(delta: np.ndarray, rel: np.ndarray) -> float:
     return float(np.linalg.norm(delta[:3]) * reach + np.linalg.norm(delta[3:]))
 
 
-def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev_s=0.0):
+def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None,
+                  dev_s=0.0) -> RobustFit:
     """Iterate the linearised point-to-surface least squares on ``pts`` (m, 3) from pose ``T``.
 
     use : (m,) bool, the fixed set of points fitted (the iteration converges to the
@@ -248,8 +253,7 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
     only). Converged when a step would move no fitted point by more than ``convergence_mm``;
     that last step is not applied, so the returned deviations belong to the returned pose.
     ``dev`` (and the seconds ``dev_s`` it took): the deviations at ``T`` when known already.
-    Returns (T, converged, iterations, fitted mask, Deviations of ``pts`` at T, seconds their
-    evaluation took).
+    Returns the fit (its inlier: the points fitted).
     """
     mask = use
     for it in range(1, max_iter + 1):
@@ -264,11 +268,11 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
         if use is None:
             mask = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, floor)
         if mask.sum() < 6:
-            return T, False, it, mask, dev, dev_s
+            return RobustFit(T, False, it, mask, dev, dev_s)
         delta, c = gauss_newton_step(X[mask], dev.normal[mask], d[mask])
         moved = _largest_motion(delta, X[mask] - c)
         if moved < settings.convergence_mm:
-            return T, True, it, mask, dev, dev_s
+            return RobustFit(T, True, it, mask, dev, dev_s)
         if use is None or settings.noise_mm is None:
             # Full steps: the robust cut moves with the pose (no one sum of squares to lower),
             # and a measurement at a CMM's noise converges by them.
@@ -281,8 +285,8 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
             # sides, and full steps would cycle (a 3D camera's points, 5 mm of noise about a
             # moulded housing: 1-2 mm steps, back and forth, 50 iterations). The pose is the
             # optimum along the step to within the shortest one tried.
-            return (T, moved / SHORTEN ** SHORTENINGS <= STALL_OF_NOISE * settings.noise_mm, it,
-                    mask, dev, dev_s)
+            return RobustFit(T, moved / SHORTEN ** SHORTENINGS
+                             <= STALL_OF_NOISE * settings.noise_mm, it, mask, dev, dev_s)
         T, dev, dev_s = lower
     if dev is None:
         t0 = time.perf_counter()
@@ -290,7 +294,7 @@ def _gauss_newton(nominal, pts, T, settings, use, floor, max_iter, dev=None, dev
         dev_s = time.perf_counter() - t0
     if use is None:
         mask = np.abs(dev.signed) <= robust_cut(dev.signed, settings.outlier_sigmas, floor)
-    return T, False, max_iter, mask, dev, dev_s
+    return RobustFit(T, False, max_iter, mask, dev, dev_s)
 
 
 SHORTEN = 4

@@ -23,9 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .pose import pose_jacobian, screw_motion
+from .seeds import DEFAULT_SEED, rng
 
 CONDITIONING_POINTS = 16384
 """Fitted points the normal matrix is formed from at most (a seeded subset beyond)."""
+CONDITIONING_SEED = 5
+"""The random stream of that subset (engine.seeds)."""
 DEGENERATE_STRENGTH = 1e-8
 """Below this normalised eigenvalue a direction is unconstrained by the shape itself (a plane,
 cylinder or sphere: 1e-11, rounding)."""
@@ -77,12 +80,13 @@ class Conditioning:
 
 
 def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
-                 resolution_mm: float | None = None) -> Conditioning:
+                 resolution_mm: float | None = None, seed: int = DEFAULT_SEED) -> Conditioning:
     """Conditioning of fitting points ``X`` (registered, nominal frame) with surface ``normals``.
 
     A direction is unconstrained when its normalised strength is below DEGENERATE_STRENGTH, or
     below WEAK_STRENGTH while the residuals (rms, mm) imply a 1-sigma motion along it above
-    ``resolution_mm`` (None: any weak direction counts)."""
+    ``resolution_mm`` (None: any weak direction counts). seed : the inspection's (engine.seeds),
+    of the subset beyond ``CONDITIONING_POINTS``."""
     X = np.asarray(X, float)
     normals = np.asarray(normals, float)
     n, dim = X.shape
@@ -93,7 +97,7 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
     if n > CONDITIONING_POINTS:
         # The normal matrix per point converges long before 200,000 points; the covariance
         # still divides by all n.
-        sub = np.random.default_rng(5).choice(n, CONDITIONING_POINTS, replace=False)
+        sub = rng(seed, CONDITIONING_SEED).choice(n, CONDITIONING_POINTS, replace=False)
         X, normals = X[sub], normals[sub]
     c = X.mean(axis=0)
     length = float(np.sqrt(np.mean(np.sum((X - c) ** 2, axis=1)))) or 1.0

@@ -33,6 +33,7 @@ import numpy as np
 
 from .choices import DecisionRule, Verdict
 from .nominal import Nominal
+from .seeds import DEFAULT_SEED, rng
 from .tolerance import Tolerance
 
 if TYPE_CHECKING:
@@ -82,6 +83,8 @@ of the zone's width."""
 
 
 AMBIGUITY_POINTS = 16384
+AMBIGUITY_SEED = 3
+"""The random stream of the points compared beyond ``AMBIGUITY_POINTS`` (engine.seeds)."""
 """Points compared between the chosen and the runner-up pose (seeded subset beyond that): the
 difference of two rigid poses' deviations varies smoothly over the part, so a subset spread
 over it finds its largest value."""
@@ -116,16 +119,18 @@ def plausible_runner_up(reg) -> bool:
             and reg.runner_up_score <= AMBIGUITY_SCORE_RATIO * reg.score)
 
 
-def ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at) -> tuple[bool, float]:
+def ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at,
+              seed: int = DEFAULT_SEED) -> tuple[bool, float]:
     """(ambiguous, spread): a nearly-as-good distinct runner-up pose (not a symmetry of a 2D
     template) that moves some deviation by more than a tenth of the zone width.
 
-    deviations_at(T, idx) : signed deviations of measured points ``idx`` at pose T."""
+    deviations_at(T, idx) : signed deviations of measured points ``idx`` at pose T; seed : the
+    inspection's (engine.seeds), of the points compared beyond ``AMBIGUITY_POINTS``."""
     if not (pose_trusted(reg) and plausible_runner_up(reg)):
         return False, 0.0
     idx = np.arange(d.size)
     if d.size > AMBIGUITY_POINTS:
-        idx = np.sort(np.random.default_rng(3).choice(d.size, AMBIGUITY_POINTS, replace=False))
+        idx = np.sort(rng(seed, AMBIGUITY_SEED).choice(d.size, AMBIGUITY_POINTS, replace=False))
     spread = float(np.max(np.abs(deviations_at(reg.runner_up_T, idx) - d[idx])))
     return spread > AMBIGUITY_DEVIATION * tol.width, spread
 

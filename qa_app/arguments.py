@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import math
 
+from engine.choices import DecisionRule, Fit
+from engine.seeds import DEFAULT_SEED
 from qa_app.usage import EXAMPLES, EXIT_CODES
 
 
@@ -32,6 +34,16 @@ def _finite_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"'{text}' is not a finite number")
+    return v
+
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"'{text}' is negative (a seed is >= 0)")
     return v
 
 
@@ -85,11 +97,11 @@ def _add_template_options(i: argparse.ArgumentParser) -> None:
 
 def _add_fit_options(i: argparse.ArgumentParser) -> None:
     """The fit and the decision rule, of ``inspect`` and ``batch``."""
-    i.add_argument("--fit", choices=["lsq", "minimax"], default="lsq",
+    i.add_argument("--fit", choices=list(Fit), default=Fit.LSQ,
                    help="lsq: least-squares best fit (default); minimax: the pose minimising the "
                         "largest excursion from the zone's centre ('can the part be placed "
                         "inside its zone?')")
-    i.add_argument("--decision-rule", choices=["simple", "guarded"], default=None,
+    i.add_argument("--decision-rule", choices=list(DecisionRule), default=None,
                    help="simple: every point inside the zone (the default without an "
                         "instrument); guarded (ISO 14253-1, the default with --uncertainty or a "
                         "plan's [measurement] instrument): accept inside the zone shrunk by each "
@@ -99,6 +111,10 @@ def _add_fit_options(i: argparse.ArgumentParser) -> None:
                    help="the instrument's expanded measurement uncertainty, mm (k = 2); "
                         "combined per point with the registration's pose uncertainty and the "
                         "nominal-sampling margin (replaces a plan's [measurement] instrument)")
+    i.add_argument("--seed", type=_seed, metavar="N", default=DEFAULT_SEED,
+                   help="the seed of every random choice of the inspection (seeded subsets of "
+                        "the points, RANSAC); the same files, options and seed give the same "
+                        f"numbers (default {DEFAULT_SEED}; reported in the JSON's settings)")
 
 
 def _add_scene_options(i: argparse.ArgumentParser) -> None:

@@ -23,12 +23,13 @@ import argparse
 import os
 import sys
 
+from engine.choices import Verdict
 from engine.errors import QAError
 from qa_app.arguments import add_commands
 from qa_app.summary import summary_text
 from qa_app.usage import EXAMPLES, EXIT_CODES, usage
 
-EXIT = {"ACCEPT": 0, "REJECT": 1, "INCONCLUSIVE": 2}
+EXIT = {Verdict.ACCEPT: 0, Verdict.REJECT: 1, Verdict.INCONCLUSIVE: 2}
 EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_UNAVAILABLE, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 69, 70, 73
 
 
@@ -254,7 +255,7 @@ def _cmd_batch(args) -> int:
         settings = inspection_settings(tol, args.plan and os.path.abspath(args.plan),
                                        **_template_options(args),
                                        fit=args.fit, decision_rule=args.decision_rule,
-                                       instrument=_instrument(args, "batch"),
+                                       instrument=_instrument(args, "batch"), seed=args.seed,
                                        **_scene_options(args, "batch"))
         loaded = load_nominal(os.path.abspath(args.nominal), settings)  # once, before the cluster
         qb.check_certifiable(job, loaded)
@@ -366,7 +367,7 @@ def _run_inspect(args, tol, renderer) -> int:
         # A plan alone (no --tol): its zone for the per-point statistics, outside the verdict.
         settings = inspection_settings(tol, args.plan, **_template_options(args),
                                        fit=args.fit, decision_rule=args.decision_rule,
-                                       instrument=_instrument(args, "inspect"),
+                                       instrument=_instrument(args, "inspect"), seed=args.seed,
                                        **_scene_options(args, "inspect"))
         run = _with_progress(args, lambda progress: run_files(args.nominal, args.measured,
                                                               settings, progress))

@@ -8,11 +8,12 @@ import glob
 import os
 from dataclasses import dataclass
 
+from engine.choices import Verdict
 from engine.errors import SettingsError
 
 
 ERROR = "ERROR"
-VERDICTS = ("ACCEPT", "REJECT", "INCONCLUSIVE", ERROR)
+VERDICTS = (*Verdict, ERROR)
 EX_DATAERR = 65
 
 
@@ -110,9 +111,9 @@ def exit_code(verdicts: list[str]) -> int:
     """0 when every part is ACCEPT; else 1 if any is REJECT, else 2 if any is INCONCLUSIVE,
     else 65 (only ERRORs besides ACCEPTs)."""
     found = set(verdicts)
-    if found and found <= {"ACCEPT"}:
+    if found and found <= {Verdict.ACCEPT}:
         return 0
-    for verdict, code in (("REJECT", 1), ("INCONCLUSIVE", 2)):
+    for verdict, code in ((Verdict.REJECT, 1), (Verdict.INCONCLUSIVE, 2)):
         if verdict in found:
             return code
     return EX_DATAERR

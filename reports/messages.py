@@ -5,14 +5,16 @@ from __future__ import annotations
 
 import re
 
+from engine.choices import Verdict
 from engine.errors import Cancelled, InputError, SettingsError
 from engine.gdt.plan import SYMBOLS
 
-# Keyed by engine.inspection's verdicts (the JSON contract's strings; importing the engine here
-# would load it into the desktop app's start-up).
-VERDICT_WORD = {"ACCEPT": "ACCEPTED", "REJECT": "REJECTED", "INCONCLUSIVE": "INCONCLUSIVE"}
-VERDICT_RGB = {"ACCEPT": (0.11, 0.49, 0.22), "REJECT": (0.72, 0.11, 0.11),
-               "INCONCLUSIVE": (0.80, 0.52, 0.0)}
+# Keyed by the verdicts (engine.choices, a light module: it does not load the engine into the
+# desktop app's start-up); a verdict read back from a JSON document, a plain word, finds its entry.
+VERDICT_WORD = {Verdict.ACCEPT: "ACCEPTED", Verdict.REJECT: "REJECTED",
+                Verdict.INCONCLUSIVE: "INCONCLUSIVE"}
+VERDICT_RGB = {Verdict.ACCEPT: (0.11, 0.49, 0.22), Verdict.REJECT: (0.72, 0.11, 0.11),
+               Verdict.INCONCLUSIVE: (0.80, 0.52, 0.0)}
 
 
 _UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028\u2029\u202a-\u202e"

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from engine.choices import DecisionRule, Fit
 from engine.gdt.plan import DEFAULT_SECTIONS, ORIENTATION, SYMBOLS
 from engine.inspection import InspectionResult
 from engine.pipeline import InputRecord, Run
@@ -263,7 +264,7 @@ def uncertainty_json(b, rule: str) -> dict:
                    "u_mean_mm": _num(float(t.u.mean())) if t.u.size else 0.0,
                    "basis": t.basis} for t in b.terms],
         "instrument": None if b.instrument is None else b.instrument.to_json(),
-        "used_by_decision_rule": rule == "guarded",
+        "used_by_decision_rule": rule == DecisionRule.GUARDED,
         "definition": "per point: U = k x sqrt(sum of the terms' standard uncertainties u^2), "
                       "k = 2 (GUM); a bound taken as rectangular gives u = bound / sqrt(3), a "
                       "stated expanded uncertainty u = U / 2, the pose's covariance its own "
@@ -331,16 +332,16 @@ DEVIATION_METHODS = {
               "nominal normals"}
 """The deviation method in words, by the result's ``normals_source``."""
 FIT_DEFINITIONS = {
-    "lsq": "least squares of point-to-surface distances over every point but those excluded "
+    Fit.LSQ: "least squares of point-to-surface distances over every point but those excluded "
            "from the alignment as gross outliers (a best fit: it spreads the error and can "
            "hide a local defect in the pose)",
-    "minimax": "the rigid pose minimising the largest |deviation - zone centre| / half-width "
+    Fit.MINIMAX: "the rigid pose minimising the largest |deviation - zone centre| / half-width "
                "over every point but those excluded from the alignment as gross outliers "
                "(Chebyshev), from the least-squares pose: answers 'can "
                "the part be placed inside its zone?'"}
 RULE_DEFINITIONS = {
-    "simple": "accept only if every point lies inside the zone; reject if any lies outside",
-    "guarded": "ISO 14253-1: accept only if every point lies inside the zone shrunk by its "
+    DecisionRule.SIMPLE: "accept only if every point lies inside the zone; reject if any lies outside",
+    DecisionRule.GUARDED: "ISO 14253-1: accept only if every point lies inside the zone shrunk by its "
                "expanded measurement uncertainty U (k = 2: instrument, pose of the registration, "
                "nominal sampling; see 'uncertainty'); reject only if a point lies outside the "
                "zone grown by its U; otherwise inconclusive"}

@@ -1164,3 +1164,23 @@ def test_a_plan_accept_rests_on_its_characteristics_not_the_statistics_zone(tmp_
                                         tolerance=Tolerance(-1.0, 1.0)))
     with pytest.raises(QAError, match="a characteristic is not within its limits"):
         make_certificate(wrong, CertificateInfo(), None)
+
+
+def test_the_same_run_issued_at_the_same_time_lays_out_to_the_same_bytes():
+    """The laid-out certificate (reportlab's PDF, before pyHanko embeds the evidence) depends on
+    the run and the issue time only: reportlab's invariant mode takes the file's ID from its
+    content, and its creation date is the issue time, not the clock's."""
+    import datetime as dt
+
+    from engine.pipeline import run_files
+    from engine.settings import InspectionSettings
+    from reports.certificate import CertificateInfo, draft_certificate
+
+    run = run_files(str(BELLY_NOMINAL), str(BELLY_MEASURED), InspectionSettings(-0.25, 0.25))
+    info = CertificateInfo(part_number="BF-1", serial="SN-1")
+    issued = dt.datetime(2024, 5, 1, 12, 0, 0, tzinfo=dt.timezone.utc)
+    first = draft_certificate(run, info, None, issued).pdf
+    assert draft_certificate(run, info, None, issued).pdf == first
+    assert b"/CreationDate (D:20240501120000+00'00')" in first
+    later = draft_certificate(run, info, None, issued + dt.timedelta(seconds=1)).pdf
+    assert later != first  # the issue time is in it (the number, the date)

@@ -90,6 +90,23 @@ def test_reject_and_stdout_json(files, capsys):
     assert doc["deviations"]["worst"][0]["deviation"] == pytest.approx(0.2, abs=0.01)
 
 
+def test_seed_is_taken_and_reported(files, capsys):
+    """--seed N reaches the settings and the JSON's settings block (0 without it); the part
+    registers the same with either."""
+    d, T, dev, q = files
+    docs = {}
+    for seed in (None, 31):
+        extra = [] if seed is None else ["--seed", seed]
+        assert run("inspect", d / "nominal.csv", d / "good.csv", "--tol", "0.05", "--json", "-",
+                   *extra) == 0
+        docs[seed] = json.loads(capsys.readouterr().out)
+    assert docs[None]["settings"]["seed"] == 0 and docs[31]["settings"]["seed"] == 31
+    for doc in docs.values():
+        assert doc["verdict"] == "ACCEPT"
+        assert np.max(np.abs(apply_transform(np.array(doc["transform"]),
+                                             apply_transform(T, q)) - q)) < 0.01
+
+
 @pytest.mark.parametrize("args, text", [
     ([], "a command is required"),
     (["inspect", "a.csv", "b.csv"], "a tolerance is required"),
@@ -98,6 +115,8 @@ def test_reject_and_stdout_json(files, capsys):
     (["inspect", "a.csv", "b.csv", "--tol-lower", "1", "--tol-upper", "-1"], "zone is empty"),
     (["inspect", "a.csv", "b.csv", "--tol", "-0.1"], "must be positive"),
     (["inspect", "a.csv", "b.csv", "--tol", "abc"], "'abc' is not a number"),
+    (["inspect", "a.csv", "b.csv", "--tol", "1", "--seed", "-1"], "a seed is >= 0"),
+    (["inspect", "a.csv", "b.csv", "--tol", "1", "--seed", "1.5"], "'1.5' is not a whole number"),
     (["inspect", "a.csv", "--tol", "1"], "required"),
     (["bogus"], "invalid choice"),
 ])

@@ -311,12 +311,13 @@ def test_good_points_a_wrong_start_puts_over_the_flat_are_never_excluded(d_shaft
         q[bad, :2] *= (R0 + 10.0) / R0
     T0 = np.eye(4)
     T0[:3, :3] = rotation_from_rotvec(np.radians(turn_deg) * np.array([[0, 0, 1.0]]))[0]
-    T, converged, _, keep, rule, dev = point_to_surface_fit(
-        d_shaft, q, T0, RegistrationSettings(fit_measured=subset or 16384), 0.06)[:6]
-    assert converged and rule.threshold_mm == pytest.approx(0.3)
+    fit = point_to_surface_fit(d_shaft, q, T0, RegistrationSettings(fit_measured=subset or 16384),
+                               0.06)
+    keep = fit.inlier
+    assert fit.converged and fit.rule.threshold_mm == pytest.approx(0.3)
     assert np.flatnonzero(~keep).tolist() == ([bad] if mis_probe else [])
     best = _optimum(d_shaft, q, np.eye(4), keep)
-    assert float(np.sum(dev.signed[keep] ** 2)) <= best * 1.02
+    assert float(np.sum(fit.deviations.signed[keep] ** 2)) <= best * 1.02
 
 
 BOSS, BOSS_R = np.array([15.0, 30.0, 50.0]), 10.0

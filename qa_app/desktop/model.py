@@ -9,6 +9,7 @@ import enum
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from engine.choices import DecisionRule
 from engine.settings import InspectionSettings
 
 
@@ -58,7 +59,7 @@ def resolved_rule(rule: str, run) -> str:
         return rule
     unc = getattr(run.result, "uncertainty", None)
     stated = unc is not None and any(t.key not in ("pose", "sampling") for t in unc.terms)
-    return "guarded" if stated else "simple"
+    return DecisionRule.GUARDED if stated else DecisionRule.SIMPLE
 
 
 class Session:

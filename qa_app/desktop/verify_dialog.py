@@ -24,6 +24,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from engine.choices import Verdict
 from engine.io.formats import MEASURED_SUFFIXES, NOMINAL_SUFFIXES, PLAN_SUFFIXES
 from reports.messages import VERDICT_RGB, printable
 from reports.verify import (
@@ -160,7 +161,7 @@ class VerificationDialog(QDialog):
         self.setWindowTitle("Certificate verification")
         self.setMinimumSize(780, 380)
         self.valid = v.valid
-        rgb = VERDICT_RGB["ACCEPT" if v.valid else "REJECT"]
+        rgb = VERDICT_RGB[Verdict.ACCEPT if v.valid else Verdict.REJECT]
         colour = "#{:02x}{:02x}{:02x}".format(*(round(255 * c) for c in rgb))
         self.word = QLabel("VALID" if v.valid else "INVALID")
         self.word.setObjectName("verificationWord")

@@ -139,8 +139,8 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
                             subject=f"{VERDICT_WORD[res.verdict]}: "
                                     f"{info.part_number or ''} {info.serial or ''}".strip(),
                             creator=f"{SOFTWARE_NAME} {software_version()}",
-                            pageCompression=0)
-    pdf.build(story, canvasmaker=numbered_canvas(number, res.verdict, identity is None))
+                            pageCompression=0, invariant=1)
+    pdf.build(story, canvasmaker=numbered_canvas(number, res.verdict, identity is None, issued))
     if set(c.slots) != {INSPECTOR_FIELD, APPROVER_FIELD}:
         raise CertificateError("signature boxes were not laid out")
     return buf.getvalue(), c.slots

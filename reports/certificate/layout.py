@@ -100,8 +100,14 @@ class Slot:
         return Slot()
 
 
-def numbered_canvas(number: str, verdict: str, draft: bool):
+def numbered_canvas(number: str, verdict: str, draft: bool, issued: dt.datetime):
+    """The canvas class of a certificate: numbered pages, and the PDF's creation and
+    modification dates the issue time ``issued`` (UTC), not the clock's (with reportlab's
+    invariant mode, which takes its ID from the content alone: the same certificate issued at
+    the same time is the same bytes)."""
     from reportlab.pdfgen.canvas import Canvas
+
+    stamp = issued.astimezone(dt.timezone.utc).strftime("D:%Y%m%d%H%M%S+00'00'")
 
     class NumberedCanvas(Canvas):
         """Defers pages so each can say 'page x of y'."""
@@ -109,6 +115,7 @@ def numbered_canvas(number: str, verdict: str, draft: bool):
         def __init__(self, *a, **k):
             super().__init__(*a, **k)
             self._pages = []
+            self.setDateFormatter(lambda *_: stamp)
 
         def showPage(self):
             self._pages.append(dict(self.__dict__))

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import os
 
+from engine.choices import Fit
+
 from .layout import Layout, esc
 
 
@@ -24,7 +26,7 @@ def method(c: Layout) -> list:
         ("Fit criterion", (
             "Least squares of point-to-" + ("contour" if is_2d else "surface") + " distances "
             "(a best fit: it spreads the error, and a local defect can pull the pose)"
-            if res.fit == "lsq" else
+            if res.fit == Fit.LSQ else
             "Minimax (Chebyshev): the pose that minimises the largest excursion from the zone's "
             "centre, started from the least-squares pose; it answers whether the part can be "
             "placed inside its zone (largest normalised excursion "

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from engine.choices import DecisionRule
 from engine.errors import QAError, SettingsError
 from engine.pipeline import Run
 from engine.verdict import ACCEPT
@@ -172,7 +173,7 @@ def check_trustworthy(run: Run) -> None:
                and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
     m = 0.0  # the guarded rule's guard band: U, or the sampling margin alone (older sessions)
-    if res.decision_rule == "guarded":
+    if res.decision_rule == DecisionRule.GUARDED:
         m = res.margin if res.uncertainty is None else res.uncertainty.expanded
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import os
 
+from engine.choices import DecisionRule
+
 from .layout import Layout, esc
 from .result import type_word
 
@@ -30,7 +32,7 @@ def requirement(c: Layout) -> list:
         # Lower case on purpose: the verdict words appear on a certificate only as its verdict.
         ("Decision rule", ("Pointwise, simple acceptance: the part is accepted only if every "
                            "measured point lies inside the zone, rejected if any point lies "
-                           "outside" if res.decision_rule == "simple" else
+                           "outside" if res.decision_rule == DecisionRule.SIMPLE else
                            "Pointwise, guarded " + _guarded_words(res))
                           + "; the result is inconclusive when the registration cannot be "
                             "trusted (not converged, or the points do not match the nominal), "
@@ -58,7 +60,7 @@ def _guarded_words(res) -> str:
 
 def _uncertainty_sentence(res) -> str:
     """Whether measurement uncertainty entered the decision, in a sentence."""
-    if res.decision_rule == "guarded":
+    if res.decision_rule == DecisionRule.GUARDED:
         return ("Measurement uncertainty is deducted from the zone as stated." if
                 res.uncertainty is not None else "Measurement uncertainty is not deducted "
                 "from the zone.")
@@ -112,7 +114,7 @@ def _plan_requirement(c: Layout) -> list[tuple[str, str]]:
     statistics is stated apart, with whether it is one of them."""
     res, zone, plan = c.res, c.zone, c.run.plan
     rec = next(r for r in c.run.inputs if r.role == "plan")
-    guarded = res.decision_rule == "guarded"
+    guarded = res.decision_rule == DecisionRule.GUARDED
     return [
         ("Requirement", f"The {len(plan.characteristics)} characteristics of the inspection "
                         f"plan {os.path.basename(rec.path)} (SHA-256 {rec.sha256[:16]}…, "

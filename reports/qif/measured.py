@@ -7,13 +7,16 @@ import json
 
 import numpy as np
 
+from engine.choices import Verdict
+
 from .model import CHAR_STATUS, QIFError, Qif
 from .text import (algorithm, attributes, exact, file_description, fixed, flags, format_name,
                    geometry, id_list, numbers, uri, xml_attr, xml_text)
 
 
 # InspectionStatusEnumType has no INDETERMINATE; UNKNOWN is its "cannot tell".
-_INSPECTION_STATUS = {"ACCEPT": "PASS", "REJECT": "FAIL", "INCONCLUSIVE": "UNKNOWN"}
+_INSPECTION_STATUS = {Verdict.ACCEPT: "PASS", Verdict.REJECT: "FAIL",
+                      Verdict.INCONCLUSIVE: "UNKNOWN"}
 
 
 def write_results(w, q: Qif) -> None:

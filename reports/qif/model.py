@@ -12,6 +12,7 @@ from datetime import UTC, datetime
 
 import numpy as np
 
+from engine.choices import Fit, Verdict
 from engine.errors import QAError
 
 from .text import fixed, signed
@@ -21,7 +22,8 @@ QIF_NAMESPACE = "http://qifstandards.org/xsd/qif3"
 QIF_VERSION = "3.0.0"
 _UUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://qifstandards.org/xsd/qif3#qa-inspect")
 
-CHAR_STATUS = {"ACCEPT": "PASS", "REJECT": "FAIL", "INCONCLUSIVE": "INDETERMINATE"}
+CHAR_STATUS = {Verdict.ACCEPT: "PASS", Verdict.REJECT: "FAIL",
+               Verdict.INCONCLUSIVE: "INDETERMINATE"}
 
 
 class QIFError(QAError, ValueError):
@@ -368,7 +370,7 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
            f"most {fixed(upper - lower)} mm" for k in _FORM_AND_ORIENTATION},
     }.get(kind, "all points at the registration's best fit: " + _profile_text(lower, upper)
           if feature.whole else
-          f"profile of {where}" + ("" if datums else f", form only ({c.get('fit', 'lsq')} "
+          f"profile of {where}" + ("" if datums else f", form only ({c.get('fit', Fit.LSQ)} "
                                    "refit)") + ": " + _profile_text(lower, upper))
     name = f"{c['type']} {c['region']}" + (" |" + "|".join(datums) if datums else "")
     value = c.get("value")

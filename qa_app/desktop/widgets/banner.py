@@ -8,6 +8,7 @@ import os
 
 from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel
 
+from engine.choices import Verdict
 from reports.messages import VERDICT_RGB, VERDICT_WORD
 
 from ..model import Session
@@ -113,7 +114,7 @@ def plan_line(planned, run) -> str:
     path = run.settings.plan
     n = len(planned.characteristics)
     counts = [sum(r.verdict == v for r in planned.characteristics)
-              for v in ("REJECT", "INCONCLUSIVE")]
+              for v in (Verdict.REJECT, Verdict.INCONCLUSIVE)]
     return (f"plan {os.path.basename(path or '')}: {n} characteristic{'s' if n != 1 else ''}"
             f" · {counts[0]} out of tolerance"
             + (f" · {counts[1]} undecided" if counts[1] else "")

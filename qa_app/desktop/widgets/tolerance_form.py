@@ -19,6 +19,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from engine.choices import DecisionRule, Fit
 from engine.io import formats
 
 from ..model import AUTO_RULE, Session
@@ -89,14 +90,14 @@ class ToleranceForm(QWidget):
         self.lower = self._spin(-0.1, -1e6)
         self.upper = self._spin(0.1, -1e6)
         self.fit = QComboBox()
-        self.fit.addItem("Least squares (best fit)", "lsq")
-        self.fit.addItem("Minimax (fits the zone?)", "minimax")
+        self.fit.addItem("Least squares (best fit)", Fit.LSQ)
+        self.fit.addItem("Minimax (fits the zone?)", Fit.MINIMAX)
         self.fit.setToolTip("Least squares spreads the error; minimax finds the pose with the "
                             "smallest largest excursion: can the part be placed in its zone?")
         self.rule = QComboBox()
         self.rule.addItem("Automatic (guarded when the plan states an instrument)", AUTO_RULE)
-        self.rule.addItem("Simple (every point in the zone)", "simple")
-        self.rule.addItem("Guarded (ISO 14253-1: each point's U)", "guarded")
+        self.rule.addItem("Simple (every point in the zone)", DecisionRule.SIMPLE)
+        self.rule.addItem("Guarded (ISO 14253-1: each point's U)", DecisionRule.GUARDED)
         self.rule.setToolTip("Guarded (ISO 14253-1): accept only inside the zone shrunk by each "
                              "point's expanded uncertainty U, reject only outside the zone grown "
                              "by it. Automatic: guarded when the plan's [measurement] states an "
