@@ -28,8 +28,7 @@ from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
 from .neighbours import query_workers
-from .outliers import (INCLUDED_FIT_ITERATIONS, GrossRule, fit_without_gross, gross_outliers,
-                       gross_rule)
+from .outliers import INCLUDED_FIT_ITERATIONS, fit_without_gross, gross_outliers, gross_rule
 from .progress import report
 from .pose import (apply_transform, apply_update, compose_updates, gauss_newton_step,
                    min_norm_solve, pose_2d, pose_jacobian, rotation_2d)
