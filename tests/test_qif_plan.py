@@ -7,6 +7,7 @@ of points sampled on the exact faces in a random pose, and the refusals (exit 65
 import json
 import os
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -188,3 +189,68 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
     assert doc["plan_faces"]["not_judged_summary"] == summary
     assert {c["id"] for c in doc["plan_faces"]["not_judged"]} == {"1443", "1450", "1467",
                                                                  "1491"}
+
+
+def _refused(capsys, nominal, measured, plan) -> str:
+    code = main(["inspect", nominal, measured, "--plan", plan, "--json", "-"])
+    assert code == 65
+    return capsys.readouterr().err
+
+
+@pytest.fixture
+def measured(tmp_path):
+    path = tmp_path / "m.csv"
+    write(path, np.random.default_rng(0).uniform(-100, 100, (50, 3)))
+    return str(path)
+
+
+def test_a_qif_that_is_not_xml_is_refused(tmp_path, capsys, measured):
+    bad = tmp_path / "part.qif"
+    bad.write_bytes(Path(qif("CTC-01")).read_bytes()[:5000])
+    err = _refused(capsys, stp("CTC-01"), measured, str(bad))
+    assert "part.qif" in err and "is not valid XML" in err
+
+
+def test_a_qif_2_file_is_refused(tmp_path, capsys, measured):
+    text = Path(qif("CTC-01")).read_text("utf-8")
+    old = tmp_path / "old.QIF"
+    old.write_text(text.replace("http://qifstandards.org/xsd/qif3",
+                                "http://qifstandards.org/xsd/qif2").replace(
+                                    'versionQIF="3.0.0"', 'versionQIF="2.1.0"'), "utf-8")
+    err = _refused(capsys, stp("CTC-01"), measured, str(old))
+    assert "old.QIF" in err and "QIF 2.1.0" in err and "QIF 3.0" in err
+
+
+def test_xml_entities_are_never_expanded(tmp_path, capsys, measured):
+    bomb = tmp_path / "bomb.qif"
+    bomb.write_text('<?xml version="1.0"?><!DOCTYPE q [<!ENTITY a "aaaaaaaaaa">'
+                    '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>'
+                    '<QIFDocument xmlns="http://qifstandards.org/xsd/qif3" versionQIF="3.0.0">'
+                    '&b;</QIFDocument>')
+    err = _refused(capsys, stp("CTC-01"), measured, str(bomb))
+    assert "bomb.qif" in err and "DOCTYPE" in err
+
+
+def test_a_qif_plan_needs_a_step_nominal(tmp_path, capsys, measured):
+    nominal = tmp_path / "nominal.csv"
+    write(nominal, np.random.default_rng(1).uniform(-100, 100, (50, 3)))
+    err = _refused(capsys, str(nominal), measured, qif("CTC-01"))
+    assert "NISTmodels__nist_ctc_01_asme1_ap242.qif" in err and "nominal.csv is no STEP" in err
+
+
+def test_a_qif_whose_feature_matches_no_face_is_refused(tmp_path, capsys, measured):
+    """Datum A's plane (QIF feature 2154, its face's surface at z=0) moved to z=3: no face of
+    the STEP model lies there; the refusal names the feature, its plane and the STEP file."""
+    root = ET.parse(qif("CTC-01")).getroot()
+    face = next(f for f in root.iter(QIF3 + "Face") if f.get("id") == "494")
+    surface = face.findtext(f"{QIF3}Surface/{QIF3}Id")
+    plane = next(e for e in root.iter(QIF3 + "Plane23") if e.get("id") == surface)
+    origin = plane.find(f"{QIF3}Plane23Core/{QIF3}Origin")
+    x, y, _ = origin.text.split()
+    origin.text = f"{x} {y} 3"
+    ET.register_namespace("", QIF3[1:-1])
+    moved = tmp_path / "moved.qif"
+    ET.ElementTree(root).write(moved, encoding="utf-8", xml_declaration=True)
+    err = _refused(capsys, stp("CTC-01"), measured, str(moved))
+    assert "moved.qif" in err and "QIF feature 2154 (plane z=3)" in err
+    assert "matches no face of nist_ctc_01_asme1_ap242-e1.stp within 0.093 mm" in err

@@ -97,7 +97,7 @@ def read_plan(path: str | os.PathLike) -> Plan:
         return read_qif_plan(path)
     raw = read_bytes(path)
     if formats.kind_of(path) != formats.PLAN:
-        raise InputError(f"an inspection plan is a {' '.join(formats.PLAN_SUFFIXES)} file, "
+        raise InputError(f"an inspection plan is a {' or '.join(formats.PLAN_SUFFIXES)} file, "
                          f"not '{formats.suffix_of(path) or '(no suffix)'}'", path)
     return _plan_of(raw, path)
 

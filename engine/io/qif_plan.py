@@ -94,7 +94,7 @@ def read_qif_plan(path: str | os.PathLike) -> Plan:
 
 def qif_document(path: str | os.PathLike) -> QifDocument:
     path = os.fspath(path)
-    return _document_of(read_bytes(path), path)
+    return parse_qif(read_bytes(path), path)
 
 
 def qif_face_groups(path: str | os.PathLike, step) -> dict[str, tuple[int, ...]]:
@@ -181,7 +181,7 @@ def _point(v) -> str:
 
 # ---------------------------------------------------------------- the document
 @functools.lru_cache(maxsize=4)
-def _document_of(raw: bytes, path: str) -> QifDocument:
+def parse_qif(raw: bytes, path: str) -> QifDocument:
     """The document these bytes of ``path`` hold, cached by the bytes (a run reads its plan for
     the zone and again with the nominal)."""
     root = _parse(raw, path)
