@@ -259,9 +259,16 @@ def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNomin
     options that do not fit it (the checks of :func:`run_files`).
     """
     check_settings(nominal_path, settings)
+    qif = settings.plan is not None and formats.kind_of(settings.plan) == formats.QIF
+    if qif:  # before reading a nominal that may take a while
+        from .io.qif_plan import check_qif_nominal
+
+        check_qif_nominal(settings.plan, nominal_path)
     report("loading the nominal", 0.0)
     t0 = time.perf_counter()
     source = _read_nominal(nominal_path, settings)
+    if qif:
+        source = _with_qif_faces(source, settings.plan)
     nominal = None
     if source.template is None:
         report("preparing the nominal", 0.0)
@@ -274,6 +281,17 @@ def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNomin
         record = InputRecord("plan", settings.plan, plan.sha256, None)
     check_zones(settings, plan, part_size(source, nominal))
     return LoadedNominal(source, nominal, plan, record, settings, time.perf_counter() - t0)
+
+
+def _with_qif_faces(source: "_Nominal", plan_path: str) -> "_Nominal":
+    """The STEP nominal with the groups of a QIF plan's regions (engine.io.qif_plan) and the
+    match kept for the results (JSON ``plan_faces``)."""
+    from .io.qif_plan import qif_nominal_groups
+
+    report("matching the QIF plan's features to the faces", 0.0)
+    groups, facts = qif_nominal_groups(plan_path, source.step, source.point_set.groups)
+    return dataclasses.replace(source, plan_faces=facts,
+                               point_set=dataclasses.replace(source.point_set, groups=groups))
 
 
 def part_size(source: "_Nominal", nominal: Nominal | None) -> float:
@@ -470,6 +488,8 @@ class _Nominal:
     point_set: PointSet | None = None
     template: object | None = None
     step: object | None = None
+    plan_faces: dict | None = None
+    """A QIF plan's regions matched to the STEP model's faces (JSON ``plan_faces``)."""
 
 
 def _read_nominal(path: str, settings: InspectionSettings) -> _Nominal:
@@ -556,8 +576,9 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
                          instrument=instrument_of(settings.instrument, plan),
                          guard=settings.guard)
     if source.step is not None:
-        result = dataclasses.replace(result, extra={**result.extra,
-                                                    "step": step_facts(source.step)})
+        facts = {"step": step_facts(source.step), "plan_faces": source.plan_faces}
+        result = dataclasses.replace(result, extra={**result.extra, **{
+            k: v for k, v in facts.items() if v is not None}})
     if plan is not None:
         from .gdt.characteristics import inspect_plan
 

@@ -81,8 +81,9 @@ def _add_zone_options(i: argparse.ArgumentParser) -> None:
                    help="upper limit of an asymmetric zone, mm (e.g. 0.3)")
     i.add_argument("--plan", metavar="PLAN.toml",
                    help="inspection plan: regions, datums, alignment and characteristics "
-                        "(profile, flatness, position, size); with it --tol is optional and "
-                        "adds a profile over all points")
+                        "(profile, flatness, position, size), or a QIF 3.0 MBD (PART.qif) "
+                        "with a STEP nominal; with it --tol is optional and adds a profile "
+                        "over all points")
 
 
 def _add_template_options(i: argparse.ArgumentParser) -> None:

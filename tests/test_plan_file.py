@@ -255,9 +255,10 @@ def test_ids_names_and_labels_with_control_characters_are_refused(tmp_path, valu
     assert "control character" in str(e)
 
 
-def test_toml_is_the_plan_row_of_the_file_table():
-    assert formats.kind_of("Plan.TOML") == formats.PLAN and formats.PLAN_SUFFIXES == (".toml",)
-    assert ".toml" not in formats.ALL_SUFFIXES + formats.TEMPLATE_SUFFIXES
+def test_toml_and_qif_are_the_plan_rows_of_the_file_table():
+    assert formats.kind_of("Plan.TOML") == formats.PLAN and formats.kind_of("P.QIF") == formats.QIF
+    assert formats.PLAN_SUFFIXES == (".toml", ".qif")
+    assert not {".toml", ".qif"} & set(formats.ALL_SUFFIXES + formats.TEMPLATE_SUFFIXES)
 
 
 def test_the_message_of_a_bad_zone_reads_as_the_contract_says(tmp_path, monkeypatch):
@@ -290,7 +291,7 @@ def test_missing_unreadable_and_foreign_files(tmp_path):
     with pytest.raises(InputError, match="is a folder"):
         read_plan(str(tmp_path))
     e = refused(tmp_path, "x, y, z\n1, 2, 3\n", name="nominal.csv")
-    assert "a .toml file, not '.csv'" in str(e)
+    assert "a .toml or .qif file, not '.csv'" in str(e)
     path = tmp_path / "latin.toml"
     path.write_bytes(b'[part]\nname = "Tr\xe4ger"\n')
     with pytest.raises(InputError, match="not UTF-8") as e:

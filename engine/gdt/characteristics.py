@@ -39,7 +39,7 @@ from ..errors import InputError
 from ..pose import apply_transform, in_plane
 from ..progress import report, within
 from ..tolerance import Tolerance
-from ..verdict import INCONCLUSIVE, Statistics
+from ..verdict import INCONCLUSIVE, REJECT, Statistics
 from .judgement import PROGRESS_REPORTS, Shared, judge, plan_verdict
 from .plan import FEATURES_2D, FEATURES_3D, RESERVED_ID, Characteristic, Plan
 from .region_features import feature_masks, region_features, rps_alignment
@@ -240,6 +240,9 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
             whole, float(2.0 * np.max(np.abs(d - tol.centre))),
             result.verdict, result.reasons[0], np.arange(d.size), d, result.statistics.worst))
     verdict, reasons = plan_verdict(results, planned.alignment)
+    if plan.not_judged:  # the part is ACCEPT only when every characteristic of its source is
+        reasons = (plan.not_judged_summary, *reasons)
+        verdict = REJECT if verdict == REJECT else INCONCLUSIVE
     if not pose_trusted(reg):
         results = [replace(r, verdict=INCONCLUSIVE, reason=f"the registration cannot be "
                            f"trusted: {result.reasons[0]}") for r in results]

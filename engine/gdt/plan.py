@@ -20,6 +20,7 @@ Units mm; coordinates in the nominal frame. Every object here is frozen.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 from ..uncertainty import Instrument
@@ -207,6 +208,20 @@ def implied_feature(kind: str, direction: bool = False, diametral: bool = False)
 
 
 @dataclass(frozen=True)
+class NotJudged:
+    """A characteristic of the plan's source that the plan layer cannot judge yet (a QIF
+    perpendicularity, a position at MMC …): kept, with why, so that nothing is dropped
+    silently; it makes the part INCONCLUSIVE (engine.gdt.characteristics)."""
+
+    id: str
+    type: str
+    """The source's word for it (e.g. "perpendicularity", "distance between")."""
+    name: str
+    """Its name or designator in the source (e.g. "Perpendicularity.1"), or ""."""
+    reason: str
+
+
+@dataclass(frozen=True)
 class Plan:
     path: str
     sha256: str
@@ -217,6 +232,25 @@ class Plan:
     characteristics: tuple[Characteristic, ...]
     rps: tuple[RpsPoint, ...] = ()
     measurement: Measurement = Measurement()
+    not_judged: tuple[NotJudged, ...] = ()
+    """The source's characteristics left out of ``characteristics`` (a QIF plan's)."""
+    n_source: int | None = None
+    """How many characteristics the source file holds (a QIF's, judged or not); None: the
+    plan's own ``characteristics`` are all of them."""
+
+    @property
+    def not_judged_summary(self) -> str:
+        """"N of M characteristics of FILE are not judged yet: TYPES" ("" when all are)."""
+        if not self.not_judged:
+            return ""
+        counts: dict[str, int] = {}
+        for c in self.not_judged:
+            counts[c.type] = counts.get(c.type, 0) + 1
+        types = ", ".join(t if k == 1 else f"{t} ({k})" for t, k in counts.items())
+        total = self.n_source if self.n_source is not None else (
+            len(self.characteristics) + len(self.not_judged))
+        return (f"{len(self.not_judged)} of {total} characteristics of "
+                f"{os.path.basename(self.path)} are not judged yet: {types}")
 
     def region(self, name: str) -> Region:
         return next(r for r in self.regions if r.name == name)

@@ -3,7 +3,8 @@
 Every reader, the check of the options against the nominal, the pipeline and both front ends ask
 this table. A new file format is a row here and its reader in ``engine.io`` (dispatched in
 :func:`engine.io.load_point_set`, or in :func:`engine.io.templates.read_template` for a 2D
-template, or :func:`engine.io.plan.read_plan` for an inspection plan), plus one test.
+template, or :func:`engine.io.plan.read_plan` for an inspection plan: TOML, or QIF through
+:mod:`engine.io.qif_plan`), plus one test.
 """
 
 from __future__ import annotations
@@ -27,6 +28,9 @@ AIRFOIL = "airfoil template"
 """2D airfoil ordinate templates, Selig order (``engine.io.templates``)."""
 PLAN = "inspection plan"
 """Inspection plans in TOML: regions, datums, alignment, characteristics (``engine.io.plan``)."""
+QIF = "QIF"
+"""QIF 3.0 documents (``.qif``/``.QIF``): a model-based definition's inspection plan, its
+features matched to a STEP nominal's faces (``engine.io.qif_plan``)."""
 E57 = "E57"
 """ASTM E2807 scanner files, every scan in the file's frame, read with pye57 in a child process
 (``engine.io.e57``)."""
@@ -43,6 +47,7 @@ KIND = {
     ".dxf": DXF,
     ".dat": AIRFOIL,
     ".toml": PLAN,
+    ".qif": QIF,
     ".stp": STEP, ".step": STEP,
 }
 """Suffix (lower case, with its dot) -> kind of file."""
@@ -62,7 +67,8 @@ TEXT_SUFFIXES = suffixes(POINT_TEXT)
 MESH_SUFFIXES = suffixes(MESH, VTK, GRID)
 ALL_SUFFIXES = suffixes(*POINT_SET_KINDS)
 TEMPLATE_SUFFIXES = suffixes(*TEMPLATE_KINDS)
-PLAN_SUFFIXES = suffixes(PLAN)
+PLAN_SUFFIXES = suffixes(PLAN, QIF)
+"""What ``--plan`` reads: a TOML plan, or a QIF MBD whose features name a STEP nominal's faces."""
 STEP_SUFFIXES = suffixes(STEP)
 NOMINAL_SUFFIXES = ALL_SUFFIXES + STEP_SUFFIXES + TEMPLATE_SUFFIXES
 """Every file a nominal may be: a point set, a STEP model or a 2D template."""

@@ -72,13 +72,19 @@ _TOML_WHERE = re.compile(r"\s*\((?:at line (\d+), column (\d+)|at end of documen
 
 
 def read_plan(path: str | os.PathLike) -> Plan:
-    """Read and check an inspection plan; its ``sha256`` is that of the bytes parsed.
+    """Read and check an inspection plan (TOML; a QIF 3.0 MBD through engine.io.qif_plan,
+    whose regions name groups :func:`engine.io.qif_plan.qif_face_groups` resolves on the STEP
+    nominal); its ``sha256`` is that of the bytes parsed.
     InputNotFoundError when the file is missing; InputError naming the file, the table and the
     key for anything else wrong with it."""
     path = os.fspath(path)
+    if formats.kind_of(path) == formats.QIF:
+        from .qif_plan import read_qif_plan
+
+        return read_qif_plan(path)
     raw = read_bytes(path)
     if formats.kind_of(path) != formats.PLAN:
-        raise InputError(f"an inspection plan is a {' '.join(formats.PLAN_SUFFIXES)} file, "
+        raise InputError(f"an inspection plan is a {' or '.join(formats.PLAN_SUFFIXES)} file, "
                          f"not '{formats.suffix_of(path) or '(no suffix)'}'", path)
     return _plan_of(raw, path)
 

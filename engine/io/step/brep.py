@@ -135,6 +135,23 @@ class StepNominal:
         self._brep.settle(p, pairs, bound, inside, best)
         return self._brep.finish(p, best)
 
+    def face_shape(self, fid: int):
+        """Face ``fid``'s OpenCascade shape (a located TopoDS_Face), for checks on the exact
+        surface."""
+        return self._brep.faces[int(fid) - 1]
+
+    def face_distances(self, fid: int, points) -> np.ndarray:
+        """(n,) the distance (mm) from each of ``points`` (n, 3), nominal frame, to the trimmed
+        face ``fid`` alone (its surface within its boundary: an edge or a vertex where the
+        nearest point lies on one); inf where OpenCascade finds none."""
+        tools = self._brep.tools(int(fid))
+        out = np.full(len(points), np.inf)
+        for i, xyz in enumerate(np.asarray(points, dtype=np.float64).tolist()):
+            got = tools.nearest_on_face(xyz)
+            if got is not None:
+                out[i] = got[0]
+        return out
+
 
 @dataclass
 class _Best:

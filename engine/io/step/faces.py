@@ -36,8 +36,10 @@ class StepFace:
         its surface's normal).
     geometry : the exact surface for planes (``point``, outward unit ``normal``), cylinders
         (``point`` on the axis, unit ``axis``, ``radius``, ``hole``: True when the outward normal
-        points to the axis) and spheres (``centre``, ``radius``, ``hole``); millimetres, the
-        nominal frame. Empty for other surfaces.
+        points to the axis), spheres (``centre``, ``radius``, ``hole``), cones (``apex``, unit
+        ``axis`` pointing from the apex into the cone, ``half_angle`` radians) and tori
+        (``centre``, unit ``axis``, ``major``, ``minor`` radii); millimetres, the nominal frame.
+        Empty for other surfaces.
     """
 
     id: int
@@ -426,7 +428,8 @@ def in_box(u: np.ndarray, v: np.ndarray, uv_box: np.ndarray, periods: np.ndarray
 
 
 def geometry(t: FaceTools, kind: str) -> dict:
-    """The exact surface of a plane, cylinder or sphere face (see StepFace.geometry)."""
+    """The exact surface of a plane, cylinder, sphere, cone or torus face (see
+    StepFace.geometry)."""
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     s = BRepAdaptor_Surface(t.face)
     u0, u1, v0, v1 = t.uv_box
@@ -447,4 +450,14 @@ def geometry(t: FaceTools, kind: str) -> dict:
         c = np.array(sph.Location().Coord())
         return {"centre": tuple(c.tolist()), "radius": sph.Radius(),
                 "hole": bool(np.dot(out, mid - c) < 0)}
+    if kind == "Cone":
+        cone = s.Cone()
+        a, half = np.array(cone.Axis().Direction().Coord()), cone.SemiAngle()
+        # OpenCascade's axis points the way the radius grows when the semi-angle is positive.
+        a = a if half > 0 else -a
+        return {"apex": cone.Apex().Coord(), "axis": tuple(a.tolist()), "half_angle": abs(half)}
+    if kind == "Torus":
+        torus = s.Torus()
+        return {"centre": torus.Location().Coord(), "axis": torus.Axis().Direction().Coord(),
+                "major": torus.MajorRadius(), "minor": torus.MinorRadius()}
     return {}

@@ -1,0 +1,528 @@
+"""Inspection plans read from a QIF 3.0 model-based definition (``.qif``/``.QIF``: a
+``QIFDocument`` with ``Product``, ``Features`` and ``Characteristics``) ->
+engine.gdt.plan.Plan, the same object a TOML plan gives.
+
+What is read
+    * units: the file's primary linear unit (``FileUnits``), a value's own ``linearUnit`` where
+      it names another of the file's units, and the ``ScaleCoefficient`` the Product declares
+      for its geometry (Product and Features values are divided by it); everything in mm.
+    * features: each ``…FeatureNominal`` with the faces of the file's own B-rep it is made of
+      (``EntityInternalIds``); a plan region per feature (``qif:ID``), or per set of features
+      a characteristic applies to together (``qif:ID+ID``), selecting the group of the same
+      name: the STEP faces :func:`qif_face_groups` finds for it by geometry.
+    * datums: each ``DatumDefinition`` on one plane, cylinder or sphere feature, as a plan datum
+      (tangent, the ASME / ISO default) on that feature's region.
+    * characteristics: each ``…CharacteristicNominal`` (its id is the plan's characteristic id):
+      surface profile -> ``profile`` (an ``OuterDisposition`` sets its limits), flatness of a
+      plane -> ``flatness``, position of one hole (RFS, a diametral zone, datums at RFS) ->
+      ``position``, diameter of a hole -> ``size`` (one per hole when it applies to several:
+      ``ID.1``, ``ID.2`` …). Every other one is kept in ``Plan.not_judged`` with its reason
+      (a perpendicularity, a position at MMC, a datum that is a width …): never dropped.
+
+Refusals (engine.errors.InputError, exit 65, naming the file and the item): not well-formed XML
+or XML with a DOCTYPE (no entity is ever expanded, no network, no huge trees), a document that is
+not QIF 3 (a QIF 2.x file), no linear unit, an element the plan needs that is missing or not a
+number, and (:func:`qif_face_groups`) a feature that matches no face of the STEP nominal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import os
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.errors import InputError
+from engine.gdt.plan import (Alignment, Characteristic, Datum, NotJudged, Part, Plan,
+                             Region)
+
+from .points import read_bytes
+from .qif_faces import MATCH_FRACTION, FaceMatcher, QifFace, face_of
+
+QIF3_NAMESPACE = "http://qifstandards.org/xsd/qif3"
+DATUM_FEATURES = {"Plane": "plane", "Cylinder": "cylinder", "Sphere": "sphere"}
+"""QIF feature kinds a plan datum can be, and the plan's word for each."""
+KNOWN_UNITS = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "m": 1000.0,
+               "meter": 1000.0, "metre": 1000.0, "um": 1e-3, "micrometer": 1e-3,
+               "inch": 25.4, "in": 25.4, "ft": 304.8, "foot": 304.8, "mil": 0.0254,
+               "uin": 2.54e-5}
+"""Linear units by the names QIF writers use (mm each), for a ``linearUnit`` the file uses
+without declaring it (the NIST FTC-06 file's "inch"); a unit the file declares wins."""
+PRECEDENCE = {"PRIMARY": 0, "SECONDARY": 1, "TERTIARY": 2}
+RFS = ("", "NONE", "RFS", "REGARDLESS")
+"""Material-condition words that mean regardless of feature size."""
+INFORMATIONAL = "informational: it has no tolerance (0 .. 0), so there is nothing to judge"
+SUPPORTED = "the plan layer judges profile, flatness, and position and size of a hole"
+
+
+@dataclass(frozen=True)
+class QifFeature:
+    """A QIF feature nominal: ``kind`` is its element's name without ``FeatureNominal``
+    (Plane, Cylinder, OppositeParallelPlanes …); ``faces`` the ids of its QIF faces;
+    ``internal``: a hole (None: not stated)."""
+
+    id: str
+    kind: str
+    name: str
+    faces: tuple[str, ...]
+    internal: bool | None
+
+
+@dataclass(frozen=True)
+class QifDocument:
+    """A QIF MBD as read: its plan, the features its regions use with their QIF faces (mm),
+    and the unit it was written in."""
+
+    plan: Plan
+    features: dict
+    """Feature id -> QifFeature (those a region of the plan uses)."""
+    faces: dict
+    """QIF face id -> engine.io.qif_faces.QifFace (of those features)."""
+    unit: str
+    mm_per_unit: float
+    scale: float
+
+
+def read_qif_plan(path: str | os.PathLike) -> Plan:
+    """The inspection plan of a QIF 3.0 MBD (see the module's docstring)."""
+    return qif_document(path).plan
+
+
+def qif_document(path: str | os.PathLike) -> QifDocument:
+    path = os.fspath(path)
+    return parse_qif(read_bytes(path), path)
+
+
+def qif_face_groups(path: str | os.PathLike, step) -> dict[str, tuple[int, ...]]:
+    """{region group of the QIF plan: the STEP face ids (ascending) of its features}: each QIF
+    face matched to the faces of the STEP nominal ``step`` (engine.io.step.StepNominal) by
+    geometry (engine.io.qif_faces). InputError naming the QIF file, the feature and the STEP
+    file when a face of a feature matches none."""
+    doc = qif_document(path)
+    matcher = FaceMatcher(step)
+    found: dict[str, list[int]] = {}
+    for feature in doc.features.values():
+        ids: set[int] = set()
+        for face_id in feature.faces:
+            hit = matcher.faces(doc.faces[face_id])
+            if not hit:
+                raise InputError(f"QIF feature {feature.id} ({describe(doc.faces[face_id])}"
+                                 f"{'' if len(feature.faces) == 1 else f', its face {face_id}'}"
+                                 f") matches no face of {os.path.basename(step.path)} within "
+                                 f"{matcher.tol:.2g} mm", doc.plan.path)
+            ids.update(hit)
+        found[feature.id] = sorted(ids)
+    return {r.group: tuple(sorted({f for fid in r.group[4:].split("+") for f in found[fid]}))
+            for r in doc.plan.regions}
+
+
+def check_qif_nominal(plan_path: str, nominal_path: str) -> None:
+    """InputError naming the plan when its nominal is no STEP model: a QIF plan's features are
+    found among a STEP model's faces."""
+    from . import formats
+
+    if formats.kind_of(nominal_path) != formats.STEP:
+        raise InputError("a QIF plan's features are matched to the faces of a STEP nominal "
+                         f"({', '.join(formats.STEP_SUFFIXES)}) by geometry; the nominal "
+                         f"{os.path.basename(nominal_path)} is no STEP model", plan_path)
+
+
+def qif_nominal_groups(path: str | os.PathLike, step, groups: dict | None
+                       ) -> tuple[dict[str, np.ndarray], dict]:
+    """The STEP nominal's point groups (engine.step_model.face_groups: ``face:N`` -> its
+    tessellation points) with one more per region of the QIF plan (the points of the faces its
+    features match, :func:`qif_face_groups`), and what the results say of the match."""
+    faces = qif_face_groups(path, step)
+    out = dict(groups or {})
+    for name, ids in faces.items():
+        out[name] = np.unique(np.concatenate([out[f"face:{i}"] for i in ids]))
+    doc = qif_document(path)
+    facts = {"path": os.fspath(path), "unit": doc.unit, "mm_per_unit": doc.mm_per_unit,
+             "scale": doc.scale, "tolerance_mm": FaceMatcher(step).tol,
+             "regions": {k: list(v) for k, v in faces.items()},
+             "n_characteristics": doc.plan.n_source,
+             "not_judged": [dataclasses.asdict(c) for c in doc.plan.not_judged],
+             "not_judged_summary": doc.plan.not_judged_summary,
+             "match": "each QIF face is the STEP faces on the same surface (normals and axes "
+                      f"within {MATCH_FRACTION:g} rad; points and radii within tolerance_mm, "
+                      f"{MATCH_FRACTION:g} of the model's diagonal) holding every point of "
+                      "its boundary (vertices, edge middles) within tolerance_mm"}
+    return out, facts
+
+
+def describe(face: QifFace) -> str:
+    """A QIF face's surface in words, mm: "plane z=0", "cylinder ⌀35 axis (0, 0, 1) through
+    (-325, -175, 0)" …"""
+    g = face.geometry
+    if face.kind == "plane":
+        n, p = g["normal"], g["point"]
+        axis = [i for i in range(3) if abs(abs(n[i]) - 1.0) < 1e-9]
+        if axis:
+            return f"plane {'xyz'[axis[0]]}={p[axis[0]]:.6g}"
+        return f"plane through {_point(p)} normal {_point(n)}"
+    if face.kind == "cylinder":
+        return (f"cylinder ⌀{2 * g['radius']:.6g} axis {_point(g['axis'])} through "
+                f"{_point(g['point'])}")
+    if face.kind == "sphere":
+        return f"sphere ⌀{2 * g['radius']:.6g} centre {_point(g['centre'])}"
+    if face.kind in ("cone", "torus"):
+        at = g["apex"] if face.kind == "cone" else g["centre"]
+        return f"{face.kind} axis {_point(g['axis'])} at {_point(at)}"
+    return f"face {face.id} through {_point(face.points[0])}"
+
+
+def _point(v) -> str:
+    return "(" + ", ".join(f"{float(x):.6g}" for x in v) + ")"
+
+
+# ---------------------------------------------------------------- the document
+@functools.lru_cache(maxsize=4)
+def parse_qif(raw: bytes, path: str) -> QifDocument:
+    """The document these bytes of ``path`` hold, cached by the bytes (a run reads its plan for
+    the zone and again with the nominal)."""
+    root = _parse(raw, path)
+    units = _Units(root, path)
+    index = {e.get("id"): e for e in root.iter() if e.get("id") is not None}
+    features = _features(root, index, units, path)
+    datums, datum_notes = _datums(root, features, path)
+    frames = _frames(root, datums, datum_notes, path)
+    reader = _Characteristics(path, index, units, features, datums, frames)
+    nominals = [e for e in _children(root, "Characteristics/{*}CharacteristicNominals")]
+    for e in nominals:
+        reader.read(e)
+    used = {fid for r in reader.regions for fid in r[4:].split("+")}
+    used |= {d.region[4:] for d in datums.values()}
+    plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(), part=_part(root),
+                regions=tuple(Region(name=g, group=g) for g in
+                              dict.fromkeys([*(d.region for d in datums.values()),
+                                             *reader.regions])),
+                datums=tuple(datums.values()), alignment=Alignment(),
+                characteristics=tuple(reader.judged), not_judged=tuple(reader.not_judged),
+                n_source=len(nominals))
+    faces = {}
+    for fid in used:
+        for face_id in features[fid].faces:
+            faces[face_id] = _face(index, face_id, units, fid, path)
+    return QifDocument(plan, {fid: features[fid] for fid in sorted(used, key=_id_order)},
+                       faces, units.unit, units.mm_per_unit, units.scale)
+
+
+def _id_order(fid: str):
+    return (0, int(fid)) if fid.isdigit() else (1, fid)
+
+
+def _parse(raw: bytes, path: str):
+    """The root element of untrusted XML, safely: no entity expanded, no DTD loaded, no
+    network, no huge trees; a DOCTYPE is refused outright (a QIF document has none)."""
+    from lxml import etree
+
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False,
+                             load_dtd=False, dtd_validation=False, remove_comments=True,
+                             remove_pis=True)
+    try:
+        root = etree.fromstring(raw, parser)
+    except etree.XMLSyntaxError as e:
+        raise InputError(f"is not valid XML ({e})", path) from e
+    if root.getroottree().docinfo.doctype:
+        raise InputError("holds a DOCTYPE declaration; a QIF document has none (refused: "
+                         "entities are never expanded)", path)
+    ns, local = _split(root.tag)
+    version = root.get("versionQIF", "")
+    if local != "QIFDocument":
+        raise InputError(f"is not a QIF document (its root element is <{local}>, not "
+                         "<QIFDocument>)", path)
+    if ns != QIF3_NAMESPACE or not version.startswith("3."):
+        raise InputError(f"is a QIF {version or '(no versionQIF)'} document in namespace "
+                         f"'{ns}'; plans are read from QIF 3.0 ({QIF3_NAMESPACE})", path)
+    return root
+
+
+def _split(tag: str) -> tuple[str, str]:
+    if tag.startswith("{"):
+        ns, local = tag[1:].split("}", 1)
+        return ns, local
+    return "", tag
+
+
+def _local(e) -> str:
+    return _split(e.tag)[1]
+
+
+def _children(root, path: str) -> list:
+    """The element children of ``{*}path`` under the root (none when it is absent)."""
+    parent = root.find("{*}" + path)
+    return [] if parent is None else [c for c in parent if isinstance(c.tag, str)]
+
+
+def _ids(e, tag: str) -> list[str]:
+    return [i.text.strip() for i in e.iterfind(f"{{*}}{tag}/{{*}}Id") if i.text]
+
+
+class _Units:
+    """The file's linear units (name -> mm), its primary one, and the geometry's scale."""
+
+    def __init__(self, root, path: str):
+        self.path = path
+        self.mm: dict[str, float] = {}
+        primary = root.find("{*}FileUnits/{*}PrimaryUnits/{*}LinearUnit")
+        if primary is None:
+            raise InputError("states no linear unit (FileUnits/PrimaryUnits/LinearUnit): its "
+                             "lengths cannot be read as mm", path)
+        for u in (primary, *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
+            factor = u.findtext("{*}UnitConversion/{*}Factor")
+            self.mm[(u.findtext("{*}UnitName") or "").strip()] = 1000.0 * _number(
+                factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
+                path)
+        self.unit = (primary.findtext("{*}UnitName") or "").strip()
+        self.mm_per_unit = self.mm[self.unit]
+        scale = root.findtext("{*}Product/{*}Header/{*}ScaleCoefficient")
+        self.scale = 1.0 if scale is None else _number(scale, "ScaleCoefficient", path)
+        if not self.scale > 0:
+            raise InputError(f"declares a ScaleCoefficient of {self.scale:g}; it must be > 0",
+                             path)
+
+    def length(self, e, what: str, geometry: bool = False) -> float:
+        """The value of element ``e`` in mm (its own ``linearUnit`` where it names one; a
+        Product or Features value divided by the declared scale)."""
+        unit = e.get("linearUnit")
+        if unit is not None and unit not in self.mm and unit in KNOWN_UNITS:
+            self.mm[unit] = KNOWN_UNITS[unit]
+        if unit is not None and unit not in self.mm:
+            raise InputError(f"{what}: linearUnit '{unit}' is not one of the file's units "
+                             f"({', '.join(self.mm)})", self.path)
+        value = _number(e.text, what, self.path) * self.mm[unit or self.unit]
+        return value / self.scale if geometry else value
+
+
+def _number(text: str | None, what: str, path: str) -> float:
+    try:
+        value = float((text or "").strip())
+    except ValueError:
+        raise InputError(f"{what}: {text!r} is not a number", path) from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise InputError(f"{what}: {text!r} is not a finite number", path)
+    return value
+
+
+def _face(index: dict, face_id: str, units: _Units, feature: str, path: str) -> QifFace:
+    face = index.get(face_id)
+    if face is None or _local(face) != "Face":
+        raise InputError(f"QIF feature {feature}: its entity {face_id} is not a Face of the "
+                         "file's B-rep", path)
+    try:
+        return face_of(face, index, units.mm_per_unit / units.scale)
+    except (KeyError, AttributeError, ValueError, IndexError) as e:
+        raise InputError(f"QIF feature {feature}: its face {face_id} is incomplete (a "
+                         f"surface, loop, edge, vertex or curve missing or not numbers: "
+                         f"{e!r})", path) from None
+
+
+def _part(root) -> Part:
+    part = root.find("{*}Product/{*}PartSet/{*}Part")
+    if part is None:
+        return Part()
+    return Part(number=(part.findtext("{*}ModelNumber") or "").strip(),
+                name=(part.findtext("{*}Name") or part.get("label") or "").strip())
+
+
+def _features(root, index: dict, units: _Units, path: str) -> dict[str, QifFeature]:
+    out = {}
+    for e in _children(root, "Features/{*}FeatureNominals"):
+        kind = re.sub(r"FeatureNominal$", "", _local(e))
+        definition = index.get(e.findtext("{*}FeatureDefinitionId") or "")
+        side = None if definition is None else definition.findtext("{*}InternalExternal")
+        faces = tuple(i for i in _ids(e, "EntityInternalIds")
+                      if i in index and _local(index[i]) == "Face")
+        out[e.get("id")] = QifFeature(e.get("id"), kind, (e.findtext("{*}Name") or "").strip(),
+                                      faces, None if side is None else side == "INTERNAL")
+    return out
+
+
+def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str, str]]:
+    """{DatumDefinition id: plan Datum} for those on one plane, cylinder or sphere with faces,
+    and {id: why not} for the others (with their label)."""
+    datums, notes = {}, {}
+    for e in _children(root, "DatumDefinitions"):
+        label = (e.findtext("{*}DatumLabel") or "").strip()
+        ids = _ids(e, "FeatureNominalIds")
+        kinds = [features[i].kind if i in features else "?" for i in ids]
+        if len(ids) != 1 or kinds[0] not in DATUM_FEATURES or not features[ids[0]].faces:
+            what = "no feature" if not ids else (
+                f"{len(ids)} features" if len(ids) > 1 else
+                _article(_words(kinds[0])) + " feature" + ("" if kinds[0] == "?" or
+                                                     features[ids[0]].faces else " without faces"))
+            notes[e.get("id")] = (f"datum {label} is {what}; a plan datum is one plane, "
+                                  "cylinder or sphere")
+            continue
+        datums[e.get("id")] = Datum(label=label, region=f"qif:{ids[0]}",
+                                    feature=DATUM_FEATURES[kinds[0]])
+    return datums, notes
+
+
+def _frames(root, datums: dict, notes: dict, path: str) -> dict[str, tuple[tuple[str, ...], str]]:
+    """{DatumReferenceFrame id: (labels primary first, why it cannot be used or "")}."""
+    out = {}
+    for e in _children(root, "DatumReferenceFrames"):
+        entries, why = [], ""
+        for d in e.iterfind("{*}Datums/{*}Datum"):
+            rank = PRECEDENCE.get((d.findtext("{*}Precedence/{*}PrecedenceEnum") or "").strip(),
+                                  len(entries))
+            simple = d.find("{*}SimpleDatum")
+            if simple is None:
+                why = why or "its datum reference frame holds a common (compound) datum"
+                continue
+            ref = (simple.findtext("{*}DatumDefinitionId") or "").strip()
+            modifier = (simple.findtext("{*}MaterialModifier") or "").strip()
+            if ref in notes:
+                why = why or notes[ref]
+            elif ref not in datums:
+                raise InputError(f"DatumReferenceFrame {e.get('id')}: DatumDefinitionId "
+                                 f"{ref!r} is no DatumDefinition of the file", path)
+            elif modifier not in RFS:
+                why = why or (f"datum {datums[ref].label} is at {modifier.lower()} material "
+                              "condition")
+            if ref in datums:
+                entries.append((rank, datums[ref].label))
+        out[e.get("id")] = (tuple(label for _, label in sorted(entries)), why)
+    return out
+
+
+def _article(word: str) -> str:
+    return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
+def _words(camel: str) -> str:
+    """'DistanceBetween' -> 'distance between'."""
+    return re.sub(r"(?<!^)(?=[A-Z])", " ", camel).lower()
+
+
+class _Characteristics:
+    """Reads characteristic nominals into plan characteristics or NotJudged entries."""
+
+    def __init__(self, path, index, units, features, datums, frames):
+        self.path, self.index, self.units = path, index, units
+        self.features, self.datums, self.frames = features, datums, frames
+        self.judged: list[Characteristic] = []
+        self.not_judged: list[NotJudged] = []
+        self.regions: list[str] = []
+
+    def read(self, e) -> None:
+        kind = re.sub(r"CharacteristicNominal$", "", _local(e))
+        cid = e.get("id")
+        name = (e.findtext("{*}Name") or "").strip()
+        definition = self.index.get((e.findtext("{*}CharacteristicDefinitionId") or "").strip())
+        if definition is None:
+            raise InputError(f"characteristic {cid} ({name}): its CharacteristicDefinitionId "
+                             "is no element of the file", self.path)
+        ids = _ids(e, "FeatureNominalIds")
+        for i in ids:
+            if i not in self.features:
+                raise InputError(f"characteristic {cid} ({name}): FeatureNominalId {i} is no "
+                                 "feature nominal of the file", self.path)
+        why = self._why_not(kind, definition, ids)
+        if why:
+            self.not_judged.append(NotJudged(cid, _words(kind), name, why))
+            return
+        made = self._make(kind, cid, name, definition, e, ids)
+        if isinstance(made, str):
+            self.not_judged.append(NotJudged(cid, _words(kind), name, made))
+            return
+        for c in made:
+            self.judged.append(c)
+            if c.region not in self.regions:
+                self.regions.append(c.region)
+
+    def _why_not(self, kind: str, definition, ids: list[str]) -> str:
+        """Why the plan layer cannot judge this characteristic yet ("" when it can)."""
+        feats = [self.features[i] for i in ids]
+        if kind not in ("SurfaceProfile", "Flatness", "Position", "Diameter"):
+            return f"{_words(kind)} is not judged yet ({SUPPORTED})"
+        if not feats or any(not f.faces for f in feats):
+            return "it applies to no feature with faces of the model"
+        condition = (definition.findtext("{*}MaterialCondition") or "").strip()
+        if condition not in RFS:
+            return f"its {condition.lower()} material condition is not judged yet"
+        frame = (definition.findtext("{*}DatumReferenceFrameId") or "").strip()
+        labels, frame_why = self.frames.get(frame, ((), "")) if frame else ((), "")
+        if frame and frame not in self.frames:
+            return f"its DatumReferenceFrameId {frame} is no datum reference frame of the file"
+        if frame_why:
+            return frame_why
+        if kind != "Diameter":
+            per_unit = [_local(c) for c in definition if isinstance(c.tag, str)
+                        and _local(c).startswith("ToleranceZonePerUnit")]
+            if per_unit:
+                return f"a zone per unit ({per_unit[0]}) is not judged yet"
+        if kind == "Flatness" and (len(feats) != 1 or feats[0].kind != "Plane"):
+            return "flatness is judged on one plane feature"
+        if kind in ("Position", "Diameter") and any(
+                f.kind != "Cylinder" or f.internal is False for f in feats):
+            kinds = ", ".join(sorted({_words(f.kind) for f in feats}))
+            return f"{_words(kind)} of {kinds} features (not holes) is not judged yet"
+        if kind == "Position":
+            if len(feats) != 1:
+                return f"a pattern of {len(feats)} holes located together is not judged yet"
+            if definition.find("{*}ZoneShape/{*}DiametricalZone") is None:
+                return "a position of a hole in a non-diametral zone is not judged yet"
+            if not labels:
+                return "a position relative to no datum is not judged"
+        region = self._region(ids)
+        for label in labels:
+            if next(d for d in self.datums.values() if d.label == label).region == region:
+                return f"its datum {label} is its own feature"
+        return ""
+
+    @staticmethod
+    def _region(ids: list[str]) -> str:
+        return "qif:" + "+".join(ids)
+
+    def _make(self, kind, cid, name, definition, e, ids) -> list[Characteristic] | str:
+        """The plan characteristics of a characteristic the plan layer judges, or why it is
+        not judged after all (an informational item without tolerance)."""
+        frame = (definition.findtext("{*}DatumReferenceFrameId") or "").strip()
+        labels = self.frames[frame][0] if frame else ()
+        what = f"characteristic {cid} ({name})"
+        if kind == "Diameter":
+            return self._sizes(cid, what, definition, e, ids)
+        zone = self._length(definition, "ToleranceValue", what)
+        if zone == 0.0:
+            return INFORMATIONAL
+        if not zone > 0:
+            raise InputError(f"{what}: ToleranceValue must be > 0, got {zone:g}", self.path)
+        if kind == "Flatness":
+            return [Characteristic(cid, "flatness", self._region(ids), 0.0, zone)]
+        if kind == "Position":
+            return [Characteristic(cid, "position", self._region(ids), 0.0, zone, labels)]
+        outer = definition.find("{*}OuterDisposition")
+        upper = zone / 2 if outer is None else self.units.length(outer, what)
+        return [Characteristic(cid, "profile", self._region(ids), upper - zone, upper, labels)]
+
+    def _sizes(self, cid, what, definition, e, ids) -> list[Characteristic] | str:
+        """A diameter's size characteristic on each of its holes (``cid.k`` for several)."""
+        nominal = self._length(e, "TargetValue", what)
+        tol = definition.find("{*}Tolerance")
+        if tol is None:
+            raise InputError(f"{what}: its definition has no Tolerance", self.path)
+        low, high = (self._length(tol, k, what) for k in ("MinValue", "MaxValue"))
+        if (tol.findtext("{*}DefinedAsLimit") or "").strip() == "true":
+            low, high = low - nominal, high - nominal
+        # Limits minus the target: 34.8 - 35 must be -0.2, not -0.20000000000000284.
+        low, high = round(low, 12), round(high, 12)
+        if low == high == 0.0:
+            return INFORMATIONAL
+        if not nominal > 0 or not low < high or nominal + low <= 0:
+            raise InputError(f"{what}: a diameter of {nominal:g} mm with limits {low:+g} / "
+                             f"{high:+g} mm is no size tolerance", self.path)
+        return [Characteristic(cid if len(ids) == 1 else f"{cid}.{k}", "size", f"qif:{i}",
+                               low, high, nominal=nominal)
+                for k, i in enumerate(ids, start=1)]
+
+    def _length(self, e, tag: str, what: str) -> float:
+        found = e.find("{*}" + tag)
+        if found is None:
+            raise InputError(f"{what}: {tag} is missing", self.path)
+        return self.units.length(found, f"{what}: {tag}")

@@ -1,0 +1,256 @@
+"""Inspection plans read from a QIF 3.0 MBD (engine.io.qif_plan): the NIST CTC-01 and FTC-08
+test parts' own QIF files (../shared/realdata/qif_samples, public domain) against their STEP
+AP242 models (../shared/realdata/nist_pmi_step/ap242): the characteristics counted
+independently, every mapped face checked on the exact surface with OpenCascade, an inspection
+of points sampled on the exact faces in a random pose, and the refusals (exit 65)."""
+
+import json
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from qa_app.cli import main
+
+REAL = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "..",
+                    "shared", "realdata")
+QIF_DIR = os.path.join(REAL, "qif_samples")
+STEP_DIR = os.path.join(REAL, "nist_pmi_step", "ap242")
+PARTS = {
+    "CTC-01": ("NISTmodels__nist_ctc_01_asme1_ap242.qif", "nist_ctc_01_asme1_ap242-e1.stp"),
+    "FTC-08": ("NISTmodels__nist_ftc_08_asme1_ap242-1.qif", "nist_ftc_08_asme1_ap242-e1.stp"),
+}
+pytestmark = pytest.mark.skipif(not os.path.isdir(QIF_DIR) or not os.path.isdir(STEP_DIR),
+                                reason="the shared NIST data is not here")
+QIF3 = "{http://qifstandards.org/xsd/qif3}"
+
+
+def qif(part: str) -> str:
+    return os.path.join(QIF_DIR, PARTS[part][0])
+
+
+def stp(part: str) -> str:
+    return os.path.join(STEP_DIR, PARTS[part][1])
+
+
+@pytest.fixture(scope="module")
+def steps():
+    from engine.io.step import read_step
+
+    cache = {}
+
+    def get(part):
+        if part not in cache:
+            cache[part] = read_step(stp(part))
+        return cache[part]
+
+    return get
+
+
+def xml_characteristics(path: str) -> list:
+    """The file's characteristic nominals, found with the standard library's parser."""
+    root = ET.parse(path).getroot()
+    (noms,) = root.iter(QIF3 + "CharacteristicNominals")
+    return list(noms)
+
+
+def xml_geometry(path: str):
+    """{feature nominal id: element}, {feature definition id: element}, the file's mm per
+    length unit over its declared scale, by the standard library's parser."""
+    root = ET.parse(path).getroot()
+    features = {e.get("id"): e for e in root.find(QIF3 + "Features/" + QIF3 + "FeatureNominals")}
+    definitions = {e.get("id"): e
+                   for e in root.find(QIF3 + "Features/" + QIF3 + "FeatureDefinitions")}
+    unit = root.find(f"{QIF3}FileUnits/{QIF3}PrimaryUnits/{QIF3}LinearUnit")
+    mm = 1000.0 * float(unit.findtext(f"{QIF3}UnitConversion/{QIF3}Factor"))
+    scale = float(root.findtext(f"{QIF3}Product/{QIF3}Header/{QIF3}ScaleCoefficient") or 1)
+    return features, definitions, mm / scale
+
+
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_every_characteristic_is_read_and_each_mapped_one_has_faces(part, steps):
+    from engine.io.qif_plan import qif_face_groups, read_qif_plan
+
+    plan = read_qif_plan(qif(part))
+    in_file = xml_characteristics(qif(part))
+    assert plan.n_source == len(in_file) > 0
+    read = {c.id.split(".")[0] for c in plan.characteristics} | {c.id for c in plan.not_judged}
+    assert read == {e.get("id") for e in in_file}
+    assert not {c.id.split(".")[0] for c in plan.characteristics} & {c.id for c in plan.not_judged}
+    assert all(c.reason for c in plan.not_judged)
+    groups = qif_face_groups(qif(part), steps(part))
+    regions = {r.name: r.group for r in plan.regions}
+    for c in plan.characteristics:
+        assert len(groups[regions[c.region]]) >= 1
+    for d in plan.datums:
+        assert len(groups[regions[d.region]]) >= 1
+
+
+def _exact_surface(step, fid: int):
+    """(kind, geometry) of STEP face ``fid`` from OpenCascade's exact surface."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_Cylinder, GeomAbs_Plane
+
+    s = BRepAdaptor_Surface(step.face_shape(fid))
+    if s.GetType() == GeomAbs_Plane:
+        pln = s.Plane()
+        return "plane", (np.array(pln.Location().Coord()), np.array(pln.Axis().Direction().Coord()))
+    if s.GetType() == GeomAbs_Cylinder:
+        cyl = s.Cylinder()
+        return "cylinder", (np.array(cyl.Location().Coord()),
+                            np.array(cyl.Axis().Direction().Coord()), cyl.Radius())
+    return "other", None
+
+
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_mapped_faces_lie_on_their_qif_features_geometry(part, steps):
+    """Each face a plane or cylinder feature maps to lies, on OpenCascade's exact surface, on
+    the feature's own nominal plane (Location, Normal) or cylinder (Axis, the definition's
+    Diameter), read from the XML here."""
+    from engine.io.qif_plan import qif_face_groups, read_qif_plan
+
+    step = steps(part)
+    plan = read_qif_plan(qif(part))
+    groups = qif_face_groups(qif(part), step)
+    features, definitions, mm = xml_geometry(qif(part))
+    tol = 1e-4 * float(np.linalg.norm(np.ptp(step.bounds, axis=0)))
+    checked = 0
+    for region in plan.regions:
+        ids = region.group[4:].split("+")
+        if len(ids) != 1 or features[ids[0]].tag not in (QIF3 + "PlaneFeatureNominal",
+                                                         QIF3 + "CylinderFeatureNominal"):
+            continue
+        e = features[ids[0]]
+        for fid in groups[region.group]:
+            kind, g = _exact_surface(step, fid)
+            if e.tag == QIF3 + "PlaneFeatureNominal":
+                p = np.array(e.findtext(QIF3 + "Location").split(), float) * mm
+                n = np.array(e.findtext(QIF3 + "Normal").split(), float)
+                assert kind == "plane"
+                assert abs(abs(g[1] @ n) - 1.0) < 1e-8
+                assert abs((g[0] - p) @ n) < tol
+            else:
+                axis = e.find(QIF3 + "Axis")
+                p = np.array(axis.findtext(QIF3 + "AxisPoint").split(), float) * mm
+                a = np.array(axis.findtext(QIF3 + "Direction").split(), float)
+                a /= np.linalg.norm(a)
+                d = float(definitions[e.findtext(QIF3 + "FeatureDefinitionId")]
+                          .findtext(QIF3 + "Diameter")) * mm
+                assert kind == "cylinder"
+                assert abs(abs(g[1] @ a) - 1.0) < 1e-8
+                off = g[0] - p
+                assert np.linalg.norm(off - (off @ a) * a) < tol
+                assert abs(2 * g[2] - d) < tol
+            checked += 1
+    assert checked >= 5
+
+
+def write(path, M):
+    np.savetxt(path, M, delimiter=",", header="x,y,z", comments="", fmt="%.9f")
+
+
+def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(tmp_path, steps):
+    """Points on CTC-01's exact faces, a random pose, 0.1 µm noise: every characteristic the
+    QIF gives the plan is ACCEPT (its value near 0, each size at its nominal); the four it
+    cannot judge yet are listed, and make the part INCONCLUSIVE, not ACCEPT."""
+    from step_models import random_pose
+    from sweep import on_part
+
+    step = steps("CTC-01")
+    rng = np.random.default_rng(7)
+    P, N, _ = on_part(step, rng, 12000)
+    P = P + rng.normal(0.0, 1e-4, len(P))[:, None] * N
+    R, t = random_pose(11)
+    write(tmp_path / "m.csv", P @ R.T + t)
+    code = main(["inspect", stp("CTC-01"), str(tmp_path / "m.csv"), "--plan", qif("CTC-01"),
+                 "--json", str(tmp_path / "r.json")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    chars = doc["characteristics"]
+    assert len(chars) == 10
+    on_limit_out = []
+    for c in chars:
+        if c["type"] == "size":
+            # Planted at the nominal; where the nominal is a limit (CTC-01's ⌀35 -0.2/+0 and
+            # +0/+0.2) the noise puts the fitted diameter on either side of it.
+            assert c["value"] == pytest.approx(c["nominal"], abs=2e-4)
+            if c["verdict"] != "ACCEPT":
+                assert min(abs(c["lower"]), abs(c["upper"])) == 0.0, c
+                on_limit_out.append(c["id"])
+        else:
+            assert c["verdict"] == "ACCEPT", c
+            assert c["value"] < 0.01
+    assert code != 0
+    assert doc["verdict"] == ("REJECT" if on_limit_out else "INCONCLUSIVE")
+    summary = ("4 of 14 characteristics of NISTmodels__nist_ctc_01_asme1_ap242.qif are not "
+               "judged yet: position (2), perpendicularity, angle")
+    assert doc["reasons"][0] == summary
+    assert doc["plan_faces"]["not_judged_summary"] == summary
+    assert {c["id"] for c in doc["plan_faces"]["not_judged"]} == {"1443", "1450", "1467",
+                                                                 "1491"}
+
+
+def _refused(capsys, nominal, measured, plan) -> str:
+    code = main(["inspect", nominal, measured, "--plan", plan, "--json", "-"])
+    assert code == 65
+    return capsys.readouterr().err
+
+
+@pytest.fixture
+def measured(tmp_path):
+    path = tmp_path / "m.csv"
+    write(path, np.random.default_rng(0).uniform(-100, 100, (50, 3)))
+    return str(path)
+
+
+def test_a_qif_that_is_not_xml_is_refused(tmp_path, capsys, measured):
+    bad = tmp_path / "part.qif"
+    bad.write_bytes(Path(qif("CTC-01")).read_bytes()[:5000])
+    err = _refused(capsys, stp("CTC-01"), measured, str(bad))
+    assert "part.qif" in err and "is not valid XML" in err
+
+
+def test_a_qif_2_file_is_refused(tmp_path, capsys, measured):
+    text = Path(qif("CTC-01")).read_text("utf-8")
+    old = tmp_path / "old.QIF"
+    old.write_text(text.replace("http://qifstandards.org/xsd/qif3",
+                                "http://qifstandards.org/xsd/qif2").replace(
+                                    'versionQIF="3.0.0"', 'versionQIF="2.1.0"'), "utf-8")
+    err = _refused(capsys, stp("CTC-01"), measured, str(old))
+    assert "old.QIF" in err and "QIF 2.1.0" in err and "QIF 3.0" in err
+
+
+def test_xml_entities_are_never_expanded(tmp_path, capsys, measured):
+    bomb = tmp_path / "bomb.qif"
+    bomb.write_text('<?xml version="1.0"?><!DOCTYPE q [<!ENTITY a "aaaaaaaaaa">'
+                    '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>'
+                    '<QIFDocument xmlns="http://qifstandards.org/xsd/qif3" versionQIF="3.0.0">'
+                    '&b;</QIFDocument>')
+    err = _refused(capsys, stp("CTC-01"), measured, str(bomb))
+    assert "bomb.qif" in err and "DOCTYPE" in err
+
+
+def test_a_qif_plan_needs_a_step_nominal(tmp_path, capsys, measured):
+    nominal = tmp_path / "nominal.csv"
+    write(nominal, np.random.default_rng(1).uniform(-100, 100, (50, 3)))
+    err = _refused(capsys, str(nominal), measured, qif("CTC-01"))
+    assert "NISTmodels__nist_ctc_01_asme1_ap242.qif" in err and "nominal.csv is no STEP" in err
+
+
+def test_a_qif_whose_feature_matches_no_face_is_refused(tmp_path, capsys, measured):
+    """Datum A's plane (QIF feature 2154, its face's surface at z=0) moved to z=3: no face of
+    the STEP model lies there; the refusal names the feature, its plane and the STEP file."""
+    root = ET.parse(qif("CTC-01")).getroot()
+    face = next(f for f in root.iter(QIF3 + "Face") if f.get("id") == "494")
+    surface = face.findtext(f"{QIF3}Surface/{QIF3}Id")
+    plane = next(e for e in root.iter(QIF3 + "Plane23") if e.get("id") == surface)
+    origin = plane.find(f"{QIF3}Plane23Core/{QIF3}Origin")
+    x, y, _ = origin.text.split()
+    origin.text = f"{x} {y} 3"
+    ET.register_namespace("", QIF3[1:-1])
+    moved = tmp_path / "moved.qif"
+    ET.ElementTree(root).write(moved, encoding="utf-8", xml_declaration=True)
+    err = _refused(capsys, stp("CTC-01"), measured, str(moved))
+    assert "moved.qif" in err and "QIF feature 2154 (plane z=3)" in err
+    assert "matches no face of nist_ctc_01_asme1_ap242-e1.stp within 0.093 mm" in err
