@@ -290,3 +290,125 @@ def test_guarded_rule_guards_the_new_values(nominal):
         assert by_id(res, i).facts["uncertainty_bound"] >= 0.002, i
     assert by_id(res, "2").verdict == "INCONCLUSIVE"
     assert [by_id(res, i).verdict for i in "13456"] == [ACCEPT] * 5
+
+
+ROOT = __file__.rsplit("/tests/", 1)[0]
+SEAT = (f"{ROOT}/samples/seat_bracket/nominal.xyz", f"{ROOT}/samples/seat_bracket/measured.csv")
+NEW = """
+[[characteristic]]
+id = "6"
+type = "position"
+region = "hole1"
+zone = 0.1
+datums = ["A", "B", "C"]
+modifier = "MMC"
+
+[[characteristic]]
+id = "7"
+type = "size"
+region = "hole1"
+nominal = 8.0
+lower = -0.05
+upper = 0.05
+method = "max-inscribed"
+
+[[characteristic]]
+id = "8"
+type = "size"
+region = "hole1"
+nominal = 8.0
+lower = -0.05
+upper = 0.05
+method = "two-point"
+"""
+
+
+def test_the_new_keys_through_the_command_line_json_and_qif(tmp_path):
+    """The seat bracket sample's plan with a position at MMC and sizes by two methods: each in
+    the JSON with its keys, in the QIF with its material condition and bonus (valid against
+    the XSD)."""
+    import csv
+    import json
+
+    from lxml import etree
+
+    from qa_app.cli import main
+    from reports.qif import qif_results_document
+
+    plan = tmp_path / "plan.toml"
+    with open(f"{ROOT}/samples/seat_bracket/plan.toml") as f:
+        plan.write_text(f.read() + NEW)
+    code = main(["inspect", *SEAT, "--plan", str(plan), "--json", str(tmp_path / "r.json"),
+                 "--csv", str(tmp_path / "r.csv"), "--report", str(tmp_path / "r.pdf")])
+    assert code == 1  # the sample's skin profile to A|B|C rejects, as it always has
+    chars = {c["id"]: c for c in json.loads((tmp_path / "r.json").read_text())[
+        "characteristics"]}
+    six, seven, eight = chars["6"], chars["7"], chars["8"]
+    assert six["symbol"] == "⌖" and six["modifier"] == "MMC" and six["feature"] == "cylinder"
+    assert six["actual_mating_size"] == pytest.approx(seven["value"], abs=1e-12)
+    assert six["bonus"] == pytest.approx(max(0.0, seven["value"] - 7.95), abs=1e-12)
+    assert six["allowed"] == pytest.approx(0.1 + six["bonus"], abs=1e-12)
+    assert seven["method"] == "max-inscribed" and eight["method"] == "two-point"
+    assert eight["min_local_size"] <= eight["max_local_size"]
+    assert chars["5"]["method"] == "lsq" and chars["5"]["symbol"] == "⌀"
+    doc = json.loads((tmp_path / "r.json").read_text())
+    with open(tmp_path / "r.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    data = qif_results_document(
+        doc, np.array([[float(r[k]) for k in ("x_reg", "y_reg", "z_reg")] for r in rows]),
+        np.array([float(r["deviation"]) for r in rows]),
+        np.array([r["in_tolerance"] == "true" for r in rows]), np.array([r["label"] for r in rows]))
+    schema = etree.XMLSchema(etree.parse(f"{ROOT}/tests/data/qif-3.0-xsd/QIFDocument.xsd"))
+    tree = etree.ElementTree(etree.fromstring(data))
+    assert schema.validate(tree), "\n".join(str(e) for e in schema.error_log)
+    text = data.decode() if isinstance(data, bytes) else data
+    assert "<MaterialCondition>MAXIMUM</MaterialCondition>" in text and "<Bonus>" in text
+
+
+REGION_TOP = ('[[region]]\nname = "A"\nbox = [[-1, -1, -0.5], [121, 61, 0.5]]\n'
+              '[[region]]\nname = "hole"\nbox = [[59.5, 25.5, 0.5], [68.5, 34.5, 7.5]]\n'
+              '[[datum]]\nlabel = "A"\nregion = "A"\nfeature = "plane"\n')
+
+
+@pytest.mark.parametrize("body, key, words", [
+    ('type = "flatness"\nregion = "A"\nzone = 0.05\nmodifier = "MMC"\n', "modifier",
+     "which has no size"),
+    ('type = "position"\nregion = "hole"\nzone = 0.05\ndatums = ["A"]\nmodifier = "MMC"\n',
+     "modifier", "needs the size limits of region \"hole\""),
+    ('type = "coaxiality"\nregion = "hole"\nzone = 0.05\n', "datums", "is missing or empty"),
+    ('type = "coaxiality"\nregion = "hole"\nzone = 0.05\ndatums = ["A"]\n', "datums",
+     "a coaxiality is relative to an axis"),
+    ('type = "symmetry"\nregion = "A"\nzone = 0.05\ndatums = ["D"]\n', "datums",
+     "a symmetry is relative to a plane"),
+    ('type = "size"\nregion = "hole"\nnominal = 8\nlower = 0\nupper = 0.1\n'
+     'method = "three-point"\n', "method", "must be one of lsq, two-point"),
+    ('type = "position"\nregion = "hole"\nzone = 0.05\ndatums = ["A", "D(M)"]\n', "datums",
+     "datum shift) is not supported yet"),
+    ('type = "position"\nregions = ["hole"]\nzone = 0.05\ndatums = ["A"]\n', "regions",
+     "a pattern has two or more"),
+])
+def test_bad_plans_are_refused_with_65_naming_plan_table_and_key(tmp_path, capsys, body, key,
+                                                                  words):
+    from qa_app.cli import main
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(REGION_TOP + '[[datum]]\nlabel = "D"\nregion = "hole"\nfeature = '
+                    '"cylinder"\n[[characteristic]]\nid = "7"\n' + body)
+    assert main(["inspect", *SEAT, "--plan", str(plan)]) == 65
+    err = capsys.readouterr().err
+    assert f"{plan}: [[characteristic]] #1 (id \"7\"): '{key}' " in err, err
+    assert words in err, err
+
+
+def test_a_width_region_with_one_plane_is_refused_with_65(tmp_path, capsys):
+    from qa_app.cli import main
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(REGION_TOP.replace('name = "hole"', 'name = "floor"').replace(
+        "[[59.5, 25.5, 0.5], [68.5, 34.5, 7.5]]", "[[-1, -1, -0.5], [50, 61, 0.5]]")
+        + '[[characteristic]]\nid = "7"\ntype = "size"\nregion = "floor"\nfeature = "width"\n'
+        'nominal = 8\nlower = 0\nupper = 0.1\n')
+    assert main(["inspect", *SEAT, "--plan", str(plan)]) == 65
+    err = capsys.readouterr().err
+    assert f"{plan}: [[characteristic]] '7': region 'floor' is no width" in err, err
+    assert "face one way" in err, err
