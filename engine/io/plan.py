@@ -66,13 +66,13 @@ from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
                              FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS, MAX_DATUMS,
-                             MODIFIERS, ORIENTATION, PROFILE_FITS, SIZE_FEATURES,
-                             SIZE_METHODS,
+                             ORIENTATION, PROFILE_FITS,
                              RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
-                             Plan, Region, RpsPoint, implied_feature)
+                             Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
+from .plan_location import datum_kind, material_sizes, size_options
 from .plan_tables import KEYS, ORDER, TABLES, Table, did_you_mean, known, notation, show
 from .points import read_bytes
 
@@ -119,7 +119,7 @@ def _plan_of(raw: bytes, path: str) -> Plan:
                             for t in tables["characteristic"])
     _unique(tables["characteristic"], "id")
     _one_feature_per_region(tables["characteristic"], characteristics, datums)
-    _material_sizes(tables["characteristic"], characteristics)
+    material_sizes(tables["characteristic"], characteristics)
     part, measurement = tables["part"], tables["measurement"]
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
@@ -359,8 +359,8 @@ def _characteristic(t: Table, regions: list[str], datums: tuple[Datum, ...]) -> 
     fit = t.text("fit", choices=PROFILE_FITS, default="lsq")
     c = Characteristic(id=ident, type=kind, region=region, lower=lower, upper=upper,
                        datums=refs, fit=fit, nominal=nominal, regions=pattern,
-                       **_form_options(t, kind), **_size_options(t, kind))
-    _datum_kind(t, c, datums)
+                       **_form_options(t, kind), **size_options(t, kind))
+    datum_kind(t, c, datums)
     return c
 
 
@@ -383,64 +383,6 @@ def _regions(t: Table, kind: str, regions: list[str]) -> tuple[str, tuple[str, .
             raise t.fail("regions", f"names {show(name)}, which is not the name of any "
                          f"[[region]]{known(regions)}")
     return pattern[0], pattern
-
-
-def _size_options(t: Table, kind: str) -> dict:
-    """``feature``, ``method`` and ``modifier``, each where its type takes it
-    (engine.gdt.plan.Characteristic)."""
-    out: dict = {}
-    if "feature" in t:
-        if kind not in ("size", "position", "symmetry", "coaxiality", "concentricity"):
-            raise t.fail("feature", f"applies to size and location only, not {kind}")
-        out["kind"] = t.text("feature", choices=SIZE_FEATURES)
-        needs = {"symmetry": "width", "coaxiality": "cylinder", "concentricity": "cylinder"}
-        if kind in needs and out["kind"] != needs[kind]:
-            raise t.fail("feature", f"must be {show(needs[kind])} for a {kind}, got "
-                         f"{show(out['kind'])}")
-        if out["kind"] == "cylinder":
-            out["kind"] = None  # the default feature of size
-    if "method" in t and kind != "size":
-        raise t.fail("method", f"applies to size only, not {kind}")
-    out["method"] = t.text("method", choices=SIZE_METHODS, default="lsq")
-    modifier = t.text("modifier", choices=MODIFIERS, default="RFS")
-    if modifier != "RFS":
-        feature = implied_feature(kind, "direction" in t, bool(t.data.get("diametral")),
-                                  out.get("kind"))
-        if feature in ("plane", "freeform"):
-            raise t.fail("modifier", f"{show(modifier)} applies to a feature of size (a hole, "
-                         f"pin, width or sphere); a {kind} here is judged on a "
-                         f"{'plane' if feature == 'plane' else 'surface'}, which has no size")
-        if kind != "position":
-            raise t.fail("modifier", f"{show(modifier)} is supported on position only, not "
-                         f"{kind}")
-    out["modifier"] = modifier
-    return out
-
-
-def _datum_kind(t: Table, c: Characteristic, datums: tuple[Datum, ...]) -> None:
-    """A coaxiality or concentricity is relative to a datum axis, a symmetry to a datum
-    plane: their primary datum must be one."""
-    needs = {"coaxiality": "cylinder", "concentricity": "cylinder", "symmetry": "plane"}
-    if c.type not in needs:
-        return
-    primary = next(d for d in datums if d.label == c.datums[0])
-    if primary.feature != needs[c.type]:
-        what = "an axis (a cylinder datum)" if needs[c.type] == "cylinder" else \
-            "a plane (a plane datum)"
-        raise t.fail("datums", f"names {show(primary.label)} first, a {primary.feature}: a "
-                     f"{c.type} is relative to {what}")
-
-
-def _material_sizes(tables: list[Table], characteristics) -> None:
-    """A position at MMC or LMC needs its feature's size limits: a size characteristic on
-    each of its regions."""
-    sized = {c.region for c in characteristics if c.type == "size"}
-    for t, c in zip(tables, characteristics):
-        missing = [r for r in c.all_regions if r not in sized]
-        if c.modifier != "RFS" and missing:
-            raise t.fail("modifier", f"{show(c.modifier)} needs the size limits of region "
-                         f"{show(missing[0])}: add a [[characteristic]] of type \"size\" on "
-                         "it (its nominal, lower and upper give the MMC and LMC sizes)")
 
 
 def _form_options(t: Table, kind: str) -> dict:
