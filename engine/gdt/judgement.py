@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..choices import Fit
-from ..errors import InputError
 from ..fits import minimax_pose
 from ..tolerance import Tolerance
 from ..verdict import ACCEPT, INCONCLUSIVE, REJECT, pointwise_verdict
