@@ -232,7 +232,13 @@ def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
            "n_points": int(r.indices.size), "verdict": r.verdict, "reason": r.reason,
            "worst": [point_ref(i, labels) for i in r.worst]}
     if c.type == "size":
-        out["nominal"] = _num(c.nominal)
+        out.update(nominal=_num(c.nominal), method=c.method)
+    if c.type in ("size", "position", "coaxiality", "concentricity", "symmetry"):
+        out["feature"] = c.feature
+    if c.type == "position":
+        out.update(modifier=c.modifier, bonus=None, allowed=None, actual_mating_size=None)
+    if c.regions:
+        out["regions"] = list(c.regions)
     if c.type == "profile" and not c.datums:
         out["fit"] = c.fit
     if c.type in ("straightness", "circularity"):

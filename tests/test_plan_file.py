@@ -324,7 +324,7 @@ BAD = [
     ("unknown table", BASE + '\n[[characteristics]]\nid = "1"\n', "", "characteristics",
      "did you mean 'characteristic'"),
     ("unknown top key", 'method = "datums"\n' + BASE, "", "method",
-     "unknown key 'method' at the top level (it belongs in [alignment])"),
+     "unknown key 'method' at the top level (it belongs in [alignment] or [[characteristic]])"),
     ("unknown part key", '[part]\nnumbr = "1"\n', "[part]", "numbr", "did you mean 'number'"),
     ("unknown region key", BASE + region("D", 'label = "D*"'), '[[region]] #6 (name "D")',
      "label", "did you mean 'labels'"),

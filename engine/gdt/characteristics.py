@@ -82,7 +82,9 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             report(f"judging characteristic {k + 1:,} of {n_chars:,}", k / n_chars)
         try:
             with within(k / n_chars, (k + 1) / n_chars):  # a minimax refit reports too
-                results.append(judge(c, members[c.region], geo, shared, T_part))
+                idx = members[c.region] if not c.regions else \
+                    np.unique(np.concatenate([members[r] for r in c.regions]))
+                results.append(judge(c, idx, geo, shared, T_part))
         except InputError as e:  # a plan the nominal shows wrong: name the plan
             if e.path is not None:
                 raise

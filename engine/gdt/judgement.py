@@ -1,5 +1,6 @@
-"""Each characteristic type judged (profile with or without datums, flatness, position, size;
-the other form types in engine.gdt.form, the orientation types in engine.gdt.orientation),
+"""Each characteristic type judged (profile with or without datums, flatness; the other form
+types in engine.gdt.form, the orientation types in engine.gdt.orientation, the location types
+in engine.gdt.location, size in engine.gdt.size),
 with the work a plan's characteristics share done once (Shared), and the part's verdict from
 theirs."""
 
@@ -8,17 +9,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..choices import Fit
-from ..errors import InputError
 from ..fits import minimax_pose
 from ..tolerance import Tolerance
 from ..verdict import ACCEPT, INCONCLUSIVE, REJECT, pointwise_verdict
 from .datums import Alignment, align
 from .decision import by_value, own, untrusted, value_guard
 from .form import judge_form
+from .location import judge_location
 from .orientation import judge_orientation
 from .plan import FORM, MIN_POINTS, ORIENTATION, Characteristic, Plan
-from .region_features import FACING, SPAN, datum_invariants, measured_hole, nominal_cylinder
+from .region_features import FACING, SPAN, datum_invariants
 from .results import WORST, CharacteristicResult, Geometry
+from .size import judge_size
 
 PROGRESS_REPORTS = 200
 """At most this many progress reports over a plan's characteristics (engine.progress): one for
@@ -36,6 +38,9 @@ class Shared:
     def __init__(self, plan: Plan, geo: Geometry, members: dict[str, np.ndarray]):
         self.datums = {d.label: d for d in plan.datums}
         self.geo, self.members = geo, members
+        self.sizes = {c.region: c for c in plan.characteristics if c.type == "size"}
+        """{region: its size characteristic}: the limits a position at MMC or LMC departs
+        from."""
         self.memo: dict = {}
 
     def once(self, key: tuple, compute):
@@ -92,7 +97,8 @@ def part_verdict(results) -> tuple[str, tuple[str, ...]]:
 
 def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
     planar = geo.nominal_points.shape[1] == 2
-    kind = {"plane": "line", "cylinder": "circle"}.get(c.feature) if planar else c.feature
+    kind = {"plane": "line", "cylinder": "circle"}.get(c.feature, c.feature) if planar \
+        else c.feature
     need = 1 if c.type == "profile" else MIN_POINTS[kind]
     if idx.size < need:
         return CharacteristicResult(c, None, INCONCLUSIVE,
@@ -109,7 +115,9 @@ def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_p
             return judge_form(c, idx, geo, shared)
         if c.type in ORIENTATION:
             return judge_orientation(c, idx, geo, shared, T_part)
-        return _hole(c, idx, geo, shared, T_part)
+        if c.type == "size":
+            return judge_size(c, idx, geo, shared)
+        return judge_location(c, idx, geo, shared, T_part)
     except FeatureError as e:
         # The region's points do not determine its feature (all on a line, ...): say so.
         return CharacteristicResult(c, None, INCONCLUSIVE, f"region '{c.region}': {e.message}",
@@ -185,77 +193,3 @@ def _flat(c: Characteristic, idx: np.ndarray, geo: Geometry):
                                     f"at {turn:.0f}° to the nominal face: they do not "
                                     "determine its plane", idx)
     return f.width, f.normal, value_guard(geo, idx, geo.T0, form_only=True)
-
-
-def _hole(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):
-    """Size or position of the hole of ``c``'s region (a cylinder in 3D, a circle in 2D)."""
-    nom, normals = nominal_cylinder(c, geo, shared)
-    if c.type == "size":
-        got = shared.once(("size", c.region), lambda: _size(c, idx, geo, normals, nom))
-        if isinstance(got, CharacteristicResult):
-            return own(got, c)
-        diameter, form_error, guard = got
-        return by_value(c, idx, diameter, {"fit": "least squares", "form_error": form_error},
-                         "least-squares diameter", guard)
-    al = shared.placed(tuple(c.datums), (), T_part)
-    if not al.complete:
-        return untrusted(c, idx, al)
-    _check_located(c, shared.once(("loose", c.region, tuple(c.datums)),
-                                  lambda: _loose(al, nom, geo)))
-    got = shared.once(("position", c.region, tuple(c.datums)),
-                      lambda: _position(c, idx, geo, normals, nom, al))
-    if isinstance(got, CharacteristicResult):
-        return own(got, c)
-    value, facts, guard = got
-    return by_value(c, idx, value, dict(facts), "position (diameter)", guard)
-
-
-def _size(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom):
-    """(least-squares diameter, form error, its uncertainty bound) of the region's measured
-    hole, or an INCONCLUSIVE result when its points do not determine it."""
-    got = measured_hole(c, idx, geo.evaluate(geo.T0, idx)[0], normals, nom)
-    if isinstance(got, CharacteristicResult):
-        return got
-    return 2.0 * got.radius, got.form_error, value_guard(geo, idx, geo.T0, True)
-
-
-def _position(c: Characteristic, idx: np.ndarray, geo: Geometry, normals: np.ndarray, nom,
-              al: Alignment):
-    """(position diameter, facts, its uncertainty bound) of the region's measured hole at
-    the pose its datums give (``al``), or an INCONCLUSIVE result when its points do not
-    determine it."""
-    from .features import position_value
-
-    got = measured_hole(c, idx, geo.evaluate(al.T_nominal_measured, idx)[0], normals, nom)
-    if isinstance(got, CharacteristicResult):
-        return got
-    if normals.shape[1] == 2:
-        value = position_value(got.centre, nom.centre).value
-        facts = {"centre": got.centre, "nominal_centre": nom.centre}
-    else:
-        value = position_value(got.ends, nom.point, nom.direction).value
-        facts = {"axis_ends": got.ends, "nominal_point": nom.point,
-                 "nominal_direction": nom.direction}
-    facts["free"] = [f.describe() for f in al.free]
-    return value, facts, value_guard(geo, idx, al.T_nominal_measured, form_only=False)
-
-
-def _loose(al: Alignment, nom, geo: Geometry) -> list:
-    """The motions the datums of ``al`` leave free that move the nominal hole ``nom``."""
-    from .datums import invariant_motions, moving
-
-    feature = {"centre": nom.centre} if geo.nominal_points.shape[1] == 2 else \
-        {"point": nom.point, "direction": nom.direction}
-    kind = "circle" if geo.nominal_points.shape[1] == 2 else "cylinder"
-    return moving(al.free_basis, invariant_motions(kind, feature, geo.centre, geo.length),
-                  geo.centre, geo.length)
-
-
-def _check_located(c: Characteristic, loose: list) -> None:
-    """A position is relative to datums that locate the hole: none of the motions they leave
-    free (``loose``: :func:`_loose`) may move the nominal hole (a plane alone leaves it free to
-    slide)."""
-    if loose:
-        raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} leave "
-                         f"the hole free to move ({'; '.join(f.describe() for f in loose)}): a "
-                         "position needs datums that locate it")

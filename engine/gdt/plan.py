@@ -13,7 +13,9 @@ within the zone? A plan states, like the drawing's feature control frames:
 * characteristics: profile (relative to datums, or form only), the form family (flatness,
   straightness, circularity, cylindricity: engine.gdt.form), the orientation family
   (parallelism, perpendicularity, angularity relative to datums: engine.gdt.orientation),
-  position and size, each with its zone.
+  the location family (position of holes, pins, widths, spheres and patterns, coaxiality,
+  concentricity, symmetry: engine.gdt.location) and size (engine.gdt.size), each with its
+  zone.
 
 Units mm; coordinates in the nominal frame. Every object here is frozen.
 """
@@ -34,13 +36,28 @@ FORM = ("flatness", "straightness", "circularity", "cylindricity")
 ORIENTATION = ("parallelism", "perpendicularity", "angularity")
 """The orientation family: a plane (zone between two planes) or an axis (``diametral``: a
 cylindrical zone) at the required orientation to its datums."""
-CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION
-ZONE_ONLY = ("position",) + FORM + ORIENTATION
+LOCATION = ("position", "coaxiality", "concentricity", "symmetry")
+"""The location family (engine.gdt.location): a feature of size's axis, centre plane or
+centre relative to datums."""
+CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION \
+    + LOCATION[1:]
+ZONE_ONLY = LOCATION + FORM + ORIENTATION
 """Types whose value is >= 0 by definition with an upper limit only (0 .. zone)."""
 SYMBOLS = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀",
            "straightness": "⏤", "circularity": "○", "cylindricity": "⌭",
-           "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠"}
+           "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠",
+           "coaxiality": "◎", "concentricity": "◎", "symmetry": "⌯"}
 """Each characteristic type's symbol on a drawing (ASME Y14.5 / ISO 1101), in one place."""
+SIZE_FEATURES = ("cylinder", "sphere", "width")
+"""Features of size a ``feature`` key may name for size and location: a cylinder (a hole or a
+pin, told apart by the material side), a sphere, a width (two opposed parallel planes: a slot
+or a tab)."""
+SIZE_METHODS = ("lsq", "two-point", "min-circumscribed", "max-inscribed")
+"""How a size is taken (ISO 14405-1): least squares (GG), two-point local sizes (LP: their
+smallest and largest), the minimum circumscribed (GN) or maximum inscribed (GX) feature."""
+MODIFIERS = ("RFS", "MMC", "LMC")
+"""Material condition of a toleranced feature of size: regardless of feature size (the
+default), maximum or least material condition (a bonus tolerance)."""
 DEFAULT_SECTIONS = 8
 """Cross-sections a circularity (and a straightness) is judged on by default."""
 ORIENTATION_ANGLE = {"parallelism": 0.0, "perpendicularity": 90.0}
@@ -55,7 +72,7 @@ CONSTRAINED_DOFS = {"plane": 3, "cylinder": 4, "sphere": 3, "line": 2, "circle":
 """Degrees of freedom a datum feature can constrain on its own (a plane: the translation along
 its normal and the two tilts; a cylinder: its axis' direction and position; a sphere: its
 centre; in 2D a line: its direction and offset; a circle: its centre)."""
-MIN_POINTS = {"plane": 3, "cylinder": 5, "sphere": 4, "line": 2, "circle": 3}
+MIN_POINTS = {"plane": 3, "cylinder": 5, "sphere": 4, "line": 2, "circle": 3, "width": 6}
 """Fewest measured points that determine the feature (fewer: the characteristics that need it
 are INCONCLUSIVE, never guessed)."""
 
@@ -107,9 +124,9 @@ class Region:
 
     box : ((3,), (3,)) lower and upper corners of an axis-aligned box, nominal frame, mm;
     labels : fnmatch glob on the nominal point file's label column;
-    group : the name of a group of the nominal: a mesh's face group (OBJ ``g``/``o``, a PLY
-        face property's number), a 2D template's DXF layer (compared without case), later a
-        STEP face (engine.gdt.regions);
+    group : the name of a group of the nominal, or a tuple of them (the region is their union): a mesh's face
+        group (OBJ ``g``/``o``, a PLY face property's number), a 2D template's DXF layer
+        (compared without case), a STEP face (engine.gdt.regions);
     measured_labels : fnmatch glob: measured points with these labels belong here (else a
         measured point belongs to the region of its nearest nominal point).
     """
@@ -117,7 +134,7 @@ class Region:
     name: str
     box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     labels: str | None = None
-    group: str | None = None
+    group: str | tuple[str, ...] | None = None
     measured_labels: str | None = None
 
 
@@ -185,6 +202,16 @@ class Characteristic:
     plane between two planes)."""
     angle: float | None = None
     """Angularity: the basic angle to the primary datum, degrees."""
+    kind: str | None = None
+    """The plan's ``feature``: the feature of size of a size or location (``SIZE_FEATURES``);
+    None: a cylinder (a hole or a pin)."""
+    method: str = "lsq"
+    """Size: how the size is taken (``SIZE_METHODS``)."""
+    modifier: str = "RFS"
+    """Position: the toleranced feature's material condition (``MODIFIERS``)."""
+    regions: tuple[str, ...] = ()
+    """A pattern's regions (``region`` is the first): all located together in one datum
+    reference frame; () for one feature."""
 
     @property
     def width(self) -> float:
@@ -193,14 +220,26 @@ class Characteristic:
     @property
     def feature(self) -> str:
         """The feature its region must be: plane | cylinder, or freeform (a profile)."""
-        return implied_feature(self.type, self.direction is not None, self.diametral)
+        return implied_feature(self.type, self.direction is not None, self.diametral,
+                               self.kind)
+
+    @property
+    def all_regions(self) -> tuple[str, ...]:
+        """The regions judged: a pattern's, else the one region."""
+        return self.regions or (self.region,)
 
 
-def implied_feature(kind: str, direction: bool = False, diametral: bool = False) -> str:
+def implied_feature(kind: str, direction: bool = False, diametral: bool = False,
+                    feature: str | None = None) -> str:
     """The feature a characteristic of type ``kind`` is judged on: a plane (flatness, a
-    straightness along a ``direction``, an orientation without ``diametral``), a cylinder
-    (position, size, circularity, cylindricity, a straightness of the median line, an
-    orientation of an axis), else freeform (a profile's surface)."""
+    straightness along a ``direction``, an orientation without ``diametral``), the ``feature``
+    a size or location names (a width always for a symmetry), a cylinder (position, size,
+    coaxiality, circularity, cylindricity, a straightness of the median line, an orientation
+    of an axis), else freeform (a profile's surface)."""
+    if kind == "symmetry":
+        return "width"
+    if feature is not None and kind in ("size", "position"):
+        return feature
     if kind == "flatness" or (kind == "straightness" and direction) or (
             kind in ORIENTATION and not diametral):
         return "plane"

@@ -65,7 +65,8 @@ def _region_kinds(plan: Plan) -> dict[str, str]:
     for d in plan.datums:
         kinds.setdefault(d.region, d.feature)
     for c in plan.characteristics:
-        kinds.setdefault(c.region, c.feature)
+        for region in c.all_regions:
+            kinds.setdefault(region, c.feature)
     return kinds
 
 
@@ -77,11 +78,14 @@ def feature_masks(plan: Plan, geo: Geometry) -> dict[str, np.ndarray]:
     out = dict(geo.nominal_masks)
     planar = geo.nominal_points.shape[1] == 2
     for name, kind in _region_kinds(plan).items():
-        if kind not in ("plane", "line", "cylinder") or (planar and kind == "cylinder"):
+        if kind not in ("plane", "line", "cylinder", "width") or (planar and kind == "cylinder"):
             continue
         idx = np.flatnonzero(out[name])
         n = geo.nominal_normals(idx)
-        if kind == "cylinder":
+        if kind == "width":  # two opposed faces: the samples along the normals' main axis
+            axis = np.linalg.eigh(n.T @ n)[1][:, -1]
+            keep = np.abs(n @ axis) >= np.cos(FACING)
+        elif kind == "cylinder":
             axis = np.linalg.eigh(n.T @ n)[1][:, 0]
             keep = np.abs(n @ axis) <= np.sin(FACING)
         else:

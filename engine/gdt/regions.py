@@ -56,18 +56,22 @@ def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None
         raise InputError(f"[[region]] '{r.name}': 'group' selects a named group of the "
                          "nominal (an OBJ mesh's g or o, a PLY mesh's group property, a DXF "
                          "layer), and this nominal has no groups", plan.path)
-    key = r.group
-    if fold_case:
-        key = {name.lower(): name for name in groups}.get(key.lower(), key)
-    if key not in groups:
-        names = list(groups)
-        shown = ", ".join(f"'{n}'" for n in names[:GROUPS_SHOWN])
-        more = f", … ({len(names)} in all)" if len(names) > GROUPS_SHOWN else ""
-        raise InputError(f"[[region]] '{r.name}': the nominal has no group '{r.group}' (its "
-                         f"groups: {shown}{more})", plan.path)
     mask = np.zeros(points.shape[0], dtype=bool)
-    mask[groups[key]] = True
+    for name in group_names(r):
+        key = {n.lower(): n for n in groups}.get(name.lower(), name) if fold_case else name
+        if key not in groups:
+            names = list(groups)
+            shown = ", ".join(f"'{n}'" for n in names[:GROUPS_SHOWN])
+            more = f", … ({len(names)} in all)" if len(names) > GROUPS_SHOWN else ""
+            raise InputError(f"[[region]] '{r.name}': the nominal has no group '{name}' (its "
+                             f"groups: {shown}{more})", plan.path)
+        mask[groups[key]] = True
     return mask
+
+
+def group_names(r: Region) -> tuple[str, ...]:
+    """The names of the groups ``r`` selects (``group``: one name or several)."""
+    return (r.group,) if isinstance(r.group, str) else tuple(r.group or ())
 
 
 GROUPS_SHOWN = 12
@@ -77,7 +81,8 @@ GROUPS_SHOWN = 12
 def _selector(r: Region) -> str:
     if r.box is not None:
         return f"box {[list(c) for c in r.box]}"
-    return f"labels '{r.labels}'" if r.labels is not None else f"group '{r.group}'"
+    return f"labels '{r.labels}'" if r.labels is not None else \
+        f"group '{'+'.join(group_names(r))}'"
 
 
 def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: np.ndarray,

@@ -11,7 +11,8 @@ The format (units mm, coordinates in the nominal frame; issue 12 is its contract
                            mpe_l_per_um (MPE_E = A + L/K µm, K in mm per µm), probing_um (µm),
                            expansion_per_k (the part's CTE, 1/K, with temperature_c)
     [[region]]             name; exactly one of box = [[x, y, z], [x, y, z]], labels = "glob",
-                           group = "name"; optional measured_labels = "glob"
+                           group = "name" or ["name", ...] (their union); optional
+                           measured_labels = "glob"
     [[datum]]              label, region, feature (plane | cylinder | sphere | line | circle),
                            fit = "tangent" (default) | "lsq"
     [alignment]            method = "best-fit" (default) | "datums" | "rps";
@@ -22,8 +23,17 @@ The format (units mm, coordinates in the nominal frame; issue 12 is its contract
                            profile:  zone = z (-z/2 .. +z/2) or lower and upper; datums = [...]
                                      (omitted: form only, refit with fit = "lsq" | "minimax")
                            flatness: zone (0 .. zone); form only, no datums
-                           position: zone (a diameter, 0 .. zone); datums (at least one)
-                           size:     nominal (diameter), lower and upper (offsets about it)
+                           position: zone (a diameter, 0 .. zone); datums (at least one);
+                                     regions = [...] instead of region (a pattern);
+                                     modifier = "RFS" (default) | "MMC" | "LMC" (needs a
+                                     size on the same region)
+                           coaxiality, concentricity: zone; datums (a cylinder first)
+                           symmetry: zone; datums (a plane first); a width's centre plane
+                           size:     nominal (diameter or width), lower and upper (offsets
+                                     about it); method = "lsq" (default) | "two-point" |
+                                     "min-circumscribed" | "max-inscribed"
+                           size and location: feature = "cylinder" (default) | "sphere" |
+                                     "width" (two opposed parallel planes)
                            straightness: zone; direction = [x, y, z] (a plane's line elements)
                                      or none (a cylinder's median line, diametral); sections
                            circularity: zone; sections (default 8); cylindricity: zone
@@ -55,19 +65,22 @@ from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
-                             FEATURES_3D, FORM, MAX_CHARACTERISTICS, MAX_DATUMS, ORIENTATION,
-                             PROFILE_FITS,
+                             FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS, MAX_DATUMS,
+                             ORIENTATION, PROFILE_FITS,
                              RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
                              Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
+from .plan_location import datum_kind, material_sizes, size_options
 from .plan_tables import KEYS, ORDER, TABLES, Table, did_you_mean, known, notation, show
 from .points import read_bytes
 
 SELECTORS = ("box", "labels", "group")
 """A region selects its nominal points by exactly one of these."""
 
+DATUM_MODIFIER = re.compile(r"^\s*(.+?)\s*\(\s*([ML])\s*\)\s*$")
+"""A datum reference with a material modifier, as a feature control frame writes it: "B(M)"."""
 _TOML_WHERE = re.compile(r"\s*\((?:at line (\d+), column (\d+)|at end of document)\)$")
 
 
@@ -112,6 +125,7 @@ def _plan_of(raw: bytes, path: str) -> Plan:
                             for t in tables["characteristic"])
     _unique(tables["characteristic"], "id")
     _one_feature_per_region(tables["characteristic"], characteristics, datums)
+    material_sizes(tables["characteristic"], characteristics)
     part, measurement = tables["part"], tables["measurement"]
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
@@ -266,7 +280,12 @@ def _region(t: Table) -> Region:
                              f"upper corner {show(t.data['box'][1])} on every axis ({axis}: "
                              f"{a:g} >= {b:g})")
         box = (low, high)
-    return Region(name=name, box=box, labels=t.text("labels"), group=t.text("group"),
+    group = t.data.get("group")
+    group = t.texts("group", '["face:62", "face:63"]') if isinstance(group, list) \
+        else t.text("group")
+    if isinstance(group, tuple) and not group:
+        raise t.fail("group", "is an empty array: name at least one group")
+    return Region(name=name, box=box, labels=t.text("labels"), group=group,
                   measured_labels=t.text("measured_labels"))
 
 
@@ -326,26 +345,50 @@ def _characteristic(t: Table, regions: list[str], datums: tuple[Datum, ...]) -> 
         raise t.fail("id", f"'{ident}' is reserved for the zone over all points that --tol "
                      "adds to a plan (characteristic 'tol'); choose another id")
     kind = t.text("type", required=True, choices=CHARACTERISTICS)
-    region = _reference(t, "region", regions, "region", "name")
+    region, pattern = _regions(t, kind, regions)
     lower, upper, nominal = _limits(t, kind)
     refs = _datum_references(t, "datums", datums)
     if (kind in FORM or kind == "size") and refs:
         raise t.fail("datums", "must not be given: " + (f"{kind} is form only" if kind in
                      FORM else "a size is the feature's own") + ", relative to no datum")
-    if (kind == "position" or kind in ORIENTATION) and not refs:
+    if (kind in LOCATION or kind in ORIENTATION) and not refs:
         raise t.fail("datums", f"is missing or empty: a {kind} is " + (
-                     "located" if kind == "position" else "oriented") + " relative to at "
+                     "located" if kind in LOCATION else "oriented") + " relative to at "
                      "least one datum (e.g. datums = [\"A\", \"B\", \"C\"])")
     for label in refs:
         datum = next(d for d in datums if d.label == label)
-        if datum.region == region:
+        if datum.region in (region, *pattern):
             raise t.fail("datums", f"names datum {show(label)}, which is on region "
-                         f"{show(region)} itself: a feature cannot be related to itself")
+                         f"{show(datum.region)} itself: a feature cannot be related to itself")
     if "fit" in t and (kind != "profile" or refs):
         raise t.fail("fit", "applies to a form-only profile (one without 'datums') only")
     fit = t.text("fit", choices=PROFILE_FITS, default="lsq")
-    return Characteristic(id=ident, type=kind, region=region, lower=lower, upper=upper,
-                          datums=refs, fit=fit, nominal=nominal, **_form_options(t, kind))
+    c = Characteristic(id=ident, type=kind, region=region, lower=lower, upper=upper,
+                       datums=refs, fit=fit, nominal=nominal, regions=pattern,
+                       **_form_options(t, kind), **size_options(t, kind))
+    datum_kind(t, c, datums)
+    return c
+
+
+def _regions(t: Table, kind: str, regions: list[str]) -> tuple[str, tuple[str, ...]]:
+    """(the characteristic's region, a pattern's regions or ()): ``region``, or ``regions``
+    (a position's pattern: two or more regions located together)."""
+    if "regions" not in t:
+        return _reference(t, "region", regions, "region", "name"), ()
+    if kind != "position":
+        raise t.fail("regions", f"applies to position only (a pattern located together), "
+                     f"not {kind}: give 'region'")
+    if "region" in t:
+        raise t.fail("regions", "and 'region' are both given: a pattern gives 'regions' only")
+    pattern = t.texts("regions", '["hole1", "hole2"]')
+    if len(pattern) < 2:
+        raise t.fail("regions", f"names {len(pattern)} region; a pattern has two or more "
+                     "(one feature: give 'region')")
+    for name in pattern:
+        if name not in regions:
+            raise t.fail("regions", f"names {show(name)}, which is not the name of any "
+                         f"[[region]]{known(regions)}")
+    return pattern[0], pattern
 
 
 def _form_options(t: Table, kind: str) -> dict:
@@ -403,11 +446,12 @@ def _one_feature_per_region(tables: list[Table], characteristics, datums) -> Non
     for t, c in zip(tables, characteristics):
         if c.feature == "freeform":
             continue
-        other, why = seen.setdefault(c.region, (c.feature, f"characteristic {show(c.id)} "
-                                                f"({c.type}) takes it for a {c.feature}"))
-        if other != c.feature:
-            raise t.fail("type", f"{show(c.type)} is judged on a {c.feature} and region "
-                         f"{show(c.region)} is no {c.feature}: {why}")
+        for region in c.all_regions:
+            other, why = seen.setdefault(region, (c.feature, f"characteristic {show(c.id)} "
+                                                  f"({c.type}) takes it for a {c.feature}"))
+            if other != c.feature:
+                raise t.fail("type", f"{show(c.type)} is judged on a {c.feature} and region "
+                             f"{show(region)} is no {c.feature}: {why}")
 
 
 def _limits(t: Table, kind: str) -> tuple[float, float, float | None]:
@@ -471,6 +515,12 @@ def _datum_references(t: Table, key: str, datums: tuple[Datum, ...]) -> tuple[st
     refs = t.texts(key, '["A", "B", "C"]')
     labels = [d.label for d in datums]
     for label in refs:
+        shifted = DATUM_MODIFIER.match(label)
+        if shifted and shifted.group(1) in labels:
+            raise t.fail(key, f"names {show(label)}: a datum feature at "
+                         f"{'MMC' if shifted.group(2) == 'M' else 'LMC'} (datum shift) is not "
+                         f"supported yet; write {show(shifted.group(1))} to judge it "
+                         "regardless of its size")
         if label not in labels:
             raise t.fail(key, f"names {show(label)}, which is not the label of any "
                          f"[[datum]]{known(labels)}")

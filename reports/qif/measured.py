@@ -110,6 +110,8 @@ def _characteristic_measurements(w, q: Qif) -> None:
               "</WorstPositiveDeviation>\n"
               f"              <WorstNegativeDeviation>{fixed(c.worst[1])}"
               "</WorstNegativeDeviation>\n")
+        if c.kind == "Position" and c.bonus is not None and c.modifier != "RFS":
+            w(f"              <Bonus>{fixed(c.bonus)}</Bonus>\n")
         w(f"            </{c.kind}CharacteristicMeasurement>\n")
     w("          </CharacteristicMeasurements>\n        </MeasuredCharacteristics>\n")
 

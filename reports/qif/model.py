@@ -143,6 +143,12 @@ class Char:
     """Largest and smallest deviation (the profile over all points)."""
     diametral: bool = False
     """Straightness and orientation: a cylindrical zone (an axis), else two lines / planes."""
+    modifier: str = "RFS"
+    """Position: the material condition (RFS, MMC, LMC)."""
+    bonus: float | None = None
+    """Position at MMC or LMC: the bonus tolerance measured, mm."""
+    feature_kind: str = ""
+    """Size and location: the feature of size (cylinder, sphere, width)."""
 
 
 @dataclass(frozen=True)
@@ -281,7 +287,11 @@ _GEOMETRIC = {"plane": "Plane", "cylinder": "Cylinder", "sphere": "Sphere"}
 _PLAN_CHAR = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "Position",
               "size": "Diameter", "straightness": "Straightness", "circularity": "Circularity",
               "cylindricity": "Cylindricity", "parallelism": "Parallelism",
-              "perpendicularity": "Perpendicularity", "angularity": "Angularity"}
+              "perpendicularity": "Perpendicularity", "angularity": "Angularity",
+              "coaxiality": "Coaxiality", "concentricity": "Concentricity",
+              "symmetry": "Symmetry"}
+_SIZE_CHAR = {"width": "Width", "sphere": "SphericalDiameter"}
+"""QIF's characteristic of a size by its feature (a cylinder's: Diameter)."""
 
 
 _FORM_AND_ORIENTATION = ("Straightness", "Circularity", "Cylindricity", "Parallelism",
@@ -352,6 +362,8 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
                freeform: str) -> Char:
     """One characteristic of the plan (its JSON entry) on its region's feature."""
     kind = _PLAN_CHAR.get(c["type"], "SurfaceProfile")
+    if kind == "Diameter":
+        kind = _SIZE_CHAR.get(c.get("feature"), kind)
     if kind == "SurfaceProfile" and freeform == "OtherCurve":
         kind = "LineProfile"
     datums = tuple(c.get("datums") or ())
@@ -363,8 +375,14 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
         "Flatness": f"flatness of {where}: minimum-zone width at most {fixed(upper - lower)} mm",
         "Position": f"position of the axis of {where}: a cylindrical zone of diameter "
                     f"{fixed(upper - lower)} mm about the true position",
-        "Diameter": f"least-squares diameter of {where}: {fixed(target or 0.0)} mm "
-                    f"{signed(lower)} / {signed(upper)} mm",
+        **{k: f"{c.get('method', 'lsq')} {'width' if k == 'Width' else 'diameter'} of "
+           f"{where}: {fixed(target or 0.0)} mm {signed(lower)} / {signed(upper)} mm"
+           for k in ("Diameter", "Width", "SphericalDiameter")},
+        **{k: f"{c['type']} of the axis of {where}: a cylindrical zone of diameter "
+           f"{fixed(upper - lower)} mm about the datum axis"
+           for k in ("Coaxiality", "Concentricity")},
+        "Symmetry": f"symmetry of the median surface of {where}: a zone of two planes "
+                    f"{fixed(upper - lower)} mm apart about the true median plane",
         **{k: f"{c['type']} of {where}" + (f" at {c['angle']:g}°" if c.get("angle") else "")
            + (" (diametral: the axis)" if c.get("diametral") else "") + ": minimum zone at "
            f"most {fixed(upper - lower)} mm" for k in _FORM_AND_ORIENTATION},
@@ -378,7 +396,8 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
                 str(c["id"]), text, lower, upper, target, frame, c["verdict"],
                 None if value is None else float(value),
                 f"{app} verdict {c['verdict']}: {c.get('reason', '')}",
-                diametral=bool(c.get("diametral")))
+                diametral=bool(c.get("diametral")), modifier=c.get("modifier") or "RFS",
+                bonus=c.get("bonus"), feature_kind=c.get("feature") or "")
 
 
 def _xs_datetime(value) -> str:

@@ -217,7 +217,7 @@ def _zone(c: Char) -> str:
     a diameter's limits about its target; the datum reference frame where it has one."""
     s = " " * 8
     frame = f"{s}<DatumReferenceFrameId>{c.frame}</DatumReferenceFrameId>\n" if c.frame else ""
-    if c.kind == "Diameter":
+    if c.kind in ("Diameter", "Width", "SphericalDiameter"):
         return (f"{s}<Tolerance>\n{s}  <MaxValue>{fixed(c.upper)}</MaxValue>\n"
                 f"{s}  <MinValue>{fixed(c.lower)}</MinValue>\n"
                 f"{s}  <DefinedAsLimit>false</DefinedAsLimit>\n{s}</Tolerance>\n")
@@ -227,8 +227,15 @@ def _zone(c: Char) -> str:
             out += f"{s}<OuterDisposition>{fixed(c.upper)}</OuterDisposition>\n"
         return out + frame
     if c.kind == "Position":
-        return (out + frame + f"{s}<MaterialCondition>NONE</MaterialCondition>\n"
-                f"{s}<ZoneShape>\n{s}  <DiametricalZone/>\n{s}</ZoneShape>\n")
+        condition = {"MMC": "MAXIMUM", "LMC": "LEAST"}.get(c.modifier, "NONE")
+        shape = {"width": "NonDiametricalZone", "sphere": "SphericalZone"}.get(
+            c.feature_kind, "DiametricalZone")
+        return (out + frame + f"{s}<MaterialCondition>{condition}</MaterialCondition>\n"
+                f"{s}<ZoneShape>\n{s}  <{shape}/>\n{s}</ZoneShape>\n")
+    if c.kind in ("Coaxiality", "Concentricity"):
+        return out + frame + f"{s}<ZoneShape>\n{s}  <DiametricalZone/>\n{s}</ZoneShape>\n"
+    if c.kind == "Symmetry":
+        return out + frame
     if c.kind == "Straightness":
         shape = "DiametricalZone" if c.diametral else "NonDiametricalZone"
         return out + f"{s}<ZoneShape>\n{s}  <{shape}/>\n{s}</ZoneShape>\n"

@@ -1,0 +1,69 @@
+"""The size and location keys of a plan's [[characteristic]] (``feature``, ``method``,
+``modifier``) and the checks that need the whole plan (a position at MMC needs a size on its
+region; a coaxiality's primary datum is an axis, a symmetry's a plane): engine.io.plan reads
+the rest."""
+
+from __future__ import annotations
+
+from engine.gdt.plan import (MODIFIERS, SIZE_FEATURES, SIZE_METHODS, Characteristic, Datum,
+                             implied_feature)
+
+from .plan_tables import Table, show
+
+
+def size_options(t: Table, kind: str) -> dict:
+    """``feature``, ``method`` and ``modifier``, each where its type takes it
+    (engine.gdt.plan.Characteristic)."""
+    out: dict = {}
+    if "feature" in t:
+        if kind not in ("size", "position", "symmetry", "coaxiality", "concentricity"):
+            raise t.fail("feature", f"applies to size and location only, not {kind}")
+        out["kind"] = t.text("feature", choices=SIZE_FEATURES)
+        needs = {"symmetry": "width", "coaxiality": "cylinder", "concentricity": "cylinder"}
+        if kind in needs and out["kind"] != needs[kind]:
+            raise t.fail("feature", f"must be {show(needs[kind])} for a {kind}, got "
+                         f"{show(out['kind'])}")
+        if out["kind"] == "cylinder":
+            out["kind"] = None  # the default feature of size
+    if "method" in t and kind != "size":
+        raise t.fail("method", f"applies to size only, not {kind}")
+    out["method"] = t.text("method", choices=SIZE_METHODS, default="lsq")
+    modifier = t.text("modifier", choices=MODIFIERS, default="RFS")
+    if modifier != "RFS":
+        feature = implied_feature(kind, "direction" in t, bool(t.data.get("diametral")),
+                                  out.get("kind"))
+        if feature in ("plane", "freeform"):
+            raise t.fail("modifier", f"{show(modifier)} applies to a feature of size (a hole, "
+                         f"pin, width or sphere); a {kind} here is judged on a "
+                         f"{'plane' if feature == 'plane' else 'surface'}, which has no size")
+        if kind != "position":
+            raise t.fail("modifier", f"{show(modifier)} is supported on position only, not "
+                         f"{kind}")
+    out["modifier"] = modifier
+    return out
+
+
+def datum_kind(t: Table, c: Characteristic, datums: tuple[Datum, ...]) -> None:
+    """A coaxiality or concentricity is relative to a datum axis, a symmetry to a datum
+    plane: their primary datum must be one."""
+    needs = {"coaxiality": "cylinder", "concentricity": "cylinder", "symmetry": "plane"}
+    if c.type not in needs:
+        return
+    primary = next(d for d in datums if d.label == c.datums[0])
+    if primary.feature != needs[c.type]:
+        what = "an axis (a cylinder datum)" if needs[c.type] == "cylinder" else \
+            "a plane (a plane datum)"
+        raise t.fail("datums", f"names {show(primary.label)} first, a {primary.feature}: a "
+                     f"{c.type} is relative to {what}")
+
+
+def material_sizes(tables: list[Table], characteristics) -> None:
+    """A position at MMC or LMC needs its feature's size limits: a size characteristic on
+    each of its regions."""
+    sized = {c.region for c in characteristics if c.type == "size"}
+    for t, c in zip(tables, characteristics):
+        missing = [r for r in c.all_regions if r not in sized]
+        if c.modifier != "RFS" and missing:
+            raise t.fail("modifier", f"{show(c.modifier)} needs the size limits of region "
+                         f"{show(missing[0])}: add a [[characteristic]] of type \"size\" on "
+                         "it (its nominal, lower and upper give the MMC and LMC sizes)")

@@ -1,0 +1,414 @@
+"""The size and location families of a plan (engine.gdt.size, engine.gdt.location) end to end:
+a block with a datum base, a slot (a width), a hole, a stepped shaft and a ball, measured in a
+random pose with planted errors, registered and judged; each value against an independent
+computation written here (analytic, or a brute-force search with a scipy twin)."""
+
+import numpy as np
+import pytest
+
+from engine.gdt.characteristics import inspect_plan
+from engine.gdt.plan import Alignment, Characteristic, Datum, Part, Plan, Region
+from engine.inspection import Tolerance, inspect
+from engine.nominal import Nominal
+from engine.pointset import PointSet
+from engine.pose import make_transform, rotation_from_rotvec
+from engine.verdict import ACCEPT, REJECT
+
+# A block [0, 100] x [0, 60] x [0, 20]: base A (z = 0), sides B (x = 0) and C (y = 0), top
+# z = 20; a slot (a pocket) x 35 .. 45, y 10 .. 50 from z = 5 up through the top; a through hole of radius 5 at
+# (20, 30); a shaft of radius 6 at (70, 30), z 20 .. 40, then radius 4, z 40 .. 60; a ball of
+# radius 4 on the top at (88, 50, 20) (its upper half).
+SLOT, SLOT_W, HOLE, HOLE_R = 40.0, 10.0, np.array([20.0, 30.0]), 5.0
+SHAFT, R1, R2, BALL, BALL_R = np.array([70.0, 30.0]), 6.0, 4.0, np.array([88.0, 50.0, 20.0]), 4.0
+
+
+def _keep_top(p, gap):
+    """The points of the top (base) off the features' feet by ``gap`` mm."""
+    xy = p[:, :2]
+    return (((np.abs(p[:, 0] - SLOT) > SLOT_W / 2 + gap) | (np.abs(p[:, 1] - 30) > 20 + gap))
+            & (np.linalg.norm(xy - HOLE, axis=1) > HOLE_R + gap)
+            & (np.linalg.norm(xy - SHAFT, axis=1) > R1 + gap)
+            & (np.linalg.norm(xy - BALL[:2], axis=1) > BALL_R + gap))
+
+
+def _faces(rng, k, slot_shift=0.0, slot_widen=0.0, hole_shift=0.0, hole_grow=0.0,
+           shaft_offset=0.0, lobes=0.0, ball_shift=0.0, probed=False):
+    """{face: (points, outward normals)}: the nominal (all zero) or a part with planted errors,
+    ``k`` points a face (rings for round faces when ``probed``)."""
+    u, v = rng.uniform(0.05, 0.95, (2, 4 * k)) if probed else rng.uniform(0, 1, (2, 4 * k))
+    out = {"A": (np.column_stack([100 * u, 60 * v, 0 * u]), [0, 0, -1.0]),
+           "B": (np.column_stack([0 * u, 60 * v, 20 * u]), [-1.0, 0, 0]),
+           "C": (np.column_stack([100 * u, 0 * u, 20 * v]), [0, -1.0, 0]),
+           "top": (np.column_stack([100 * u, 60 * v, 20 + 0 * u]), [0, 0, 1.0])}
+    for name in ("A", "top"):
+        p, n = out[name]
+        out[name] = (p[_keep_top(p, 2.0 if probed else 0.0)], n)
+    half = 0.5 * (SLOT_W + slot_widen)
+    y, z = 10.5 + 39 * u, 5.5 + 14 * v
+    out["slot_lo"] = (np.column_stack([SLOT + slot_shift - half + 0 * y, y, z]), [1.0, 0, 0])
+    out["slot_hi"] = (np.column_stack([SLOT + slot_shift + half + 0 * y, y, z]), [-1.0, 0, 0])
+    out = {f: (p[:k], np.broadcast_to(np.asarray(n, float), p[:k].shape))
+           for f, (p, n) in out.items()}
+    rings = 8 if probed else 4 * k // 36
+    a = (np.tile(np.arange(36) * 2 * np.pi / 36, rings)
+         + np.repeat(rng.uniform(0, 2 * np.pi, rings), 36))
+    t = np.repeat(np.linspace(0.15, 0.85, rings), 36)
+    if not probed:  # the nominal: scattered samples
+        a, t = rng.uniform(0, 2 * np.pi, a.size), rng.uniform(0.02, 0.98, a.size)
+    e = np.column_stack([np.cos(a), np.sin(a), 0 * a])
+    r = HOLE_R + 0.5 * hole_grow
+    out["hole"] = (np.column_stack([HOLE + [hole_shift, 0] + r * e[:, :2], 20 * t]), -e)
+    out["shaft1"] = (np.column_stack([SHAFT + R1 * e[:, :2], 20 + 20 * t]), e)
+    r2 = R2 + lobes * np.cos(3 * a)
+    out["shaft2"] = (np.column_stack([SHAFT + [shaft_offset, 0] + r2[:, None] * e[:, :2],
+                                      40 + 20 * t]), e)
+    # The ball: rings of latitude from 25 to 75 degrees above its equator (the nominal: its
+    # upper half, evenly).
+    lat = np.radians(np.repeat(np.linspace(25, 75, rings), 36)) if probed else \
+        np.arcsin(rng.uniform(0.0, 1.0, a.size))
+    s = np.column_stack([np.cos(lat) * np.cos(a), np.cos(lat) * np.sin(a), np.sin(lat)])
+    out["ball"] = (BALL + [ball_shift, 0, 0] + BALL_R * s, s)
+    return out
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    f = _faces(np.random.default_rng(24), 5000)
+    return Nominal.from_point_set(PointSet(np.vstack([p for p, _ in f.values()]),
+                                           np.vstack([n for _, n in f.values()])))
+
+
+def measured(rng, **planted):
+    """The part's true points with the planted errors (probed in rings), then in a random
+    pose. Returns (measured points, labels, faces, true points)."""
+    f = _faces(rng, 60, probed=True, **planted)
+    P = np.vstack([p for p, _ in f.values()])
+    faces = np.concatenate([[name] * len(p) for name, (p, _) in f.items()])
+    R = rotation_from_rotvec(rng.uniform(-np.pi, np.pi, (1, 3)))[0]
+    T = make_transform(R, rng.uniform(-300, 300, 3))
+    return P @ T[:3, :3].T + T[:3, 3], np.array([f"p{i}" for i in range(len(P))]), faces, P
+
+
+REGIONS = (Region("A", box=((-1, -1, -0.5), (101, 61, 0.5))),
+           Region("B", box=((-0.5, -1, -1), (0.5, 61, 21))),
+           Region("C", box=((-1, -0.5, -1), (101, 0.5, 21))),
+           Region("slot", box=((34, 11, 5.2), (46, 49, 19.8))),
+           Region("hole", box=((14, 24, 0.5), (26, 36, 19.5))),
+           Region("shaft1", box=((63, 23, 20.5), (77, 37, 39.5))),
+           Region("shaft2", box=((65, 25, 40.5), (75, 35, 59.5))),
+           Region("ball", box=((83, 45, 20.5), (93, 55, 25))))
+DATUMS = (Datum("A", "A", "plane"), Datum("B", "B", "plane"), Datum("C", "C", "plane"),
+          Datum("D", "shaft1", "cylinder"))
+
+
+def plan_of(*characteristics):
+    return Plan("plan.toml", "0" * 64, Part(), REGIONS, DATUMS, Alignment("best-fit"),
+                tuple(characteristics))
+
+
+def run(nominal, M, labels, plan, **kwargs):
+    res = inspect(nominal, M, Tolerance.symmetric(0.5), **kwargs)
+    return inspect_plan(res, plan, nominal, None, M, labels, False)
+
+
+def by_id(res, i):
+    return next(r for r in res.plan.characteristics if r.characteristic.id == i)
+
+
+def C(ident, type_, region, zone, datums=(), **kw):
+    return Characteristic(ident, type_, region, 0.0, zone, tuple(datums), **kw)
+
+
+def S(ident, region, nominal, lower, upper, **kw):
+    return Characteristic(ident, "size", region, lower, upper, nominal=nominal, **kw)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_slot_widened_by_w_and_moved_by_v(nominal, seed):
+    """A slot widened by w and moved by v along its normal: its size is nominal + w by every
+    method (two-point: smallest and largest alike), its position to A|B|C is 2v and its
+    symmetry to B 2v, from a random pose, within 1e-6 mm."""
+    rng = np.random.default_rng(seed)
+    w, v = 0.03, 0.02
+    M, labels, _, _ = measured(rng, slot_widen=w, slot_shift=v)
+    plan = plan_of(*(S(f"s{m}", "slot", SLOT_W, -0.05, 0.05, kind="width", method=m)
+                     for m in ("lsq", "two-point", "min-circumscribed", "max-inscribed")),
+                   C("p", "position", "slot", 0.05, "ABC", kind="width"),
+                   C("y", "symmetry", "slot", 0.05, "B"))
+    res = run(nominal, M, labels, plan)
+    for m in ("lsq", "two-point", "min-circumscribed", "max-inscribed"):
+        r = by_id(res, f"s{m}")
+        assert r.value == pytest.approx(SLOT_W + w, abs=1e-6), (m, r.reason)
+        assert r.verdict == ACCEPT and r.facts["internal"]
+    two = by_id(res, "stwo-point").facts
+    assert two["min_local_size"] == pytest.approx(SLOT_W + w, abs=1e-6)
+    assert two["max_local_size"] == pytest.approx(SLOT_W + w, abs=1e-6)
+    assert by_id(res, "p").value == pytest.approx(2 * v, abs=1e-6)
+    assert by_id(res, "y").value == pytest.approx(2 * v, abs=1e-6)
+    assert by_id(res, "p").verdict == ACCEPT and by_id(res, "p").facts["modifier"] == "RFS"
+
+
+def test_a_slot_moved_past_its_zone_rejects_its_position_only(nominal):
+    rng = np.random.default_rng(3)
+    M, labels, _, _ = measured(rng, slot_shift=0.03)
+    res = run(nominal, M, labels, plan_of(
+        S("1", "slot", SLOT_W, -0.05, 0.05, kind="width"),
+        C("2", "position", "slot", 0.05, "ABC", kind="width")))
+    assert by_id(res, "2").value == pytest.approx(0.06, abs=1e-6)
+    assert [by_id(res, i).verdict for i in "12"] == [ACCEPT, REJECT]
+
+
+@pytest.mark.parametrize("seed", [4, 5])
+def test_coaxiality_of_a_shaft_whose_second_diameter_is_offset_by_e(nominal, seed):
+    """The second diameter offset by e from the first (datum D): coaxiality (and
+    concentricity, the same value) 2e. Within 2e-4 mm, not 1e-6: the datum cylinder is
+    simulated on this test's sampled nominal, whose curvature-corrected point-to-surface
+    distances to a true cylinder are off by up to 4 um (the planes' are exact)."""
+    rng = np.random.default_rng(seed)
+    e = 0.015
+    M, labels, _, _ = measured(rng, shaft_offset=e)
+    res = run(nominal, M, labels, plan_of(C("1", "coaxiality", "shaft2", 0.05, "D"),
+                                          C("2", "concentricity", "shaft2", 0.02, "D")))
+    assert by_id(res, "1").value == pytest.approx(2 * e, abs=2e-4)
+    assert by_id(res, "2").value == by_id(res, "1").value
+    assert [by_id(res, i).verdict for i in "12"] == [ACCEPT, REJECT]
+
+
+def _envelope_brute(X, inscribed):
+    """The smallest circumscribed (largest inscribed) cylinder's diameter of points X about an
+    axis near z: Nelder-Mead over the axis (x, y at the mean height, tilts) from a grid of
+    positions, the largest (smallest) distance from it made smallest (largest)."""
+    from scipy.optimize import minimize
+
+    z0 = X[:, 2].mean()
+
+    def radius(p):
+        d = np.array([p[2], p[3], 1.0]) / np.linalg.norm([p[2], p[3], 1.0])
+        w = X - np.array([p[0], p[1], z0])
+        rho = np.linalg.norm(w - np.outer(w @ d, d), axis=1)
+        return -rho.min() if inscribed else rho.max()
+
+    g = X[:, :2].mean(axis=0)
+    offsets = np.linspace(-0.005, 0.005, 11)
+    starts = sorted(((radius([g[0] + u, g[1] + v, 0, 0]), [g[0] + u, g[1] + v, 0, 0])
+                     for u in offsets for v in offsets), key=lambda t: t[0])[:3]
+    best = min(minimize(radius, s, method="Nelder-Mead",
+                        options={"xatol": 1e-13, "fatol": 1e-16, "maxiter": 40000}).fun
+               for _, s in starts)
+    return 2 * abs(best)
+
+
+def test_a_three_lobed_pins_sizes(nominal):
+    """A pin with a 3-lobe form of amplitude a, probed in rings of 36 evenly spaced points:
+    its two-point sizes are all 2R (opposite radii of an odd-lobed form sum to 2R); its
+    minimum circumscribed and maximum inscribed diameters equal those searched here by brute
+    force; the least-squares diameter lies between."""
+    rng = np.random.default_rng(6)
+    a = 0.004
+    M, labels, faces, P = measured(rng, lobes=a)
+    plan = plan_of(*(S(m, "shaft2", 2 * R2, -0.02, 0.02, method=m)
+                     for m in ("lsq", "two-point", "min-circumscribed", "max-inscribed")))
+    res = run(nominal, M, labels, plan)
+    X = P[faces == "shaft2"]
+    gn, gx = _envelope_brute(X, False), _envelope_brute(X, True)
+    assert gn == pytest.approx(2 * (R2 + a), abs=2e-4) and gx == pytest.approx(
+        2 * (R2 - a), abs=2e-4)
+    assert by_id(res, "min-circumscribed").value == pytest.approx(gn, abs=1e-6)
+    assert by_id(res, "max-inscribed").value == pytest.approx(gx, abs=1e-6)
+    two = by_id(res, "two-point").facts
+    assert two["min_local_size"] == pytest.approx(2 * R2, abs=1e-6)
+    assert two["max_local_size"] == pytest.approx(2 * R2, abs=1e-6)
+    assert gx < by_id(res, "lsq").value < gn
+    assert not by_id(res, "lsq").facts["internal"]  # a pin
+
+
+@pytest.mark.parametrize("modifier, verdict", [("MMC", ACCEPT), ("RFS", REJECT)])
+def test_a_hole_at_mmc_plus_006_whose_position_is_008_out(nominal, modifier, verdict):
+    """⌀10 +0.1/0 (MMC 10.0), made at 10.06 and off its true position by 0.04 (position
+    0.08) against ⌀0.05: at MMC the bonus 0.06 allows 0.11: ACCEPT; RFS: REJECT."""
+    rng = np.random.default_rng(7)
+    M, labels, _, _ = measured(rng, hole_grow=0.06, hole_shift=0.04)
+    res = run(nominal, M, labels, plan_of(
+        S("1", "hole", 2 * HOLE_R, 0.0, 0.1),
+        C("2", "position", "hole", 0.05, "ABC", modifier=modifier)))
+    r = by_id(res, "2")
+    assert r.value == pytest.approx(0.08, abs=1e-6) and r.verdict == verdict
+    if modifier == "MMC":
+        assert r.facts["actual_mating_size"] == pytest.approx(10.06, abs=1e-6)
+        assert r.facts["bonus"] == pytest.approx(0.06, abs=1e-6)
+        assert r.facts["allowed"] == pytest.approx(0.11, abs=1e-6)
+    else:
+        assert r.facts["bonus"] == 0.0 and r.facts["allowed"] == 0.05
+
+
+def test_a_pin_at_lmc_and_a_pattern_located_together(nominal):
+    """The pin (shaft2, ⌀8 -0.05/0, LMC 7.95) made at its nominal and off by 0.01: at LMC the
+    bonus is 8 - 7.95 (its actual minimum material size is its largest inscribed 8.0); the
+    hole and the pin as a pattern to A|B|C: each reported, the worst the pattern's value."""
+    rng = np.random.default_rng(8)
+    M, labels, _, _ = measured(rng, shaft_offset=0.01, hole_shift=0.02)
+    res = run(nominal, M, labels, plan_of(
+        S("1", "shaft2", 2 * R2, -0.05, 0.0), S("2", "hole", 2 * HOLE_R, 0.0, 0.1),
+        C("3", "position", "shaft2", 0.01, "ABC", modifier="LMC"),
+        Characteristic("4", "position", "hole", 0.0, 0.05, tuple("ABC"),
+                       regions=("hole", "shaft2"))))
+    r = by_id(res, "3")
+    assert r.value == pytest.approx(0.02, abs=1e-6) and r.verdict == ACCEPT
+    assert r.facts["bonus"] == pytest.approx(0.05, abs=1e-6)
+    p = by_id(res, "4")
+    values = {f["region"]: f["value"] for f in p.facts["features"]}
+    assert values["hole"] == pytest.approx(0.04, abs=1e-6)
+    assert values["shaft2"] == pytest.approx(0.02, abs=1e-6)
+    assert p.value == pytest.approx(0.04, abs=1e-6) and p.facts["worst_region"] == "hole"
+
+
+def test_a_balls_size_and_position(nominal):
+    """A ball moved by v: its position (a spherical zone) 2v, its size its diameter."""
+    rng = np.random.default_rng(9)
+    v = 0.012
+    M, labels, _, _ = measured(rng, ball_shift=v)
+    res = run(nominal, M, labels, plan_of(
+        S("1", "ball", 2 * BALL_R, -0.01, 0.01, kind="sphere"),
+        C("3", "position", "ball", 0.05, "ABC", kind="sphere")))
+    assert by_id(res, "1").value == pytest.approx(2 * BALL_R, abs=1e-6)
+    assert by_id(res, "3").value == pytest.approx(2 * v, abs=1e-6)
+
+
+def test_guarded_rule_guards_the_new_values(nominal):
+    from engine.uncertainty import Instrument
+
+    rng = np.random.default_rng(10)
+    M, labels, _, _ = measured(rng, slot_shift=0.02, shaft_offset=0.01)
+    res = run(nominal, M, labels, plan_of(
+        S("1", "slot", SLOT_W, -0.5, 0.5, kind="width", method="two-point"),
+        C("2", "position", "slot", 0.0405, "ABC", kind="width"),
+        C("3", "coaxiality", "shaft2", 0.5, "D"), C("4", "symmetry", "slot", 0.5, "B"),
+        S("5", "shaft2", 2 * R2, -0.05, 0.05), C("6", "position", "shaft2", 0.5, "ABC",
+                                                  modifier="MMC")),
+        decision_rule="guarded", instrument=Instrument(uncertainty_mm=0.001))
+    for i in "123456":
+        assert by_id(res, i).facts["uncertainty_bound"] >= 0.002, i
+    assert by_id(res, "2").verdict == "INCONCLUSIVE"
+    assert [by_id(res, i).verdict for i in "13456"] == [ACCEPT] * 5
+
+
+ROOT = __file__.rsplit("/tests/", 1)[0]
+SEAT = (f"{ROOT}/samples/seat_bracket/nominal.xyz", f"{ROOT}/samples/seat_bracket/measured.csv")
+NEW = """
+[[characteristic]]
+id = "6"
+type = "position"
+region = "hole1"
+zone = 0.1
+datums = ["A", "B", "C"]
+modifier = "MMC"
+
+[[characteristic]]
+id = "7"
+type = "size"
+region = "hole1"
+nominal = 8.0
+lower = -0.05
+upper = 0.05
+method = "max-inscribed"
+
+[[characteristic]]
+id = "8"
+type = "size"
+region = "hole1"
+nominal = 8.0
+lower = -0.05
+upper = 0.05
+method = "two-point"
+"""
+
+
+def test_the_new_keys_through_the_command_line_json_and_qif(tmp_path):
+    """The seat bracket sample's plan with a position at MMC and sizes by two methods: each in
+    the JSON with its keys, in the QIF with its material condition and bonus (valid against
+    the XSD)."""
+    import csv
+    import json
+
+    from lxml import etree
+
+    from qa_app.cli import main
+    from reports.qif import qif_results_document
+
+    plan = tmp_path / "plan.toml"
+    with open(f"{ROOT}/samples/seat_bracket/plan.toml") as f:
+        plan.write_text(f.read() + NEW)
+    code = main(["inspect", *SEAT, "--plan", str(plan), "--json", str(tmp_path / "r.json"),
+                 "--csv", str(tmp_path / "r.csv"), "--report", str(tmp_path / "r.pdf")])
+    assert code == 1  # the sample's skin profile to A|B|C rejects, as it always has
+    chars = {c["id"]: c for c in json.loads((tmp_path / "r.json").read_text())[
+        "characteristics"]}
+    six, seven, eight = chars["6"], chars["7"], chars["8"]
+    assert six["symbol"] == "⌖" and six["modifier"] == "MMC" and six["feature"] == "cylinder"
+    assert six["actual_mating_size"] == pytest.approx(seven["value"], abs=1e-12)
+    assert six["bonus"] == pytest.approx(max(0.0, seven["value"] - 7.95), abs=1e-12)
+    assert six["allowed"] == pytest.approx(0.1 + six["bonus"], abs=1e-12)
+    assert seven["method"] == "max-inscribed" and eight["method"] == "two-point"
+    assert eight["min_local_size"] <= eight["max_local_size"]
+    assert chars["5"]["method"] == "lsq" and chars["5"]["symbol"] == "⌀"
+    doc = json.loads((tmp_path / "r.json").read_text())
+    with open(tmp_path / "r.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    data = qif_results_document(
+        doc, np.array([[float(r[k]) for k in ("x_reg", "y_reg", "z_reg")] for r in rows]),
+        np.array([float(r["deviation"]) for r in rows]),
+        np.array([r["in_tolerance"] == "true" for r in rows]), np.array([r["label"] for r in rows]))
+    schema = etree.XMLSchema(etree.parse(f"{ROOT}/tests/data/qif-3.0-xsd/QIFDocument.xsd"))
+    tree = etree.ElementTree(etree.fromstring(data))
+    assert schema.validate(tree), "\n".join(str(e) for e in schema.error_log)
+    text = data.decode() if isinstance(data, bytes) else data
+    assert "<MaterialCondition>MAXIMUM</MaterialCondition>" in text and "<Bonus>" in text
+
+
+REGION_TOP = ('[[region]]\nname = "A"\nbox = [[-1, -1, -0.5], [121, 61, 0.5]]\n'
+              '[[region]]\nname = "hole"\nbox = [[59.5, 25.5, 0.5], [68.5, 34.5, 7.5]]\n'
+              '[[datum]]\nlabel = "A"\nregion = "A"\nfeature = "plane"\n')
+
+
+@pytest.mark.parametrize("body, key, words", [
+    ('type = "flatness"\nregion = "A"\nzone = 0.05\nmodifier = "MMC"\n', "modifier",
+     "which has no size"),
+    ('type = "position"\nregion = "hole"\nzone = 0.05\ndatums = ["A"]\nmodifier = "MMC"\n',
+     "modifier", "needs the size limits of region \"hole\""),
+    ('type = "coaxiality"\nregion = "hole"\nzone = 0.05\n', "datums", "is missing or empty"),
+    ('type = "coaxiality"\nregion = "hole"\nzone = 0.05\ndatums = ["A"]\n', "datums",
+     "a coaxiality is relative to an axis"),
+    ('type = "symmetry"\nregion = "A"\nzone = 0.05\ndatums = ["D"]\n', "datums",
+     "a symmetry is relative to a plane"),
+    ('type = "size"\nregion = "hole"\nnominal = 8\nlower = 0\nupper = 0.1\n'
+     'method = "three-point"\n', "method", "must be one of lsq, two-point"),
+    ('type = "position"\nregion = "hole"\nzone = 0.05\ndatums = ["A", "D(M)"]\n', "datums",
+     "datum shift) is not supported yet"),
+    ('type = "position"\nregions = ["hole"]\nzone = 0.05\ndatums = ["A"]\n', "regions",
+     "a pattern has two or more"),
+])
+def test_bad_plans_are_refused_with_65_naming_plan_table_and_key(tmp_path, capsys, body, key,
+                                                                  words):
+    from qa_app.cli import main
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(REGION_TOP + '[[datum]]\nlabel = "D"\nregion = "hole"\nfeature = '
+                    '"cylinder"\n[[characteristic]]\nid = "7"\n' + body)
+    assert main(["inspect", *SEAT, "--plan", str(plan)]) == 65
+    err = capsys.readouterr().err
+    assert f"{plan}: [[characteristic]] #1 (id \"7\"): '{key}' " in err, err
+    assert words in err, err
+
+
+def test_a_width_region_with_one_plane_is_refused_with_65(tmp_path, capsys):
+    from qa_app.cli import main
+
+    plan = tmp_path / "plan.toml"
+    plan.write_text(REGION_TOP.replace('name = "hole"', 'name = "floor"').replace(
+        "[[59.5, 25.5, 0.5], [68.5, 34.5, 7.5]]", "[[-1, -1, -0.5], [50, 61, 0.5]]")
+        + '[[characteristic]]\nid = "7"\ntype = "size"\nregion = "floor"\nfeature = "width"\n'
+        'nominal = 8\nlower = 0\nupper = 0.1\n')
+    assert main(["inspect", *SEAT, "--plan", str(plan)]) == 65
+    err = capsys.readouterr().err
+    assert f"{plan}: [[characteristic]] '7': region 'floor' is no width" in err, err
+    assert "face one way" in err, err
