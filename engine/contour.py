@@ -96,7 +96,8 @@ def build_template(contours: list[tuple[list[dict], bool]]) -> Template2D:
     closed = np.array([c for _, c in contours], dtype=bool)
     t = Template2D(kind, start, end, centre, radius, angle0, sweep, contour, closed,
                    np.ones(len(contours)))
-    layer, layers = None, ()
+    layer: np.ndarray | None = None
+    layers: tuple[str, ...] = ()
     if rows and all("layer" in p for _, p in rows):
         layers = tuple(sorted({p["layer"] for _, p in rows}))
         index = {name: i for i, name in enumerate(layers)}
@@ -128,7 +129,7 @@ def signed_area(t: Template2D, c: int) -> float:
 
 def _positive_sides(t: Template2D) -> np.ndarray:
     side = np.ones(t.closed.shape[0])
-    closed = np.flatnonzero(t.closed)
+    closed = [int(c) for c in np.flatnonzero(t.closed)]
     for c in closed:
         # Depth: how many other closed contours contain this one (tested at a point on it).
         probe = t.start[np.flatnonzero(t.contour == c)[0]][None]

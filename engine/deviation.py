@@ -184,13 +184,14 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
     ring = np.take_along_axis(rep, order, axis=1)
     count = np.sum(ring >= 0, axis=1, keepdims=True)
     slot = np.arange(SPREAD_SECTORS)
-    one, two = [], []
+    ones: list[np.ndarray] = []
+    twos: list[np.ndarray] = []
     for step in (1, 2):
         nxt = np.take_along_axis(ring, (slot + step) % np.maximum(count, 1), axis=1)
         usable = (slot < count) & (count > step)
-        one.append(np.where(usable, ring, centre[:, None]))
-        two.append(np.where(usable, nxt, centre[:, None]))
-    one, two = np.concatenate(one, axis=1), np.concatenate(two, axis=1)
+        ones.append(np.where(usable, ring, centre[:, None]))
+        twos.append(np.where(usable, nxt, centre[:, None]))
+    one, two = np.concatenate(ones, axis=1), np.concatenate(twos, axis=1)
     return np.stack([np.broadcast_to(centre[:, None], one.shape), one, two], axis=2)
 
 
@@ -237,18 +238,18 @@ def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     best_tri = np.zeros(n, np.int64)
     best_d2 = np.full(n, np.inf)
     best_b = np.zeros((n, 3))
-    args = (nominal.star_ptr, nominal.star_tri, nominal.triangles, nominal.points,
-            best_tri, best_d2, best_b)
+    tris = nominal.mesh_triangles
+    args = (nominal.star_ptr, nominal.star_tri, tris, nominal.points, best_tri, best_d2, best_b)
     kernels.best_in_stars(pts, np.arange(n), centre.astype(np.int64), *args)
     # Where the foot point lies on the outer rim of the nearest point's star (or the nearest
     # sample is an interior sample of one large triangle), look wider: the triangles around the
     # next three nearest points too.
-    at_centre = np.where(nominal.triangles[best_tri] == centre[:, None], best_b, 0.0).sum(axis=1)
+    at_centre = np.where(tris[best_tri] == centre[:, None], best_b, 0.0).sum(axis=1)
     rim = np.flatnonzero((centre >= nominal.n) | (at_centre <= 1e-12))
     for col in range(1, k):
         if rim.size:
             kernels.best_in_stars(pts, rim, nn[rim, col].astype(np.int64), *args)
-    sel = nominal.triangles[best_tri]
+    sel = tris[best_tri]
     return nominal.points[sel], nominal.normals(sel), best_b
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -30,7 +30,7 @@ from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity,
                       margins_3d, plausible_runner_up, pointwise_verdict, pose_trusted)
 
 if TYPE_CHECKING:
-    from .contour import ContourIndex, Template2D
+    from .contour import ContourIndex, Deviations2D, Template2D
     from .gdt.results import PlanResult
     from .pose_sensitivity import PoseSensitivity
     from .trust import Conditioning
@@ -158,10 +158,11 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     timings = {"register": t1 - t0 - reg.deviation_s,
                "deviation": reg.deviation_s + t2 - t1 - j.sensitivity_s,
                "pose_sensitivity": j.sensitivity_s}
+    dev = _of_kind(j.deviations, Deviations)
     if j.T is not reg.T_nominal_measured:
-        reg = _with_pose(reg, j.T, j.deviations)
+        reg = _with_pose(reg, j.T, dev)
     return InspectionResult(tolerance=tolerance, registration=reg, registered=j.points,
-                            deviations=j.deviations,
+                            deviations=dev,
                             normals_source="B-rep" if exact is not None else
                             nominal.normals_source,
                             timings_s=timings, extra=extra, **j.verdict_fields)
@@ -356,10 +357,20 @@ class _Judged:
 
     T: np.ndarray
     points: np.ndarray
-    deviations: object
+    deviations: Deviations | Deviations2D
     verdict_fields: dict
     fitted_at: float
     sensitivity_s: float
+
+
+D = TypeVar("D", "Deviations", "Deviations2D")
+
+
+def _of_kind(dev: object, kind: type[D]) -> D:
+    """``dev``, checked to be the deviations of the kind (3D or 2D) the inspection measures."""
+    if not isinstance(dev, kind):
+        raise TypeError(f"{kind.__name__} expected, got {type(dev).__name__}")
+    return dev
 
 
 def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
@@ -521,7 +532,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     seed : the inspection's, of every seeded subset of the points (engine.seeds).
     """
-    from .contour import ContourIndex, deviations_2d
+    from .contour import ContourIndex, Deviations2D, deviations_2d
     from .registration2d import fit_plane, register_2d
 
     _check_options(fit, decision_rule)
@@ -542,13 +553,10 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
         frames = [F, flip @ F]
         extra["flatness"] = {"peak_to_valley": plane.flatness, "rms": plane.rms_w,
                              "n_points": int(measured.shape[0])}
-    best = None
-    for F in frames:
-        q = measured @ F[:3, :3].T + F[:3, 3]
-        reg = register_2d(index, q[:, :2], zone_width=tolerance.width, seed=seed)
-        if best is None or reg.score < best[1].score:
-            best = (F, reg)
-    F, reg = best
+    # The frame whose registration scores best (the first of equals).
+    F, reg = min(((F, register_2d(index, (measured @ F[:3, :3].T + F[:3, 3])[:, :2],
+                                  zone_width=tolerance.width, seed=seed)) for F in frames),
+                 key=lambda frame: frame[1].score)
     q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
 
     def measure(Tc):
@@ -564,7 +572,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
                     _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
                     tolerance, fit, decision_rule, extra, instrument, guard, seed)
     t1 = j.fitted_at
-    reg3 = reg.lifted(F, j.T, j.deviations)
+    reg3 = reg.lifted(F, j.T, _of_kind(j.deviations, Deviations2D))
     T = reg3.T_nominal_measured
     registered = measured @ T[:3, :3].T + T[:3, 3]
     extra["template"]["symmetric"] = reg.symmetric
@@ -573,5 +581,6 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     timings = {"register": t1 - t0, "deviation": t2 - t1 - j.sensitivity_s,
                "pose_sensitivity": j.sensitivity_s}
     return InspectionResult(tolerance=tolerance, registration=reg3, registered=registered,
-                            deviations=reg3.deviations, normals_source="contour", timings_s=timings,
+                            deviations=_of_kind(reg3.deviations, Deviations),
+                            normals_source="contour", timings_s=timings,
                             extra=extra, **j.verdict_fields)

@@ -166,9 +166,16 @@ class Nominal:
     @functools.cached_property
     def triangle_areas(self) -> np.ndarray:
         """(m,) each triangle's area, mm² (meshes and grids)."""
-        P, tris = self.points, self.triangles
+        P, tris = self.points, self.mesh_triangles
         return 0.5 * np.linalg.norm(np.cross(P[tris[:, 1]] - P[tris[:, 0]],
                                              P[tris[:, 2]] - P[tris[:, 0]]), axis=1)
+
+    @property
+    def mesh_triangles(self) -> np.ndarray:
+        """(m, 3) the triangles of a mesh or grid; raises ValueError for bare points."""
+        if self.triangles is None:
+            raise ValueError("the nominal is bare points: it has no triangles")
+        return self.triangles
 
     def _level_size(self, size: int) -> int:
         """The size of the level asked for as ``size``: at most :attr:`finest_level`."""
@@ -180,7 +187,7 @@ class Nominal:
         area (a mesh's or grid's coarse levels): (points (s, 3), outward unit normals (s, 3),
         interpolated from the triangle's vertex normals, triangle index (s,))."""
         if self._area_samples is None:
-            tris = self.triangles
+            tris = self.mesh_triangles
             P = self.points
             area = self.triangle_areas
             gen = rng(self.seed, LEVELS_SEED)
@@ -314,7 +321,7 @@ class Nominal:
         grid of up to ``MAX_SUBDIVISION`` steps per edge, so that a query near its middle still
         finds it.
         """
-        tris = self.triangles
+        tris = self.mesh_triangles
         P = self.points
         longest = kernels.longest_edges(P, tris)
         s = float(np.median(longest[:: max(1, longest.size // 100000)]))
@@ -550,3 +557,24 @@ def _is_closed(tris: np.ndarray) -> bool:
     key = e[:, 0].astype(np.int64) * (int(tris.max()) + 1) + e[:, 1]
     _, counts = np.unique(key, return_counts=True)
     return bool(np.all(counts == 2))
+
+
+COPY_PROBE = 64
+"""Measured points checked first for being the nominal's own (:func:`copies_nominal`): a
+measurement differs from the nominal at once, and only a copy is checked whole."""
+
+
+def copies_nominal(points: np.ndarray, nominal: Nominal) -> bool:
+    """Whether every one of the measured ``points`` (n, 3) is, coordinate for coordinate
+    (exactly equal floats), one of the ``nominal``'s points: the nominal's own samples, not a
+    measurement of the part. False for no points."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.shape[0] == 0 or nominal.n == 0:
+        return False
+    for probe in (points[:COPY_PROBE], points):
+        _, near = nominal.tree.query(probe, k=1, workers=query_workers(len(probe)))
+        if not np.array_equal(nominal.points[near], probe):
+            return False
+        if len(probe) == len(points):
+            break
+    return True

@@ -14,6 +14,7 @@ import dataclasses
 import functools
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from .io import formats, is_template, load_point_set, sha256_of
 from .gdt.plan import Plan
 from .pointset import PointSet
 from .neighbours import query_workers
-from .nominal import Nominal
+from .nominal import Nominal, copies_nominal
 from .progress import Callback, report, reporting, within
 from .registration_types import RegistrationSettings
 from .seeds import rng
@@ -35,6 +36,10 @@ from .step_model import (ExactDistances, exact_deviations, exact_features, face_
                          face_sample, step_facts)
 from .tolerance import Tolerance, check_zone
 from .verdict import ACCEPT, INCONCLUSIVE
+
+if TYPE_CHECKING:
+    from .io.step import StepNominal
+    from .io.templates import TemplateFile
 
 
 @dataclass(frozen=True)
@@ -71,7 +76,7 @@ class Run:
     inputs: list[InputRecord]
     measured: PointSet
     nominal: Nominal | None
-    template: object | None
+    template: TemplateFile | None
     timings_s: dict
     plan: Plan | None = None
     selection: Selection | None = None
@@ -110,7 +115,7 @@ def inspection_settings(tol: Tolerance | None, plan: str | None = None,
         options["decision_rule"] = (DecisionRule.GUARDED if stated is not None
                                     and stated.states_anything else DecisionRule.SIMPLE)
     if tol is None:
-        if plan is None:
+        if read is None:  # (read above whenever a plan is given without a zone)
             raise SettingsError("a tolerance zone or an inspection plan is required")
         from .gdt.characteristics import statistics_zone
 
@@ -259,20 +264,21 @@ def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNomin
     options that do not fit it (the checks of :func:`run_files`).
     """
     check_settings(nominal_path, settings)
-    qif = settings.plan is not None and formats.kind_of(settings.plan) == formats.QIF
-    if qif:  # before reading a nominal that may take a while
+    qif = (settings.plan if settings.plan is not None
+           and formats.kind_of(settings.plan) == formats.QIF else None)  # its path
+    if qif is not None:  # before reading a nominal that may take a while
         from .io.qif_plan import check_qif_nominal
 
-        check_qif_nominal(settings.plan, nominal_path)
+        check_qif_nominal(qif, nominal_path)
     report("loading the nominal", 0.0)
     t0 = time.perf_counter()
     source = _read_nominal(nominal_path, settings)
-    if qif:
-        source = _with_qif_faces(source, settings.plan)
+    if qif is not None:
+        source = _with_qif_faces(source, qif)
     nominal = None
     if source.template is None:
         report("preparing the nominal", 0.0)
-        nominal = Nominal.from_point_set(source.point_set, settings.seed)
+        nominal = Nominal.from_point_set(source.points3d, settings.seed)
     plan = record = None
     if settings.plan is not None:
         from .io.plan import read_plan
@@ -289,16 +295,16 @@ def _with_qif_faces(source: "_Nominal", plan_path: str) -> "_Nominal":
     from .io.qif_plan import qif_nominal_groups
 
     report("matching the QIF plan's features to the faces", 0.0)
-    groups, facts = qif_nominal_groups(plan_path, source.step, source.point_set.groups)
+    groups, facts = qif_nominal_groups(plan_path, source.step, source.points3d.groups)
     return dataclasses.replace(source, plan_faces=facts,
-                               point_set=dataclasses.replace(source.point_set, groups=groups))
+                               point_set=dataclasses.replace(source.points3d, groups=groups))
 
 
 def part_size(source: "_Nominal", nominal: Nominal | None) -> float:
     """The part's size, mm: its 3D nominal's bounding-box diagonal, or its 2D template's
     (engine.contour.diagonal)."""
-    if nominal is not None:
-        return nominal.diagonal
+    if source.template is None:
+        return source.nominal3d(nominal).diagonal
     from .contour import diagonal
 
     return diagonal(source.template.template)
@@ -377,7 +383,7 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     warnings: tuple[str, ...] = ()
     units = units_hint(source, nominal, measured_ps.points, settings.seed)
     if source.template is None and units is None:  # the units, not a scene to crop
-        said = extent_warning(measured_ps.points, source.point_set.points,
+        said = extent_warning(measured_ps.points, source.points3d.points,
                               "measured points" if selection is None else
                               "measured points kept (after the crop and plane removal)")
         warnings = () if said is None else (said,)
@@ -385,12 +391,12 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     if source.template is not None:
         result = _inspect_template(source.template, measured_ps, settings, plan)
     else:
-        result = _inspect_3d(nominal, source, measured_ps, settings, plan,
+        result = _inspect_3d(source.nominal3d(nominal), source, measured_ps, settings, plan,
                              None if selection is None or selection.plane is None else
                              selection.plane.sigma)
     if result.verdict != ACCEPT:
         hint = (not_planar_hint(result, measured_ps, nominal_path)
-                if source.template is not None else swap_hint(source.point_set, measured_ps))
+                if source.template is not None else swap_hint(source.points3d, measured_ps))
         if hint:
             result = dataclasses.replace(result, reasons=result.reasons + (hint,))
     if units is not None:  # whatever pose was found, it fits a part of another size
@@ -430,6 +436,7 @@ def nominal_sizes(source: "_Nominal", nominal: Nominal | None, seed: int) -> np.
 
         return principal_sizes(points_on(source.template.template, SIZE_SAMPLES,
                                          rng(seed, SIZE_SEED)))
+    nominal = source.nominal3d(nominal)
     if nominal.triangles is not None and len(nominal.triangles):
         return principal_sizes(nominal.area_samples[0])
     return principal_sizes(nominal.points)
@@ -458,27 +465,6 @@ def units_hint(source: "_Nominal", nominal: Nominal | None, measured: np.ndarray
                          mm)
 
 
-COPY_PROBE = 64
-"""Measured points checked first for being the nominal's own (:func:`copies_nominal`): a
-measurement differs from the nominal at once, and only a copy is checked whole."""
-
-
-def copies_nominal(points: np.ndarray, nominal: Nominal) -> bool:
-    """Whether every one of the measured ``points`` (n, 3) is, coordinate for coordinate
-    (exactly equal floats), one of the ``nominal``'s points: the nominal's own samples, not a
-    measurement of the part. False for no points."""
-    points = np.asarray(points, dtype=np.float64)
-    if points.shape[0] == 0 or nominal.n == 0:
-        return False
-    for probe in (points[:COPY_PROBE], points):
-        _, near = nominal.tree.query(probe, k=1, workers=query_workers(len(probe)))
-        if not np.array_equal(nominal.points[near], probe):
-            return False
-        if len(probe) == len(points):
-            break
-    return True
-
-
 @dataclass(frozen=True)
 class _Nominal:
     """The nominal file as read: its record, and a point set (3D), a 2D template (read_template's
@@ -486,10 +472,24 @@ class _Nominal:
 
     record: InputRecord
     point_set: PointSet | None = None
-    template: object | None = None
-    step: object | None = None
+    template: TemplateFile | None = None
+    step: StepNominal | None = None
     plan_faces: dict | None = None
     """A QIF plan's regions matched to the STEP model's faces (JSON ``plan_faces``)."""
+
+    @property
+    def points3d(self) -> PointSet:
+        """The point set of a 3D nominal; a 2D template has none (ValueError)."""
+        if self.point_set is None:
+            raise ValueError(f"the 2D template {self.record.path} has no 3D point set")
+        return self.point_set
+
+    def nominal3d(self, nominal: Nominal | None) -> Nominal:
+        """``nominal``, the engine's nominal built from this 3D one; None only for a 2D
+        template (ValueError)."""
+        if nominal is None:
+            raise ValueError(f"the 2D template {self.record.path} has no 3D nominal")
+        return nominal
 
 
 def _read_nominal(path: str, settings: InspectionSettings) -> _Nominal:
@@ -582,7 +582,7 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
     if plan is not None:
         from .gdt.characteristics import inspect_plan
 
-        ps = source.point_set
+        ps = source.points3d
         with within(1.0 - share, 1.0):
             report("judging the plan's characteristics", 0.0)
             result = inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,

@@ -344,7 +344,7 @@ def _direction_probe(judge: _PoseJudge, w: WeakDirection, cond: Conditioning) ->
     reach = FREE_REACH * cond.length
     through = _axis_point(w.twist, cond.centre, cond.length) if w.type == "rotation" \
         else None
-    ends = []
+    ends: list[bool] = []
     if w.sigma_mm is not None:  # weak: the uncertainty region, every pose in it counts
         rec = []  # (amplitude, verdict, plausible, largest change, every point)
         for a in sorted({float(s * min(k * w.sigma_mm, reach)) for k in PROBE_SIGMAS
@@ -372,7 +372,7 @@ def _scan_free(judge: _PoseJudge, w: WeakDirection, cond: Conditioning,
     where the points stop fitting."""
     d, idx, X, width = judge.d, judge.idx, judge.points, judge.width
     rec = []  # (amplitude, verdict, plausible, largest change, every point)
-    ends = []
+    ends: list[bool] = []
     h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx], cond))
     for sgn in (-1.0, 1.0):
         a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach

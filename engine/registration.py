@@ -48,6 +48,7 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -131,6 +132,7 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
         # cost trees, not accuracy).
         size = min(size * 4 if size * 4 <= settings.quadric_max_level else finest, finest)
         level += 1
+        nrm_l: np.ndarray | Callable[[np.ndarray], np.ndarray]
         if nominal.triangles is None and size >= nominal.n:
             # Normals looked up as needed: bare points get theirs estimated only where paired.
             pts_l, nrm_l, tree = nominal.points, nominal.normals, nominal.tree
@@ -174,11 +176,11 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     scale = settings.outlier_floor * nominal.diagonal
     scores = [pose_score(d, scale) for d in devs]
     order = [int(i) for i in np.argsort(scores, kind="stable")]
-    best = order[0]
     # Most points nowhere near the nominal at the best pose found: the measurement is not (only)
     # of this part. No fit can make that trustworthy; measure and say so.
-    unfit = np.mean(np.abs(devs[best]) <= near) < settings.min_near_fraction
-    finished, final = {}, {}
+    unfit = np.mean(np.abs(devs[order[0]]) <= near) < settings.min_near_fraction
+    finished: dict[int, PoseFit] = {}  # candidate -> its finish
+    final: dict[int, float] = {}  # candidate -> its finish's score
     # The candidates are finished on the points they are scored on (all of them up to
     # ``icp_measured``); the one chosen is then fitted on every point. (Each finish of a wrong
     # pose over 200,000 points ran its whole iteration budget: 425 s on a 1M-point nominal.)
@@ -188,11 +190,12 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     # 12 s on a 1M-point nominal). A short finish chosen all the same is finished in full.
     short = replace(settings, max_final_iterations=min(settings.max_final_iterations,
                                                        ALTERNATIVE_ITERATIONS))
+    best: int | None = order[0]  # the next candidate to finish
     while best is not None:
         finished[best] = (_unfitted if unfit else point_to_surface_fit)(
             nominal, compared, refined[best], short if finished else settings, zone_width)
         final[best] = pose_score(finished[best].deviations.signed, scale)
-        chosen = min(final, key=final.get)
+        chosen = min(final, key=final.__getitem__)
         # Not only the candidates already scoring better are finished: one a millimetre off
         # the right pose scores worse before its finish than a wrong pose after its own (NIST
         # CTC-01 with 2% mis-probes: 0.64 against 0.50 mm; finished, 0.24 mm; CTC-03 with 2%
@@ -211,7 +214,7 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
             nominal, compared, finished[chosen].T_nominal_measured, settings, zone_width)
         final[chosen] = pose_score(finished[chosen].deviations.signed, scale)
         complete.add(chosen)
-        chosen = min(final, key=final.get)
+        chosen = min(final, key=final.__getitem__)
     if ssub.size < measured.shape[0]:
         finished[chosen] = (_unfitted if unfit else point_to_surface_fit)(
             nominal, measured, finished[chosen].T_nominal_measured, settings, zone_width)
@@ -346,8 +349,8 @@ def _principal_axes(c: np.ndarray):
     return E, vals[::-1]
 
 
-def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray, nrm: np.ndarray,
-               spacing: float, iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
+def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray,
+               nrm: np.ndarray | Callable[[np.ndarray], np.ndarray], spacing: float, iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
                reach: float = np.inf, shape: np.ndarray | None = None,
                stage: tuple[str, float, float] | None = None):
     """Run ICP iterations for H poses at once; returns (poses, truncated scores, iterations run).

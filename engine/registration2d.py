@@ -103,7 +103,7 @@ def register_2d(index: ContourIndex, measured: np.ndarray, n_angles: int = 36,
     # (A single clear candidate needs no short round.)
     short = [_gauss_newton2(index, p[fsub], Tc, outlier_sigmas, 5 if len(T) > 1 else 0, h)
              for Tc in T[:3]]
-    cut0 = min(f.cut for f in short)
+    cut0 = min(_cut(f) for f in short)
     scores = [float(np.sqrt(np.mean(np.minimum(f.deviations.signed ** 2, cut0 ** 2))))
               for f in short]
     best = int(np.argmin(scores))
@@ -253,11 +253,11 @@ def _short_fits(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float
         if it == iterations:
             break
         g = _gradient(X, dev.foot, dev.signed).reshape(H, m, 2)
-        X = X.reshape(H, m, 2)
+        Xh = X.reshape(H, m, 2)  # per pose
         w = np.array([np.abs(dk) <= robust_cut(dk, sigmas, floor) for dk in d], float)
-        c = (w[..., None] * X).sum(1) / np.maximum(w.sum(1), 1)[:, None]
-        xt = X - c[:, None, :]
-        J = pose_jacobian(X, g, c[:, None, :])
+        c = (w[..., None] * Xh).sum(1) / np.maximum(w.sum(1), 1)[:, None]
+        xt = Xh - c[:, None, :]
+        J = pose_jacobian(Xh, g, c[:, None, :])
         Jw = J * w[..., None]
         length = np.sqrt((w * np.sum(xt * xt, axis=2)).sum(1) / np.maximum(w.sum(1), 1.0))
         delta = -min_norm_solve(Jw.transpose(0, 2, 1) @ J, (Jw * d[..., None]).sum(1), 1,
@@ -396,7 +396,7 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
         dev = deviations_2d(index, X)
         d = dev.signed
         # The set is the rule's at this very pose (until it has changed RULE_ROUNDS times).
-        if changes <= RULE_ROUNDS:
+        if changes <= RULE_ROUNDS or kept is None:
             rule, out = rule_at(dev)
             if kept is not None and not np.array_equal(~out, kept):
                 changes += 1
@@ -416,13 +416,12 @@ def _rounds2(index: ContourIndex, p: np.ndarray, T: np.ndarray, zone_width: floa
         T = apply_update(T, delta, c)
     if result is None:
         dev = deviations_2d(index, apply_transform(T, p))
-        if changes <= RULE_ROUNDS:
+        if changes <= RULE_ROUNDS or kept is None:
             rule, out = rule_at(dev)
             kept = ~out
         result = PoseFit(T, False, max_iter, kept, rule, dev)
-    dev, rule = result.deviations, result.rule
     if everything:
-        gross = gross_outliers(dev.signed, dev.foot, rule)
+        gross = gross_outliers(result.deviations.signed, result.deviations.foot, result.rule)
     elif included is None:
         gross = ~result.inlier
     else:
@@ -446,6 +445,13 @@ def _gradient(X: np.ndarray, foot: np.ndarray, d: np.ndarray) -> np.ndarray:
     g = X - foot
     ln = np.linalg.norm(g, axis=1)
     return g / np.where(ln > 0, ln, 1.0)[:, None] * np.sign(np.where(d == 0, 1.0, d))[:, None]
+
+
+def _cut(fit: RobustFit) -> float:
+    """The robust cut of a 2D fit (mm), which :func:`_gauss_newton2` always sets."""
+    if fit.cut is None:
+        raise ValueError("a 2D robust fit without its cut")
+    return fit.cut
 
 
 def _gauss_newton2(index: ContourIndex, p: np.ndarray, T: np.ndarray, sigmas: float,

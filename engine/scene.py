@@ -46,7 +46,7 @@ each other (:func:`objects`): a scanner's rows are one spacing apart on a surfac
 between two objects on a table is wider than two."""
 
 
-def check_box(box) -> tuple[float, ...]:
+def check_box(box) -> tuple[float, float, float, float, float, float]:
     """A crop box (xmin, ymin, zmin, xmax, ymax, zmax), mm, checked: six finite numbers, each
     minimum below its maximum. Raises SettingsError otherwise."""
     try:
@@ -64,7 +64,7 @@ def check_box(box) -> tuple[float, ...]:
         if not lo < hi:
             raise SettingsError(f"the crop box's {axis} range {lo:g} .. {hi:g} is empty: "
                                 f"{axis.upper()}MIN must be below {axis.upper()}MAX")
-    return values
+    return values[0], values[1], values[2], values[3], values[4], values[5]
 
 
 def check_plane_distance(distance: float | None) -> None:
@@ -353,10 +353,11 @@ def extent_warning(measured: np.ndarray, nominal: np.ndarray, what: str = "measu
     """
     m = np.ptp(np.asarray(measured, dtype=np.float64), axis=0)
     s = np.ptp(np.asarray(nominal, dtype=np.float64), axis=0)
-    if not np.linalg.norm(m) > ratio * np.linalg.norm(s):
+    m_diagonal, s_diagonal = float(np.linalg.norm(m)), float(np.linalg.norm(s))
+    if not m_diagonal > ratio * s_diagonal:
         return None
     return (f"the {what} span {_dims(m)} mm, the nominal {_dims(s)} mm "
-            f"({np.linalg.norm(m) / max(np.linalg.norm(s), 1e-300):.3g} x its diagonal): the "
+            f"({m_diagonal / max(s_diagonal, 1e-300):.3g} x its diagonal): the "
             "measurement holds more than the part (a table, a fixture, other objects); crop "
             "them to the part (--crop XMIN YMIN ZMIN XMAX YMAX ZMAX, and --remove-plane for a "
             "table under it)")

@@ -134,6 +134,8 @@ def the_part(nominal: Nominal, measured: PointSet, selection: Selection, setting
     removed) less the other objects standing on it (:func:`part_in_scene`, the table's spread
     as the noise), and the selection that says so; ``settings``: the inspection's
     (engine.settings.InspectionSettings), whose tolerance zone sets the gross-outlier rule."""
+    if selection.plane is None:
+        raise ValueError("the_part needs a scene whose table plane was removed")
     report("which object is the part", 0.0)
     tol = settings.tolerance
     part = part_in_scene(nominal, measured.points, selection.plane.sigma,

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from .choices import DecisionRule, Fit
+from .scene import check_box
 from .seeds import DEFAULT_SEED
 from .tolerance import Tolerance
 from .uncertainty import Instrument
@@ -105,8 +106,9 @@ class InspectionSettings:
                    # Settings without "instrument" are older than uncertainty budgets: their
                    # guarded rule guarded by the sampling margin alone.
                    d.get("guard") or ("uncertainty" if "instrument" in d else "sampling"),
-                   None if d.get("crop") is None else tuple(float(v) for v in d["crop"]),
+                   None if d.get("crop") is None else check_box(d["crop"]),
                    bool(d.get("remove_plane", False)),
                    None if d.get("plane_distance") is None else float(d["plane_distance"]),
                    # Settings without "seed" are older than it: their inspections drew seed 0's.
                    int(d.get("seed", DEFAULT_SEED)))
+

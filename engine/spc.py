@@ -414,18 +414,21 @@ def capability(chart: ControlChart, lower: float | None, upper: float | None,
         none = Index(None, None, why)
         return Capability(none, none, none, none, confidence)
     n, m, s = chart.n, chart.centre, chart.sigma_within
+    if m is None:
+        raise ValueError("a control chart with a sigma_within must have a centre")
 
     def one_sided(value: float) -> Index:
         return Index(value, cpk_interval(value, n, confidence))
 
-    cpu = one_sided((upper - m) / (3 * s)) if upper is not None else Index(
-        None, None, "no upper limit")
-    cpl = one_sided((m - lower) / (3 * s)) if lower is not None else Index(
-        None, None, "no lower limit")
-    if upper is not None and lower is not None:
+    cpu_value = None if upper is None else (upper - m) / (3 * s)
+    cpl_value = None if lower is None else (m - lower) / (3 * s)
+    cpu = Index(None, None, "no upper limit") if cpu_value is None else one_sided(cpu_value)
+    cpl = Index(None, None, "no lower limit") if cpl_value is None else one_sided(cpl_value)
+    if upper is not None and lower is not None and cpu_value is not None \
+            and cpl_value is not None:
         cp_value = (upper - lower) / (6 * s)
         cp = Index(cp_value, cp_interval(cp_value, n, confidence))
-        cpk = one_sided(min(cpu.value, cpl.value))
+        cpk = one_sided(min(cpu_value, cpl_value))
     else:
         cp = Index(None, None, "Cp needs both tolerance limits")
         cpk = cpu if upper is not None else cpl

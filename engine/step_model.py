@@ -175,15 +175,16 @@ def _same_plane(g: dict, h: dict, scale: float) -> bool:
 
 def _same_cylinder(g: dict, h: dict, scale: float) -> bool:
     a, d = g["axis"], h["point"] - g["point"]
-    return (abs(abs(a @ h["axis"]) - 1.0) <= SAME_SURFACE and bool(g["hole"]) == bool(h["hole"])
-            and np.linalg.norm(d - (d @ a) * a) <= SAME_SURFACE * scale
-            and abs(g["radius"] - h["radius"]) <= SAME_SURFACE * scale)
+    return bool(abs(abs(a @ h["axis"]) - 1.0) <= SAME_SURFACE
+                and bool(g["hole"]) == bool(h["hole"])
+                and np.linalg.norm(d - (d @ a) * a) <= SAME_SURFACE * scale
+                and abs(g["radius"] - h["radius"]) <= SAME_SURFACE * scale)
 
 
 def _same_sphere(g: dict, h: dict, scale: float) -> bool:
-    return (np.linalg.norm(g["centre"] - h["centre"]) <= SAME_SURFACE * scale
-            and abs(g["radius"] - h["radius"]) <= SAME_SURFACE * scale
-            and bool(g["hole"]) == bool(h["hole"]))
+    return bool(np.linalg.norm(g["centre"] - h["centre"]) <= SAME_SURFACE * scale
+                and abs(g["radius"] - h["radius"]) <= SAME_SURFACE * scale
+                and bool(g["hole"]) == bool(h["hole"]))
 
 
 _EXACT_KINDS = {"plane": _same_plane, "cylinder": _same_cylinder, "sphere": _same_sphere}

@@ -170,12 +170,13 @@ def _least_squares_rounds(nominal, pts, start, settings, zone_width, floor, budg
     any; all False: plain least squares over every point). Returns the fit and (m,) bool, the
     points gross by the rule alone at its pose."""
     T, dev, dev_s = start.T_nominal_measured, start.deviations, start.deviation_s
-    total, converged, keep = 0, False, None
+    total, converged = 0, False
+    keep = np.zeros(0, bool)  # none kept yet (the first round never stops: not converged)
     for _ in range(MAX_ROUNDS):
         rule = gross_rule(dev.signed, zone_width, floor)
         gross = _gross(dev, rule, included)
         new = ~gross if included is None else ~(gross & included)
-        if keep is not None and converged and np.array_equal(new, keep):
+        if converged and np.array_equal(new, keep):
             break
         keep = new
         if total >= budget:

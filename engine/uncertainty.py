@@ -180,7 +180,8 @@ def _instrument_terms(ins: Instrument | None, L: np.ndarray):
         return
     if ins.mpe_a_um is not None or ins.mpe_l_per_um is not None:
         a = ins.mpe_a_um or 0.0
-        mpe_um = a + (L / ins.mpe_l_per_um if ins.mpe_l_per_um else 0.0)
+        # An array even without the L / K part: expanded_at indexes each term per point.
+        mpe_um = a + (L / ins.mpe_l_per_um if ins.mpe_l_per_um else np.zeros(n))
         k_text = f" + L/{ins.mpe_l_per_um:g}" if ins.mpe_l_per_um else ""
         yield Term("length", "instrument length error MPE_E", "rectangular", SQRT3,
                    mpe_um / 1000.0 / SQRT3,

@@ -61,7 +61,7 @@ def callout_points(feet: np.ndarray, d: np.ndarray, lower: float, upper: float,
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
                        shape=(len(cand), len(cand)))
     _, label = connected_components(graph, directed=False)
-    worst = {}
+    worst: dict[int, int] = {}  # cluster label -> its worst point
     for k in np.argsort(-severity[cand], kind="stable"):
         worst.setdefault(int(label[k]), int(cand[k]))  # the first seen is its cluster's worst
     return list(worst.values())[:max_callouts]

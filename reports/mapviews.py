@@ -19,6 +19,11 @@ COVER_DEG = 60.0
 MAX_VIEWS = 4
 
 
+def xyz(v: np.ndarray) -> tuple[float, float, float]:
+    """The three floats of a (3,) vector."""
+    return float(v[0]), float(v[1]), float(v[2])
+
+
 @dataclass(frozen=True)
 class ViewSpec:
     """A camera direction with its name."""
@@ -48,8 +53,7 @@ def _iso_views() -> list[ViewSpec]:
                 up /= np.linalg.norm(up)
                 name = "Iso (" + " ".join(f"{'+' if s > 0 else '-'}{a}" for s, a in
                                           ((sx, "X"), (sy, "Y"), (sz, "Z"))) + ")"
-                out.append(ViewSpec(name, tuple(float(v) for v in d),
-                                    tuple(float(v) for v in up)))
+                out.append(ViewSpec(name, xyz(d), xyz(up)))
     return out
 
 
@@ -119,7 +123,7 @@ def frame(points: np.ndarray, view: ViewSpec, aspect: float, fill: float = 0.84)
     centre = cu * right + cv * up + 0.5 * (w.max() + w.min()) * d
     span = max(float(np.ptp(v)), float(np.ptp(u)) / aspect, 1e-9)
     depth = float(np.ptp(w)) + float(np.ptp(u)) + float(np.ptp(v)) + 1.0
-    return Framing(tuple(float(x) for x in centre), 0.5 * span / fill, depth)
+    return Framing(xyz(centre), 0.5 * span / fill, depth)
 
 
 def project(points: np.ndarray, view: ViewSpec, framing: Framing,

@@ -347,8 +347,10 @@ def _verify(pdf: bytes, trust_roots: list) -> Verification:
                             + (f" ({getattr(why, 'name', why)})" if why else ""))
         last = k == len(sigs) - 1
         if last and st.coverage != SignatureCoverageLevel.ENTIRE_FILE:
+            # pyHanko leaves the coverage None when it could not determine it.
+            coverage = "undetermined" if st.coverage is None else st.coverage.name
             problems.append("the file was changed after the last signature "
-                            f"(coverage: {st.coverage.name})")
+                            f"(coverage: {coverage})")
         if not last and (st.modification_level is None
                          or st.modification_level > ModificationLevel.FORM_FILLING
                          or not st.docmdp_ok):

@@ -21,6 +21,7 @@ import math
 import textwrap
 from collections.abc import Iterable, Mapping
 from functools import lru_cache
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib import rc_context
@@ -37,8 +38,11 @@ from engine.spc import Analysis, Kind, Series, analyse
 from .messages import VERDICT_RGB, printable
 from .results import SOFTWARE_NAME
 
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
+
 A4_LANDSCAPE = (11.69, 8.27)
-RC = {"pdf.fonttype": 42, "font.size": 8, "font.family": "DejaVu Sans", "axes.titlesize": 9,
+RC: dict[RcKeyType, Any] = {"pdf.fonttype": 42, "font.size": 8, "font.family": "DejaVu Sans", "axes.titlesize": 9,
       "axes.titleweight": "bold", "legend.fontsize": 7, "svg.hashsalt": "qa-inspect",
       "text.parse_math": False}
 """TrueType text (copyable, found by pdftotext) and one font whatever the user's matplotlibrc;
@@ -49,6 +53,7 @@ CONTROL_RGB = (0.0, 0.45, 0.70)
 CENTRE_RGB = (0.0, 0.55, 0.35)
 FLAG_RGB = (0.80, 0.0, 0.0)
 POINT_RGB = (0.15, 0.15, 0.15)
+RGB = tuple[float, float, float]
 DRIFT_RGB = (0.55, 0.0, 0.55)
 NOTE_RGB = (0.45, 0.45, 0.45)
 TABLE_ROWS = 24
@@ -165,7 +170,7 @@ def _lot_page(title: str, facts: Mapping[str, object] | None, table: "_Table",
     y = 0.87
     if facts is not None:
         for key, value in facts.items():
-            colour = VERDICT_RGB.get(str(key), POINT_RGB)
+            colour = next((rgb for v, rgb in VERDICT_RGB.items() if v == key), POINT_RGB)
             fig.text(0.04, y, _printable(key), fontsize=10, va="top", color=colour, weight="bold",
                      parse_math=False)
             fig.text(0.20, y, _printable(value), fontsize=10, va="top", color=colour,
@@ -371,7 +376,9 @@ def _chart_title(a: Analysis) -> str:
 def _trend_line(ax, a: Analysis) -> None:
     """The drift's least-squares line over the lot and, when it warns, on to the limit."""
     d, n = a.drift, len(a.series.values)
-    end = n + (d.parts_to_limit if d.warning else 0)
+    if d.slope is None or d.intercept is None:
+        raise ValueError("a trend line needs the drift's fitted line")
+    end = n + (d.parts_to_limit if d.warning and d.parts_to_limit is not None else 0)
     t = np.array([1.0, float(n), float(end)])
     y = d.intercept + d.slope * (t - 1)
     ax.plot(t[:2], y[:2], "-", color=DRIFT_RGB, lw=1.2, zorder=2,
@@ -418,6 +425,8 @@ def _histogram(ax, a: Analysis) -> None:
     if len(x) == 0:
         return
     lo, hi = float(x.min()), float(x.max())
+    bins: int | np.ndarray
+    span: tuple[float, float] | None
     if s.kind is Kind.COUNT:  # a bar per whole number
         bins, span = np.arange(-0.5, hi + 1.0), None
     else:
@@ -427,7 +436,7 @@ def _histogram(ax, a: Analysis) -> None:
         span = (centre - 1.05 * half, centre + 1.05 * half)
     counts, edges, _ = ax.hist(x, bins=bins, range=span, color=(0.75, 0.8, 0.88),
                                edgecolor=(0.35, 0.4, 0.5), lw=0.5)
-    if c.std_overall and s.kind is not Kind.COUNT:  # a count is not normal
+    if c.std_overall and c.centre is not None and s.kind is not Kind.COUNT:  # (not normal)
         grid = np.linspace(min(edges[0], c.centre - 4 * c.std_overall),
                            max(edges[-1], c.centre + 4 * c.std_overall), 200)
         pdf = np.exp(-0.5 * ((grid - c.centre) / c.std_overall) ** 2) / (
@@ -453,7 +462,7 @@ def _numbers(fig: Figure, a: Analysis, top: float) -> None:
     missing = len(s.values) - c.n
     limits = "no tolerance limits" if s.lower is None and s.upper is None else \
         f"tolerance {_limits_text(s)} {_printable(s.unit)}"
-    lines = [(kind.note, NOTE_RGB)] if kind.note else []
+    lines: list[tuple[str, RGB | None]] = [(kind.note, NOTE_RGB)] if kind.note else []
     lines += [
         (f"n = {c.n} of {len(s.values)} parts" + (f" ({missing} without a value)" if missing
                                                   else ""), None),
@@ -479,8 +488,9 @@ def _numbers(fig: Figure, a: Analysis, top: float) -> None:
         y -= 0.006 if text else 0
 
 
-def _capability_lines(a: Analysis) -> list[tuple[str, tuple | None]]:
+def _capability_lines(a: Analysis) -> list[tuple[str, RGB | None]]:
     cap, d = a.capability, a.drift
+    lines: list[tuple[str, RGB | None]]
     if a.series.kind is Kind.BOUNDED:  # Cp and Cpl have no meaning for it: not listed
         lines = [(f"Cpu {_index_text(cap.cpu)} (one-sided Cpk, upper limit)", None)]
     else:
@@ -489,14 +499,14 @@ def _capability_lines(a: Analysis) -> list[tuple[str, tuple | None]]:
     if cap.normality_p is not None and cap.cpk.value is not None:
         lines.append((f"normality: Shapiro-Wilk p = {cap.normality_p:.2g}", None))
     if cap.cpk.value is None:
-        lines.append(("capability: " + cap.cpk.reason, None))
+        lines.append((f"capability: {cap.cpk.reason}", None))
     elif cap.cp.value is None and a.series.kind is not Kind.BOUNDED:
-        lines.append(("capability: " + cap.cp.reason, None))
+        lines.append((f"capability: {cap.cp.reason}", None))
     lines.append(("drift: " + (d.reason or d.text), DRIFT_RGB if d.warning else None))
     return lines
 
 
-def _rule_lines(a: Analysis) -> list[tuple[str, tuple | None]]:
+def _rule_lines(a: Analysis) -> list[tuple[str, RGB | None]]:
     rules = a.series.kind.rules
     if not rules:
         return [("run rules: not applied", None)]

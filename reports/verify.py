@@ -178,8 +178,10 @@ def certified_line(c: Certified) -> str:
     """What the certificate states: its number, verdict and reasons."""
     from .messages import VERDICT_WORD
 
+    # (the certificate's verdict is the word as written: equal to its Verdict, or unknown)
+    word = next((w for v, w in VERDICT_WORD.items() if v == c.verdict), "?")
     return (f"certificate {c.number}: "
-            f"{VERDICT_WORD.get(c.verdict, '?')} — "
+            f"{word} — "
             f"{'; '.join(c.reasons)}")
 
 
@@ -227,7 +229,11 @@ def recheck(doc: dict, files: dict[str, str | None],
     # plan given here, whose SHA-256 was just checked.
     settings = dataclasses.replace(InspectionSettings.from_json(doc["settings"]),
                                    plan=files["plan"])
-    run = run_files(files["nominal"], files["measured"], settings, progress)
+    nominal, measured = files["nominal"], files["measured"]
+    if nominal is None or measured is None:
+        raise RerunFilesError("give both the nominal and the measured file to re-run the "
+                              "inspection")
+    run = run_files(nominal, measured, settings, progress)
     return checks + [_rerun_check(doc, run, run_document(run))]
 
 

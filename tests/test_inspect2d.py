@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from engine.contour import ContourIndex, deviations_2d, points_on
+from engine.errors import InputError
 from engine.inspection import Tolerance, inspect_2d
-from engine.io.templates import read_airfoil_template, read_dxf_template
+from engine.io.templates import read_airfoil_template, read_dxf_template, read_template
 from engine.pose import apply_transform, pose_2d
 from engine.registration2d import register_2d
 from engine.verdict import ACCEPT, REJECT
@@ -138,6 +139,8 @@ def test_airfoil_ordinates_template(tmp_path, capsys):
     dat = tmp_path / "naca0012.dat"
     dat.write_text("NACA 0012\n" + "\n".join(f"{a:.6f} {b:.6f}" for a, b in np.vstack([upper, lower])))
     tpl = read_airfoil_template(dat, 250.0)
+    with pytest.raises(InputError, match="needs its chord length"):
+        read_template(dat)  # no scale: was a TypeError comparing None with 0
     t = tpl.template
     assert t.closed.tolist() == [True]
     assert np.ptp(np.vstack([t.start, t.end])[:, 0]) == pytest.approx(250.0, abs=1e-3)

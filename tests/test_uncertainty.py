@@ -15,7 +15,7 @@ from engine.inspection import Tolerance, inspect
 from engine.io.plan import read_plan
 from engine.nominal import Nominal
 from engine.trust import conditioning
-from engine.uncertainty import Instrument, budget
+from engine.uncertainty import Instrument, budget, expanded_at
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 from engine.pose import apply_transform, make_transform
 from qa_app.cli import main
@@ -68,6 +68,20 @@ def test_budget_against_a_hand_computation():
     assert [t.key for t in stated.terms] == ["stated", "pose", "sampling"]
     np.testing.assert_allclose(stated.expanded, 2.0 * np.sqrt(0.005 ** 2 + pose ** 2),
                                rtol=1e-9)
+
+
+def test_an_mpe_without_its_length_part_is_a_term_per_point():
+    """MPE_E = A alone (no K) is still an (n,) term, so a characteristic's U at some of the
+    points (expanded_at) can be taken from it: it was a float, and indexing it raised."""
+    rng = np.random.default_rng(11)
+    X, normals, _, rms = _plane_fit(rng)
+    n = len(X)
+    b = budget(X, normals, np.ones(n, bool), rms, conditioning(X, normals, rms), None,
+               Instrument(mpe_a_um=1.8))
+    length = next(t for t in b.terms if t.key == "length")
+    np.testing.assert_allclose(length.u, np.full(n, 1.8 / 1000.0 / np.sqrt(3.0)), rtol=1e-12)
+    idx = np.array([0, 5, 17])
+    np.testing.assert_allclose(expanded_at(b, idx), b.expanded[idx], rtol=1e-12)
 
 
 @pytest.fixture(scope="module")

@@ -69,10 +69,10 @@ def read_obj(path: str) -> MeshData:
     nv = points.shape[0]
     polygons = named = None
     if f_rows:
-        faces = _obj_faces_uniform(f_rows, np.asarray(f_before), nv)
-        if faces is None:
-            faces = [_obj_face(row, ln, before, nv, path)
-                     for row, ln, before in zip(f_rows, f_lines, f_before)]
+        uniform = _obj_faces_uniform(f_rows, np.asarray(f_before), nv)
+        faces = uniform if uniform is not None else [
+            _obj_face(row, ln, before, nv, path)
+            for row, ln, before in zip(f_rows, f_lines, f_before)]
         polygons = cells(faces, nv, path, lambda i: ("face", f_lines[i]))
         named = groups.of_vertices(faces, np.asarray(f_set, dtype=np.int64), nv)
     normals = None
@@ -115,7 +115,7 @@ class _ObjGroups:
         file without g or o. A name no face is under names no group."""
         if not self.named:
             return None
-        sets = sorted(self.sets, key=self.sets.get)
+        sets = sorted(self.sets, key=self.sets.__getitem__)
         used = np.zeros(len(sets), dtype=bool)
         used[face_set] = True
         names = list(dict.fromkeys(n for k, u in zip(sets, used) if u for n in k))

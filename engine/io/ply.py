@@ -133,15 +133,15 @@ def read_ply(path: str) -> MeshData:
         raise InputError("truncated or damaged PLY header: no 'end_header' line", path)
     fmt, elements = _ply_header(raw[:m.start()].decode("ascii", "replace"), path)
     header_lines = raw[:m.end()].count(b"\n")
+    order = _PLY_FORMATS[fmt]  # the binary byte order; None: ASCII
     try:
-        if fmt == "ascii":
+        if order is None:
             values = _ply_ascii(raw, m.end(), header_lines, elements, path)
         else:
-            values = _ply_binary(raw, m.end(), _PLY_FORMATS[fmt], elements, path)
+            values = _ply_binary(raw, m.end(), order, elements, path)
         return _ply_mesh(values, path)
     except InputError:
-        held = None if fmt == "ascii" else _vertices_that_fit(raw, m.end(), _PLY_FORMATS[fmt],
-                                                              elements)
+        held = None if order is None else _vertices_that_fit(raw, m.end(), order, elements)
         if held is not None:
             raise _truncated(elements[0], held, path) from None
         raise
@@ -161,7 +161,8 @@ def _ply_mesh(values: dict, path: str) -> MeshData:
                           lambda i: (f"face {i}", None if lines is None else int(lines[i])))
     prop = next((p for p in GROUP_PROPERTIES if p in vert), None)
     if polygons is not None and values.get("face_group") is not None:
-        names, ids = _group_numbers(*values["face_group"], "face", path, lines)
+        numbers, name = values["face_group"]
+        names, ids = _group_numbers(numbers, name, "face", path, lines)
         groups = vertex_groups(values["face"], np.arange(ids.size), ids, names, n)
     elif prop is not None:
         names, ids = _group_numbers(vert[prop], prop, "vertex", path)
@@ -423,7 +424,8 @@ def _binary_lists(raw: bytes, off: int, order: str, el: _Element, path):
     if el.count == 0:
         return [], None, off
     # Fast path: every row's lists as long as the first row's (triangle or quad meshes).
-    counts, pos = [], off
+    counts: list[int | None] = []  # each property's list length (None: not a list)
+    pos = off
     for p in el.props:
         size = np.dtype(p.count_code or p.code).itemsize
         if pos + size > len(raw):
@@ -436,9 +438,10 @@ def _binary_lists(raw: bytes, off: int, order: str, el: _Element, path):
             counts.append(None)
             pos += size
     fields = []
-    for j, (p, n) in enumerate(zip(el.props, counts)):
-        if p.count_code:
-            fields += [(f"n{j}", order + p.count_code), (f"l{j}", order + p.code, (max(n, 0),))]
+    for j, (p, count) in enumerate(zip(el.props, counts)):
+        if p.count_code and count is not None:
+            fields += [(f"n{j}", order + p.count_code),
+                       (f"l{j}", order + p.code, (max(count, 0),))]
         else:
             fields.append((f"s{j}", order + p.code))
     dt = np.dtype(fields)

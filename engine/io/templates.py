@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter, defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -66,16 +67,19 @@ class TemplateFile:
     mm_per_unit: float = 1.0
 
 
-def read_template(path: str | os.PathLike, layers: list[str] | None = None,
+def read_template(path: str | os.PathLike, layers: Sequence[str] | None = None,
                   units: str | None = None, scale: float | None = None) -> TemplateFile:
     """A 2D template file of either kind (see :mod:`engine.io.formats`): a DXF drawing (``layers``,
     ``units``) or airfoil ordinates (``scale`` = chord length, mm)."""
     if formats.kind_of(path) == formats.DXF:
         return read_dxf_template(path, layers=layers, units=units)
+    if scale is None:
+        raise InputError("an airfoil ordinate template needs its chord length (scale, mm)",
+                         os.fspath(path))
     return read_airfoil_template(path, scale)
 
 
-def read_dxf_template(path: str | os.PathLike, layers: list[str] | None = None,
+def read_dxf_template(path: str | os.PathLike, layers: Sequence[str] | None = None,
                       chain_tol: float | None = None, units: str | None = None) -> TemplateFile:
     """Read the contours of a DXF drawing.
 
@@ -143,14 +147,16 @@ def _drawing_units(doc, units: str | None, path: str) -> tuple[float, str, bool]
         unit_name = f"{units} (given; the file says {ezdxf.units.unit_name(code) or 'none'})"
     else:
         try:
-            scale = 1.0 if unitless else ezdxf.units.conversion_factor(code, ezdxf.units.MM)
+            # ezdxf types the units as InsertUnits; the header's int is one (an IntEnum).
+            scale = 1.0 if unitless else ezdxf.units.conversion_factor(
+                code, ezdxf.units.MM)  # type: ignore[arg-type]
         except (KeyError, ValueError, ZeroDivisionError, TypeError):
             raise InputError(f"$INSUNITS {code} is not a length unit", path) from None
         unit_name = "unitless (taken as mm)" if unitless else ezdxf.units.unit_name(code)
     return scale, unit_name, unitless
 
 
-def _wanted_layers(doc, layers: list[str] | None, path: str) -> set[str] | None:
+def _wanted_layers(doc, layers: Sequence[str] | None, path: str) -> set[str] | None:
     """The lower-cased names of the layers to take (None: every layer); a name the drawing does
     not have is refused, listing the layers it has."""
     wanted = None if layers is None else {name.lower() for name in layers}

@@ -73,6 +73,8 @@ def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None
     views = None
     if run.template is None:  # 3D: the renders run while the evidence files are written
         nom = run.nominal
+        if nom is None:
+            raise ValueError("a 3D inspection without its nominal")
         pending = (renderer or figures.InProcessRenderer()).submit(
             nom.points, nom.triangles, res.deviations.foot, res.deviations.normal,
             res.deviations.signed, res.tolerance, worst_labels(run),

@@ -9,6 +9,7 @@ import math
 import os
 from dataclasses import dataclass
 
+from engine.gdt.plan import Plan
 from engine.pipeline import Run
 
 from .. import figures
@@ -212,6 +213,13 @@ class Layout:
     def plan(self):
         """The inspection plan's outcome (engine.gdt.characteristics.PlanResult), or None."""
         return self.run.result.plan
+
+    @property
+    def plan_read(self) -> Plan:
+        """The inspection plan as read (a plan's sections only ask with one)."""
+        if self.run.plan is None:
+            raise ValueError("the certificate's inspection has no plan")
+        return self.run.plan
 
     @property
     def is_2d(self) -> bool:

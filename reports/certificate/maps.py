@@ -19,7 +19,7 @@ def deviation_map(c: Layout) -> list:
     # The heading, the map and its caption together, on this page when they fit (a page
     # break before a fixed height would leave the page above half empty).
     out = [P("7  Deviation map", S["h"])]
-    if c.is_2d:
+    if run.template is not None:  # 2D
         bar_w = 24 * mm
         drawing, factor = figures.contour_map(run.template.template, res.deviations.foot,
                                               res.deviations.normal, res.deviations.signed,

@@ -40,12 +40,12 @@ def characteristics(c: Layout) -> list:
     rows_idx = list(out_idx) + [i for i in order[st.n_out: st.n_out + near]]
     judged = res.verdict != INCONCLUSIVE if c.plan is None else registration_trusted(res)
     if not judged:  # no pose to trust: the points are listed, not judged
-        out_idx = []
+        out_idx = order[:0]
         rows_idx = list(order[:max(near, WORST_ROWS)])
     title, header, words, intro = _point_list_words(c, len(out_idx),
                                                     len(rows_idx) - len(out_idx), judged)
     rows = [header]
-    res_styles = []
+    res_styles: list[tuple] = []  # reportlab table style commands
     for k, i in enumerate(rows_idx):
         p = res.registered[i]
         ok = bool(res.in_tolerance[i])

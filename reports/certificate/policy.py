@@ -8,6 +8,7 @@ import datetime as dt
 import hashlib
 import json
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -130,7 +131,7 @@ def plan_info(info: CertificateInfo, run: Run) -> CertificateInfo:
             f"the part temperature given, {info.temperature_c:g} °C, is not the inspection "
             f"plan's [measurement] temperature_c = {how.temperature_c:g} °C that its "
             "uncertainty budget uses (thermal expansion): correct one of them")
-    planned = {"part_number": part.number, "part_name": part.name, "revision": part.revision,
+    planned: dict[str, Any] = {"part_number": part.number, "part_name": part.name, "revision": part.revision,
                "drawing": part.drawing, "cad_revision": part.cad_revision,
                "device": how.device, "device_serial": how.device_serial,
                "calibration_date": how.calibration_date, "probe": how.probe,
@@ -172,9 +173,14 @@ def check_trustworthy(run: Run) -> None:
     trusted = (registration_trusted(res) and res.conditioning is not None and sens is not None
                and sens.verdict_stable)
     d, tol = res.deviations.signed, res.tolerance
-    m = 0.0  # the guarded rule's guard band: U, or the sampling margin alone (older sessions)
+    # The guarded rule's guard band: U, or the sampling margin alone (older sessions).
+    m: float | np.ndarray = 0.0
     if res.decision_rule == DecisionRule.GUARDED:
-        m = res.margin if res.uncertainty is None else res.uncertainty.expanded
+        guard = res.margin if res.uncertainty is None else res.uncertainty.expanded
+        if guard is None:
+            raise CertificateError("refusing to certify: a guarded inspection without its "
+                                   "guard band (no uncertainty, no sampling margin)")
+        m = guard
     inside = bool(np.all((d >= tol.lower + m) & (d <= tol.upper - m)))
     if res.verdict == ACCEPT and not (trusted and inside):
         raise CertificateError("refusing to certify ACCEPTED: the registration is not "

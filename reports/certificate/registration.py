@@ -125,7 +125,7 @@ def _alignment_table(c: Layout):
     RPS point's locked axes and nominal position."""
     from reportlab.lib.units import mm
 
-    W, al, plan = c.width, c.plan.alignment, c.run.plan
+    W, al, plan = c.width, c.plan.alignment, c.plan_read
     if c.plan.method == "rps":
         rows = [["RPS point", "Locked along", "Nominal position (mm)"]]
         rows += [[p.label, ", ".join(p.lock), _vec(p.nominal)] for p in plan.rps]

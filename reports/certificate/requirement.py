@@ -112,7 +112,7 @@ def _uncertainty_budget(c: Layout) -> list:
 def _plan_requirement(c: Layout) -> list[tuple[str, str]]:
     """Section 3 of a plan: its characteristics are the requirement; the zone of the per-point
     statistics is stated apart, with whether it is one of them."""
-    res, zone, plan = c.res, c.zone, c.run.plan
+    res, zone, plan = c.res, c.zone, c.plan_read
     rec = next(r for r in c.run.inputs if r.role == "plan")
     guarded = res.decision_rule == DecisionRule.GUARDED
     return [

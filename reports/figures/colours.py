@@ -128,7 +128,8 @@ def _bands(lo: float, hi: float) -> tuple[Band, ...]:
     m = centres[green]
     t = np.where(centres < m, (centres - m) / (m - lo if m > lo else 1.0),
                  (centres - m) / (hi - m if hi > m else 1.0))
-    rgb = [tuple(round(float(v), 4) for v in c) for c in ramp_rgb(t)]
+    rgb = [(round(float(r), 4), round(float(g), 4), round(float(b), 4))
+           for r, g, b in ramp_rgb(t)]
     digits = max(3, int(math.ceil(-math.log10(float(np.min(np.diff(edges)))))) + 1)
     s = (hi - lo) / 4.0
     out = [Band(-math.inf, lo - s, BELOW[0], False, digits),
@@ -140,7 +141,7 @@ def _bands(lo: float, hi: float) -> tuple[Band, ...]:
     return tuple(out)
 
 
-def bands(tol: "Tolerance") -> list[Band]:
+def bands(tol: "Tolerance | Zone") -> list[Band]:
     """The bands from the most negative to the most positive deviation: two below the zone,
     12-16 inside it (:data:`ZONE_STEPS`), two above it."""
     return list(_bands(float(tol.lower), float(tol.upper)))
@@ -156,7 +157,7 @@ def band_label(b: Band) -> str:
     return f"{b.lower:+.{n}f} … {b.upper:+.{n}f}"
 
 
-def band_index(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
+def band_index(d: np.ndarray, tol: "Tolerance | Zone") -> np.ndarray:
     """Index into :func:`bands` of each deviation (mm): a band holds [lower, upper), the zone
     its limits, the first band beyond a limit the next quarter zone (its far end included)."""
     d = np.asarray(d, dtype=float)
@@ -169,7 +170,7 @@ def band_index(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
         d > hi + s, last + 1, np.where(d > hi, last, inside))))
 
 
-def band_rgb(d: np.ndarray, tol: "Tolerance") -> np.ndarray:
+def band_rgb(d: np.ndarray, tol: "Tolerance | Zone") -> np.ndarray:
     """(n, 3) uint8 colours of deviations ``d``."""
     table = (np.array([b.rgb for b in bands(tol)]) * 255).round().astype(np.uint8)
     return table[band_index(d, tol)]

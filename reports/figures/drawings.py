@@ -215,7 +215,8 @@ def _callouts(g, anchors, labels: dict[int, str], avoid: np.ndarray, blocked) ->
     texts = [labels[i].split("\n") for i, _, _ in shown]
     sizes = [(max(stringWidth(t, "Helvetica", 6.5) for t in lines) + 5, 8 * len(lines) + 2)
              for lines in texts]
-    places = place_labels(np.array([(x, y) for _, x, y in shown]).reshape(-1, 2), sizes,
+    places = place_labels(np.array([(x, y) for _, x, y in shown]).reshape(-1, 2),
+                          np.array(sizes, dtype=float).reshape(-1, 2),
                           g.width, g.height, avoid, blocked=blocked)
     for (i, x, y), lines, (w, h), at in zip(shown, texts, sizes, places):
         if at is None:
@@ -266,9 +267,9 @@ def template_polylines(template) -> list[np.ndarray]:
     """Each contour of a 2D template as one (k, 2) polyline (arcs in steps of at most 3°)."""
     polylines = []
     for c in range(template.closed.size):
-        pts = []
+        pts: list[np.ndarray] = []
         for i in np.flatnonzero(template.contour == c):
-            seg = primitive_points(template, i)
+            seg = primitive_points(template, int(i))
             pts.append(seg if not pts else seg[1:])
         polylines.append(np.vstack(pts))
     return polylines

@@ -131,6 +131,7 @@ def serve() -> None:
         except EOFError:
             out.flush()
             os._exit(0)  # skip VTK's slow teardown; nothing is left to write
+        reply: tuple[bool, list[View] | str]  # the views, or the error's text
         try:
             reply = (True, render_3d(pts, tris, feet, normals, d, zone, worst, **kw))
         except Exception as e:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..callouts import point_spacing
+from ..mapviews import xyz
 from .colours import Zone, band_rgb
 
 if TYPE_CHECKING:  # the render process should not pay for importing the engine
@@ -66,7 +67,8 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
     out = (d < tol.lower) | (d > tol.upper)
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
-        pl.set_background("white")
+        # pyvista's method decorators (_Wrapped) hide their signatures from mypy.
+        pl.set_background("white")  # type: ignore[arg-type]
         if surf is not None:
             pl.add_mesh(surf, color=(0.80, 0.81, 0.83), smooth_shading=True, specular=0.2,
                         ambient=0.25)
@@ -76,7 +78,7 @@ def render_3d(nominal_points: np.ndarray, triangles: np.ndarray | None, feet: np
         actors = [(pl.add_points(shown[mask], scalars=rgb[mask], rgb=True,
                                  render_points_as_spheres=True), grow)
                   for mask, grow in ((~out, 1.0), (out, 1.4)) if mask.any()]  # rejects stand out
-        pl.enable_parallel_projection()
+        pl.enable_parallel_projection()  # type: ignore[call-arg]  # pyvista's _Wrapped
         idx = np.array([i for i, _ in worst] + list(np.flatnonzero(out)), dtype=int)
         marks = (shown[idx], normals[idx])
         spacing = point_spacing(feet)
@@ -132,7 +134,7 @@ def _shoot(pl, spec, extent, marks, idx, n_worst, size, markers) -> View:
                     for k in range(n_worst) if visible[k])
     avoid = tuple((float(x), float(y)) for (x, y), v in zip(xy[n_worst:], visible[n_worst:])
                   if v)
-    return View(spec.name, tuple(float(v) for v in d), png, tuple(spec.up), anchors, avoid)
+    return View(spec.name, xyz(d), png, tuple(spec.up), anchors, avoid)
 
 
 def _grab(pl, zbuffer: bool) -> np.ndarray:

@@ -194,7 +194,9 @@ class Brep:
         from OCP.TopoDS import TopoDS_Compound
 
         self.index = ShapeMap()
-        self.faces, self.names, self.parts = [], [], []
+        self.faces: list = []  # OpenCascade's TopoDS_Face
+        self.names: list[str | None] = []
+        self.parts: list[str | None] = []
         for face, name, part in placed:
             if self.index.Add(face) > len(self.faces):  # an instance placed twice on itself once
                 self.faces.append(face)
@@ -209,7 +211,7 @@ class Brep:
         self.tolerance = ShapeAnalysis_ShapeTolerance().Tolerance(compound, 1)
         self._tools: dict[int, FaceTools] = {}
         self._boxes: np.ndarray | None = None
-        self._ancestors = None
+        self._ancestors: tuple | None = None  # (edge -> faces, vertex -> faces)
         self.mesh: tuple = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
 
     def tools(self, fid: int) -> FaceTools:
@@ -437,7 +439,7 @@ class Brep:
             i = general[block]
             foot[i], normal[i] = self.tools(fid).at(p[i], best.uv[i])
         for i in np.flatnonzero(~best.on_face):
-            normal[i] = self._boundary_normal(best.support.get(i), foot[i], int(best.face[i]))
+            normal[i] = self._boundary_normal(best.support.get(int(i)), foot[i], int(best.face[i]))
         for i in np.flatnonzero(~np.isfinite(normal).all(axis=1)):  # a pole, an apex
             normal[i] = self._normal_near(int(best.face[i]), foot[i])
         delta = p - foot

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from engine.errors import InputError
+
 TRIM_DEFLECTION = 2e-4
 """A face's trim is drawn in its (u, v) domain as polylines within this fraction of the domain
 box's diagonal of the boundary curves; a foot farther than ``TRIM_BAND`` x that from every
@@ -282,10 +284,10 @@ class FaceTools:
         except Exception:  # a missing curve on the surface, OpenCascade's Standard_Failure
             return None
         band = TRIM_BAND * deflection
-        lines = _joined(lines, band) if lines else None
-        if lines is None:
+        joined = _joined(lines, band) if lines else None
+        if joined is None:
             return None
-        segments = np.concatenate([np.hstack([p[:-1], p[1:]]) for p in lines])
+        segments = np.concatenate([np.hstack([p[:-1], p[1:]]) for p in joined])
         rng = np.random.default_rng(3)
         check = np.column_stack([rng.uniform(u0, u1, TRIM_CHECKS),
                                  rng.uniform(v0, v1, TRIM_CHECKS)])
@@ -434,7 +436,11 @@ def geometry(t: FaceTools, kind: str) -> dict:
     s = BRepAdaptor_Surface(t.face)
     u0, u1, v0, v1 = t.uv_box
     mid = t.point(0.5 * (u0 + u1), 0.5 * (v0 + v1))
-    out = t.normal(0.5 * (u0 + u1), 0.5 * (v0 + v1))
+    normal = t.normal(0.5 * (u0 + u1), 0.5 * (v0 + v1))
+    if normal is None and kind in ("Plane", "Cylinder", "Sphere"):
+        raise InputError(f"a STEP face ({kind}) has no normal at the middle of its (u, v) "
+                         "box: its outward side is undefined")
+    out = np.zeros(3) if normal is None else normal
     if kind == "Plane":
         pln = s.Plane()
         return {"point": pln.Location().Coord(), "normal": tuple(out.tolist())}

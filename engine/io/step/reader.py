@@ -491,8 +491,9 @@ def _part_faces(tool, label, loc, part: str | None, out: list) -> None:
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
 
-    face_names, face_named = ShapeMap(), []
-    body_names, body_named = ShapeMap(), []
+    face_names, body_names = ShapeMap(), ShapeMap()
+    face_named: list[str] = []
+    body_named: list[str] = []
     subs = Sequence_TDF_Label()
     tool.GetSubShapes_s(label, subs)
     for i in range(1, subs.Length() + 1):
