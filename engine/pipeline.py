@@ -24,7 +24,6 @@ from .inspection import InspectionResult, inspect, inspect_2d
 from .io import formats, is_template, load_point_set, sha256_of
 from .gdt.plan import Plan
 from .pointset import PointSet
-from .neighbours import query_workers
 from .nominal import Nominal, copies_nominal
 from .progress import Callback, report, reporting, within
 from .registration_types import RegistrationSettings

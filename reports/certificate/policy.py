@@ -158,7 +158,6 @@ def check_trustworthy(run: Run) -> None:
     """A certificate may say ACCEPTED only from a converged registration whose pose the
     judge trusted; anything else here is a bug upstream, and no certificate is made."""
     res = run.result
-    reg = res.registration
     if res.plan is not None:
         # A plan's verdict is its characteristics': each inside its limits, on a registration
         # whose regions can be trusted (the per-point zone is only the statistics').
