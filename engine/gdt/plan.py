@@ -55,6 +55,10 @@ or a tab)."""
 SIZE_METHODS = ("lsq", "two-point", "min-circumscribed", "max-inscribed")
 """How a size is taken (ISO 14405-1): least squares (GG), two-point local sizes (LP: their
 smallest and largest), the minimum circumscribed (GN) or maximum inscribed (GX) feature."""
+SIZE_METHOD_WORDS = {"lsq": "least-squares", "two-point": "two-point",
+                     "min-circumscribed": "minimum circumscribed",
+                     "max-inscribed": "maximum inscribed"}
+"""Each size method in words, as results and QIF descriptions say it."""
 MODIFIERS = ("RFS", "MMC", "LMC")
 """Material condition of a toleranced feature of size: regardless of feature size (the
 default), maximum or least material condition (a bonus tolerance)."""

@@ -34,7 +34,7 @@ from .decision import by_value, own, value_guard
 from .features import (FeatureError, axis_distances, complement, cylinder_axis,
                        fit_sphere_lsq)
 from .form import chebyshev
-from .plan import Characteristic
+from .plan import SIZE_METHOD_WORDS, Characteristic
 from .region_features import FACING, measured_hole, nominal_cylinder, region_nominal
 from .results import CharacteristicResult, Geometry
 
@@ -208,6 +208,8 @@ class Measured:
     lsq: SizeFit
     side: np.ndarray | None
     internal: bool
+    form_error: float | None = None
+    """Peak to valley of the least-squares fit's residuals, mm (None for a width)."""
 
 
 def measured_feature(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, T,
@@ -237,16 +239,17 @@ def measured_feature(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, 
             raise InputError(f"[[characteristic]] '{c.id}': region '{region}' is no sphere")
         got = fit_sphere_lsq(X)
         return Measured("round", X, SizeFit(2.0 * got.radius, got.centre), None,
-                        bool(nom["internal"]))
+                        bool(nom["internal"]), got.form_error)
     nom, normals = nominal_cylinder(c, geo, shared)
     got = measured_hole(c, idx, X, normals, nom)
     if isinstance(got, CharacteristicResult):
         return got
     internal = bool(shared.once(("internal", region), lambda: _inward(geo, region, nom)))
     if X.shape[1] == 2:
-        return Measured("round", X, SizeFit(2.0 * got.radius, got.centre), None, internal)
+        return Measured("round", X, SizeFit(2.0 * got.radius, got.centre), None, internal,
+                        got.form_error)
     return Measured("cylinder", X, SizeFit(2.0 * got.radius, got.point, got.direction),
-                    None, internal)
+                    None, internal, got.form_error)
 
 
 def _inward(geo: Geometry, region: str, nom) -> bool:
@@ -290,10 +293,7 @@ def judge_size(c: Characteristic, idx: np.ndarray, geo: Geometry, shared):
     if isinstance(got, CharacteristicResult):
         return own(got, c)
     low, high, facts, guard = got
-    what = {"lsq": "least-squares", "two-point": "two-point",
-            "min-circumscribed": "minimum circumscribed",
-            "max-inscribed": "maximum inscribed"}[c.method] + (
-        " width" if c.feature == "width" else " diameter")
+    what = SIZE_METHOD_WORDS[c.method] + (" width" if c.feature == "width" else " diameter")
     if c.method != "two-point":
         return by_value(c, idx, low, facts, what, guard)
     ends = [by_value(c, idx, v, facts, f"{which} {what}", guard)
@@ -311,6 +311,10 @@ def _size(c: Characteristic, idx: np.ndarray, geo: Geometry, shared):
         return m
     low, high, fit = size_of(m, c.method)
     facts = {"method": c.method, "feature": c.feature, "internal": m.internal}
+    if c.method == "lsq":  # as a size was reported before its methods: the fit and its form
+        facts["fit"] = "least squares"
+        if m.form_error is not None:
+            facts["form_error"] = m.form_error
     if c.method == "two-point":
         facts.update(min_local_size=low, max_local_size=high)
     elif fit is not None:

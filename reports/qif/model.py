@@ -14,6 +14,7 @@ import numpy as np
 
 from engine.choices import Fit, Verdict
 from engine.errors import QAError
+from engine.gdt.plan import SIZE_METHOD_WORDS
 
 from .text import fixed, signed
 
@@ -375,7 +376,8 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
         "Flatness": f"flatness of {where}: minimum-zone width at most {fixed(upper - lower)} mm",
         "Position": f"position of the axis of {where}: a cylindrical zone of diameter "
                     f"{fixed(upper - lower)} mm about the true position",
-        **{k: f"{c.get('method', 'lsq')} {'width' if k == 'Width' else 'diameter'} of "
+        **{k: f"{SIZE_METHOD_WORDS[c.get('method', 'lsq')]} "
+           f"{'width' if k == 'Width' else 'diameter'} of "
            f"{where}: {fixed(target or 0.0)} mm {signed(lower)} / {signed(upper)} mm"
            for k in ("Diameter", "Width", "SphericalDiameter")},
         **{k: f"{c['type']} of the axis of {where}: a cylindrical zone of diameter "
