@@ -33,12 +33,17 @@ FORM = ("flatness", "straightness", "circularity", "cylindricity")
 ORIENTATION = ("parallelism", "perpendicularity", "angularity")
 """The orientation family: a plane (zone between two planes) or an axis (``diametral``: a
 cylindrical zone) at the required orientation to its datums."""
-CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION
-ZONE_ONLY = ("position",) + FORM + ORIENTATION
+RUNOUT = ("circular_runout", "total_runout")
+"""The runout family (engine.gdt.runout): a surface of revolution (radial) or a face normal to
+the datum axis (axial), turned about a datum axis: the full indicator movement."""
+CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION + \
+    RUNOUT + ("line_profile",)
+ZONE_ONLY = ("position",) + FORM + ORIENTATION + RUNOUT
 """Types whose value is >= 0 by definition with an upper limit only (0 .. zone)."""
 SYMBOLS = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀",
            "straightness": "⏤", "circularity": "○", "cylindricity": "⌭",
-           "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠"}
+           "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠",
+           "circular_runout": "↗", "total_runout": "⌰", "line_profile": "⌒"}
 """Each characteristic type's symbol on a drawing (ASME Y14.5 / ISO 1101), in one place."""
 DEFAULT_SECTIONS = 8
 """Cross-sections a circularity (and a straightness) is judged on by default."""
@@ -106,9 +111,9 @@ class Region:
 
     box : ((3,), (3,)) lower and upper corners of an axis-aligned box, nominal frame, mm;
     labels : fnmatch glob on the nominal point file's label column;
-    group : the name of a group of the nominal: a mesh's face group (OBJ ``g``/``o``, a PLY
-        face property's number), a 2D template's DXF layer (compared without case), later a
-        STEP face (engine.gdt.regions);
+    group : the names of groups of the nominal (one or more, their union): a mesh's face
+        group (OBJ ``g``/``o``, a PLY face property's number), a 2D template's DXF layer
+        (compared without case), a STEP face ``face:N`` (engine.gdt.regions);
     measured_labels : fnmatch glob: measured points with these labels belong here (else a
         measured point belongs to the region of its nearest nominal point).
     """
@@ -116,7 +121,7 @@ class Region:
     name: str
     box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     labels: str | None = None
-    group: str | None = None
+    group: str | tuple[str, ...] | None = None
     measured_labels: str | None = None
 
 
@@ -184,6 +189,12 @@ class Characteristic:
     plane between two planes)."""
     angle: float | None = None
     """Angularity: the basic angle to the primary datum, degrees."""
+    spacing: float | None = None
+    """Line profile: the distance between its cross-sections (planes normal to
+    ``direction``), mm."""
+    all_around: bool = False
+    """Profile: the drawing's all-around symbol (the region's faces as one; a region is
+    already any set of faces, so it is recorded, not computed differently)."""
 
     @property
     def width(self) -> float:
@@ -199,11 +210,12 @@ def implied_feature(kind: str, direction: bool = False, diametral: bool = False)
     """The feature a characteristic of type ``kind`` is judged on: a plane (flatness, a
     straightness along a ``direction``, an orientation without ``diametral``), a cylinder
     (position, size, circularity, cylindricity, a straightness of the median line, an
-    orientation of an axis), else freeform (a profile's surface)."""
+    orientation of an axis), else freeform (a profile's surface; a runout's, a cylinder or a
+    face normal to its datum axis, which the datum axis tells apart)."""
     if kind == "flatness" or (kind == "straightness" and direction) or (
             kind in ORIENTATION and not diametral):
         return "plane"
-    return "freeform" if kind == "profile" else "cylinder"
+    return "freeform" if kind in ("profile", "line_profile") + RUNOUT else "cylinder"
 
 
 @dataclass(frozen=True)
@@ -223,3 +235,16 @@ class Plan:
 
     def datum(self, label: str) -> Datum:
         return next(d for d in self.datums if d.label == label)
+
+
+COMMON = "-"
+"""A common datum joins its datums' labels with this: "A-B" (ASME Y14.5 / ISO 5459)."""
+
+
+def datum_parts(label: str, labels) -> tuple[str, ...] | None:
+    """The datum labels a reference names: itself when it is a datum's label (of ``labels``),
+    the labels of a common datum "A-B" when each part is one, else None."""
+    if label in labels:
+        return (label,)
+    parts = tuple(label.split(COMMON))
+    return parts if len(parts) > 1 and all(p in labels for p in parts) else None

@@ -56,17 +56,18 @@ def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None
         raise InputError(f"[[region]] '{r.name}': 'group' selects a named group of the "
                          "nominal (an OBJ mesh's g or o, a PLY mesh's group property, a DXF "
                          "layer), and this nominal has no groups", plan.path)
-    key = r.group
-    if fold_case:
-        key = {name.lower(): name for name in groups}.get(key.lower(), key)
-    if key not in groups:
-        names = list(groups)
-        shown = ", ".join(f"'{n}'" for n in names[:GROUPS_SHOWN])
-        more = f", … ({len(names)} in all)" if len(names) > GROUPS_SHOWN else ""
-        raise InputError(f"[[region]] '{r.name}': the nominal has no group '{r.group}' (its "
-                         f"groups: {shown}{more})", plan.path)
     mask = np.zeros(points.shape[0], dtype=bool)
-    mask[groups[key]] = True
+    for name in (r.group,) if isinstance(r.group, str) else r.group:  # a list: the union
+        key = name
+        if fold_case:
+            key = {g.lower(): g for g in groups}.get(key.lower(), key)
+        if key not in groups:
+            names = list(groups)
+            shown = ", ".join(f"'{n}'" for n in names[:GROUPS_SHOWN])
+            more = f", … ({len(names)} in all)" if len(names) > GROUPS_SHOWN else ""
+            raise InputError(f"[[region]] '{r.name}': the nominal has no group '{name}' (its "
+                             f"groups: {shown}{more})", plan.path)
+        mask[groups[key]] = True
     return mask
 
 
@@ -77,7 +78,10 @@ GROUPS_SHOWN = 12
 def _selector(r: Region) -> str:
     if r.box is not None:
         return f"box {[list(c) for c in r.box]}"
-    return f"labels '{r.labels}'" if r.labels is not None else f"group '{r.group}'"
+    if r.labels is not None:
+        return f"labels '{r.labels}'"
+    return f"group '{r.group}'" if isinstance(r.group, str) else \
+        "groups " + ", ".join(f"'{g}'" for g in r.group)
 
 
 def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: np.ndarray,

@@ -25,7 +25,8 @@ KEYS = {
     "alignment": ("method", "reference", "best_fit_regions"),
     "rps": ("label", "nominal", "lock"),
     "characteristic": ("id", "type", "region", "zone", "lower", "upper", "nominal", "datums",
-                       "fit", "direction", "sections", "diametral", "angle"),
+                       "fit", "direction", "sections", "diametral", "angle", "spacing",
+                       "all_around"),
 }
 """Every key each table may hold."""
 

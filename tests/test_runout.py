@@ -1,0 +1,226 @@
+"""The runout family (engine.gdt.runout) and common datums "A-B" end to end: a stepped shaft
+measured in a random pose with planted errors, registered and judged; each value against an
+independent computation written here (the analytic value, the spread over the true points
+about the true axis, and a scipy least-squares twin of the common datum axis)."""
+
+import numpy as np
+import pytest
+
+from engine.gdt.characteristics import inspect_plan
+from engine.gdt.plan import Alignment, Characteristic, Datum, Part, Plan, Region
+from engine.inspection import Tolerance, inspect
+from engine.nominal import Nominal
+from engine.pointset import PointSet
+from engine.pose import make_transform, rotation_from_rotvec
+from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
+
+# A shaft along z: journal A (radius 10, z 0 .. 35), a collar (radius 15, z 35 .. 65) between
+# two shoulders (z = 35 facing -z, radii 10 .. 15; z = 65 facing +z, radii 9 .. 15), journal B
+# (radius 9, z 65 .. 100); end faces at z = 0 and 100. A key flat on the
+# collar (x = 13) keeps the registration from turning freely about the axis.
+R_J, R_B, R_C, FLAT = 10.0, 9.0, 15.0, 13.0
+
+
+def _cylinder(rng, r, z0, z1, k):
+    a, z = rng.uniform(0, 2 * np.pi, k), rng.uniform(z0, z1, k)
+    u = np.column_stack([np.cos(a), np.sin(a), 0 * a])
+    p = np.column_stack([r * u[:, :2], z])
+    keep = p[:, 0] <= FLAT if r == R_C else np.ones(k, bool)
+    return p[keep], u[keep]
+
+
+def _disc(rng, r0, r1, z, up, k):
+    a, r = rng.uniform(0, 2 * np.pi, k), np.sqrt(rng.uniform(r0 ** 2, r1 ** 2, k))
+    p = np.column_stack([r * np.cos(a), r * np.sin(a), np.full(k, z)])
+    keep = p[:, 0] <= FLAT
+    return p[keep], np.tile([0, 0, 1.0 if up else -1.0], (int(keep.sum()), 1))
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    rng = np.random.default_rng(25)
+    parts = [_cylinder(rng, R_J, 0, 35, 8000), _cylinder(rng, R_C, 35, 65, 12000),
+             _cylinder(rng, R_B, 65, 100, 8000), _disc(rng, R_J, R_C, 35, False, 3000),
+             _disc(rng, R_B, R_C, 65, True, 3000), _disc(rng, 0, R_J, 0, False, 3000),
+             _disc(rng, 0, R_B, 100, True, 3000)]
+    h = np.sqrt(R_C ** 2 - FLAT ** 2)
+    y, z = rng.uniform(-h, h, 3000), rng.uniform(35, 65, 3000)
+    parts.append((np.column_stack([np.full(3000, FLAT), y, z]), np.tile([1.0, 0, 0], (3000, 1))))
+    return Nominal.from_point_set(PointSet(np.vstack([p for p, _ in parts]),
+                                           np.vstack([n for _, n in parts])))
+
+
+RINGS, PER_RING = 6, 48
+
+
+def _rings(r, z, centre=(0.0, 0.0), tilt=0.0):
+    """Rings of radius r at heights z, PER_RING evenly spaced angles from 0 (each ring holds
+    the angles 0, 90, 180 and 270 degrees), about ``centre``; the collar's ring points beyond
+    the flat left out. ``tilt``: the ring's plane turned about x (z grows by y tan(tilt))."""
+    a = np.tile(np.arange(PER_RING) * 2 * np.pi / PER_RING, len(z))
+    zz = np.repeat(z, PER_RING)
+    p = np.column_stack([centre[0] + r * np.cos(a), centre[1] + r * np.sin(a), zz])
+    p[:, 2] += p[:, 1] * np.tan(tilt)
+    return p[p[:, 0] <= FLAT - 0.5] if r > R_J + 0.5 else p
+
+
+def measured(rng, offset=0.0, tilt=0.0, b_shift=0.0):
+    """True points (collar offset by ``offset`` along y; the shoulder z = 65 tilted by
+    ``tilt`` about x; journal B shifted by ``b_shift`` along y) in a random pose. Returns
+    (measured, labels, faces, true points)."""
+    P, faces = [], []
+    for face, p in {"A": _rings(R_J, np.linspace(3, 27, RINGS)),
+                    "B": _rings(R_B, np.linspace(73, 97, RINGS), (0.0, b_shift)),
+                    "collar": _rings(R_C, np.linspace(38, 62, RINGS), (0.0, offset)),
+                    "shoulder": np.vstack([_rings(r, np.array([65.0]), tilt=tilt)
+                                           for r in (11.0, 12.0, 13.0, 14.0)]),
+                    "end": _rings(5.0, np.array([0.0])),
+                    "flat": np.column_stack([np.full(40, FLAT), rng.uniform(-5, 5, 40),
+                                             rng.uniform(40, 60, 40)])}.items():
+        P.append(p)
+        faces += [face] * len(p)
+    P = np.vstack(P)
+    T = make_transform(rotation_from_rotvec(rng.uniform(-np.pi, np.pi, (1, 3)))[0],
+                       rng.uniform(-300, 300, 3))
+    M = P @ T[:3, :3].T + T[:3, 3]
+    return M, np.array([f"{f}{i}" for i, f in enumerate(faces)]), np.array(faces), P
+
+
+REGIONS = (Region("A", box=((-11, -11, 1), (11, 11, 29))),
+           Region("B", box=((-11, -11, 71), (11, 11, 99))),
+           Region("collar", box=((-16, -16, 36), (12, 16, 64))),  # clear of the flat
+           Region("shoulder", box=((-16, -16, 64.5), (16, 16, 65.5))),
+           Region("end", box=((-9, -9, -0.5), (9, 9, 0.5))))
+
+
+def plan_of(*characteristics, fit="tangent"):
+    return Plan("plan.toml", "0" * 64, Part(), REGIONS,
+                (Datum("A", "A", "cylinder", fit), Datum("B", "B", "cylinder", fit)),
+                Alignment("best-fit"), tuple(characteristics))
+
+
+def run(nominal, M, labels, plan, **kwargs):
+    res = inspect(nominal, M, Tolerance.symmetric(0.5), **kwargs)
+    return inspect_plan(res, plan, nominal, None, M, labels, False)
+
+
+def by_id(res, i):
+    return next(r for r in res.plan.characteristics if r.characteristic.id == i)
+
+
+def C(ident, kind, region, zone, datums=("A",), **kw):
+    return Characteristic(ident, kind, region, 0.0, zone, tuple(datums), **kw)
+
+
+def _spread_about(X, point, direction, axial):
+    w = X - point
+    along = w @ direction
+    return float(np.ptp(along if axial else
+                        np.linalg.norm(w - np.outer(along, direction), axis=1)))
+
+
+@pytest.mark.parametrize("seed, fit", [(1, "tangent"), (2, "lsq")])
+def test_a_collar_offset_by_e_has_circular_and_total_runout_2e(nominal, seed, fit):
+    """The collar's axis offset by e (along y, clear of the flat) from journal A's: circular runout (each ring: 2e) and
+    total runout 2e about A, from a random pose, within 1e-6 mm."""
+    rng = np.random.default_rng(seed)
+    e = 0.004
+    M, labels, faces, P = measured(rng, offset=e)
+    res = run(nominal, M, labels, plan_of(C("1", "circular_runout", "collar", 0.01),
+                                          C("2", "total_runout", "collar", 0.01),
+                                          C("3", "circular_runout", "collar", 0.0079), fit=fit))
+    rings = [_spread_about(P[faces == "collar"][k::RINGS], np.zeros(3), [0, 0, 1.0], False)
+             for k in range(RINGS)]
+    assert max(rings) == pytest.approx(2 * e, abs=1e-9)  # the true points, about the true axis
+    for i in "12":
+        r = by_id(res, i)
+        assert r.value == pytest.approx(2 * e, abs=1e-6), r.reason
+        assert r.facts["reading"] == "radial" and r.verdict == ACCEPT
+    assert by_id(res, "1").facts["sections_judged"] == RINGS
+    assert by_id(res, "3").verdict == REJECT and res.verdict == REJECT
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_a_tilted_shoulder_has_total_axial_runout_2_r_tan_theta(nominal, seed):
+    """The shoulder z = 65 tilted by theta about x, probed on rings of radius 11 .. 14: total
+    axial runout about A = 2 r tan(theta) for its largest ring r = 14, circular axial runout
+    (one annulus per ring) the same, each ring's own 2 r tan(theta) in its section."""
+    rng = np.random.default_rng(seed)
+    theta = np.radians(0.01)
+    M, labels, faces, P = measured(rng, tilt=theta)
+    res = run(nominal, M, labels, plan_of(C("1", "total_runout", "shoulder", 0.01),
+                                          C("2", "circular_runout", "shoulder", 0.01,
+                                            sections=4)))
+    truth = _spread_about(P[faces == "shoulder"], np.zeros(3), np.array([0, 0, 1.0]), True)
+    assert truth == pytest.approx(2 * 14.0 * np.tan(theta), abs=1e-12)
+    for i in "12":
+        r = by_id(res, i)
+        assert r.value == pytest.approx(truth, abs=1e-6) and r.facts["reading"] == "axial"
+    per_ring = by_id(res, "2").facts["section_values"]
+    assert per_ring == pytest.approx([2 * r * np.tan(theta) for r in (11, 12, 13, 14)],
+                                     abs=1e-6)
+
+
+def _common_axis_twin(parts):
+    """The least-squares axis of coaxial cylinders with a radius each (scipy's
+    least_squares over the axis' point at z = 50, its tilts and the radii)."""
+    from scipy.optimize import least_squares
+
+    def res(p):
+        d = np.array([p[2], p[3], 1.0]) / np.linalg.norm([p[2], p[3], 1.0])
+        out = []
+        for k, X in enumerate(parts):
+            w = X - np.array([p[0], p[1], 50.0])
+            out.append(np.linalg.norm(w - np.outer(w @ d, d), axis=1) - p[4 + k])
+        return np.concatenate(out)
+
+    p = least_squares(res, [0, 0, 0, 0, R_J, R_B], xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+    return np.array([p[0], p[1], 50.0]), np.array([p[2], p[3], 1.0]) / np.linalg.norm(
+        [p[2], p[3], 1.0])
+
+
+def test_runout_about_a_common_datum_axis_a_b(nominal):
+    """Journal B shifted by 0.01 mm: the common datum axis A-B (least squares of both
+    journals, each its own radius) tilts; the collar's runout about it equals the spread of
+    its true points about the twin's axis, and differs from the runout about A alone."""
+    rng = np.random.default_rng(5)
+    M, labels, faces, P = measured(rng, offset=0.002, b_shift=0.01)
+    res = run(nominal, M, labels, plan_of(C("1", "total_runout", "collar", 0.05, ["A-B"]),
+                                          C("2", "circular_runout", "collar", 0.05, ["A-B"]),
+                                          C("3", "total_runout", "collar", 0.05, ["A"])))
+    point, direction = _common_axis_twin([P[faces == "A"], P[faces == "B"]])
+    X = P[faces == "collar"]
+    truth = _spread_about(X, point, direction, False)
+    rings = max(_spread_about(X[k::RINGS], point, direction, False) for k in range(RINGS))
+    assert by_id(res, "1").value == pytest.approx(truth, abs=1e-6)
+    assert by_id(res, "2").value == pytest.approx(rings, abs=1e-6)
+    assert by_id(res, "3").value == pytest.approx(0.004, abs=1e-6)
+    assert abs(truth - 0.004) > 1e-4  # the common axis is not A's
+    assert "coaxial features together" in by_id(res, "1").facts["datum_axis_fit"]
+
+
+def test_guarded_rule_guards_runout_with_its_uncertainty(nominal):
+    from engine.uncertainty import Instrument
+
+    rng = np.random.default_rng(6)
+    M, labels, _, _ = measured(rng, offset=0.004)
+    res = run(nominal, M, labels, plan_of(C("1", "total_runout", "collar", 0.0085),
+                                          C("2", "total_runout", "collar", 0.5)),
+              decision_rule="guarded", instrument=Instrument(uncertainty_mm=0.001))
+    assert by_id(res, "1").facts["uncertainty_bound"] >= 0.002
+    assert by_id(res, "1").verdict == INCONCLUSIVE and by_id(res, "2").verdict == ACCEPT
+
+
+def test_a_runout_of_a_face_neither_round_about_nor_normal_to_the_axis_is_refused(nominal):
+    """The key flat (x = 13) is parallel to the axis, not round about it: refused, naming the
+    characteristic."""
+    from engine.errors import InputError
+
+    rng = np.random.default_rng(7)
+    M, labels, _, _ = measured(rng)
+    regions = REGIONS + (Region("flat", box=((12.5, -5, 40), (13.5, 5, 60))),)
+    plan = Plan("plan.toml", "0" * 64, Part(), regions, (Datum("A", "A", "cylinder"),),
+                Alignment("best-fit"), (C("1", "total_runout", "flat", 0.01),))
+    with pytest.raises(InputError, match="'1': region 'flat' is neither a surface of "
+                       "revolution about the axis of datum A nor a face normal to it"):
+        run(nominal, M, labels, plan)
