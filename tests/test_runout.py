@@ -224,3 +224,63 @@ def test_a_runout_of_a_face_neither_round_about_nor_normal_to_the_axis_is_refuse
     with pytest.raises(InputError, match="'1': region 'flat' is neither a surface of "
                        "revolution about the axis of datum A nor a face normal to it"):
         run(nominal, M, labels, plan)
+
+
+def _flat_points(rng, wave, twist):
+    """The key flat x = 13 probed on lines z = 40, 45, .., 60 (30 points each, y in -5 .. 5:
+    sections as a CMM scans them; points off the plane would carry the registration's tilt
+    across it, which no refit within the plane removes): x waved by ``wave`` along y and twisted (each line tilted by ``twist`` x its
+    height above z = 50, per mm)."""
+    z = np.repeat(np.arange(40.0, 61.0, 5.0), 30)
+    y = rng.uniform(-5, 5, 150)
+    x = FLAT + wave * np.sin(2 * np.pi * y / 7 + z) + twist * (z - 50) * y
+    return np.column_stack([x, y, z])
+
+
+def _line_zone(u, w, minimax):
+    """A section's profile value, its line refitted alone: least squares (polyfit) or the
+    minimum zone of |w - (a + b u)| (a linear program), as twice the largest |residual|."""
+    from scipy.optimize import linprog
+
+    if not minimax:
+        return 2 * float(np.max(np.abs(w - np.polyval(np.polyfit(u, w, 1), u))))
+    one = np.ones_like(u)
+    # a + b u - h <= w and -(a + b u) - h <= -w: |w - (a + b u)| <= h, h the smallest.
+    lp = linprog([0, 0, 1], A_ub=np.vstack([np.column_stack([one, u, -one]),
+                                            np.column_stack([-one, -u, -one])]),
+                 b_ub=np.concatenate([w, -w]), bounds=[(None, None)] * 2 + [(0, None)],
+                 method="highs")
+    return 2 * float(lp.x[2])
+
+
+@pytest.mark.parametrize("fit", ["lsq", "minimax"])
+def test_line_profile_of_a_twisted_waved_flat_refits_each_section(nominal, fit):
+    """The flat, waved and twisted, probed on 5 lines: a form-only line profile normal to z
+    every 5 mm refits each line in its plane: each section's value is its line's own refit
+    (polyfit / a linear program on the true points), the largest reported; the twist, which
+    no refit of the whole face removes, leaves the surface profile wider."""
+    rng = np.random.default_rng(8)
+    M, labels, faces, P = measured(rng)
+    F = _flat_points(rng, 0.002, 4e-5)
+    T = make_transform(rotation_from_rotvec(rng.uniform(-np.pi, np.pi, (1, 3)))[0],
+                       rng.uniform(-300, 300, 3))
+    # The rest of the part (its own flat points replaced) at the same random pose.
+    P = np.vstack([P[faces != "flat"], F])
+    M = P @ T[:3, :3].T + T[:3, 3]
+    labels = np.array([f"p{i}" for i in range(len(P))])
+    regions = REGIONS + (Region("flat", box=((12.5, -5.5, 37), (13.5, 5.5, 63))),)
+    plan = Plan("plan.toml", "0" * 64, Part(), regions, (Datum("A", "A", "cylinder"),),
+                Alignment("best-fit"),
+                (Characteristic("1", "line_profile", "flat", -0.01, 0.01, fit=fit,
+                                direction=(0.0, 0.0, 1.0), spacing=5.0),
+                 Characteristic("2", "profile", "flat", -0.01, 0.01, fit=fit, all_around=True),
+                 Characteristic("3", "profile", "flat", -0.01, 0.01, fit=fit)))
+    res = run(nominal, M, labels, plan)
+    k = np.rint(F[:, 2] / 5.0)
+    truth = [_line_zone(F[k == s, 1], F[k == s, 0], fit == "minimax") for s in np.unique(k)]
+    r = by_id(res, "1")
+    assert r.facts["section_values"] == pytest.approx(truth, abs=1e-6)
+    assert r.value == pytest.approx(max(truth), abs=1e-6) and r.verdict == ACCEPT
+    assert r.facts["section_points"] == [30] * 5
+    assert r.facts["section_positions"] == [40.0, 45.0, 50.0, 55.0, 60.0]
+    assert by_id(res, "2").value == by_id(res, "3").value > r.value + 0.002

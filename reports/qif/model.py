@@ -143,6 +143,8 @@ class Char:
     """Largest and smallest deviation (the profile over all points)."""
     diametral: bool = False
     """Straightness and orientation: a cylindrical zone (an axis), else two lines / planes."""
+    vector: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    """A line profile: the normal of the plane its curve lies in (a 2D template's: z)."""
 
 
 @dataclass(frozen=True)
@@ -281,7 +283,9 @@ _GEOMETRIC = {"plane": "Plane", "cylinder": "Cylinder", "sphere": "Sphere"}
 _PLAN_CHAR = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "Position",
               "size": "Diameter", "straightness": "Straightness", "circularity": "Circularity",
               "cylindricity": "Cylindricity", "parallelism": "Parallelism",
-              "perpendicularity": "Perpendicularity", "angularity": "Angularity"}
+              "perpendicularity": "Perpendicularity", "angularity": "Angularity",
+              "circular_runout": "CircularRunout", "total_runout": "TotalRunout",
+              "line_profile": "LineProfile"}
 
 
 _FORM_AND_ORIENTATION = ("Straightness", "Circularity", "Cylindricity", "Parallelism",
@@ -368,6 +372,9 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
         **{k: f"{c['type']} of {where}" + (f" at {c['angle']:g}°" if c.get("angle") else "")
            + (" (diametral: the axis)" if c.get("diametral") else "") + ": minimum zone at "
            f"most {fixed(upper - lower)} mm" for k in _FORM_AND_ORIENTATION},
+        **{k: f"{c['type'].replace('_', ' ')} of {where}: full indicator movement at most "
+           f"{fixed(upper - lower)} mm turned about the datum axis"
+           for k in ("CircularRunout", "TotalRunout")},
     }.get(kind, "all points at the registration's best fit: " + _profile_text(lower, upper)
           if feature.whole else
           f"profile of {where}" + ("" if datums else f", form only ({c.get('fit', Fit.LSQ)} "
@@ -378,7 +385,8 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
                 str(c["id"]), text, lower, upper, target, frame, c["verdict"],
                 None if value is None else float(value),
                 f"{app} verdict {c['verdict']}: {c.get('reason', '')}",
-                diametral=bool(c.get("diametral")))
+                diametral=bool(c.get("diametral")),
+                vector=tuple(c.get("direction") or (0.0, 0.0, 1.0)))
 
 
 def _xs_datetime(value) -> str:
