@@ -284,3 +284,142 @@ def test_line_profile_of_a_twisted_waved_flat_refits_each_section(nominal, fit):
     assert r.facts["section_points"] == [30] * 5
     assert r.facts["section_positions"] == [40.0, 45.0, 50.0, 55.0, 60.0]
     assert by_id(res, "2").value == by_id(res, "3").value > r.value + 0.002
+
+
+def _files(tmp_path, nominal, rng, **planted):
+    M, _, _, _ = measured(rng, **planted)
+    head = "x y z i j k"
+    np.savetxt(tmp_path / "n.xyz", np.column_stack([nominal.points,
+                                                    nominal.normals(np.arange(nominal.n))]),
+               header=head, comments="", fmt="%.9f")
+    np.savetxt(tmp_path / "m.csv", M, delimiter=",", header="x,y,z", comments="", fmt="%.9f")
+    return str(tmp_path / "n.xyz"), str(tmp_path / "m.csv")
+
+
+TOML_REGIONS = "".join(f'[[region]]\nname = "{r.name}"\nbox = {[list(c) for c in r.box]}\n'
+                       for r in REGIONS) + \
+    '[[datum]]\nlabel = "A"\nregion = "A"\nfeature = "cylinder"\n' \
+    '[[datum]]\nlabel = "B"\nregion = "B"\nfeature = "cylinder"\n' \
+    '[[region]]\nname = "shoulders"\nbox = [[-16, -16, 34.5], [16, 16, 35.5]]\n' \
+    '[[datum]]\nlabel = "E"\nregion = "end"\nfeature = "plane"\n'
+
+
+def test_runout_and_line_profile_through_the_command_line_json_and_qif(tmp_path, nominal):
+    """A TOML plan with each new type: its JSON type, symbol and keys; the QIF's circular and
+    total runout and line profile characteristic types, valid against the QIF 3.0 XSD."""
+    import csv
+    import json
+
+    from lxml import etree
+
+    from qa_app.cli import main
+    from reports.qif import qif_results_document
+
+    nom, meas = _files(tmp_path, nominal, np.random.default_rng(9), offset=0.003)
+    plan = tmp_path / "plan.toml"
+    plan.write_text(TOML_REGIONS + """
+[[characteristic]]
+id = "1"
+type = "circular_runout"
+region = "collar"
+zone = 0.02
+datums = ["A-B"]
+sections = 3
+[[characteristic]]
+id = "2"
+type = "total_runout"
+region = "collar"
+zone = 0.02
+datums = ["A"]
+[[characteristic]]
+id = "3"
+type = "line_profile"
+region = "collar"
+zone = 0.5
+direction = [0, 0, 1]
+spacing = 10
+all_around = true
+fit = "minimax"
+""")
+    code = main(["inspect", nom, meas, "--plan", str(plan), "--json", str(tmp_path / "r.json"),
+                 "--csv", str(tmp_path / "r.csv"), "--report", str(tmp_path / "r.pdf")])
+    doc = json.loads((tmp_path / "r.json").read_text())
+    chars = {c["id"]: c for c in doc["characteristics"]}
+    assert code == 0, [c["reason"] for c in doc["characteristics"]]
+    assert [chars[i]["symbol"] for i in "123"] == ["↗", "⌰", "⌒"]
+    assert chars["1"]["sections"] == 3 and chars["1"]["datums"] == ["A-B"]
+    assert chars["2"]["value"] == pytest.approx(0.006, abs=1e-6)
+    assert chars["3"]["spacing"] == 10.0 and chars["3"]["all_around"] is True
+    assert chars["3"]["section_points"] and chars["3"]["direction"] == [0.0, 0.0, 1.0]
+    with open(tmp_path / "r.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    data = qif_results_document(
+        doc, np.array([[float(r[k]) for k in ("x_reg", "y_reg", "z_reg")] for r in rows]),
+        np.array([float(r["deviation"]) for r in rows]),
+        np.array([r["in_tolerance"] == "true" for r in rows]))
+    root = __file__.rsplit("/tests/", 1)[0]
+    schema = etree.XMLSchema(etree.parse(f"{root}/tests/data/qif-3.0-xsd/QIFDocument.xsd"))
+    tree = etree.ElementTree(etree.fromstring(data))
+    assert schema.validate(tree), "\n".join(str(e) for e in schema.error_log)
+    tags = {etree.QName(e).localname for e in tree.iter()}
+    for kind in ("CircularRunout", "TotalRunout", "LineProfile"):
+        assert f"{kind}CharacteristicDefinition" in tags
+        assert f"{kind}CharacteristicMeasurement" in tags
+
+
+@pytest.mark.parametrize("body, key, words", [
+    ('type = "total_runout"\nregion = "collar"\nzone = 0.05\ndatums = ["E"]\n', "datums",
+     'names datum "E", a plane: a total_runout is about a datum axis'),
+    ('type = "circular_runout"\nregion = "collar"\nzone = 0.05\n', "datums",
+     "must name one datum axis"),
+    ('type = "total_runout"\nregion = "collar"\nzone = 0.05\ndatums = ["A", "B"]\n', "datums",
+     "must name one datum axis"),
+    ('type = "total_runout"\nregion = "collar"\nzone = 0.05\ndatums = ["A-E"]\n', "datums",
+     "a common datum joins two datums of one kind"),
+    ('type = "total_runout"\nregion = "collar"\nzone = 0.05\ndatums = ["A-C"]\n', "datums",
+     'names "A-C", which is not the label of any [[datum]]'),
+    ('type = "total_runout"\nregion = "collar"\nzone = 0.05\ndatums = ["A"]\nsections = 3\n',
+     "sections", "applies to straightness and circularity and circular_runout only"),
+    ('type = "line_profile"\nregion = "collar"\nzone = 0.05\nspacing = 5\n', "direction",
+     "is missing: a line profile needs the normal of its section planes"),
+    ('type = "line_profile"\nregion = "collar"\nzone = 0.05\ndirection = [0, 0, 1]\n',
+     "spacing", "is missing"),
+    ('type = "line_profile"\nregion = "collar"\nzone = 0.05\ndirection = [0, 0, 1]\n'
+     'spacing = -1\n', "spacing", "must be > 0"),
+    ('type = "profile"\nregion = "collar"\nzone = 0.05\nall_around = 1\n', "all_around",
+     "true or false"),
+    ('type = "total_runout"\nregion = "collar"\nzone = 0.05\ndatums = ["A"]\nall_around = '
+     'true\n', "all_around", "applies to profile and line_profile only"),
+])
+def test_bad_runout_and_line_profile_plans_are_refused_with_65(tmp_path, capsys, nominal, body,
+                                                                key, words):
+    from qa_app.cli import main
+
+    nom, meas = _files(tmp_path, nominal, np.random.default_rng(10))
+    plan = tmp_path / "plan.toml"
+    plan.write_text(TOML_REGIONS + '[[characteristic]]\nid = "7"\n' + body)
+    assert main(["inspect", nom, meas, "--plan", str(plan)]) == 65
+    err = capsys.readouterr().err
+    assert f"{plan}: [[characteristic]] #1 (id \"7\"): '{key}' " in err, err
+    assert words in err, err
+
+
+def test_a_region_of_several_groups_is_their_union(tmp_path):
+    """group = ["a", "b"] selects the nominal points of both groups; a missing one is named."""
+    from engine.errors import InputError
+    from engine.gdt.regions import nominal_members
+    from engine.io.plan import read_plan
+
+    path = tmp_path / "plan.toml"
+    path.write_text('[[region]]\nname = "R"\ngroup = ["a", "b"]\n[[characteristic]]\nid = "1"'
+                    '\ntype = "profile"\nregion = "R"\nzone = 0.1\nall_around = true\n')
+    plan = read_plan(path)
+    assert plan.regions[0].group == ("a", "b") and plan.characteristics[0].all_around
+    groups = {"a": np.array([0, 1]), "b": np.array([3]), "c": np.array([2])}
+    mask = nominal_members(plan, np.zeros((5, 3)), None, groups)["R"]
+    assert mask.tolist() == [True, True, False, True, False]
+    with pytest.raises(InputError, match="the nominal has no group 'b'"):
+        nominal_members(plan, np.zeros((5, 3)), None, {"a": np.array([0])})
+    path.write_text('[[region]]\nname = "R"\ngroup = []\n')
+    with pytest.raises(InputError, match="'group' is empty"):
+        read_plan(path)
