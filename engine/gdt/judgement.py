@@ -80,8 +80,7 @@ class Shared:
         fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
             if best_fit else None
         return align(geo.evaluate, T_start, ds, [self.datum_members(x) for x in labels],
-                     geo.centre,
-                     geo.length, fit_idx, [datum_invariants(d, geo) for d in ds])
+                     geo.centre, geo.length, fit_idx, [datum_invariants(d, geo) for d in ds])
 
 
 def plan_verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:
