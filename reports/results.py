@@ -220,7 +220,15 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
             "of the smallest zone of two planes at the basic angle to the primary datum, or "
             "(diametral) the diameter of the smallest cylinder at that angle holding the "
             "least-squares axis between the planes bounding the feature along it; a rotation "
-            "the datums leave free turns the zone to its smallest (mm)"),
+            "the datums leave free turns the zone to its smallest; circular_runout: the "
+            "largest full indicator movement (max - min of the distance from the datum axis, "
+            "or on a face normal to it of the coordinate along it) over 'sections' slabs along "
+            "the axis (annuli about it); total_runout: the same over the whole surface; the "
+            "datum axis: a cylinder datum's (tangent: the smallest circumscribed / largest "
+            "inscribed cylinder's; lsq: least squares), a common datum's 'A-B' the least "
+            "squares of both features, a radius each; line_profile: the largest profile value "
+            "over the sections every 'spacing' mm normal to 'direction' (form only: each "
+            "section refitted in its plane) (mm)"),
     }
 
 
@@ -239,10 +247,12 @@ def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
         out.update(modifier=c.modifier, bonus=None, allowed=None, actual_mating_size=None)
     if c.regions:
         out["regions"] = list(c.regions)
-    if c.type == "profile" and not c.datums:
+    if c.type in ("profile", "line_profile") and not c.datums:
         out["fit"] = c.fit
-    if c.type in ("straightness", "circularity"):
+    if c.type in ("straightness", "circularity", "circular_runout"):
         out["sections"] = c.sections or DEFAULT_SECTIONS
+    if c.type in ("profile", "line_profile"):
+        out["all_around"] = bool(c.all_around)
     if c.type == "straightness" or c.type in ORIENTATION:
         out["diametral"] = bool(c.diametral)
     if c.direction is not None:

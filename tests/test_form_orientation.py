@@ -492,7 +492,7 @@ def _char(body):
     ('type = "straightness"\nregion = "hole"\nzone = 0.05\nsections = 2\n', "sections",
      "whole number from 3"),
     ('type = "circularity"\nregion = "hole"\nzone = 0.05\ndirection = [0, 0, 1]\n',
-     "direction", "applies to straightness only"),
+     "direction", "applies to straightness and line_profile only"),
     ('type = "straightness"\nregion = "A"\nzone = 0.05\ndirection = [0, 0, 0]\n',
      "direction", "non-zero"),
     ('type = "straightness"\nregion = "A"\nzone = 0.05\ndirection = [1, 0, 0]\n'

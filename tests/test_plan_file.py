@@ -429,7 +429,7 @@ BAD = [
     ("rps lock missing", '[alignment]\nmethod = "rps"\n[[rps]]\nlabel = "R1"\n'
      'nominal = [0, 0, 0]\n', '[[rps]] #1 (label "R1")', "lock", "is missing"),
     # characteristics
-    ("unknown type", BASE + char("1", 'type = "total_runout"\nregion = "A"\nzone = 0.1'),
+    ("unknown type", BASE + char("1", 'type = "surface_finish"\nregion = "A"\nzone = 0.1'),
      '[[characteristic]] #1 (id "1")', "type", "must be one of profile, flatness"),
     ("characteristic on a missing region", BASE + char("1", 'type = "flatness"\n'
                                                        'region = "flange"\nzone = 0.1'),

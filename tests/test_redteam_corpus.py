@@ -285,7 +285,7 @@ PLANS = [
     attack("10001-characteristics", _bracket_plan(_characteristics(10_001)), 65,
            "holds 10,001 characteristics; a plan may hold at most 10,000"),
     attack("unknown-type", _bracket_plan(_one_characteristic(
-        'type = "total_runout"\nregion = "A"\nzone = 0.1\n')), 65,
+        'type = "surface_finish"\nregion = "A"\nzone = 0.1\n')), 65,
         "'type' must be one of profile, flatness, position, size"),
     attack("missing-region", _bracket_plan(_one_characteristic(
         'type = "flatness"\nregion = "flange"\nzone = 0.1\n')), 65,

@@ -77,8 +77,6 @@ def test_a_plan_region_selects_a_step_face(tmp_path, part):
     the ones on that face (though the face's tessellation points lie only on its edges, shared
     with the next faces'), and its value is their minimum zone, found here as a linear program
     in the face's own frame on the true points."""
-    from scipy.optimize import linprog
-
     rng = np.random.default_rng(3)
     M, planted, face, true, N = measured_on(part, rng, n=600, true_points=True)
     planar = [f.id for f in part.faces if f.surface == "plane"]
@@ -101,10 +99,16 @@ zone = 1.0
     (c,) = doc["characteristics"]
     on = face == fid
     assert c["n_points"] == int(on.sum())
-    n = N[on][0]
+    assert c["value"] == pytest.approx(plane_minimum_zone(true[on], N[on][0]), abs=1e-7)
+
+
+def plane_minimum_zone(q, n):
+    """The minimum-zone width of points q (k, 3) about a plane near normal n: a linear
+    program in the face's own frame (heights w = G p within +-t, t the smallest)."""
+    from scipy.optimize import linprog
+
     e1, e2 = np.linalg.svd(n[None, :])[2][1:]
-    q = true[on]
-    G = np.column_stack([q @ e1, q @ e2, np.ones(on.sum())])
+    G = np.column_stack([q @ e1, q @ e2, np.ones(len(q))])
     w = q @ n
     # min h: |w - G p| <= h/2 ... as G p - w <= t, w - G p <= t, width 2t (|n| = 1 tilt-free).
     lp = linprog([0, 0, 0, 1], A_ub=np.vstack([np.column_stack([G, -np.ones(len(w))]),
@@ -112,7 +116,7 @@ zone = 1.0
                  b_ub=np.concatenate([w, -w]), bounds=[(None, None)] * 3 + [(0, None)],
                  method="highs")
     a, b = lp.x[:2]
-    assert c["value"] == pytest.approx(2 * lp.x[3] / np.sqrt(1 + a * a + b * b), abs=1e-7)
+    return 2 * lp.x[3] / np.sqrt(1 + a * a + b * b)
 
 
 CTC01 = os.path.join(os.path.dirname(STEP), "nist_ctc_01_asme1_ap203.stp")

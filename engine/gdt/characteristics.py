@@ -116,7 +116,9 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     from ..uncertainty import expanded_at
     from ..verdict import margins_3d
 
-    masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups)
+    # A STEP model's box regions take the faces crossing them (its samples lie on edges).
+    masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups,
+                            triangles=nominal.triangles if exact is not None else None)
     surface = exact or (lambda X: point_to_surface(nominal, X))
 
     def evaluate(T, idx):
@@ -142,7 +144,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels,
                    exact_feature)
     planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
-                      zone_in_verdict)
+                      zone_in_verdict, by_foot=exact is not None)
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
     if planned.alignment is None:
         return result
@@ -212,10 +214,12 @@ def _centre_and_length(X: np.ndarray) -> tuple[np.ndarray, float]:
     return centre, float(np.sqrt(np.mean(np.sum((X - centre) ** 2, axis=1)))) or 1.0
 
 
-def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool) -> PlanResult:
+def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool,
+            by_foot: bool = False) -> PlanResult:
     """The plan checked on ``geo``, with the inspection's own zone as a characteristic over all
     points when ``zone_in_verdict``; everything INCONCLUSIVE when the registration, on which
-    the regions rest, cannot be trusted."""
+    the regions rest, cannot be trusted. by_foot : a box holds the points whose closest point
+    lies in it (engine.gdt.regions.measured_members)."""
     from .regions import measured_members, region_column
     from ..verdict import pose_trusted
 
@@ -231,7 +235,8 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool)
     # A point belongs where it lies: in the region of the sample nearest its closest point on
     # the surface (not its nearest sample, which may lie on the next face).
     foot = result.deviations.foot[:, :geo.nominal_points.shape[1]]
-    members = measured_members(plan, geo.nominal_masks, sample_of(foot), geo.labels)
+    members = measured_members(plan, geo.nominal_masks, sample_of(foot), geo.labels,
+                               foot if by_foot else None)
     planned = check_plan(plan, geo, members, n, region_column(plan, members, n))
     results = list(planned.characteristics)
     if zone_in_verdict:

@@ -6,6 +6,8 @@ theirs."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..choices import Fit
@@ -17,7 +19,7 @@ from .decision import by_value, own, untrusted, value_guard
 from .form import judge_form
 from .location import judge_location
 from .orientation import judge_orientation
-from .plan import FORM, MIN_POINTS, ORIENTATION, Characteristic, Plan
+from .plan import FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan, datum_parts
 from .region_features import FACING, SPAN, datum_invariants
 from .results import WORST, CharacteristicResult, Geometry
 from .size import judge_size
@@ -58,6 +60,19 @@ class Shared:
             raise got.with_traceback(None)
         return got
 
+    def datum(self, label: str):
+        """The datum a reference names: the plan's, or a common datum "A-B" as one datum of
+        its parts' feature and fit (its nominal: the first part's region's; its points:
+        :meth:`datum_members`)."""
+        if label in self.datums:
+            return self.datums[label]
+        return replace(self.datums[datum_parts(label, self.datums)[0]], label=label)
+
+    def datum_members(self, label: str) -> np.ndarray:
+        """The measured points of a datum's region (a common datum: of both its regions)."""
+        return np.unique(np.concatenate([self.members[self.datums[p].region]
+                                         for p in datum_parts(label, self.datums)]))
+
     def placed(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
         """The part placed by the datums ``labels`` (primary first), the freedom they leave
         best-fitted on the regions ``best_fit``, from ``T_start`` (engine.gdt.datums.align)."""
@@ -66,11 +81,11 @@ class Shared:
 
     def _align(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
         geo, members = self.geo, self.members
-        ds = [self.datums[x] for x in labels]
+        ds = [self.datum(x) for x in labels]
         fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
             if best_fit else None
-        return align(geo.evaluate, T_start, ds, [members[d.region] for d in ds], geo.centre,
-                     geo.length, fit_idx, [datum_invariants(d, geo) for d in ds])
+        return align(geo.evaluate, T_start, ds, [self.datum_members(x) for x in labels],
+                     geo.centre, geo.length, fit_idx, [datum_invariants(d, geo) for d in ds])
 
 
 def plan_verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:
@@ -99,7 +114,7 @@ def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_p
     planar = geo.nominal_points.shape[1] == 2
     kind = {"plane": "line", "cylinder": "circle"}.get(c.feature, c.feature) if planar \
         else c.feature
-    need = 1 if c.type == "profile" else MIN_POINTS[kind]
+    need = 1 if c.type == "profile" else MIN_POINTS.get(kind, 1)  # a runout's surface: any
     if idx.size < need:
         return CharacteristicResult(c, None, INCONCLUSIVE,
                                     f"region '{c.region}' has {idx.size} measured points; "
@@ -107,8 +122,12 @@ def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_p
     from .features import FeatureError
 
     try:
-        if c.type == "profile":
+        if c.type in ("profile", "line_profile"):
             return _profile(c, idx, geo, shared)
+        if c.type in RUNOUT:
+            from .runout import judge_runout
+
+            return judge_runout(c, idx, geo, shared)
         if c.type == "flatness":
             return _flatness(c, idx, geo, shared)
         if c.type in FORM:
@@ -134,6 +153,10 @@ def _profile(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared):
     if isinstance(got, CharacteristicResult):
         return own(got, c)
     T, d, margin, facts = got
+    if c.type == "line_profile":
+        from .line_profile import judge_line_profile
+
+        return judge_line_profile(c, idx, geo, T, facts)
     verdict, reason = pointwise_verdict(d, tol, margin)
     centre = 0.5 * (c.lower + c.upper)
     value = float(2.0 * np.max(np.abs(d - centre)))

@@ -118,7 +118,7 @@ def judge_orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared,
 def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
     """(value, facts, what it is, its uncertainty bound), or an INCONCLUSIVE result when the
     points do not determine the axis."""
-    primary = shared.datums[c.datums[0]]
+    primary = shared.datum(c.datums[0])
     if primary.feature not in ("plane", "cylinder"):
         raise InputError(f"[[characteristic]] '{c.id}': a {c.type} is relative to a plane or "
                          f"an axis; its primary datum {primary.label} is a {primary.feature}")

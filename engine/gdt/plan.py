@@ -39,14 +39,18 @@ cylindrical zone) at the required orientation to its datums."""
 LOCATION = ("position", "coaxiality", "concentricity", "symmetry")
 """The location family (engine.gdt.location): a feature of size's axis, centre plane or
 centre relative to datums."""
+RUNOUT = ("circular_runout", "total_runout")
+"""The runout family (engine.gdt.runout): a surface of revolution (radial) or a face normal to
+the datum axis (axial), turned about a datum axis: the full indicator movement."""
 CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION \
-    + LOCATION[1:]
-ZONE_ONLY = LOCATION + FORM + ORIENTATION
+    + LOCATION[1:] + RUNOUT + ("line_profile",)
+ZONE_ONLY = LOCATION + FORM + ORIENTATION + RUNOUT
 """Types whose value is >= 0 by definition with an upper limit only (0 .. zone)."""
 SYMBOLS = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀",
            "straightness": "⏤", "circularity": "○", "cylindricity": "⌭",
            "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠",
-           "coaxiality": "◎", "concentricity": "◎", "symmetry": "⌯"}
+           "coaxiality": "◎", "concentricity": "◎", "symmetry": "⌯",
+           "circular_runout": "↗", "total_runout": "⌰", "line_profile": "⌒"}
 """Each characteristic type's symbol on a drawing (ASME Y14.5 / ISO 1101), in one place."""
 SIZE_FEATURES = ("cylinder", "sphere", "width")
 """Features of size a ``feature`` key may name for size and location: a cylinder (a hole or a
@@ -128,9 +132,9 @@ class Region:
 
     box : ((3,), (3,)) lower and upper corners of an axis-aligned box, nominal frame, mm;
     labels : fnmatch glob on the nominal point file's label column;
-    group : the name of a group of the nominal, or a tuple of them (the region is their union): a mesh's face
+    group : the names of groups of the nominal (one or more, their union): a mesh's face
         group (OBJ ``g``/``o``, a PLY face property's number), a 2D template's DXF layer
-        (compared without case), a STEP face (engine.gdt.regions);
+        (compared without case), a STEP face ``face:N`` (engine.gdt.regions);
     measured_labels : fnmatch glob: measured points with these labels belong here (else a
         measured point belongs to the region of its nearest nominal point).
     """
@@ -216,6 +220,12 @@ class Characteristic:
     regions: tuple[str, ...] = ()
     """A pattern's regions (``region`` is the first): all located together in one datum
     reference frame; () for one feature."""
+    spacing: float | None = None
+    """Line profile: the distance between its cross-sections (planes normal to
+    ``direction``), mm."""
+    all_around: bool = False
+    """Profile: the drawing's all-around symbol (the region's faces as one; a region is
+    already any set of faces, so it is recorded, not computed differently)."""
 
     @property
     def width(self) -> float:
@@ -239,7 +249,8 @@ def implied_feature(kind: str, direction: bool = False, diametral: bool = False,
     straightness along a ``direction``, an orientation without ``diametral``), the ``feature``
     a size or location names (a width always for a symmetry), a cylinder (position, size,
     coaxiality, circularity, cylindricity, a straightness of the median line, an orientation
-    of an axis), else freeform (a profile's surface)."""
+    of an axis), else freeform (a profile's surface; a runout's, a cylinder or a face normal to
+    its datum axis, which the datum axis tells apart)."""
     if kind == "symmetry":
         return "width"
     if feature is not None and kind in ("size", "position"):
@@ -247,7 +258,7 @@ def implied_feature(kind: str, direction: bool = False, diametral: bool = False,
     if kind == "flatness" or (kind == "straightness" and direction) or (
             kind in ORIENTATION and not diametral):
         return "plane"
-    return "freeform" if kind == "profile" else "cylinder"
+    return "freeform" if kind in ("profile", "line_profile") + RUNOUT else "cylinder"
 
 
 @dataclass(frozen=True)
@@ -300,3 +311,16 @@ class Plan:
 
     def datum(self, label: str) -> Datum:
         return next(d for d in self.datums if d.label == label)
+
+
+COMMON = "-"
+"""A common datum joins its datums' labels with this: "A-B" (ASME Y14.5 / ISO 5459)."""
+
+
+def datum_parts(label: str, labels) -> tuple[str, ...] | None:
+    """The datum labels a reference names: itself when it is a datum's label (of ``labels``),
+    the labels of a common datum "A-B" when each part is one, else None."""
+    if label in labels:
+        return (label,)
+    parts = tuple(label.split(COMMON))
+    return parts if len(parts) > 1 and all(p in labels for p in parts) else None

@@ -22,8 +22,8 @@ from .plan import Plan, Region
 
 
 def nominal_members(plan: Plan, points: np.ndarray, labels: np.ndarray | None,
-                    groups: dict[str, np.ndarray] | None = None, fold_case: bool = False
-                    ) -> dict[str, np.ndarray]:
+                    groups: dict[str, np.ndarray] | None = None, fold_case: bool = False,
+                    triangles: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """{region name: (N,) bool over the nominal points (N, dim)}; a region that selects no
     nominal point, or a selector the nominal cannot answer (a group it does not have), is an
     InputError naming the plan.
@@ -31,10 +31,20 @@ def nominal_members(plan: Plan, points: np.ndarray, labels: np.ndarray | None,
     labels : (N,) the nominal points' labels, or None. groups : {name: indices of its nominal
     points} (engine.pointset.PointSet ``groups``; a 2D template's layers), or None for a
     nominal without groups. fold_case : group names compare without case (DXF layer names do).
+    triangles : (m, 3) the nominal's triangles, a STEP model's tessellation, whose points lie
+    only on its faces' edges (a box over the middle of a plane holds none of them): a box then
+    selects every sample of the faces (``face:N`` groups) its triangles cross, and the
+    measured points whose closest point lies in it (:func:`measured_members`' feet); None: a
+    box selects the points inside it.
     """
+    face_of = None if triangles is None else _face_of(groups or {}, len(points))
     out = {}
     for r in plan.regions:
         out[r.name] = _select(plan, r, points, labels, groups, fold_case)
+        if r.box is not None and triangles is not None:
+            crossing = triangles[triangles_in_box(points[triangles], *r.box)].ravel()
+            faces = np.unique(face_of[crossing])
+            out[r.name] |= np.isin(face_of, faces[faces >= 0])
         if not out[r.name].any():
             raise InputError(f"[[region]] '{r.name}': selects no point of the nominal "
                              f"({_selector(r)})", plan.path)
@@ -72,6 +82,33 @@ def _select(plan: Plan, r: Region, points: np.ndarray, labels: np.ndarray | None
 def group_names(r: Region) -> tuple[str, ...]:
     """The names of the groups ``r`` selects (``group``: one name or several)."""
     return (r.group,) if isinstance(r.group, str) else tuple(r.group or ())
+def _face_of(groups: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """(n,) each sample's STEP face (its ``face:N`` group, engine.step_model.face_groups), -1
+    for none."""
+    out = np.full(n, -1)
+    for name, idx in groups.items():
+        if name.startswith("face:"):
+            out[idx] = int(name[5:])
+    return out
+
+
+def triangles_in_box(V: np.ndarray, lo, hi) -> np.ndarray:
+    """(m,) bool: whether each triangle V (m, 3, 3) meets the axis-aligned box [lo, hi] (3,),
+    mm: no separating axis among the box's three, the triangle's normal and the nine cross
+    products of their edges (Akenine-Möller's test)."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    v = V - 0.5 * (lo + hi)
+    half = 0.5 * (hi - lo)
+    edges = np.roll(v, -1, axis=1) - v
+    axes = [np.broadcast_to(e, (len(V), 3)) for e in np.eye(3)]
+    axes.append(np.cross(edges[:, 0], edges[:, 1]))
+    axes += [np.cross(edges[:, j], e) for j in range(3) for e in np.eye(3)]
+    apart = np.zeros(len(V), dtype=bool)
+    for a in axes:
+        p = np.einsum("mkj,mj->mk", v, a)
+        r = np.abs(a) @ half
+        apart |= (p.min(axis=1) > r) | (p.max(axis=1) < -r)
+    return ~apart
 
 
 GROUPS_SHOWN = 12
@@ -81,17 +118,23 @@ GROUPS_SHOWN = 12
 def _selector(r: Region) -> str:
     if r.box is not None:
         return f"box {[list(c) for c in r.box]}"
-    return f"labels '{r.labels}'" if r.labels is not None else \
-        f"group '{'+'.join(group_names(r))}'"
+    if r.labels is not None:
+        return f"labels '{r.labels}'"
+    names = group_names(r)
+    return f"group '{names[0]}'" if len(names) == 1 else \
+        "groups " + ", ".join(f"'{g}'" for g in names)
 
 
 def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: np.ndarray,
-                     labels: np.ndarray | None) -> dict[str, np.ndarray]:
+                     labels: np.ndarray | None, feet: np.ndarray | None = None
+                     ) -> dict[str, np.ndarray]:
     """{region name: indices of its measured points (ascending)}.
 
     nearest : (n,) index of the nominal sample nearest each registered measured point's closest
     point on the surface, however far the point lies from it (a gross defect stays in its
-    region, to be judged there); labels : the measured points' labels, or None."""
+    region, to be judged there); labels : the measured points' labels, or None. feet : (n, dim)
+    those closest points, or None: given (a STEP model's, whose box regions hold whole
+    faces), a box holds only the points whose closest point lies inside it."""
     out = {}
     for r in plan.regions:
         if r.measured_labels is not None:
@@ -101,6 +144,9 @@ def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: 
             mask = np.array([fnmatchcase(str(s), r.measured_labels) for s in labels], bool)
         else:
             mask = nominal_masks[r.name][nearest]
+            if r.box is not None and feet is not None:
+                lo, hi = (np.asarray(c, float)[:feet.shape[1]] for c in r.box)
+                mask &= np.all((feet >= lo) & (feet <= hi), axis=1)
         out[r.name] = np.flatnonzero(mask)
     return out
 

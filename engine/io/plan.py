@@ -39,6 +39,10 @@ The format (units mm, coordinates in the nominal frame; issue 12 is its contract
                            circularity: zone; sections (default 8); cylindricity: zone
                            parallelism, perpendicularity, angularity: zone; datums (at least
                                      one); diametral = true (an axis); angularity: angle (deg)
+                           circular_runout, total_runout: zone; datums = one axis (a
+                                     cylinder datum, or a common datum "A-B"); sections
+                           line_profile: as profile; direction (the sections' normal) and
+                                     spacing (mm); profile and line_profile: all_around = true
 
 Everything decidable from the file alone is checked here: TOML syntax, unknown tables and keys,
 types, choices, names that must exist and be unique, zones. Each problem raises
@@ -66,13 +70,13 @@ from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
                              FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS, MAX_DATUMS,
-                             ORIENTATION, PROFILE_FITS,
+                             ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts,
                              RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
                              Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
-from .plan_location import datum_kind, material_sizes, size_options
+from .plan_location import about_an_axis, datum_kind, material_sizes, size_options
 from .plan_tables import KEYS, ORDER, TABLES, Table, did_you_mean, known, notation, show
 from .points import read_bytes
 
@@ -281,10 +285,12 @@ def _region(t: Table) -> Region:
                              f"{a:g} >= {b:g})")
         box = (low, high)
     group = t.data.get("group")
-    group = t.texts("group", '["face:62", "face:63"]') if isinstance(group, list) \
-        else t.text("group")
-    if isinstance(group, tuple) and not group:
-        raise t.fail("group", "is an empty array: name at least one group")
+    if isinstance(group, list):
+        group = t.texts("group", '["face:62", "face:63"]')
+        if not group:
+            raise t.fail("group", "is empty: name at least one group")
+    else:
+        group = t.text("group")
     return Region(name=name, box=box, labels=t.text("labels"), group=group,
                   measured_labels=t.text("measured_labels"))
 
@@ -356,12 +362,17 @@ def _characteristic(t: Table, regions: list[str], datums: tuple[Datum, ...]) -> 
                      "located" if kind in LOCATION else "oriented") + " relative to at "
                      "least one datum (e.g. datums = [\"A\", \"B\", \"C\"])")
     for label in refs:
-        datum = next(d for d in datums if d.label == label)
-        if datum.region in (region, *pattern):
-            raise t.fail("datums", f"names datum {show(label)}, which is on region "
-                         f"{show(datum.region)} itself: a feature cannot be related to itself")
-    if "fit" in t and (kind != "profile" or refs):
-        raise t.fail("fit", "applies to a form-only profile (one without 'datums') only")
+        for part in datum_parts(label, [d.label for d in datums]):
+            datum = next(d for d in datums if d.label == part)
+            if datum.region in (region, *pattern):
+                raise t.fail("datums", f"names datum {show(part)}, which is on region "
+                             f"{show(datum.region)} itself: a feature cannot be related to "
+                             "itself")
+    if kind in RUNOUT:
+        about_an_axis(t, kind, refs, datums)
+    if "fit" in t and (kind not in PROFILES or refs):
+        raise t.fail("fit", "applies to a form-only profile or line profile (one without "
+                     "'datums') only")
     fit = t.text("fit", choices=PROFILE_FITS, default="lsq")
     c = Characteristic(id=ident, type=kind, region=region, lower=lower, upper=upper,
                        datums=refs, fit=fit, nominal=nominal, regions=pattern,
@@ -391,11 +402,16 @@ def _regions(t: Table, kind: str, regions: list[str]) -> tuple[str, tuple[str, .
     return pattern[0], pattern
 
 
+PROFILES = ("profile", "line_profile")
+
+
 def _form_options(t: Table, kind: str) -> dict:
-    """``direction``, ``sections``, ``diametral`` and ``angle``, each where its type takes it
-    (engine.gdt.plan.Characteristic)."""
-    takes = {"direction": ("straightness",), "sections": ("straightness", "circularity"),
-             "diametral": ("straightness",) + ORIENTATION, "angle": ("angularity",)}
+    """``direction``, ``sections``, ``diametral``, ``angle``, ``spacing`` and ``all_around``,
+    each where its type takes it (engine.gdt.plan.Characteristic)."""
+    takes = {"direction": ("straightness", "line_profile"),
+             "sections": ("straightness", "circularity", "circular_runout"),
+             "diametral": ("straightness",) + ORIENTATION, "angle": ("angularity",),
+             "spacing": ("line_profile",), "all_around": PROFILES}
     for key, kinds in takes.items():
         if key in t and kind not in kinds:
             raise t.fail(key, f"applies to {' and '.join(kinds)} only, not {kind}")
@@ -422,6 +438,7 @@ def _form_options(t: Table, kind: str) -> dict:
                          "surface's line elements along 'direction' have a zone of two lines")
         out["diametral"] = value
     out["diametral"] = out.get("diametral", kind == "straightness" and "direction" not in t)
+    out.update(_line_profile_options(t, kind))
     if kind == "angularity":
         angle = t.number("angle")
         if angle is None:
@@ -434,7 +451,28 @@ def _form_options(t: Table, kind: str) -> dict:
 
 
 MAX_SECTIONS = 1000
-"""The most cross-sections a circularity or straightness may ask for."""
+"""The most cross-sections a circularity, straightness or circular runout may ask for."""
+
+
+def _line_profile_options(t: Table, kind: str) -> dict:
+    """A line profile's ``direction`` (the sections' normal) and ``spacing`` (mm, required);
+    a profile's ``all_around``."""
+    out: dict = {}
+    if kind == "line_profile":
+        for key, what in (("direction", "the normal of its section planes, e.g. [1, 0, 0]"),
+                          ("spacing", "the distance between its sections, mm")):
+            if key not in t:
+                raise t.fail(key, f"is missing: a line profile needs {what}")
+        spacing = t.number("spacing")
+        if not spacing > 0.0:
+            raise t.fail("spacing", f"must be > 0 (mm), got {show(t.data['spacing'])}")
+        out["spacing"] = spacing
+    if "all_around" in t:
+        if not isinstance(t.data["all_around"], bool):
+            raise t.fail("all_around", f"must be true or false, got "
+                         f"{show(t.data['all_around'])}")
+        out["all_around"] = t.data["all_around"]
+    return out
 
 
 def _one_feature_per_region(tables: list[Table], characteristics, datums) -> None:
@@ -476,7 +514,7 @@ def _limits(t: Table, kind: str) -> tuple[float, float, float | None]:
         return lower, upper, nominal
     if nominal is not None:
         raise t.fail("nominal", "applies to size only")
-    if kind == "profile" and (lower is not None or upper is not None):
+    if kind in PROFILES and (lower is not None or upper is not None):
         if zone is not None:
             raise t.fail("zone", "and 'lower'/'upper' are both given: give either the zone "
                          "width or its limits")
@@ -488,7 +526,7 @@ def _limits(t: Table, kind: str) -> tuple[float, float, float | None]:
         raise t.fail("zone", "is missing (the zone's total width, mm)")
     if zone <= 0:
         raise t.fail("zone", f"must be > 0, got {show(t.data['zone'])}")
-    return (-zone / 2, zone / 2, None) if kind == "profile" else (0.0, zone, None)
+    return (-zone / 2, zone / 2, None) if kind in PROFILES else (0.0, zone, None)
 
 
 def _explicit_limits(t: Table, lower: float | None,
@@ -521,9 +559,16 @@ def _datum_references(t: Table, key: str, datums: tuple[Datum, ...]) -> tuple[st
                          f"{'MMC' if shifted.group(2) == 'M' else 'LMC'} (datum shift) is not "
                          f"supported yet; write {show(shifted.group(1))} to judge it "
                          "regardless of its size")
-        if label not in labels:
+        parts = datum_parts(label, labels)
+        if parts is None:
             raise t.fail(key, f"names {show(label)}, which is not the label of any "
-                         f"[[datum]]{known(labels)}")
+                         f"[[datum]]{known(labels)}, nor a common datum of two (\"A-B\")")
+        kinds = {next(d for d in datums if d.label == p).feature for p in parts}
+        if len(parts) > 1 and (len(parts) != 2 or len(kinds) != 1 or
+                               kinds - {"plane", "cylinder"}):
+            raise t.fail(key, f"names the common datum {show(label)}: a common datum joins "
+                         "two datums of one kind, two coaxial cylinders or two coplanar "
+                         f"planes; its parts are {' and '.join(sorted(kinds))}")
     if len(refs) > MAX_DATUMS:
         raise t.fail(key, f"names {len(refs)} datums; a datum reference frame has at most "
                      f"{MAX_DATUMS} (primary, secondary, tertiary)")

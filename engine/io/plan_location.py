@@ -6,7 +6,7 @@ the rest."""
 from __future__ import annotations
 
 from engine.gdt.plan import (MODIFIERS, SIZE_FEATURES, SIZE_METHODS, Characteristic, Datum,
-                             implied_feature)
+                             datum_parts, implied_feature)
 
 from .plan_tables import Table, show
 
@@ -67,3 +67,16 @@ def material_sizes(tables: list[Table], characteristics) -> None:
             raise t.fail("modifier", f"{show(c.modifier)} needs the size limits of region "
                          f"{show(missing[0])}: add a [[characteristic]] of type \"size\" on "
                          "it (its nominal, lower and upper give the MMC and LMC sizes)")
+
+
+def about_an_axis(t: Table, kind: str, refs: tuple[str, ...], datums: tuple[Datum, ...]):
+    """A runout turns its feature about one datum axis: a cylinder datum, or a common datum
+    "A-B" of two cylinders (ASME Y14.5 §9 / ISO 1101 §18.16)."""
+    if len(refs) != 1:
+        raise t.fail("datums", f"must name one datum axis for a {kind} (a cylinder datum, or a "
+                     f"common datum such as \"A-B\"), got {show(list(refs))}")
+    for part in datum_parts(refs[0], [d.label for d in datums]):
+        feature = next(d for d in datums if d.label == part).feature
+        if feature != "cylinder":
+            raise t.fail("datums", f"names datum {show(part)}, a {feature}: a {kind} is about "
+                         "a datum axis (a cylinder datum, or a common datum \"A-B\" of two)")

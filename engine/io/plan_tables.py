@@ -26,7 +26,7 @@ KEYS = {
     "rps": ("label", "nominal", "lock"),
     "characteristic": ("id", "type", "region", "zone", "lower", "upper", "nominal", "datums",
                        "fit", "direction", "sections", "diametral", "angle", "feature",
-                       "method", "modifier", "regions"),
+                       "method", "modifier", "regions", "spacing", "all_around"),
 }
 """Every key each table may hold."""
 

@@ -52,7 +52,8 @@ _TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position":
                "size": "size (diameter)", "straightness": "straightness",
                "circularity": "circularity", "cylindricity": "cylindricity",
                "parallelism": "parallelism", "perpendicularity": "perpendicularity",
-               "angularity": "angularity"}
+               "angularity": "angularity", "circular_runout": "circular runout",
+               "total_runout": "total runout", "line_profile": "line profile"}
 
 
 def type_word(c: Layout, kind: str) -> str:
@@ -76,7 +77,14 @@ _VALUE_WORDS = {
                     "the surface",
     **{k: f"{k}: the width (an axis: the diameter) of the smallest zone at the basic angle to "
           "the datums holding the face (the axis)"
-       for k in ("parallelism", "perpendicularity", "angularity")}}
+       for k in ("parallelism", "perpendicularity", "angularity")},
+    "circular_runout": "circular runout: the largest full indicator movement of a section turned "
+                       "about the datum axis (radial on a cylinder, axial on a face normal to it)",
+    "total_runout": "total runout: the full indicator movement over the whole surface turned "
+                    "about the datum axis",
+    "line_profile": "line profile: the largest, over the cross-sections every 'spacing' mm, of "
+                    "the width of the smallest zone centred like its tolerance zone holding the "
+                    "section (form only: each section refitted in its plane)"}
 
 
 def _plan_table(c: Layout) -> list:

@@ -150,6 +150,8 @@ class Char:
     """Position at MMC or LMC: the bonus tolerance measured, mm."""
     feature_kind: str = ""
     """Size and location: the feature of size (cylinder, sphere, width)."""
+    vector: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    """A line profile: the normal of the plane its curve lies in (a 2D template's: z)."""
 
 
 @dataclass(frozen=True)
@@ -290,7 +292,8 @@ _PLAN_CHAR = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "
               "cylindricity": "Cylindricity", "parallelism": "Parallelism",
               "perpendicularity": "Perpendicularity", "angularity": "Angularity",
               "coaxiality": "Coaxiality", "concentricity": "Concentricity",
-              "symmetry": "Symmetry"}
+              "symmetry": "Symmetry", "circular_runout": "CircularRunout",
+              "total_runout": "TotalRunout", "line_profile": "LineProfile"}
 _SIZE_CHAR = {"width": "Width", "sphere": "SphericalDiameter"}
 """QIF's characteristic of a size by its feature (a cylinder's: Diameter)."""
 
@@ -388,6 +391,9 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
         **{k: f"{c['type']} of {where}" + (f" at {c['angle']:g}°" if c.get("angle") else "")
            + (" (diametral: the axis)" if c.get("diametral") else "") + ": minimum zone at "
            f"most {fixed(upper - lower)} mm" for k in _FORM_AND_ORIENTATION},
+        **{k: f"{c['type'].replace('_', ' ')} of {where}: full indicator movement at most "
+           f"{fixed(upper - lower)} mm turned about the datum axis"
+           for k in ("CircularRunout", "TotalRunout")},
     }.get(kind, "all points at the registration's best fit: " + _profile_text(lower, upper)
           if feature.whole else
           f"profile of {where}" + ("" if datums else f", form only ({c.get('fit', Fit.LSQ)} "
@@ -399,7 +405,8 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
                 None if value is None else float(value),
                 f"{app} verdict {c['verdict']}: {c.get('reason', '')}",
                 diametral=bool(c.get("diametral")), modifier=c.get("modifier") or "RFS",
-                bonus=c.get("bonus"), feature_kind=c.get("feature") or "")
+                bonus=c.get("bonus"), feature_kind=c.get("feature") or "",
+                vector=tuple(c.get("direction") or (0.0, 0.0, 1.0)))
 
 
 def _xs_datetime(value) -> str:

@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 
 from .model import QIF_NAMESPACE, QIF_VERSION, Char, Qif
-from .text import (algorithm, attributes, file_description, fixed, format_name, geometry,
-                   id_list, nmtoken, xml_attr, xml_text)
+from .text import (algorithm, attributes, exact, file_description, fixed, format_name,
+                   geometry, id_list, nmtoken, xml_attr, xml_text)
 
 
 def write_header(w, q: Qif) -> None:
@@ -190,7 +190,8 @@ def write_characteristics(w, q: Qif) -> None:
           f"        <CharacteristicDefinitionId>{c.definition}</CharacteristicDefinitionId>\n")
         w(id_list("FeatureNominalIds", [c.feature.nominal_id], 8))
         if c.kind == "LineProfile":
-            w("        <Vector>0 0 1</Vector>\n")
+            vector = "0 0 1" if tuple(c.vector) == (0.0, 0.0, 1.0) else exact(c.vector)
+            w(f"        <Vector>{vector}</Vector>\n")
         if c.target is not None:
             w(f"        <TargetValue>{fixed(c.target)}</TargetValue>\n")
         w(f"      </{c.kind}CharacteristicNominal>\n")
@@ -234,7 +235,7 @@ def _zone(c: Char) -> str:
                 f"{s}<ZoneShape>\n{s}  <{shape}/>\n{s}</ZoneShape>\n")
     if c.kind in ("Coaxiality", "Concentricity"):
         return out + frame + f"{s}<ZoneShape>\n{s}  <DiametricalZone/>\n{s}</ZoneShape>\n"
-    if c.kind == "Symmetry":
+    if c.kind in ("Symmetry", "CircularRunout", "TotalRunout"):
         return out + frame
     if c.kind == "Straightness":
         shape = "DiametricalZone" if c.diametral else "NonDiametricalZone"
