@@ -175,6 +175,8 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
             # Planted at the nominal; where the nominal is a limit (CTC-01's ⌀35 -0.2/+0 and
             # +0/+0.2) the noise puts the fitted diameter on either side of it.
             assert c["value"] == pytest.approx(c["nominal"], abs=2e-4)
+            if min(abs(c["lower"]), abs(c["upper"])) == 0.0:  # the result says so
+                assert "on its " in c["reason"] and " limit (" in c["reason"], c
             if c["verdict"] != "ACCEPT":
                 assert min(abs(c["lower"]), abs(c["upper"])) == 0.0, c
                 on_limit_out.append(c["id"])

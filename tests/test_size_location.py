@@ -412,3 +412,29 @@ def test_a_width_region_with_one_plane_is_refused_with_65(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{plan}: [[characteristic]] '7': region 'floor' is no width" in err, err
     assert "face one way" in err, err
+
+
+@pytest.mark.parametrize("value, verdict, said", [
+    (35.0 + 1e-6, "REJECT", "on its upper limit (+1e-06 mm from it"),
+    (35.0 - 1e-6, "ACCEPT", "on its upper limit (-1e-06 mm from it"),
+    (34.8 + 2e-5, "ACCEPT", "on its lower limit (+2e-05 mm from it"),
+    (34.9, "ACCEPT", None), (35.0002, "REJECT", None)])
+def test_a_size_on_its_limit_says_so(value, verdict, said):
+    """NIST CTC-01's ⌀35 −0.2/+0: a size measured on the true part falls either side of its
+    limit with the noise; within half the 0.0001 mm the value is reported to, the reason says
+    it lies on the limit (and how far, signed), whichever verdict the comparison gives."""
+    from engine.gdt.decision import by_value
+
+    c = Characteristic("1", "size", "hole", -0.2, 0.0, (), nominal=35.0)
+    r = by_value(c, np.arange(3), value, {}, "least-squares diameter")
+    assert r.verdict == verdict
+    assert (said in r.reason) if said else ("on its" not in r.reason)
+
+
+def test_a_form_value_near_zero_is_not_on_a_limit():
+    """A flatness of a perfect face is about 0, its (implicit) lower limit: nothing to say."""
+    from engine.gdt.decision import by_value
+
+    r = by_value(Characteristic("1", "flatness", "A", 0.0, 0.01, ()), np.arange(3), 1e-7, {},
+                 "minimum-zone width")
+    assert r.verdict == "ACCEPT" and "on its" not in r.reason

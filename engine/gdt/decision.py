@@ -36,6 +36,13 @@ def value_guard(geo: Geometry, idx: np.ndarray, T, form_only: bool) -> float | N
     return None if m is None or len(m) == 0 else 2.0 * float(np.max(m))
 
 
+ON_THE_LIMIT = 5e-5
+"""A value closer than this to a limit (half the 0.0001 mm it is reported to) is said to lie on
+it: a nominal exactly on a size limit (NIST CTC-01's ⌀35 −0.2/+0) measured on the true part
+falls either side of it with the noise, and '35.0000 outside [34.8000, 35.0000]' says
+nothing."""
+
+
 def by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
               guard: float | None = None):
     """The characteristic judged by its value against its limits; with ``guard`` (the value's
@@ -47,6 +54,10 @@ def by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
     reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
               f"[{lo:.4f}, {hi:.4f}] mm")
     verdict = ACCEPT if inside else REJECT
+    edge = min((lo, hi), key=lambda limit: abs(value - limit))
+    if abs(value - edge) < ON_THE_LIMIT and not (c.type in ZONE_ONLY and edge == lo):
+        reason += (f": on its {'lower' if edge == lo else 'upper'} limit ({value - edge:+.2g} "
+                   f"mm from it, less than the {2 * ON_THE_LIMIT:g} mm it is reported to)")
     if guard is not None:
         g_lo = 0.0 if c.type in ZONE_ONLY else guard
         facts = {**facts, "uncertainty_bound": guard}
