@@ -155,7 +155,7 @@ def _robust_scale(r: np.ndarray) -> tuple[float, float]:
     return c, float(1.4826 * np.median(np.abs(r - c)))
 
 
-def _on_a_line(q: np.ndarray) -> bool:
+def on_a_line(q: np.ndarray) -> bool:
     """Whether the points q (m, 3) lie on one straight line (or one spot)."""
     sv = np.linalg.svd(q - q.mean(axis=0), compute_uv=False)
     return not sv[1] > 1e-9 * sv[0]
@@ -214,7 +214,7 @@ def dominant_plane(points: np.ndarray, distance: float | None = None, *,
     # Once more on the points within 3 sigma: the consensus band also holds the lowest rows of
     # whatever stands on the plane, which tilt a least-squares fit towards them.
     core = np.abs(p @ normal - offset - centre) <= PLANE_SIGMAS * sigma
-    if core.sum() >= 3 and not _on_a_line(p[core]):
+    if core.sum() >= 3 and not on_a_line(p[core]):
         normal, offset = _refit(p, core, normal)
         sigma = _robust_scale(p[consensus] @ normal - offset)[1]
     if distance is None:
@@ -323,7 +323,7 @@ def _check_spread(kept: np.ndarray, what: str) -> None:
     if not np.ptp(kept, axis=0).any():
         raise SettingsError(f"the {kept.shape[0]:,} {what} kept by the crop and plane removal "
                             "are all the same point: no pose can be found from them")
-    if _on_a_line(kept):
+    if on_a_line(kept):
         raise SettingsError(f"the {kept.shape[0]:,} {what} kept by the crop and plane removal "
                             "lie on one straight line: no pose can be found from them")
 

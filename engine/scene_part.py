@@ -27,7 +27,8 @@ from .progress import report
 from .registration import register
 from .registration_types import RegistrationSettings
 from .seeds import DEFAULT_SEED
-from .scene import LINK_SPACINGS, MIN_KEPT, Plane, Selection, objects, typical_spacing
+from .scene import (LINK_SPACINGS, MIN_KEPT, Plane, Selection, objects, on_a_line,
+                    typical_spacing)
 from .surface_fit import ROBUST_ITERATIONS
 
 OBJECT_POINTS = 200_000
@@ -88,9 +89,11 @@ def part_in_scene(nominal: Nominal, points: np.ndarray, noise: float,
     reach = max(REACH_SIGMAS * noise, settings.near(nominal.diagonal)[0])
     if sizes.size == 1:
         return PartInScene(np.arange(p.shape[0]), 1, 1, 0, link, reach)
+    # An object on one line (a cable, a row of mixed pixels) fixes no pose: no candidate.
     candidates = [k for k in range(sizes.size) if sizes[k] >= MIN_KEPT
                   and np.linalg.norm(np.ptp(q[label_q == k], axis=0))
-                  <= SIZE_RATIO * nominal.diagonal][:MAX_CANDIDATES]
+                  <= SIZE_RATIO * nominal.diagonal
+                  and not on_a_line(q[label_q == k])][:MAX_CANDIDATES]
     best, best_key = None, None
     for i, k in enumerate(candidates):
         report(f"which object is the part: object {i + 1} of {len(candidates)}",
