@@ -39,8 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import InputError
-from engine.gdt.plan import (Alignment, Characteristic, Datum, NotJudged, Part, Plan,
-                             Region)
+from engine.gdt.plan import Alignment, Datum, Part, Plan, Region
 
 from .points import read_bytes
 from .qif_characteristics import RFS, CharacteristicReader, ids_of, local_name, words
