@@ -88,6 +88,44 @@ def test_every_characteristic_is_read_and_each_mapped_one_has_faces(part, steps)
         assert len(groups[regions[d.region]]) >= 1
 
 
+SUPPORTED = {"SurfaceProfile", "Flatness", "Straightness", "Circularity", "Cylindricity",
+             "Parallelism", "Perpendicularity", "Angularity", "Position", "Coaxiality",
+             "Concentricity", "Symmetry", "CircularRunout", "TotalRunout", "Diameter", "Width",
+             "SphericalDiameter"}
+"""QIF characteristic kinds the plan layer has a type for (written here, not imported)."""
+HELD_BACK = {
+    "CTC-01": {},
+    "FTC-08": {"4101": "datum G is 2 features", "4108": "datum K is at maximum material",
+               "4136": "datum H is at maximum material",
+               "4163": "maximum material condition is not judged"},
+}
+"""Characteristics of a supported kind that stay not judged, and why: a datum made of two
+features, a datum at MMC (datum shift), a perpendicularity at MMC."""
+COUNTS = {"CTC-01": (13, 1), "FTC-08": (32, 5)}
+"""(judged, not judged) per part; before the QIF reader mapped form, orientation, runout,
+widths, patterns and MMC: CTC-01 (10, 4), FTC-08 (18, 19)."""
+
+
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_judged_and_not_judged_counts_follow_the_kinds_the_plan_supports(part):
+    """Counted here by kind with the standard library: every characteristic of a supported
+    kind is judged except the few held back for a stated reason; every other kind is listed
+    as not judged, with its reason."""
+    from engine.io.qif_plan import read_qif_plan
+
+    plan = read_qif_plan(qif(part))
+    kinds = {e.get("id"): e.tag[len(QIF3):-len("CharacteristicNominal")]
+             for e in xml_characteristics(qif(part))}
+    supported = {i for i, k in kinds.items() if k in SUPPORTED}
+    judged = {c.id.split(".")[0] for c in plan.characteristics}
+    not_judged = {c.id: c.reason for c in plan.not_judged}
+    assert judged == supported - set(HELD_BACK[part])
+    assert set(not_judged) == (set(kinds) - supported) | set(HELD_BACK[part])
+    for cid, why in HELD_BACK[part].items():
+        assert why in not_judged[cid], (cid, not_judged[cid])
+    assert (len(judged), len(not_judged)) == COUNTS[part]
+
+
 def _exact_surface(step, fid: int):
     """(kind, geometry) of STEP face ``fid`` from OpenCascade's exact surface."""
     from OCP.BRepAdaptor import BRepAdaptor_Surface
@@ -153,8 +191,9 @@ def write(path, M):
 
 def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(tmp_path, steps):
     """Points on CTC-01's exact faces, a random pose, 0.1 µm noise: every characteristic the
-    QIF gives the plan is ACCEPT (its value near 0, each size at its nominal); the four it
-    cannot judge yet are listed, and make the part INCONCLUSIVE, not ACCEPT."""
+    QIF gives the plan is ACCEPT (its value near 0, each size at its nominal), the
+    perpendicularity and the two slots' positions among them; its angular size, which the
+    plan cannot judge, is listed and makes the part INCONCLUSIVE, not ACCEPT."""
     from step_models import random_pose
     from sweep import on_part
 
@@ -168,7 +207,8 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
                  "--json", str(tmp_path / "r.json")])
     doc = json.loads((tmp_path / "r.json").read_text())
     chars = doc["characteristics"]
-    assert len(chars) == 10
+    assert len(chars) == 13
+    assert {"1443", "1450", "1467"} <= {c["id"] for c in chars}
     on_limit_out = []
     for c in chars:
         if c["type"] == "size":
@@ -185,12 +225,11 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
             assert c["value"] < 0.01
     assert code != 0
     assert doc["verdict"] == ("REJECT" if on_limit_out else "INCONCLUSIVE")
-    summary = ("4 of 14 characteristics of NISTmodels__nist_ctc_01_asme1_ap242.qif are not "
-               "judged yet: position (2), perpendicularity, angle")
+    summary = ("1 of 14 characteristics of NISTmodels__nist_ctc_01_asme1_ap242.qif are not "
+               "judged yet: angle")
     assert doc["reasons"][0] == summary
     assert doc["plan_faces"]["not_judged_summary"] == summary
-    assert {c["id"] for c in doc["plan_faces"]["not_judged"]} == {"1443", "1450", "1467",
-                                                                 "1491"}
+    assert {c["id"] for c in doc["plan_faces"]["not_judged"]} == {"1491"}
 
 
 def _refused(capsys, nominal, measured, plan) -> str:
@@ -256,3 +295,35 @@ def test_a_qif_whose_feature_matches_no_face_is_refused(tmp_path, capsys, measur
     err = _refused(capsys, stp("CTC-01"), measured, str(moved))
     assert "moved.qif" in err and "QIF feature 2154 (plane z=3)" in err
     assert "matches no face of nist_ctc_01_asme1_ap242-e1.stp within 0.093 mm" in err
+
+
+@pytest.mark.parametrize("part", sorted(PARTS))
+def test_orientation_zones_and_location_features_follow_the_qif(part):
+    """An orientation is ``diametral`` exactly where its QIF definition's ZoneShape is a
+    DiametricalZone; a position of OppositeParallelPlanes is a width's; one at MAXIMUM
+    material condition is at MMC, with a size on each of its regions."""
+    from engine.io.qif_plan import read_qif_plan
+
+    plan = read_qif_plan(qif(part))
+    root = ET.parse(qif(part)).getroot()
+    index = {e.get("id"): e for e in root.iter() if e.get("id") is not None}
+    features, _, _ = xml_geometry(qif(part))
+    sized = {c.region for c in plan.characteristics if c.type == "size"}
+    checked = 0
+    for c in plan.characteristics:
+        nominal = index[c.id.split(".")[0]]
+        definition = index[nominal.findtext(QIF3 + "CharacteristicDefinitionId")]
+        if c.type in ("parallelism", "perpendicularity", "angularity"):
+            zone = definition.find(f"{QIF3}ZoneShape/{QIF3}DiametricalZone")
+            assert c.diametral == (zone is not None), c
+            checked += 1
+        if c.type == "position":
+            fid = nominal.find(f"{QIF3}FeatureNominalIds/{QIF3}Id").text
+            if features[fid].tag == QIF3 + "OppositeParallelPlanesFeatureNominal":
+                assert c.kind == "width", c
+            condition = definition.findtext(QIF3 + "MaterialCondition")
+            assert c.modifier == {"MAXIMUM": "MMC", "LEAST": "LMC"}.get(condition, "RFS")
+            if c.modifier != "RFS":
+                assert set(c.all_regions) <= sized
+            checked += 1
+    assert checked >= 3

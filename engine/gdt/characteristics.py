@@ -88,7 +88,12 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
         except InputError as e:  # a plan the nominal shows wrong: name the plan
             if e.path is not None:
                 raise
-            raise InputError(e.message, plan.path) from None
+            if plan.n_source is None:
+                raise InputError(e.message, plan.path) from None
+            # A plan read from the model's own PMI (QIF) cannot be corrected by the
+            # inspector: this characteristic cannot be judged, the others still are.
+            results.append(CharacteristicResult(c, None, INCONCLUSIVE, "it cannot be judged "
+                                                f"as the model states it: {e.message}", idx))
     everything = np.arange(n)
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = plan_verdict(results, alignment)

@@ -262,7 +262,8 @@ def measured_hole(c: Characteristic, idx: np.ndarray, X: np.ndarray, normals: np
     radial /= np.linalg.norm(radial, axis=1)[:, None]
     across = np.linalg.svd(np.column_stack([radial, np.ones(len(X))]) / np.sqrt(len(X)),
                            compute_uv=False)
-    if across[2] < HOLE_SPREAD:  # (3D: a 4th, along the axis, is zero)
+    # (3D: a 4th, along the axis, is zero; fewer than 3 points give fewer than 3 values)
+    if across.size < 3 or across[2] < HOLE_SPREAD:
         return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
                                     f"'{c.region}' do not determine the hole (they cover too "
                                     "little of its circumference)", idx)

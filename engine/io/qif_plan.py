@@ -12,12 +12,14 @@ What is read
       name: the STEP faces :func:`qif_face_groups` finds for it by geometry.
     * datums: each ``DatumDefinition`` on one plane, cylinder or sphere feature, as a plan datum
       (tangent, the ASME / ISO default) on that feature's region.
-    * characteristics: each ``…CharacteristicNominal`` (its id is the plan's characteristic id):
-      surface profile -> ``profile`` (an ``OuterDisposition`` sets its limits), flatness of a
-      plane -> ``flatness``, position of one hole (RFS, a diametral zone, datums at RFS) ->
-      ``position``, diameter of a hole -> ``size`` (one per hole when it applies to several:
-      ``ID.1``, ``ID.2`` …). Every other one is kept in ``Plan.not_judged`` with its reason
-      (a perpendicularity, a position at MMC, a datum that is a width …): never dropped.
+    * datum reference frames: their simple datums, and a ``CompoundDatum`` as the common
+      datum "A-B"; a datum at MMC / LMC makes the characteristics that use it not judged.
+    * characteristics: each ``…CharacteristicNominal`` (its id is the plan's characteristic id),
+      mapped by engine.io.qif_characteristics: profile, form, orientation (an axis in a
+      DiametricalZone is ``diametral``), location (holes, pins, widths, spheres, patterns, at
+      MMC / LMC with the feature's size), runout and size (one per feature when it applies to
+      several: ``ID.1``, ``ID.2`` …). Every other one is kept in ``Plan.not_judged`` with its
+      reason (a datum at MMC, a distance between, a datum that is a width …): never dropped.
 
 Refusals (engine.errors.InputError, exit 65, naming the file and the item): not well-formed XML
 or XML with a DOCTYPE (no entity is ever expanded, no network, no huge trees), a document that is
@@ -37,10 +39,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import InputError
-from engine.gdt.plan import (Alignment, Characteristic, Datum, NotJudged, Part, Plan,
-                             Region)
+from engine.gdt.plan import Alignment, Datum, Part, Plan, Region
 
 from .points import read_bytes
+from .qif_characteristics import RFS, CharacteristicReader, ids_of, local_name, words
 from .qif_faces import MATCH_FRACTION, FaceMatcher, QifFace, face_of
 
 QIF3_NAMESPACE = "http://qifstandards.org/xsd/qif3"
@@ -53,10 +55,6 @@ KNOWN_UNITS = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "m":
 """Linear units by the names QIF writers use (mm each), for a ``linearUnit`` the file uses
 without declaring it (the NIST FTC-06 file's "inch"); a unit the file declares wins."""
 PRECEDENCE = {"PRIMARY": 0, "SECONDARY": 1, "TERTIARY": 2}
-RFS = ("", "NONE", "RFS", "REGARDLESS")
-"""Material-condition words that mean regardless of feature size."""
-INFORMATIONAL = "informational: it has no tolerance (0 .. 0), so there is nothing to judge"
-SUPPORTED = "the plan layer judges profile, flatness, and position and size of a hole"
 
 
 @dataclass(frozen=True)
@@ -190,10 +188,11 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
     features = _features(root, index, units, path)
     datums, datum_notes = _datums(root, features, path)
     frames = _frames(root, datums, datum_notes, path)
-    reader = _Characteristics(path, index, units, features, datums, frames)
+    reader = CharacteristicReader(path, index, units, features, datums, frames)
     nominals = [e for e in _children(root, "Characteristics/{*}CharacteristicNominals")]
     for e in nominals:
         reader.read(e)
+    reader.finish()
     used = {fid for r in reader.regions for fid in r[4:].split("+")}
     used |= {d.region[4:] for d in datums.values()}
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(), part=_part(root),
@@ -248,18 +247,10 @@ def _split(tag: str) -> tuple[str, str]:
     return "", tag
 
 
-def _local(e) -> str:
-    return _split(e.tag)[1]
-
-
 def _children(root, path: str) -> list:
     """The element children of ``{*}path`` under the root (none when it is absent)."""
     parent = root.find("{*}" + path)
     return [] if parent is None else [c for c in parent if isinstance(c.tag, str)]
-
-
-def _ids(e, tag: str) -> list[str]:
-    return [i.text.strip() for i in e.iterfind(f"{{*}}{tag}/{{*}}Id") if i.text]
 
 
 class _Units:
@@ -310,7 +301,7 @@ def _number(text: str | None, what: str, path: str) -> float:
 
 def _face(index: dict, face_id: str, units: _Units, feature: str, path: str) -> QifFace:
     face = index.get(face_id)
-    if face is None or _local(face) != "Face":
+    if face is None or local_name(face) != "Face":
         raise InputError(f"QIF feature {feature}: its entity {face_id} is not a Face of the "
                          "file's B-rep", path)
     try:
@@ -332,11 +323,11 @@ def _part(root) -> Part:
 def _features(root, index: dict, units: _Units, path: str) -> dict[str, QifFeature]:
     out = {}
     for e in _children(root, "Features/{*}FeatureNominals"):
-        kind = re.sub(r"FeatureNominal$", "", _local(e))
+        kind = re.sub(r"FeatureNominal$", "", local_name(e))
         definition = index.get(e.findtext("{*}FeatureDefinitionId") or "")
         side = None if definition is None else definition.findtext("{*}InternalExternal")
-        faces = tuple(i for i in _ids(e, "EntityInternalIds")
-                      if i in index and _local(index[i]) == "Face")
+        faces = tuple(i for i in ids_of(e, "EntityInternalIds")
+                      if i in index and local_name(index[i]) == "Face")
         out[e.get("id")] = QifFeature(e.get("id"), kind, (e.findtext("{*}Name") or "").strip(),
                                       faces, None if side is None else side == "INTERNAL")
     return out
@@ -348,12 +339,12 @@ def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str
     datums, notes = {}, {}
     for e in _children(root, "DatumDefinitions"):
         label = (e.findtext("{*}DatumLabel") or "").strip()
-        ids = _ids(e, "FeatureNominalIds")
+        ids = ids_of(e, "FeatureNominalIds")
         kinds = [features[i].kind if i in features else "?" for i in ids]
         if len(ids) != 1 or kinds[0] not in DATUM_FEATURES or not features[ids[0]].faces:
             what = "no feature" if not ids else (
                 f"{len(ids)} features" if len(ids) > 1 else
-                _article(_words(kinds[0])) + " feature" + ("" if kinds[0] == "?" or
+                _article(words(kinds[0])) + " feature" + ("" if kinds[0] == "?" or
                                                      features[ids[0]].faces else " without faces"))
             notes[e.get("id")] = (f"datum {label} is {what}; a plan datum is one plane, "
                                   "cylinder or sphere")
@@ -364,165 +355,59 @@ def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str
 
 
 def _frames(root, datums: dict, notes: dict, path: str) -> dict[str, tuple[tuple[str, ...], str]]:
-    """{DatumReferenceFrame id: (labels primary first, why it cannot be used or "")}."""
+    """{DatumReferenceFrame id: (labels primary first, why it cannot be used or "")}; a
+    ``CompoundDatum`` of datums of one kind is the common datum "A-B"."""
     out = {}
     for e in _children(root, "DatumReferenceFrames"):
         entries, why = [], ""
         for d in e.iterfind("{*}Datums/{*}Datum"):
             rank = PRECEDENCE.get((d.findtext("{*}Precedence/{*}PrecedenceEnum") or "").strip(),
                                   len(entries))
-            simple = d.find("{*}SimpleDatum")
-            if simple is None:
-                why = why or "its datum reference frame holds a common (compound) datum"
-                continue
-            ref = (simple.findtext("{*}DatumDefinitionId") or "").strip()
-            modifier = (simple.findtext("{*}MaterialModifier") or "").strip()
-            if ref in notes:
-                why = why or notes[ref]
-            elif ref not in datums:
-                raise InputError(f"DatumReferenceFrame {e.get('id')}: DatumDefinitionId "
-                                 f"{ref!r} is no DatumDefinition of the file", path)
-            elif modifier not in RFS:
-                why = why or (f"datum {datums[ref].label} is at {modifier.lower()} material "
-                              "condition")
-            if ref in datums:
-                entries.append((rank, datums[ref].label))
+            simples = [d.find("{*}SimpleDatum")]
+            if simples[0] is None:
+                simples = list(d.iterfind("{*}CompoundDatum/{*}Datum/{*}SimpleDatum"))
+                if not simples:
+                    why = why or "its datum reference frame holds a datum that is no simple " \
+                                  "or common datum"
+                    continue
+            labels = []
+            for simple in simples:
+                label, note = _simple_datum(simple, datums, notes, e.get("id"), path)
+                why = why or note
+                if label:
+                    labels.append(label)
+            if len(labels) == len(simples):
+                kinds = {next(v for v in datums.values() if v.label == x).feature
+                         for x in labels}
+                if len(kinds) > 1:
+                    why = why or (f"its common datum {'-'.join(labels)} joins a "
+                                  f"{' and a '.join(sorted(kinds))}; a common datum is two "
+                                  "datums of one kind")
+                entries.append((rank, "-".join(labels)))
         out[e.get("id")] = (tuple(label for _, label in sorted(entries)), why)
     return out
+
+
+def _simple_datum(simple, datums: dict, notes: dict, frame: str, path: str) -> tuple[str, str]:
+    """(the label of a SimpleDatum of frame ``frame`` or "", why it cannot be used or "")."""
+    ref = (simple.findtext("{*}DatumDefinitionId") or "").strip()
+    modifier = (simple.findtext("{*}MaterialModifier") or "").strip()
+    if ref in notes:
+        return "", notes[ref]
+    if ref not in datums:
+        raise InputError(f"DatumReferenceFrame {frame}: DatumDefinitionId {ref!r} is no "
+                         "DatumDefinition of the file", path)
+    if modifier not in RFS:
+        return datums[ref].label, (f"datum {datums[ref].label} is at {modifier.lower()} "
+                                   "material condition (a datum feature at MMC / LMC, datum "
+                                   "shift, is not judged yet)")
+    return datums[ref].label, ""
 
 
 def _article(word: str) -> str:
     return ("an " if word[:1] in "aeiou" else "a ") + word
 
 
-def _words(camel: str) -> str:
+def words(camel: str) -> str:
     """'DistanceBetween' -> 'distance between'."""
     return re.sub(r"(?<!^)(?=[A-Z])", " ", camel).lower()
-
-
-class _Characteristics:
-    """Reads characteristic nominals into plan characteristics or NotJudged entries."""
-
-    def __init__(self, path, index, units, features, datums, frames):
-        self.path, self.index, self.units = path, index, units
-        self.features, self.datums, self.frames = features, datums, frames
-        self.judged: list[Characteristic] = []
-        self.not_judged: list[NotJudged] = []
-        self.regions: list[str] = []
-
-    def read(self, e) -> None:
-        kind = re.sub(r"CharacteristicNominal$", "", _local(e))
-        cid = e.get("id")
-        name = (e.findtext("{*}Name") or "").strip()
-        definition = self.index.get((e.findtext("{*}CharacteristicDefinitionId") or "").strip())
-        if definition is None:
-            raise InputError(f"characteristic {cid} ({name}): its CharacteristicDefinitionId "
-                             "is no element of the file", self.path)
-        ids = _ids(e, "FeatureNominalIds")
-        for i in ids:
-            if i not in self.features:
-                raise InputError(f"characteristic {cid} ({name}): FeatureNominalId {i} is no "
-                                 "feature nominal of the file", self.path)
-        why = self._why_not(kind, definition, ids)
-        if why:
-            self.not_judged.append(NotJudged(cid, _words(kind), name, why))
-            return
-        made = self._make(kind, cid, name, definition, e, ids)
-        if isinstance(made, str):
-            self.not_judged.append(NotJudged(cid, _words(kind), name, made))
-            return
-        for c in made:
-            self.judged.append(c)
-            if c.region not in self.regions:
-                self.regions.append(c.region)
-
-    def _why_not(self, kind: str, definition, ids: list[str]) -> str:
-        """Why the plan layer cannot judge this characteristic yet ("" when it can)."""
-        feats = [self.features[i] for i in ids]
-        if kind not in ("SurfaceProfile", "Flatness", "Position", "Diameter"):
-            return f"{_words(kind)} is not judged yet ({SUPPORTED})"
-        if not feats or any(not f.faces for f in feats):
-            return "it applies to no feature with faces of the model"
-        condition = (definition.findtext("{*}MaterialCondition") or "").strip()
-        if condition not in RFS:
-            return f"its {condition.lower()} material condition is not judged yet"
-        frame = (definition.findtext("{*}DatumReferenceFrameId") or "").strip()
-        labels, frame_why = self.frames.get(frame, ((), "")) if frame else ((), "")
-        if frame and frame not in self.frames:
-            return f"its DatumReferenceFrameId {frame} is no datum reference frame of the file"
-        if frame_why:
-            return frame_why
-        if kind != "Diameter":
-            per_unit = [_local(c) for c in definition if isinstance(c.tag, str)
-                        and _local(c).startswith("ToleranceZonePerUnit")]
-            if per_unit:
-                return f"a zone per unit ({per_unit[0]}) is not judged yet"
-        if kind == "Flatness" and (len(feats) != 1 or feats[0].kind != "Plane"):
-            return "flatness is judged on one plane feature"
-        if kind in ("Position", "Diameter") and any(
-                f.kind != "Cylinder" or f.internal is False for f in feats):
-            kinds = ", ".join(sorted({_words(f.kind) for f in feats}))
-            return f"{_words(kind)} of {kinds} features (not holes) is not judged yet"
-        if kind == "Position":
-            if len(feats) != 1:
-                return f"a pattern of {len(feats)} holes located together is not judged yet"
-            if definition.find("{*}ZoneShape/{*}DiametricalZone") is None:
-                return "a position of a hole in a non-diametral zone is not judged yet"
-            if not labels:
-                return "a position relative to no datum is not judged"
-        region = self._region(ids)
-        for label in labels:
-            if next(d for d in self.datums.values() if d.label == label).region == region:
-                return f"its datum {label} is its own feature"
-        return ""
-
-    @staticmethod
-    def _region(ids: list[str]) -> str:
-        return "qif:" + "+".join(ids)
-
-    def _make(self, kind, cid, name, definition, e, ids) -> list[Characteristic] | str:
-        """The plan characteristics of a characteristic the plan layer judges, or why it is
-        not judged after all (an informational item without tolerance)."""
-        frame = (definition.findtext("{*}DatumReferenceFrameId") or "").strip()
-        labels = self.frames[frame][0] if frame else ()
-        what = f"characteristic {cid} ({name})"
-        if kind == "Diameter":
-            return self._sizes(cid, what, definition, e, ids)
-        zone = self._length(definition, "ToleranceValue", what)
-        if zone == 0.0:
-            return INFORMATIONAL
-        if not zone > 0:
-            raise InputError(f"{what}: ToleranceValue must be > 0, got {zone:g}", self.path)
-        if kind == "Flatness":
-            return [Characteristic(cid, "flatness", self._region(ids), 0.0, zone)]
-        if kind == "Position":
-            return [Characteristic(cid, "position", self._region(ids), 0.0, zone, labels)]
-        outer = definition.find("{*}OuterDisposition")
-        upper = zone / 2 if outer is None else self.units.length(outer, what)
-        return [Characteristic(cid, "profile", self._region(ids), upper - zone, upper, labels)]
-
-    def _sizes(self, cid, what, definition, e, ids) -> list[Characteristic] | str:
-        """A diameter's size characteristic on each of its holes (``cid.k`` for several)."""
-        nominal = self._length(e, "TargetValue", what)
-        tol = definition.find("{*}Tolerance")
-        if tol is None:
-            raise InputError(f"{what}: its definition has no Tolerance", self.path)
-        low, high = (self._length(tol, k, what) for k in ("MinValue", "MaxValue"))
-        if (tol.findtext("{*}DefinedAsLimit") or "").strip() == "true":
-            low, high = low - nominal, high - nominal
-        # Limits minus the target: 34.8 - 35 must be -0.2, not -0.20000000000000284.
-        low, high = round(low, 12), round(high, 12)
-        if low == high == 0.0:
-            return INFORMATIONAL
-        if not nominal > 0 or not low < high or nominal + low <= 0:
-            raise InputError(f"{what}: a diameter of {nominal:g} mm with limits {low:+g} / "
-                             f"{high:+g} mm is no size tolerance", self.path)
-        return [Characteristic(cid if len(ids) == 1 else f"{cid}.{k}", "size", f"qif:{i}",
-                               low, high, nominal=nominal)
-                for k, i in enumerate(ids, start=1)]
-
-    def _length(self, e, tag: str, what: str) -> float:
-        found = e.find("{*}" + tag)
-        if found is None:
-            raise InputError(f"{what}: {tag} is missing", self.path)
-        return self.units.length(found, f"{what}: {tag}")
