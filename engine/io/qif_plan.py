@@ -406,8 +406,3 @@ def _simple_datum(simple, datums: dict, notes: dict, frame: str, path: str) -> t
 
 def _article(word: str) -> str:
     return ("an " if word[:1] in "aeiou" else "a ") + word
-
-
-def words(camel: str) -> str:
-    """'DistanceBetween' -> 'distance between'."""
-    return re.sub(r"(?<!^)(?=[A-Z])", " ", camel).lower()
