@@ -13,6 +13,7 @@ plan (a 3 MB QIF) read and mapped within 3 s.
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import sys
@@ -54,6 +55,8 @@ def case(qif: str, stp: str) -> dict:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     print(f"{'part':8} {'QIF MB':>6} {'step s':>7} {'read s':>7} {'map s':>6} "
           f"{'read+map':>8} {'chars':>5} {'judged':>6} {'faces':>5}")
     for qif, stp in PARTS:

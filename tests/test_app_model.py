@@ -729,7 +729,7 @@ def test_a_bad_plan_is_the_command_lines_error_and_changes_nothing(tmp_path, cap
     assert "'zone' must be > 0" in text
     c.open_plan(nominal)
     assert messages[-1] == ("error", f"{nominal}: unsupported file type '.xyz'; supported: "
-                                     ".toml")
+                                     ".toml .qif")
 
 
 def test_a_plans_instrument_decides_in_the_app_as_on_the_command_line(tmp_path):

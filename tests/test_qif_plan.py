@@ -1,6 +1,6 @@
 """Inspection plans read from a QIF 3.0 MBD (engine.io.qif_plan): the NIST CTC-01 and FTC-08
-test parts' own QIF files (../shared/realdata/qif_samples, public domain) against their STEP
-AP242 models (../shared/realdata/nist_pmi_step/ap242): the characteristics counted
+test parts' own QIF files (tests/data/qif, copied from ../shared/realdata/qif_samples) against
+their STEP AP242 models (tests/data/step): the characteristics counted
 independently, every mapped face checked on the exact surface with OpenCascade, an inspection
 of points sampled on the exact faces in a random pose, and the refusals (exit 65)."""
 
@@ -14,16 +14,13 @@ import pytest
 
 from qa_app.cli import main
 
-REAL = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "..",
-                    "shared", "realdata")
-QIF_DIR = os.path.join(REAL, "qif_samples")
-STEP_DIR = os.path.join(REAL, "nist_pmi_step", "ap242")
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+QIF_DIR = os.path.join(DATA, "qif")  # copies of the shared folder's (SOURCE.txt there)
+STEP_DIR = os.path.join(DATA, "step")
 PARTS = {
     "CTC-01": ("NISTmodels__nist_ctc_01_asme1_ap242.qif", "nist_ctc_01_asme1_ap242-e1.stp"),
     "FTC-08": ("NISTmodels__nist_ftc_08_asme1_ap242-1.qif", "nist_ftc_08_asme1_ap242-e1.stp"),
 }
-pytestmark = pytest.mark.skipif(not os.path.isdir(QIF_DIR) or not os.path.isdir(STEP_DIR),
-                                reason="the shared NIST data is not here")
 QIF3 = "{http://qifstandards.org/xsd/qif3}"
 
 
