@@ -14,6 +14,7 @@ from engine.nominal import Nominal
 from engine.gdt.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
 from engine.pointset import PointSet
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
+from plan_runs import by_id
 
 # A block [0, 100] x [0, 60] x [0, top(x)] with a sloped top ("skin") z = 20 + 0.1 x and a
 # vertical through hole of radius 4 at (64, 30). Outward normals.
@@ -112,10 +113,6 @@ def plan_of(*characteristics, alignment=Alignment("datums", ("A", "B", "C")), rp
 def run(nominal, M, labels, plan, tol=Tolerance.symmetric(0.5), zone_in_verdict=False):
     res = inspect(nominal, M, tol)
     return inspect_plan(res, plan, nominal, None, M, labels, zone_in_verdict)
-
-
-def by_id(res, i):
-    return next(r for r in res.plan.characteristics if r.characteristic.id == i)
 
 
 COUNTS = {"A": 40, "B": 25, "C": 25, "skin": 80, "hole": 24, "D": 10, "E": 10}

@@ -6,13 +6,12 @@ about the true axis, and a scipy least-squares twin of the common datum axis).""
 import numpy as np
 import pytest
 
-from engine.gdt.characteristics import inspect_plan
 from engine.gdt.plan import Alignment, Characteristic, Datum, Part, Plan, Region
-from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.pointset import PointSet
 from engine.pose import make_transform, rotation_from_rotvec
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
+from plan_runs import by_id, run
 
 # A shaft along z: journal A (radius 10, z 0 .. 35), a collar (radius 15, z 35 .. 65) between
 # two shoulders (z = 35 facing -z, radii 10 .. 15; z = 65 facing +z, radii 9 .. 15), journal B
@@ -97,15 +96,6 @@ def plan_of(*characteristics, fit="tangent"):
     return Plan("plan.toml", "0" * 64, Part(), REGIONS,
                 (Datum("A", "A", "cylinder", fit), Datum("B", "B", "cylinder", fit)),
                 Alignment("best-fit"), tuple(characteristics))
-
-
-def run(nominal, M, labels, plan, **kwargs):
-    res = inspect(nominal, M, Tolerance.symmetric(0.5), **kwargs)
-    return inspect_plan(res, plan, nominal, None, M, labels, False)
-
-
-def by_id(res, i):
-    return next(r for r in res.plan.characteristics if r.characteristic.id == i)
 
 
 def C(ident, kind, region, zone, datums=("A",), **kw):

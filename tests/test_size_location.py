@@ -6,13 +6,12 @@ computation written here (analytic, or a brute-force search with a scipy twin)."
 import numpy as np
 import pytest
 
-from engine.gdt.characteristics import inspect_plan
 from engine.gdt.plan import Alignment, Characteristic, Datum, Part, Plan, Region
-from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.pointset import PointSet
 from engine.pose import make_transform, rotation_from_rotvec
 from engine.verdict import ACCEPT, REJECT
+from plan_runs import by_id, run
 
 # A block [0, 100] x [0, 60] x [0, 20]: base A (z = 0), sides B (x = 0) and C (y = 0), top
 # z = 20; a slot (a pocket) x 35 .. 45, y 10 .. 50 from z = 5 up through the top; a through hole of radius 5 at
@@ -104,15 +103,6 @@ DATUMS = (Datum("A", "A", "plane"), Datum("B", "B", "plane"), Datum("C", "C", "p
 def plan_of(*characteristics):
     return Plan("plan.toml", "0" * 64, Part(), REGIONS, DATUMS, Alignment("best-fit"),
                 tuple(characteristics))
-
-
-def run(nominal, M, labels, plan, **kwargs):
-    res = inspect(nominal, M, Tolerance.symmetric(0.5), **kwargs)
-    return inspect_plan(res, plan, nominal, None, M, labels, False)
-
-
-def by_id(res, i):
-    return next(r for r in res.plan.characteristics if r.characteristic.id == i)
 
 
 def C(ident, type_, region, zone, datums=(), **kw):
