@@ -95,6 +95,8 @@ class FreeDirection:
         v = ", ".join(f"{round(a, 3) + 0.0:+.3f}" for a in self.along)  # no "-0.000"
         if self.type == "translation":
             return f"translation along ({v})"
+        if self.through is None:
+            raise ValueError(f"a rotation about ({v}) needs the point it passes through")
         p = ", ".join(f"{a:.2f}" for a in self.through)
         return f"rotation about ({v}) through ({p})"
 
@@ -380,7 +382,7 @@ def _describe_free(free: np.ndarray, centre: np.ndarray, length: float, nrot: in
         # so that the same freedom reads the same whatever the pose.
         v = v * (1.0 if v[np.argmax(np.abs(v))] > 0 else -1.0)
         w, t = v[:nrot] / length, v[nrot:]
-        if np.linalg.norm(w) * length < 1e-9 * max(np.linalg.norm(v), 1e-300):
+        if np.linalg.norm(w) * length < 1e-9 * max(float(np.linalg.norm(v)), 1e-300):
             u = t / np.linalg.norm(t)
             out.append(FreeDirection("translation", tuple(float(a) for a in u)))
         elif nrot == 3:

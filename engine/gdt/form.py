@@ -314,6 +314,8 @@ def _on_cylinder(c: Characteristic, idx: np.ndarray, geo: Geometry, fit, hint: n
     if c.type == "circularity":
         return s.value, {**facts, "section_values": s.values.tolist()}, \
             f"largest minimum-zone radial separation of {s.judged} sections", guard
+    if s.centres is None:  # circularity() gives every section's centre
+        raise ValueError("circularity() returned no section centres")
     centres = s.centres[~np.isnan(s.values)]
     return median_line_straightness(centres), {**facts, "median_line": centres}, \
         f"diameter of the smallest cylinder holding the median line ({s.judged} sections)", \
@@ -323,6 +325,8 @@ def _on_cylinder(c: Characteristic, idx: np.ndarray, geo: Geometry, fit, hint: n
 def _line_elements(c: Characteristic, idx: np.ndarray, geo: Geometry, sections: int):
     """(value, facts, what, its uncertainty bound) of a plane's line elements along the
     characteristic's direction, or an INCONCLUSIVE result."""
+    if c.direction is None:  # the caller's branch: a direction is set
+        raise ValueError(f"{c.id}: line elements run along a direction; none is set")
     X, _, n = geo.evaluate(geo.T0, idx)
     normal = n.mean(axis=0) / np.linalg.norm(n.mean(axis=0))
     direction = np.asarray(c.direction)

@@ -19,7 +19,7 @@ from .decision import by_value, own, untrusted, value_guard
 from .form import judge_form
 from .location import judge_location
 from .orientation import judge_orientation
-from .plan import FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan, datum_parts
+from .plan import FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan, known_datum_parts
 from .region_features import FACING, SPAN, datum_invariants
 from .results import WORST, CharacteristicResult, Geometry
 from .size import judge_size
@@ -66,12 +66,12 @@ class Shared:
         :meth:`datum_members`)."""
         if label in self.datums:
             return self.datums[label]
-        return replace(self.datums[datum_parts(label, self.datums)[0]], label=label)
+        return replace(self.datums[known_datum_parts(label, self.datums)[0]], label=label)
 
     def datum_members(self, label: str) -> np.ndarray:
         """The measured points of a datum's region (a common datum: of both its regions)."""
         return np.unique(np.concatenate([self.members[self.datums[p].region]
-                                         for p in datum_parts(label, self.datums)]))
+                                         for p in known_datum_parts(label, self.datums)]))
 
     def placed(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
         """The part placed by the datums ``labels`` (primary first), the freedom they leave

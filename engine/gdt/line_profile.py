@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..pose import apply_update, pose_jacobian
 from ..tolerance import Tolerance
 from ..verdict import INCONCLUSIVE, pointwise_verdict
@@ -81,12 +82,15 @@ def judge_line_profile(c: Characteristic, idx: np.ndarray, geo: Geometry, T: np.
     or its form-only refit: module docstring)."""
     tol = Tolerance(c.lower, c.upper)
     centre = 0.5 * (c.lower + c.upper)
+    if c.direction is None or c.spacing is None:
+        raise InputError(f"[[characteristic]] '{c.id}': a line profile needs a 'direction' "
+                         "(the normal of its section planes) and a 'spacing' (mm)")
     direction = np.asarray(c.direction, float)
     k = sections_of(geo.evaluate(T, idx)[0], direction, c.spacing)
     names, counts = np.unique(k, return_counts=True)
     d = np.full(idx.size, np.nan)
     margin = None
-    values = []
+    values: list[float | None] = []
     for name, count in zip(names, counts):
         rows = np.flatnonzero(k == name)
         if count < SECTION_POINTS:

@@ -36,6 +36,7 @@ Shapes: points (n, 3) (a 2D template: (n, 2)), mm, nominal frame at the datums' 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -47,6 +48,9 @@ from .plan import Characteristic
 from .region_features import nominal_cylinder, region_nominal
 from .results import CharacteristicResult, Geometry
 from .size import measured_feature, mating_size, nominal_width, two_point
+
+if TYPE_CHECKING:
+    from .datums import FreeDirection
 
 AGREES = 0.5
 """Degrees: how far a feature's nominal may turn from its datum's (a coaxiality's axis, a
@@ -173,7 +177,10 @@ def _true_position(c: Characteristic, geo: Geometry, shared) -> dict:
             c, geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))))
         return {"point": fit.point, "normal": fit.direction}
     if c.feature == "sphere" and geo.nominal_points.shape[1] == 3:
-        return {"centre": region_nominal("sphere", geo, mask)["centre"]}
+        sphere = region_nominal("sphere", geo, mask)
+        if sphere is None:  # as measured_feature, which has refused it already
+            raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no sphere")
+        return {"centre": sphere["centre"]}
     nom = nominal_cylinder(c, geo, shared)[0]
     if geo.nominal_points.shape[1] == 2:
         return {"centre": nom.centre}
@@ -253,7 +260,7 @@ def _material(c: Characteristic, idx: np.ndarray, geo: Geometry, shared) -> dict
             "_size_guard": value_guard(geo, idx, geo.T0, form_only=True) or 0.0}
 
 
-def _loose(al, nominal: dict, geo: Geometry) -> list:
+def _loose(al, nominal: dict, geo: Geometry) -> tuple[FreeDirection, ...]:
     """The motions the datums of ``al`` leave free that move the nominal feature."""
     from .datums import invariant_motions, moving
 
@@ -266,7 +273,7 @@ def _loose(al, nominal: dict, geo: Geometry) -> list:
                   geo.centre, geo.length)
 
 
-def _check_located(c: Characteristic, loose: list) -> None:
+def _check_located(c: Characteristic, loose: tuple[FreeDirection, ...]) -> None:
     """A position is relative to datums that locate the feature: none of the motions they
     leave free (``loose``: :func:`_loose`) may move the nominal feature."""
     if loose:

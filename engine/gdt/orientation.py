@@ -141,6 +141,9 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
             raise InputError(f"[[characteristic]] '{c.id}': region '{c.region}' is no plane")
         feature = plane["normal"]
     basic = ORIENTATION_ANGLE.get(c.type, c.angle)
+    if basic is None:
+        raise InputError(f"[[characteristic]] '{c.id}': an angularity states its basic angle "
+                         f"to the primary datum, degrees (angle)")
     basic = min(basic, 180.0 - basic)  # the angle between two planes or lines
     # Between directions: a plane's normal and an axis stand at 90 degrees minus the angle.
     beta = basic if c.diametral == (primary.feature == "cylinder") else 90.0 - basic

@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from ..errors import InputError
 from ..uncertainty import Instrument
 
 FEATURES_3D = ("plane", "cylinder", "sphere")
@@ -324,3 +325,13 @@ def datum_parts(label: str, labels) -> tuple[str, ...] | None:
         return (label,)
     parts = tuple(label.split(COMMON))
     return parts if len(parts) > 1 and all(p in labels for p in parts) else None
+
+
+def known_datum_parts(label: str, labels) -> tuple[str, ...]:
+    """:func:`datum_parts` of a reference the plan must resolve (a characteristic's datum): an
+    InputError when it names no datum of ``labels``, nor a common datum of two of them."""
+    parts = datum_parts(label, labels)
+    if parts is None:
+        raise InputError(f"datum reference '{label}' is not the label of any [[datum]], nor a "
+                         "common datum of two (\"A-B\")")
+    return parts

@@ -5,6 +5,7 @@ the 3-2-1 (RPS) alignment."""
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -13,6 +14,9 @@ from .datums import Alignment, align_rps
 from .plan import MIN_POINTS, Characteristic, Plan
 from ..verdict import INCONCLUSIVE
 from .results import CharacteristicResult, Geometry, RegionFeature
+
+if TYPE_CHECKING:
+    from .features import CylinderFit, PlaneFit, RoundFit
 
 FACING = np.radians(10.0)
 """How far a sample's normal may turn from its feature's and still be of it (engine.gdt.regions
@@ -150,6 +154,8 @@ def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:
     from .features import (FeatureError, fit_circle_lsq, fit_cylinder_lsq, fit_plane_lsq,
                            fit_sphere_lsq)
 
+    f: PlaneFit | RoundFit | CylinderFit
+    out: dict[str, np.ndarray | float]
     try:
         if kind in ("plane", "line"):
             f = fit_plane_lsq(X, normals.sum(axis=0))
@@ -197,7 +203,8 @@ def rps_alignment(plan: Plan, geo: Geometry, best_fit: np.ndarray | None) -> Ali
                      geo.centre, geo.length, best_fit)
 
 
-def cylinder_from_normals(fit_cylinder_lsq, X: np.ndarray, normals: np.ndarray):
+def cylinder_from_normals(fit_cylinder_lsq, X: np.ndarray,
+                          normals: np.ndarray) -> CylinderFit:
     """The least-squares cylinder of X, started from the nominal region's axis direction: the
     one its surface normals are all perpendicular to (the smallest eigenvector of sum n n^T)."""
     _, vecs = np.linalg.eigh(normals.T @ normals)

@@ -41,7 +41,7 @@ def nominal_members(plan: Plan, points: np.ndarray, labels: np.ndarray | None,
     out = {}
     for r in plan.regions:
         out[r.name] = _select(plan, r, points, labels, groups, fold_case)
-        if r.box is not None and triangles is not None:
+        if r.box is not None and triangles is not None and face_of is not None:
             crossing = triangles[triangles_in_box(points[triangles], *r.box)].ravel()
             faces = np.unique(face_of[crossing])
             out[r.name] |= np.isin(face_of, faces[faces >= 0])
@@ -154,7 +154,7 @@ def measured_members(plan: Plan, nominal_masks: dict[str, np.ndarray], nearest: 
 def region_column(plan: Plan, members: dict[str, np.ndarray], n: int) -> np.ndarray:
     """(n,) str: each measured point's regions joined by '+', in the plan's order ('' for
     none), for the per-point outputs."""
-    names = [[] for _ in range(n)]
+    names: list[list[str]] = [[] for _ in range(n)]
     for r in plan.regions:
         for i in members[r.name]:
             names[i].append(r.name)

@@ -3,7 +3,9 @@ region is (RegionFeature), and the geometry a plan is judged on (Geometry)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -82,6 +84,14 @@ class RegionFeature:
     """(label, fit) of the plan's datums on this region."""
 
 
+class Margin(Protocol):
+    """Geometry.margin: the guard band (mm) of the measured points ``idx`` at pose T, or None
+    (the simple rule)."""
+
+    def __call__(self, idx: np.ndarray, T: np.ndarray,
+                 form_only: bool = False) -> np.ndarray | None: ...
+
+
 @dataclass(frozen=True)
 class Geometry:
     """What the plan's evaluation needs of the part, whatever its kind (3D or a 2D template).
@@ -96,16 +106,16 @@ class Geometry:
     (rotations are scaled by it); labels : (n,) the measured points' labels, or None.
     """
 
-    evaluate: object
+    evaluate: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
     T0: np.ndarray
-    margin: object
+    margin: Margin
     nominal_points: np.ndarray
-    nominal_normals: object
+    nominal_normals: Callable[[np.ndarray], np.ndarray]
     nominal_masks: dict
     centre: np.ndarray
     length: float
     labels: np.ndarray | None = None
-    exact_feature: object = None
+    exact_feature: Callable[[str, np.ndarray], dict | None] | None = None
     """exact_feature(kind, mask) -> a region's nominal feature (as :func:`_nominal_feature`)
     from the model's exact surface when its samples ``mask`` all lie on one surface of that
     kind (a STEP model's plane, cylinder or sphere faces), else None; None: always fitted."""

@@ -38,7 +38,7 @@ from ..verdict import INCONCLUSIVE
 from .decision import by_value, own, value_guard
 from .features import axis_distances, complement, cylinder_axis
 from .form import SECTION_POINTS, Sections, chebyshev, section_of
-from .plan import DEFAULT_SECTIONS, MIN_POINTS, Characteristic, datum_parts
+from .plan import DEFAULT_SECTIONS, MIN_POINTS, Characteristic, known_datum_parts
 from .region_features import FACING, HOLE_FORM, measured_hole, nominal_hole, region_nominal
 from .results import CharacteristicResult, Geometry
 
@@ -155,7 +155,7 @@ def _runout(c: Characteristic, idx: np.ndarray, geo: Geometry, shared):
                                     f"'{c.region}' holds {SECTION_POINTS} points or more of "
                                     "the feature", idx)
     datum_idx = np.concatenate([shared.members[shared.datums[p].region] for p in
-                                datum_parts(c.datums[0], shared.datums)])
+                                known_datum_parts(c.datums[0], shared.datums)])
     facts = {"reading": "axial" if axial else "radial", "datum_axis_point": axis.point,
              "datum_axis_direction": axis.direction, "datum_axis_fit": axis.how,
              "n_points_judged": int(keep.sum())}
@@ -174,7 +174,7 @@ def _datum_axis(c: Characteristic, geo: Geometry, shared):
     """(the measured datum axis, the first datum's nominal cylinder) of the
     characteristic's datum (a cylinder or a common datum of two), or an INCONCLUSIVE result
     naming why its points do not establish it."""
-    parts = [shared.datums[p] for p in datum_parts(c.datums[0], shared.datums)]
+    parts = [shared.datums[p] for p in known_datum_parts(c.datums[0], shared.datums)]
     fits, clouds = [], []
     for d in parts:
         members = shared.members[d.region]

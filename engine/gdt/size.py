@@ -146,12 +146,16 @@ def envelope(kind: str, X: np.ndarray, start: SizeFit, inscribed: bool,
         q = (X - start.point) / scale
         fun, x0 = _round_residuals(q), np.zeros(X.shape[1])
     else:
+        if start.direction is None:  # a cylinder's or a width's fit has one
+            raise ValueError(f"a {kind}'s least-squares fit has no direction")
         frame = np.vstack([complement(start.direction), start.direction])
         q = ((X - start.point) @ frame.T) / scale
         if kind == "cylinder":
             def fun(x):
                 return axis_distances(q, x)
             x0 = np.zeros(4)
+        elif side is None:
+            raise ValueError("a width's envelope needs its faces (side)")
         else:
             fun, x0 = _width_residuals(q, side), np.zeros(3)
     if inscribed:  # the smallest distance made largest: 2 - r stays positive near r = 1
@@ -184,6 +188,8 @@ def two_point(kind: str, X: np.ndarray, start: SizeFit,
         q = X - start.point
         mirror, across = -q, np.ones(X.shape[1], bool)
     else:
+        if start.direction is None:  # a cylinder's or a width's fit has one
+            raise ValueError(f"a {kind}'s least-squares fit has no direction")
         frame = np.vstack([complement(start.direction), start.direction])
         q = (X - start.point) @ frame.T
         flip = np.array([-1.0, -1.0, 1.0]) if kind == "cylinder" else np.array([1.0, 1.0, -1.0])
