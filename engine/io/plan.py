@@ -70,7 +70,7 @@ from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
                              FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS, MAX_DATUMS,
-                             ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts,
+                             ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts, known_datum_parts,
                              RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
                              Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
@@ -362,7 +362,7 @@ def _characteristic(t: Table, regions: list[str], datums: tuple[Datum, ...]) -> 
                      "located" if kind in LOCATION else "oriented") + " relative to at "
                      "least one datum (e.g. datums = [\"A\", \"B\", \"C\"])")
     for label in refs:
-        for part in datum_parts(label, [d.label for d in datums]):
+        for part in known_datum_parts(label, [d.label for d in datums]):
             datum = next(d for d in datums if d.label == part)
             if datum.region in (region, *pattern):
                 raise t.fail("datums", f"names datum {show(part)}, which is on region "
@@ -464,7 +464,7 @@ def _line_profile_options(t: Table, kind: str) -> dict:
             if key not in t:
                 raise t.fail(key, f"is missing: a line profile needs {what}")
         spacing = t.number("spacing")
-        if not spacing > 0.0:
+        if spacing is None or not spacing > 0.0:  # None (absent) is refused above
             raise t.fail("spacing", f"must be > 0 (mm), got {show(t.data['spacing'])}")
         out["spacing"] = spacing
     if "all_around" in t:
@@ -531,9 +531,9 @@ def _limits(t: Table, kind: str) -> tuple[float, float, float | None]:
 
 def _explicit_limits(t: Table, lower: float | None,
                      upper: float | None) -> tuple[float, float]:
-    for key, value in (("lower", lower), ("upper", upper)):
-        if value is None:
-            raise t.fail(key, "is missing: 'lower' and 'upper' are given together")
+    if lower is None or upper is None:
+        raise t.fail("lower" if lower is None else "upper",
+                     "is missing: 'lower' and 'upper' are given together")
     if not lower < upper:
         raise t.fail("upper", f"must be above 'lower', got lower {lower:g}, upper {upper:g}")
     return lower, upper

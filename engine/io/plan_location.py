@@ -6,7 +6,7 @@ the rest."""
 from __future__ import annotations
 
 from engine.gdt.plan import (MODIFIERS, SIZE_FEATURES, SIZE_METHODS, Characteristic, Datum,
-                             datum_parts, implied_feature)
+                             implied_feature, known_datum_parts)
 
 from .plan_tables import Table, show
 
@@ -75,7 +75,7 @@ def about_an_axis(t: Table, kind: str, refs: tuple[str, ...], datums: tuple[Datu
     if len(refs) != 1:
         raise t.fail("datums", f"must name one datum axis for a {kind} (a cylinder datum, or a "
                      f"common datum such as \"A-B\"), got {show(list(refs))}")
-    for part in datum_parts(refs[0], [d.label for d in datums]):
+    for part in known_datum_parts(refs[0], [d.label for d in datums]):
         feature = next(d for d in datums if d.label == part).feature
         if feature != "cylinder":
             raise t.fail("datums", f"names datum {show(part)}, a {feature}: a {kind} is about "

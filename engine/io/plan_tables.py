@@ -7,6 +7,7 @@ import difflib
 import json
 import math
 import re
+from typing import Literal, overload
 
 from engine.errors import InputError
 
@@ -59,6 +60,18 @@ class Table:
 
     def __contains__(self, key: str) -> bool:
         return key in self.data
+
+    @overload
+    def text(self, key: str, required: Literal[True], choices: tuple[str, ...] = (),
+             default: str | None = None) -> str: ...
+
+    @overload
+    def text(self, key: str, required: bool = False, choices: tuple[str, ...] = (), *,
+             default: str) -> str: ...
+
+    @overload
+    def text(self, key: str, required: bool = False, choices: tuple[str, ...] = (),
+             default: str | None = None) -> str | None: ...
 
     def text(self, key: str, required: bool = False, choices: tuple[str, ...] = (),
              default: str | None = None) -> str | None:

@@ -93,7 +93,8 @@ class CharacteristicReader:
 
     def __init__(self, path, index, units, features, datums, frames):
         self.path, self.index, self.units = path, index, units
-        self.features, self.datums, self.frames = features, datums, frames
+        self.features, self.datums = features, datums
+        self.frames: dict[str, tuple[tuple[str, ...], str]] = frames
         self.judged: list[Characteristic] = []
         self.not_judged: list[NotJudged] = []
         self.names: dict[str, tuple[str, str]] = {}

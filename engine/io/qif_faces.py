@@ -157,15 +157,15 @@ def same_surface(kind: str, q: dict, s: dict, tol: float, angle: float) -> bool:
         return (_parallel(q["axis"], g["axis"], angle) and abs(q["radius"] - g["radius"]) <= tol
                 and _off_axis(q["point"], g["point"], g["axis"]) <= tol)
     if kind == "sphere":
-        return (np.linalg.norm(q["centre"] - g["centre"]) <= tol
+        return (float(np.linalg.norm(q["centre"] - g["centre"])) <= tol
                 and abs(q["radius"] - g["radius"]) <= tol)
     if kind == "cone":
         return (_parallel(q["axis"], g["axis"], angle, signed=True)
                 and abs(q["half_angle"] - float(g["half_angle"])) <= angle
-                and np.linalg.norm(q["apex"] - g["apex"]) <= tol)
+                and float(np.linalg.norm(q["apex"] - g["apex"])) <= tol)
     if kind == "torus":
         return (_parallel(q["axis"], g["axis"], angle)
-                and np.linalg.norm(q["centre"] - g["centre"]) <= tol
+                and float(np.linalg.norm(q["centre"] - g["centre"])) <= tol
                 and abs(q["major"] - g["major"]) <= tol and abs(q["minor"] - g["minor"]) <= tol)
     return False
 

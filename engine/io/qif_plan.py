@@ -35,6 +35,7 @@ import hashlib
 import os
 import re
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -114,8 +115,9 @@ def qif_face_groups(path: str | os.PathLike, step) -> dict[str, tuple[int, ...]]
                                  f"{matcher.tol:.2g} mm", doc.plan.path)
             ids.update(hit)
         found[feature.id] = sorted(ids)
-    return {r.group: tuple(sorted({f for fid in r.group[4:].split("+") for f in found[fid]}))
-            for r in doc.plan.regions}
+    # A QIF plan's regions are each one group "qif:<feature ids>" (read_qif_plan).
+    groups = [cast(str, r.group) for r in doc.plan.regions]
+    return {g: tuple(sorted({f for fid in g[4:].split("+") for f in found[fid]})) for g in groups}
 
 
 def check_qif_nominal(plan_path: str, nominal_path: str) -> None:
@@ -359,7 +361,8 @@ def _frames(root, datums: dict, notes: dict, path: str) -> dict[str, tuple[tuple
     ``CompoundDatum`` of datums of one kind is the common datum "A-B"."""
     out = {}
     for e in _children(root, "DatumReferenceFrames"):
-        entries, why = [], ""
+        entries: list[tuple[int, str]] = []
+        why = ""
         for d in e.iterfind("{*}Datums/{*}Datum"):
             rank = PRECEDENCE.get((d.findtext("{*}Precedence/{*}PrecedenceEnum") or "").strip(),
                                   len(entries))
