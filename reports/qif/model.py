@@ -23,8 +23,9 @@ QIF_NAMESPACE = "http://qifstandards.org/xsd/qif3"
 QIF_VERSION = "3.0.0"
 _UUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://qifstandards.org/xsd/qif3#qa-inspect")
 
-CHAR_STATUS = {Verdict.ACCEPT: "PASS", Verdict.REJECT: "FAIL",
-               Verdict.INCONCLUSIVE: "INDETERMINATE"}
+# Keyed by the verdict as the results JSON spells it (a Verdict is its str).
+CHAR_STATUS: dict[str, str] = {Verdict.ACCEPT: "PASS", Verdict.REJECT: "FAIL",
+                               Verdict.INCONCLUSIVE: "INDETERMINATE"}
 
 
 class QIFError(QAError, ValueError):
@@ -239,14 +240,14 @@ class Qif:
                "upper": float(doc["tolerance"]["upper"]), "verdict": verdict}
         if planned:
             key["plan"] = (doc.get("plan") or {}).get("sha256")
-        key = json.dumps(key, sort_keys=True)
+        seed = json.dumps(key, sort_keys=True)
         T_name = ("registration T_nominal_measured" if not planned else
                   f"plan alignment ({alignment.get('method', '?')}) T_nominal_measured")
         return cls(refs, ids.last, verdict, cert, is_2d, nominal, measured, app,
                    _xs_datetime(cert["issued"]) if "issued" in cert else None, T,
                    f"{T_name}: measured (before) to nominal (after)", pts, dev, inside, labels,
-                   outlier, uuid.uuid5(_UUID_NAMESPACE, "document " + key),
-                   uuid.uuid5(_UUID_NAMESPACE, "results " + key), *parts)
+                   outlier, uuid.uuid5(_UUID_NAMESPACE, "document " + seed),
+                   uuid.uuid5(_UUID_NAMESPACE, "results " + seed), *parts)
 
     @property
     def n(self) -> int:
@@ -274,6 +275,9 @@ def _whole_profile(doc: dict, refs: _Refs, whole: _Feature, dev: np.ndarray, app
         value = 2.0 * float(np.abs(finite - 0.5 * (lower + upper)).max())
         worst = (float(finite.max()), float(finite.min()))
     reasons = "; ".join(str(r) for r in doc.get("reasons", []))
+    if refs.char_def is None or refs.char_nom is None or refs.char_item is None \
+            or refs.char_meas is None:  # _Refs.take(profile=True) takes them
+        raise QIFError("the profile over all points has no ids: the document has a plan")
     return Char("LineProfile" if is_2d else "SurfaceProfile", refs.char_def, refs.char_nom,
                 refs.char_item, refs.char_meas, whole,
                 f"{'Line' if is_2d else 'Surface'} profile", None, _profile_text(lower, upper),
@@ -330,8 +334,8 @@ def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
     datums = {}
     for label in labels:
         if label not in datums:
-            feat, algorithm = datum_features.get(label, (None, None))
-            datums[label] = _Datum(ids.take(), label, feat, algorithm)
+            datum_feature, algorithm = datum_features.get(label, (None, None))
+            datums[label] = _Datum(ids.take(), label, datum_feature, algorithm)
     frames: dict[tuple, _Frame] = {}
     for t in frame_labels:
         if t not in frames:
@@ -367,7 +371,7 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
     """One characteristic of the plan (its JSON entry) on its region's feature."""
     kind = _PLAN_CHAR.get(c["type"], "SurfaceProfile")
     if kind == "Diameter":
-        kind = _SIZE_CHAR.get(c.get("feature"), kind)
+        kind = _SIZE_CHAR.get(c.get("feature", ""), kind)
     if kind == "SurfaceProfile" and freeform == "OtherCurve":
         kind = "LineProfile"
     datums = tuple(c.get("datums") or ())

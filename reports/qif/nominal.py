@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from .model import QIF_NAMESPACE, QIF_VERSION, Char, Qif
+from .model import QIF_NAMESPACE, QIF_VERSION, Char, QIFError, Qif
 from .text import (algorithm, attributes, exact, file_description, fixed, format_name,
                    geometry, id_list, nmtoken, xml_attr, xml_text)
 
@@ -145,6 +145,8 @@ def write_features(w, q: Qif) -> None:
     w(f'  <Features>\n    <FeatureDefinitions n="{n}">\n')
     for f in q.features:
         if f.kind in ("Cylinder", "Sphere"):
+            if f.nominal is None:  # the plan's features are geometric only with a nominal
+                raise QIFError(f"feature {f.name}: a {f.kind} without its nominal geometry")
             internal = "INTERNAL" if f.nominal.get("internal") else "EXTERNAL"
             w(f'      <{f.kind}FeatureDefinition id="{f.definition}">\n'
               f"        <InternalExternal>{internal}</InternalExternal>\n"
