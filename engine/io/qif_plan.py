@@ -115,7 +115,7 @@ def qif_face_groups(path: str | os.PathLike, step) -> dict[str, tuple[int, ...]]
                                  f"{matcher.tol:.2g} mm", doc.plan.path)
             ids.update(hit)
         found[feature.id] = sorted(ids)
-    # A QIF plan's regions are each one group "qif:<feature ids>" (read_qif_plan).
+    # A QIF plan's regions are each one group "qif:<feature ids>" (parse_qif).
     groups = [cast(str, r.group) for r in doc.plan.regions]
     return {g: tuple(sorted({f for fid in g[4:].split("+") for f in found[fid]})) for g in groups}
 

@@ -16,7 +16,7 @@ from .text import (algorithm, attributes, exact, file_description, fixed, flags,
 
 # InspectionStatusEnumType has no INDETERMINATE; UNKNOWN is its "cannot tell".
 _INSPECTION_STATUS: dict[str, str] = {Verdict.ACCEPT: "PASS", Verdict.REJECT: "FAIL",
-                      Verdict.INCONCLUSIVE: "UNKNOWN"}
+                                      Verdict.INCONCLUSIVE: "UNKNOWN"}
 
 
 def write_results(w, q: Qif) -> None:
