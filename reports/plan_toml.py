@@ -116,15 +116,17 @@ def _measurement(m: Measurement) -> list[tuple[str, object]]:
 
 
 def plan_toml(plan: Plan, faces: dict[str, tuple[int, ...]], header: list[str],
-              names: dict[str, str] | None = None) -> str:
+              names: dict[str, str] | None = None,
+              region_notes: dict[str, str] | None = None) -> str:
     """The TOML text of ``plan``.
 
     faces : region name -> the STEP face ids it selects, written as its ``group`` (a QIF
         plan's regions; every region whose group is a ``qif:`` one must be here).
     header : lines of the opening comment (where the plan comes from).
     names : characteristic id -> its name in the source (a QIF designator), written as a
-        comment above it."""
-    names = names or {}
+        comment above it; region_notes : region name -> a comment above it (what it is in
+        the source)."""
+    names, region_notes = names or {}, region_notes or {}
     missing = [r.name for r in plan.regions
                if isinstance(r.group, str) and r.group.startswith("qif:") and r.name not in faces]
     if missing:
@@ -138,7 +140,8 @@ def plan_toml(plan: Plan, faces: dict[str, tuple[int, ...]], header: list[str],
     if measurement:
         lines += ["", *_table("measurement", measurement, array=False)]
     for r in plan.regions:
-        lines += ["", *_region(r, faces)]
+        note = region_notes.get(r.name)
+        lines += ["", *([comment(note)] if note else []), *_region(r, faces)]
     for d in plan.datums:
         lines += ["", *_table("datum", [("label", d.label), ("region", d.region),
                                         ("feature", d.feature), ("fit", d.fit)])]
