@@ -123,8 +123,9 @@ class PlanSource:
         header = [f"Inspection plan written by qa-inspect {software_version()} from "
                   f"{os.path.basename(source)} (sha256 {self.plan.sha256})"]
         if self.qif:
-            header.append(f"Each region is a QIF feature's faces of {os.path.basename(nominal)}"
-                          " (matched by geometry): qa-inspect faces lists them")
+            header.append("Each region is a QIF feature's faces of "
+                          f"{os.path.basename(nominal or '')} (matched by geometry): "
+                          "qa-inspect faces lists them")
         header.append("Units mm, the nominal's frame. Review it before use: it is read as "
                       "any hand-written plan is.")
         return plan_toml(self.plan, self.faces, header, self.names, self.region_notes)

@@ -66,7 +66,8 @@ def _xyz(values: dict, prefix: str) -> str:
 
 def geometry_words(face) -> str:
     """A face's geometry on one line, mm: "point (0, 0, 10) normal (0, 0, 1)",
-    "⌀25 hole, axis (0, 0, -1) through (-160, 45, 0)" …; "" for a surface without closed form."""
+    "⌀25 hole, axis (0, 0, -1) through (-160, 45, 0)" …; "" for a surface without closed
+    form."""
     v = face_values(face)
     kind = face.surface
     if kind == "plane":
