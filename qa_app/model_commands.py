@@ -128,7 +128,9 @@ class PlanSource:
                           "qa-inspect faces lists them")
         header.append("Units mm, the nominal's frame. Review it before use: it is read as "
                       "any hand-written plan is.")
-        return plan_toml(self.plan, self.faces, header, self.names, self.region_notes)
+        # A QIF region becomes its faces; a TOML region keeps its own selector as written.
+        return plan_toml(self.plan, self.faces if self.qif else {}, header, self.names,
+                         self.region_notes)
 
 
 def cmd_plan(args) -> int:

@@ -7,7 +7,9 @@ engine.io.plan.read_plan gives the same characteristics, zones, datums and regio
   written with the STEP faces its features match: ``group = ["face:12", "face:13"]``
   (``faces``); any other region keeps its own selector.
 * Numbers are written as Python's shortest repr of the float, which TOML reads back to the
-  same float: a zone, a limit or a nominal is not rounded on the way.
+  same float: a zone, a limit or a nominal is not rounded on the way. A ``direction`` is
+  written as a vector the reader normalises back to exactly the same unit vector
+  (:func:`unit_preimage`; the reader normalises every direction).
 * Only what the plan judges can be a ``[[characteristic]]``: each characteristic the source
   holds but the plan cannot judge (``Plan.not_judged``) is a comment naming its id, name, kind
   and reason, so nothing is dropped silently.
@@ -16,6 +18,7 @@ engine.io.plan.read_plan gives the same characteristics, zones, datums and regio
 from __future__ import annotations
 
 import json
+import math
 import re
 
 from engine.gdt.plan import (ORIENTATION, Characteristic, Measurement, Plan, Region,
@@ -65,6 +68,25 @@ def _region(r: Region, faces: dict[str, tuple[int, ...]]) -> list[str]:
     return _table("region", items)
 
 
+def _unit(d) -> tuple[float, ...]:
+    """d made a unit vector as engine.io.plan reads a ``direction``."""
+    norm = math.sqrt(sum(v * v for v in d))
+    return tuple(v / norm for v in d)
+
+
+def unit_preimage(d) -> list[float]:
+    """A vector that the plan reader's normalisation turns into unit vector ``d`` exactly
+    (normalising (0.7071067811865475, 0.7071067811865475, 0) again gives ...476): ``d``
+    itself or the first of 2d, 3d … 64d that does (all but about 1 % of directions); else
+    ``d``, read back within a unit in the last place."""
+    d = tuple(float(v) for v in d)
+    for scale in range(1, 65):
+        candidate = tuple(scale * v for v in d)
+        if _unit(candidate) == d:
+            return list(candidate)
+    return list(d)
+
+
 def characteristic_items(c: Characteristic) -> list[tuple[str, object]]:
     """The keys of one [[characteristic]] (engine.io.plan's contract), defaults left out."""
     items: list[tuple[str, object]] = [("id", c.id), ("type", c.type)]
@@ -81,7 +103,7 @@ def characteristic_items(c: Characteristic) -> list[tuple[str, object]]:
     if c.type in ("profile", "line_profile") and not c.datums and c.fit != "lsq":
         items.append(("fit", c.fit))
     if c.direction is not None:
-        items.append(("direction", [float(v) for v in c.direction]))
+        items.append(("direction", unit_preimage(c.direction)))
     if c.sections is not None:
         items.append(("sections", int(c.sections)))
     if c.diametral and (c.type == "straightness" or c.type in ORIENTATION):

@@ -381,3 +381,192 @@ def test_bad_plan_sources_are_refused_with_the_file_named(tmp_path, capsys):
     assert code == 64 and "never replaces an input" in err
     code, _, err = run(capsys, ["plan", qif, "--nominal", str(bad)])
     assert code == 65 and "bad.toml" in err
+
+
+EVERY_KEY = """[part]
+number = "P-1"
+drawing = "D-7"
+[measurement]
+device = "CMM"
+calibration_date = 2025-03-01
+temperature_c = 21.5
+mpe_a_um = 1.8
+mpe_l_per_um = 300
+probing_um = 1.9
+expansion_per_k = 23e-6
+[[region]]
+name = "A"
+box = [[-1.0, -1.0, -0.5], [121.0, 61.0, 0.5]]
+[[region]]
+name = "B"
+group = "face:2"
+measured_labels = "B*"
+[[region]]
+name = "C"
+labels = "c_*"
+[[region]]
+name = "h1"
+group = ["face:5", "face:6"]
+[[region]]
+name = "h2"
+group = ["face:7"]
+[[region]]
+name = "slot"
+group = ["face:9", "face:10"]
+[[region]]
+name = "skin"
+group = "face:11"
+[[region]]
+name = "ax2"
+group = "face:12"
+[[datum]]
+label = "A"
+region = "A"
+feature = "plane"
+[[datum]]
+label = "B"
+region = "B"
+feature = "cylinder"
+fit = "lsq"
+[[datum]]
+label = "C"
+region = "C"
+feature = "cylinder"
+[alignment]
+method = "datums"
+reference = ["A", "B"]
+best_fit_regions = ["skin"]
+[[characteristic]]
+id = "1"
+type = "profile"
+region = "skin"
+lower = -0.02
+upper = 0.05
+all_around = true
+[[characteristic]]
+id = "2"
+type = "profile"
+region = "skin"
+zone = 0.1
+fit = "minimax"
+[[characteristic]]
+id = "3"
+type = "size"
+region = "h1"
+nominal = 8.0
+lower = -0.05
+upper = 0.1
+method = "two-point"
+[[characteristic]]
+id = "3b"
+type = "size"
+region = "h2"
+nominal = 8.0
+lower = -0.05
+upper = 0.1
+[[characteristic]]
+id = "4"
+type = "position"
+regions = ["h1", "h2"]
+zone = 0.1
+datums = ["A", "B"]
+modifier = "MMC"
+[[characteristic]]
+id = "5"
+type = "size"
+region = "slot"
+feature = "width"
+nominal = 10
+lower = -0.1
+upper = 0.1
+[[characteristic]]
+id = "6"
+type = "symmetry"
+region = "slot"
+zone = 0.05
+datums = ["A"]
+[[characteristic]]
+id = "7"
+type = "straightness"
+region = "A"
+zone = 0.01
+direction = [1, 1, 0]
+sections = 5
+[[characteristic]]
+id = "8"
+type = "angularity"
+region = "ax2"
+zone = 0.05
+datums = ["A"]
+diametral = true
+angle = 30
+[[characteristic]]
+id = "9"
+type = "circular_runout"
+region = "skin"
+zone = 0.05
+datums = ["B-C"]
+sections = 4
+[[characteristic]]
+id = "10"
+type = "line_profile"
+region = "skin"
+lower = -0.05
+upper = 0.05
+direction = [0, 0, 1]
+spacing = 2.5
+datums = ["A"]
+[[characteristic]]
+id = "11"
+type = "circularity"
+region = "h1"
+zone = 0.01
+"""
+"""A plan using every table and most keys of the TOML contract (engine.io.plan), the regions'
+groups STEP faces."""
+RPS = """[measurement]
+uncertainty_mm = 0.004
+[[region]]
+name = "all"
+box = [[-1000, -1000, -1000], [1000, 1000, 1000]]
+[alignment]
+method = "rps"
+[[rps]]
+label = "R1"
+nominal = [0, 0, 0]
+lock = ["x", "z"]
+[[rps]]
+label = "R2"
+nominal = [10, 0, 0]
+lock = ["y", "z"]
+[[rps]]
+label = "R3"
+nominal = [0, 10, 0]
+lock = ["z"]
+[[characteristic]]
+id = "1"
+type = "profile"
+region = "all"
+zone = 0.2
+"""
+
+
+@pytest.mark.parametrize("text", [EVERY_KEY, RPS], ids=["datums", "rps"])
+def test_every_key_of_a_toml_plan_survives_plan_toml(text, tmp_path, capsys):
+    """Written with --toml and read back: every field of every table equal, exactly (the
+    straightness' direction (1, 1, 0) included: normalised once more it must not move by an
+    ulp)."""
+    from engine.io.plan import read_plan
+
+    source, out = tmp_path / "source.toml", tmp_path / "out.toml"
+    source.write_text(text, "utf-8")
+    code, stdout, err = run(capsys, ["plan", str(source), "--toml", str(out)])
+    assert code == 0, err
+    a, b = read_plan(str(source)), read_plan(str(out))
+    for name in ("characteristics", "regions", "datums", "alignment", "part", "measurement",
+                 "rps"):
+        assert getattr(a, name) == getattr(b, name), name
+    assert len(a.characteristics) == (12 if text is EVERY_KEY else 1)
+    if text is EVERY_KEY:
+        row = next(line for line in stdout.splitlines() if line.startswith("4 "))
+        assert "MMC, pattern of 2" in row and "h1 -> faces 5-6; h2 -> face 7" in row
