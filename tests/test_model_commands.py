@@ -570,3 +570,24 @@ def test_every_key_of_a_toml_plan_survives_plan_toml(text, tmp_path, capsys):
     if text is EVERY_KEY:
         row = next(line for line in stdout.splitlines() if line.startswith("4 "))
         assert "MMC, pattern of 2" in row and "h1 -> faces 5-6; h2 -> face 7" in row
+
+
+def test_faces_gives_the_names_the_file_gives(tmp_path, capsys):
+    """An assembly of two placed instances of a box with a hole whose top face is named
+    MOUNTING_FACE in the file (tests/step_models.py): both instances' top faces carry the
+    name, in the table and the CSV, with the part's product name."""
+    import step_models as sm
+
+    part = sm.box_with_hole()
+    top = next(k for k, f in enumerate(sm.faces_of(part), 1)
+               if abs(sm.face_centre(f)[2] - sm.BOX[2]) < 1e-9)
+    path = sm.write_assembly(part, "BRACKET", {top: "MOUNTING_FACE"},
+                             [sm.random_pose(21), sm.random_pose(22)], tmp_path / "a.step")
+    code, out, err = run(capsys, ["faces", str(path), "--csv", "-"])
+    assert code == 0, err
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert len(rows) == 14 and {r["part"] for r in rows} == {"BRACKET"}
+    named = [int(r["id"]) for r in rows if r["name"] == "MOUNTING_FACE"]
+    assert len(named) == 2 and all(rows[i - 1]["type"] == "plane" for i in named)
+    code, out, _ = run(capsys, ["faces", str(path)])
+    assert sum("MOUNTING_FACE" in line for line in out.splitlines()) == 2
