@@ -11,8 +11,9 @@ engine.io.plan.read_plan gives the same characteristics, zones, datums and regio
   written as a vector the reader normalises back to exactly the same unit vector
   (:func:`unit_preimage`; the reader normalises every direction).
 * Only what the plan judges can be a ``[[characteristic]]``: each characteristic the source
-  holds but the plan cannot judge (``Plan.not_judged``) is a comment naming its id, name, kind
-  and reason, so nothing is dropped silently.
+  holds but the plan cannot judge (``Plan.not_judged``) is a ``[[not_judged]]`` table with its
+  id, kind, name and reason, so nothing is dropped silently and the plan read back keeps the
+  part from ACCEPT as its source does.
 """
 
 from __future__ import annotations
@@ -183,11 +184,12 @@ def plan_toml(plan: Plan, faces: dict[str, tuple[int, ...]], header: list[str],
         lines += ["", *([comment(f"{name}: {_feature_words(c)}")] if name else []),
                   *_table("characteristic", characteristic_items(c))]
     if plan.not_judged:
-        lines += ["", comment(plan.not_judged_summary or "not judged:"),
-                  comment("each is left out of the plan, with its reason:")]
+        lines += ["", comment(plan.not_judged_summary),
+                  comment("each is listed, with its reason, and keeps the part from ACCEPT:")]
         for n in plan.not_judged:
-            lines.append(comment(f"characteristic {n.id}" + (f" ({n.name})" if n.name else "")
-                                 + f", {n.type}: {n.reason}"))
+            lines += ["", *_table("not_judged", [("id", n.id), ("type", n.type)]
+                                  + ([("name", n.name)] if n.name else [])
+                                  + [("reason", n.reason)])]
     return "\n".join(lines) + "\n"
 
 
