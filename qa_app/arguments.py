@@ -12,11 +12,14 @@ from qa_app.usage import EXAMPLES, EXIT_CODES
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
-    """The subcommands ``inspect``, ``batch``, ``keygen`` and ``verify``, with their options."""
+    """The subcommands ``inspect``, ``batch``, ``keygen``, ``verify``, ``faces`` and ``plan``,
+    with their options."""
     _add_inspect(sub)
     _add_batch(sub)
     _add_keygen(sub)
     _add_verify(sub)
+    _add_faces(sub)
+    _add_plan(sub)
 
 
 NOMINAL_HELP = ("nominal: points (.csv .txt .xyz .asc .npy, optional I J K normals, '# grid: NU x "
@@ -266,3 +269,32 @@ def _add_verify(sub: argparse._SubParsersAction) -> None:
     v.add_argument("--plan", metavar="PLAN.toml",
                    help="the inspection plan, to check and re-run (required with --nominal/"
                         "--measured when the certificate was made with one)")
+
+
+def _add_faces(sub: argparse._SubParsersAction) -> None:
+    """``qa-inspect faces PART.stp``: every face of a STEP model, as a table or CSV."""
+    f = sub.add_parser("faces", help="list the faces of a STEP model (the ids plans name)",
+                       description="Print every face of a STEP model: its id (a plan's region "
+                       "selects face N with group = \"face:N\"; a QIF plan's features are "
+                       "matched to these ids), its surface (plane, cylinder, cone, sphere, "
+                       "torus, bspline …), its exact geometry (mm), its area (mm²) and its "
+                       "name. Exit code 0, 65 for a file that is no readable STEP model.")
+    f.add_argument("part", metavar="PART.stp", help="the STEP model (.stp .step)")
+    f.add_argument("--csv", metavar="FILE|-",
+                   help="also write one CSV row per face (- for stdout instead of the table)")
+
+
+def _add_plan(sub: argparse._SubParsersAction) -> None:
+    """``qa-inspect plan SOURCE``: an inspection plan as a table, or as a TOML plan."""
+    p = sub.add_parser("plan", help="show an inspection plan (TOML or QIF), write it as TOML",
+                       description="Print the characteristics of an inspection plan (a TOML "
+                       "plan, or a QIF 3.0 MBD as --plan takes it): id, name, type, tolerance "
+                       "and modifiers, datum reference frame, features -> STEP face ids, and "
+                       "whether the product judges it (no: the reason). With --toml, write it "
+                       "as a TOML plan to review and edit; the characteristics it cannot judge "
+                       "are comments there. Exit code 0, 65 for a bad plan or model.")
+    p.add_argument("source", metavar="SOURCE", help="the plan: PLAN.toml or PART.qif")
+    p.add_argument("--nominal", metavar="PART.stp",
+                   help="the STEP nominal a QIF plan's features are matched to (by geometry): "
+                        "shows their face ids; needed with --toml")
+    p.add_argument("--toml", metavar="OUT.toml", help="write the plan as a TOML plan")

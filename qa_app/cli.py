@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command is None:
             raise UsageError("qa-inspect: a command is required (try 'qa-inspect inspect --help')")
         command = {"inspect": _cmd_inspect, "batch": _cmd_batch, "keygen": _cmd_keygen,
-                   "verify": _cmd_verify}
+                   "verify": _cmd_verify, "faces": _cmd_faces, "plan": _cmd_plan}
         return _guarded(command[args.command], args)
     except UsageError as e:
         from reports.messages import printable
@@ -327,6 +327,23 @@ def _cmd_verify(args) -> int:
     # The signer's name and the certificate's reasons come from the file being verified.
     print("\n".join(printable(line) for line in outcome_lines(v)))
     return 0 if v.valid else 1
+
+
+def _cmd_faces(args) -> int:
+    """``faces PART.stp``: qa_app.model_commands."""
+    from qa_app.model_commands import cmd_faces
+
+    _no_empty_paths("faces", {"PART": args.part, "--csv": args.csv})
+    return cmd_faces(args)
+
+
+def _cmd_plan(args) -> int:
+    """``plan SOURCE``: qa_app.model_commands."""
+    from qa_app.model_commands import cmd_plan
+
+    _no_empty_paths("plan", {"SOURCE": args.source, "--nominal": args.nominal,
+                             "--toml": args.toml})
+    return cmd_plan(args)
 
 
 def _certificate_identity(args, command: str):

@@ -11,7 +11,9 @@ EXAMPLES = """examples:
   qa-inspect inspect frame.dxf points.csv --tol-lower -0.1 --tol-upper 0.3
   qa-inspect batch nominal.csv 'lot-0412/*.csv' --tol 0.15 --out results/lot-0412
   qa-inspect keygen --name "Ann Inspector" --out identity/
-  qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv"""
+  qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv
+  qa-inspect faces part.stp --csv faces.csv
+  qa-inspect plan part.qif --nominal part.stp --toml plan.toml"""
 
 
 EXIT_CODES = """exit codes:
@@ -47,6 +49,8 @@ USAGES = {
     "keygen": "qa-inspect keygen --name NAME [--organisation ORG] --out DIR [--pass-env VAR]",
     "verify": """qa-inspect verify CERTIFICATE.pdf --trust CA.pem [--nominal FILE --measured FILE
                   [--plan FILE]]""",
+    "faces": "qa-inspect faces PART.stp [--csv FILE|-]",
+    "plan": "qa-inspect plan SOURCE [--nominal PART.stp] [--toml OUT.toml]",
 }
 """Each subcommand's usage, shown with its usage errors (continuation lines aligned for the
 "usage: " before them)."""

@@ -132,6 +132,9 @@ def test_usage_errors_exit_64(args, text, capsys):
     (["verify"], "verify"),
     (["verify", "c.pdf", "--trust", "ca.pem", "--nominal", "n.csv"], "verify"),
     (["keygen"], "keygen"),
+    (["faces"], "faces"),
+    (["plan"], "plan"),
+    (["plan", "p.qif", "--toml", "o.toml"], "plan"),
     (["bogus"], None),
     ([], None),
 ])
@@ -144,7 +147,7 @@ def test_a_usage_error_shows_its_commands_usage(args, command, capsys):
     assert message.startswith(f"qa-inspect {command}: " if command else "qa-inspect: ")
     named = re.findall(r"^(?:usage: |\s+)qa-inspect (\S+)", "usage: " + shown, re.M)
     assert named == ([command] if command else ["inspect", "batch", "keygen", "verify",
-                                                "--version"]), err
+                                                "faces", "plan", "--version"]), err
 
 
 @pytest.mark.parametrize("command", ["inspect", "batch"])

@@ -508,7 +508,32 @@ BAD = [
     ("feature relative to itself", BASE + char("3", 'type = "position"\nregion = "C"\n'
                                                'zone = 0.1\ndatums = ["A", "C"]'),
      '[[characteristic]] #1 (id "3")', "datums", "cannot be related to itself"),
+    # A characteristic of the plan's source the plan cannot judge (qa-inspect plan --toml).
+    ("not_judged without reason", BASE + char("1", PROFILE + "zone = 0.1")
+     + '[[not_judged]]\nid = "9"\ntype = "angle"\n', '[[not_judged]] #1 (id "9")', "reason",
+     "is missing"),
+    ("not_judged with a characteristic's id", BASE + char("1", PROFILE + "zone = 0.1")
+     + '[[not_judged]]\nid = "1"\ntype = "angle"\nreason = "no angle"\n',
+     '[[not_judged]] #1 (id "1")', "id", 'is also the id of [[characteristic]] #1'),
+    ("not_judged unknown key", BASE + char("1", PROFILE + "zone = 0.1")
+     + '[[not_judged]]\nid = "9"\ntype = "angle"\nreason = "r"\nzone = 1.0\n',
+     '[[not_judged]] #1 (id "9")', "zone", "is not a key of [[not_judged]]"),
 ]
+
+
+def test_a_characteristic_not_judged_is_read_and_keeps_the_part_from_accept(tmp_path):
+    """[[not_judged]] (written by qa-inspect plan --toml for what a QIF holds and the plan
+    cannot judge): read into Plan.not_judged, whose summary the verdict carries."""
+    from engine.gdt.plan import NotJudged
+
+    path = write(tmp_path, BASE + char("1", PROFILE + "zone = 0.1")
+                 + '[[not_judged]]\nid = "9"\ntype = "angle"\nname = "Angular Size.1"\n'
+                 'reason = "an angular size is no characteristic type of the plan layer"\n')
+    plan = read_plan(path)
+    assert plan.not_judged == (NotJudged("9", "angle", "Angular Size.1", "an angular size is "
+                                         "no characteristic type of the plan layer"),)
+    assert plan.not_judged_summary == ("1 of 2 characteristics of plan.toml are not judged "
+                                       "yet: angle")
 
 
 @pytest.mark.parametrize("text, table, key, words", [b[1:] for b in BAD],

@@ -71,8 +71,8 @@ from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
                              FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS, MAX_DATUMS,
                              ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts, known_datum_parts,
-                             RESERVED_ID, Alignment, Characteristic, Datum, Measurement, Part,
-                             Plan, Region, RpsPoint)
+                             RESERVED_ID, Alignment, Characteristic, Datum, Measurement, NotJudged,
+                             Part, Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
@@ -127,14 +127,17 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     alignment = _alignment(tables["alignment"][0], datums, region_names, bool(rps))
     characteristics = tuple(_characteristic(t, region_names, datums)
                             for t in tables["characteristic"])
-    _unique(tables["characteristic"], "id")
+    not_judged = tuple(NotJudged(*(t.text(k, required=k != "name", default="") or ""
+                                   for k in KEYS["not_judged"])) for t in tables["not_judged"])
+    _unique(tables["characteristic"] + tables["not_judged"], "id")
     _one_feature_per_region(tables["characteristic"], characteristics, datums)
     material_sizes(tables["characteristic"], characteristics)
     part, measurement = tables["part"], tables["measurement"]
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
                 part=_part(part[0]) if part else Part(), regions=regions, datums=datums,
                 alignment=alignment, characteristics=characteristics, rps=rps,
-                measurement=_measurement(measurement[0]) if measurement else Measurement())
+                measurement=_measurement(measurement[0]) if measurement else Measurement(),
+                not_judged=not_judged)
     check_zones(plan)
     return plan
 

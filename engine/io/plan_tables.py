@@ -11,11 +11,13 @@ from typing import Literal, overload
 
 from engine.errors import InputError
 
-ARRAY_TABLES = {"region": "name", "datum": "label", "characteristic": "id", "rps": "label"}
+ARRAY_TABLES = {"region": "name", "datum": "label", "characteristic": "id", "rps": "label",
+                "not_judged": "id"}
 """The plan's arrays of tables ([[name]]) and the key that identifies each entry."""
 TABLES = ("part", "alignment", "measurement")
 """The plan's single tables ([name])."""
-ORDER = ("part", "measurement", "region", "datum", "alignment", "characteristic", "rps")
+ORDER = ("part", "measurement", "region", "datum", "alignment", "characteristic", "rps",
+         "not_judged")
 KEYS = {
     "part": ("number", "name", "revision", "drawing", "cad_revision"),
     "measurement": ("device", "device_serial", "calibration_date", "probe", "program",
@@ -28,6 +30,9 @@ KEYS = {
     "characteristic": ("id", "type", "region", "zone", "lower", "upper", "nominal", "datums",
                        "fit", "direction", "sections", "diametral", "angle", "feature",
                        "method", "modifier", "regions", "spacing", "all_around"),
+    # A characteristic of the plan's source that the plan cannot judge (written by
+    # ``qa-inspect plan --toml`` from a QIF): the part is then never ACCEPT.
+    "not_judged": ("id", "type", "name", "reason"),
 }
 """Every key each table may hold."""
 

@@ -84,6 +84,9 @@ class QifDocument:
     unit: str
     mm_per_unit: float
     scale: float
+    names: dict = dataclasses.field(default_factory=dict)
+    """Characteristic nominal id -> (its kind in words, its Name: the designator, e.g.
+    "Position.14"), for every characteristic of the file."""
 
 
 def read_qif_plan(path: str | os.PathLike) -> Plan:
@@ -209,7 +212,7 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
         for face_id in features[fid].faces:
             faces[face_id] = _face(index, face_id, units, fid, path)
     return QifDocument(plan, {fid: features[fid] for fid in sorted(used, key=_id_order)},
-                       faces, units.unit, units.mm_per_unit, units.scale)
+                       faces, units.unit, units.mm_per_unit, units.scale, dict(reader.names))
 
 
 def _id_order(fid: str):

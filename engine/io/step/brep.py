@@ -140,6 +140,16 @@ class StepNominal:
         surface."""
         return self._brep.faces[int(fid) - 1]
 
+    def face_area(self, fid: int) -> float:
+        """Face ``fid``'s area, mm² (OpenCascade's BRepGProp over its exact surface within its
+        trim)."""
+        from OCP.BRepGProp import BRepGProp
+        from OCP.GProp import GProp_GProps
+
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(self.face_shape(fid), props)
+        return float(props.Mass())
+
     def face_distances(self, fid: int, points) -> np.ndarray:
         """(n,) the distance (mm) from each of ``points`` (n, 3), nominal frame, to the trimmed
         face ``fid`` alone (its surface within its boundary: an edge or a vertex where the
