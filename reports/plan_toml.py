@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Sequence
 
 from engine.gdt.plan import (ORIENTATION, Characteristic, Measurement, Plan, Region,
                              implied_feature)
@@ -48,7 +49,7 @@ def comment(text: str) -> str:
     return "# " + _CONTROL.sub(" ", text)
 
 
-def _table(name: str, items: list[tuple[str, object]], array: bool = True) -> list[str]:
+def _table(name: str, items: Sequence[tuple[str, object]], array: bool = True) -> list[str]:
     head = f"[[{name}]]" if array else f"[{name}]"
     return [head, *(f"{k} = {_value(v)}" for k, v in items)]
 
