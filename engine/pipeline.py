@@ -32,7 +32,7 @@ from .scene import Selection, check_box, check_plane_distance, extent_warning, s
 from .scene_part import on_the_table, the_part
 from .settings import InspectionSettings
 from .step_model import (ExactDistances, exact_deviations, exact_features, face_groups,
-                         face_sample, step_facts)
+                         face_rivals, face_sample, step_facts)
 from .tolerance import Tolerance, check_zone
 from .verdict import ACCEPT, INCONCLUSIVE
 
@@ -587,8 +587,8 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
             result = inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
                                   measured_ps.labels, settings.zone_in_verdict, ps.groups,
                                   exact, None if distances is None else face_sample(distances),
-                                  None if source.step is None else
-                                  exact_features(source.step))
+                                  None if source.step is None else exact_features(source.step),
+                                  None if distances is None else face_rivals(distances))
     if distances is not None and distances.missed:
         result = distances.judged(result, measured_ps.labels)
     return result

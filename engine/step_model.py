@@ -39,6 +39,65 @@ def face_sample(distances: "ExactDistances", k: int = 32):
     return sample_of
 
 
+NEIGHBOURS = 8
+"""Measured points of a rival face that say how far it lies from its nominal near a point."""
+SPREAD_QUANTILE = 0.95
+"""Rival faces are looked for within a point's own distance plus the largest, over the faces
+measured with at least ``NEIGHBOURS`` points, of this quantile of their points' distances: how
+far a face was seen to move, a few gross outliers aside."""
+
+
+def face_rivals(distances: "ExactDistances"):
+    """The points whose region rests on which of two faces they were measured on.
+
+    Returns rivals(X (n, 3) nominal frame, signed (n,) their deviations, samples (n,) the
+    tessellation point whose regions each takes (:func:`face_sample`), masks {region: (N,)
+    bool over the tessellation points}, members {region: indices of its measured points}) ->
+    ({region: its members in doubt}, (n,) each point's rival face id, 0 for none).
+
+    A point's foot lies on its own face, at distance |d|. Another face g, outside one of its
+    own face's regions, is its rival when g's own measured points near it lie as far from g
+    as the point does, less |d|: the point fits g moved as g's points show it moved (a wall
+    tilted, a hole shifted carries the points near their shared edge nearer the next face
+    than their own). A dent next to an edge whose other face was measured where it belongs
+    has no rival."""
+    step = distances.step
+    ids = np.asarray(step.face_ids)
+
+    def rivals(X, signed, samples, masks, members):
+        X, a = np.asarray(X, dtype=np.float64), np.abs(np.asarray(signed, dtype=np.float64))
+        face = ids[samples]
+        within = np.zeros((len(masks), step.n_faces + 1), bool)  # region x face id
+        for k, m in enumerate(masks.values()):
+            within[k, np.unique(ids[m])] = True
+        counts = np.bincount(face, minlength=step.n_faces + 1)
+        moved_most = max((float(np.quantile(a[face == f], SPREAD_QUANTILE))
+                          for f in np.flatnonzero(counts >= NEIGHBOURS)), default=0.0)
+        reach = a + moved_most
+        pairs, dist = step.faces_within(X, reach, face, lambda f, g: np.any(
+            within[:, f] != within[:, g], axis=0))
+        rival = np.zeros(len(X), np.int64)
+        best = np.full(len(X), np.inf)
+        for g in np.unique(pairs[:, 1]):
+            on_g = np.flatnonzero(face == g)
+            if on_g.size == 0:  # nothing measured on g: nothing says it moved
+                continue
+            j = np.flatnonzero(pairs[:, 1] == g)
+            i = pairs[j, 0]
+            _, nb = cKDTree(X[on_g]).query(X[i], k=min(NEIGHBOURS, on_g.size))
+            moved = a[on_g][np.asarray(nb).reshape(len(i), -1)].max(axis=1)
+            fits = (dist[j] <= a[i] + moved) & (dist[j] < best[i])
+            rival[i[fits]], best[i[fits]] = g, dist[j][fits]
+        drop = {}
+        for k, r in enumerate(masks):
+            idx = members[r]
+            g = rival[idx]
+            drop[r] = idx[(g > 0) & ~within[k, g]]
+        return drop, rival
+
+    return rivals
+
+
 def face_groups(step) -> dict[str, np.ndarray]:
     """A STEP model's faces as the tessellation's point groups a plan's region may select:
     ``face:N`` (its id) and ``name:NAME`` (where the file names the face, or its part)."""

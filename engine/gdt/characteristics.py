@@ -41,7 +41,7 @@ from ..progress import report, within
 from ..tolerance import Tolerance
 from ..verdict import INCONCLUSIVE, REJECT, Statistics
 from .judgement import PROGRESS_REPORTS, Shared, judge, plan_verdict
-from .plan import FEATURES_2D, FEATURES_3D, RESERVED_ID, Characteristic, Plan
+from .plan import FEATURES_2D, FEATURES_3D, RESERVED_ID, Characteristic, Plan, datum_parts
 from .region_features import feature_masks, region_features, rps_alignment
 from .results import CharacteristicResult, Geometry, PlanResult
 
@@ -105,7 +105,7 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
 def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                  measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool,
                  nominal_groups: dict[str, np.ndarray] | None = None, exact=None,
-                 sample_of=None, exact_feature=None):
+                 sample_of=None, exact_feature=None, rivals=None):
     """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
     reasons become the plan's (with the zone of ``result`` as one more profile characteristic
     over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
@@ -115,7 +115,8 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
     deviations on the nominal's sample, with its sampling margins. sample_of(feet) -> the
     nominal sample whose regions each foot (closest surface point) takes (None: the nearest;
     a STEP model: the nearest of the foot's own face, whose samples its edges share with the
-    next face's). exact_feature : see Geometry.exact_feature (a STEP model's faces)."""
+    next face's). exact_feature : see Geometry.exact_feature (a STEP model's faces). rivals :
+    a STEP model's points in doubt between faces (engine.step_model.face_rivals), or None."""
     from ..deviation import point_to_surface
     from .regions import nominal_members
     from ..uncertainty import expanded_at
@@ -149,7 +150,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels,
                    exact_feature)
     planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
-                      zone_in_verdict, by_foot=exact is not None)
+                      zone_in_verdict, by_foot=exact is not None, rivals=rivals)
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
     if planned.alignment is None:
         return result
@@ -220,11 +221,12 @@ def _centre_and_length(X: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool,
-            by_foot: bool = False) -> PlanResult:
+            by_foot: bool = False, rivals=None) -> PlanResult:
     """The plan checked on ``geo``, with the inspection's own zone as a characteristic over all
     points when ``zone_in_verdict``; everything INCONCLUSIVE when the registration, on which
     the regions rest, cannot be trusted. by_foot : a box holds the points whose closest point
-    lies in it (engine.gdt.regions.measured_members)."""
+    lies in it (engine.gdt.regions.measured_members). rivals : a STEP model's points in doubt
+    (engine.step_model.face_rivals), judged by :func:`_in_doubt`; None: none."""
     from .regions import measured_members, region_column
     from ..verdict import pose_trusted
 
@@ -240,10 +242,14 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool,
     # A point belongs where it lies: in the region of the sample nearest its closest point on
     # the surface (not its nearest sample, which may lie on the next face).
     foot = result.deviations.foot[:, :geo.nominal_points.shape[1]]
-    members = measured_members(plan, geo.nominal_masks, sample_of(foot), geo.labels,
+    samples = sample_of(foot)
+    members = measured_members(plan, geo.nominal_masks, samples, geo.labels,
                                foot if by_foot else None)
     planned = check_plan(plan, geo, members, n, region_column(plan, members, n))
     results = list(planned.characteristics)
+    if rivals is not None:
+        results = _in_doubt(results, plan, geo, members, n, rivals(
+            result.registered, result.deviations.signed, samples, geo.nominal_masks, members))
     if zone_in_verdict:
         tol = result.tolerance
         d = result.deviations.signed
@@ -261,6 +267,51 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool,
         verdict, reasons = INCONCLUSIVE, result.reasons
     return replace(planned, verdict=verdict, reasons=reasons, characteristics=tuple(results),
                    zone_in_verdict=zone_in_verdict)
+
+
+def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
+              members: dict[str, np.ndarray], n: int, doubt) -> list[CharacteristicResult]:
+    """``results`` where the points in doubt decide: each characteristic judged again without
+    them, INCONCLUSIVE where its verdict changes (saying both), the same result where not.
+
+    doubt : ({region: indices of its members that may have been measured on a face outside
+    it}, (n,) each point's rival face id, 0 for none), engine.step_model.face_rivals. A region
+    most of whose points are in doubt keeps them all (it is judged as it is)."""
+    from .regions import region_column
+
+    drop, rival = doubt
+    drop = {r: i for r, i in drop.items() if 0 < len(i) <= len(members[r]) // 2}
+    if not drop:
+        return results
+    kept = {r: np.setdiff1d(m, drop[r]) if r in drop else m for r, m in members.items()}
+    labels = [d.label for d in plan.datums]
+    try:
+        again = check_plan(plan, geo, kept, n, region_column(plan, kept, n)).characteristics
+    except InputError as e:  # without them a feature cannot be fitted: its verdict is open
+        again = tuple(replace(r, verdict=INCONCLUSIVE, value=None, reason=e.message)
+                      for r in results)
+    out = []
+    for a, b in zip(results, again):
+        c = a.characteristic
+        near = [plan.datum(x).region for ref in c.datums for x in datum_parts(ref, labels) or ()]
+        touched = [r for r in dict.fromkeys([*(c.regions or (c.region,)), *near]) if r in drop]
+        if a.verdict == b.verdict or not touched:
+            out.append(a)
+            continue
+        idx = np.unique(np.concatenate([drop[r] for r in touched]))
+        faces = np.unique(rival[idx])
+        named = ("face " if faces.size == 1 else "faces ") + ", ".join(map(str, faces))
+        shown = ", ".join(f"'{r}'" for r in touched)
+        out.append(replace(a, verdict=INCONCLUSIVE, reason=(
+            f"{idx.size} measured point{'s' if idx.size > 1 else ''} of {shown} lie nearly as "
+            f"near another face as their own ({named}): judged with them "
+            f"{a.verdict} ({_shown(a.value)}), without them {b.verdict} ({_shown(b.value)}); "
+            "which face they were measured on decides")))
+    return out
+
+
+def _shown(value: float | None) -> str:
+    return "no value" if value is None else f"{value:.4g} mm"
 
 
 def _at_plan_pose(result, X: np.ndarray, dv, margin):

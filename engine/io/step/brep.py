@@ -135,6 +135,37 @@ class StepNominal:
         self._brep.settle(p, pairs, bound, inside, best)
         return self._brep.finish(p, best)
 
+    def faces_within(self, points, reach, face, others) -> tuple[np.ndarray, np.ndarray]:
+        """The other faces within each point's ``reach`` (mm), with their exact distances.
+
+        points : (n, 3) mm, nominal frame; reach : (n,) mm; face : (n,) each point's own face
+        id (its foot's, :meth:`deviations`), never listed; others(f, g) : (m,) bool, for face
+        ids f and g (m,), whether face g is asked about for a point on face f.
+
+        Returns (pairs (m, 2) of (point index, face id), distance (m,) mm), each face within
+        its point's reach. Faces whose bounding box lies beyond the reach are skipped; an
+        elementary surface's foot on its trimmed face gives the distance in closed form, any
+        other OpenCascade's distance to the trimmed face (an edge or a vertex where the
+        nearest point lies on one).
+        """
+        p = np.ascontiguousarray(points, dtype=np.float64)
+        reach = np.asarray(reach, dtype=np.float64)
+        n = p.shape[0]
+        own = np.column_stack([np.arange(n), np.asarray(face, np.int64)])
+        pairs = self._brep.nearer_boxes(p, reach, own) if n else own[:0]
+        pairs = pairs[others(own[pairs[:, 0], 1], pairs[:, 1])] if len(pairs) else pairs
+        if not len(pairs):
+            return pairs, np.zeros(0)
+        # Each pair measured alone: a scratch "best" that keeps nothing from one to the next.
+        bound, inside = self._brep.project(p, pairs, _Best(n))
+        d = np.where(inside, bound, np.inf)
+        for j in np.flatnonzero(~inside & (bound <= reach[pairs[:, 0]])):
+            got = self._brep.tools(int(pairs[j, 1])).nearest_on_face(p[pairs[j, 0]])
+            if got is not None:
+                d[j] = got[0]
+        keep = d <= reach[pairs[:, 0]]
+        return pairs[keep], d[keep]
+
     def face_shape(self, fid: int):
         """Face ``fid``'s OpenCascade shape (a located TopoDS_Face), for checks on the exact
         surface."""
