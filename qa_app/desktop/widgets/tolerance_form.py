@@ -169,7 +169,9 @@ class ToleranceForm(QWidget):
         form.addRow("DXF units", self.units)
         form.addRow("DXF layers", self.layers)
         form.addRow("Crop box", self.crop)
-        form.addRow("", self.remove_plane)
+        # Across both columns: beside a label it would set the panel's (and the left dock's)
+        # width.
+        form.addRow(self.remove_plane)
         form.addRow("Plane distance", self.plane_distance)
         self.form = form
         buttons = QHBoxLayout()
