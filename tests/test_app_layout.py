@@ -6,7 +6,13 @@ import os
 
 import pytest
 from PySide6.QtCore import QSettings
-from PySide6.QtWidgets import QApplication, QComboBox, QDockWidget
+from PySide6.QtWidgets import (
+    QApplication,
+    QComboBox,
+    QDockWidget,
+    QStyle,
+    QStyleOptionComboBox,
+)
 
 from qa_app.desktop.window import MainWindow
 
@@ -48,3 +54,66 @@ def test_the_3d_view_takes_most_of_the_window(inspected, size):
     share = share_at(inspected, *size)
     print(f"3D view share at {size[0]}x{size[1]}: {share:.3f}")
     assert share >= SHARE, share
+
+
+def test_the_qa_app_command_opens_the_window_maximised(qtbot, monkeypatch, tmp_path):
+    from test_app_window import run_qa_app
+
+    w = run_qa_app(qtbot, monkeypatch, tmp_path, [os.path.join(BELLY, "nominal.csv"),
+                                                  os.path.join(BELLY, "measured.csv"),
+                                                  "--tol", "0.25"])
+    assert w.isMaximized()
+
+
+def test_the_results_wait_in_a_dock_that_can_be_hidden(inspected):
+    """Points, characteristics and histogram in a dock tabbed with the steps (the results in
+    front once inspected); the View menu hides either, and the 3D view takes the room."""
+    w = inspected
+    assert isinstance(w.results_dock, QDockWidget) and w.results_dock.widget() is w.bottom
+    assert [w.bottom.tabText(i) for i in range(w.bottom.count())] == [
+        "Points", "Characteristics", "Histogram"]
+    assert w.tabifiedDockWidgets(w.steps_dock) == [w.results_dock]
+    assert w.centralWidget().isAncestorOf(w.viewport)
+    assert not w.centralWidget().isAncestorOf(w.table)
+    # The results in front (a tabbed dock behind stays "visible", moved out of sight).
+    assert not w.table.visibleRegion().isEmpty() and w.tolerance.visibleRegion().isEmpty()
+    before = share_at(w, 1366, 768)
+    w.results_dock.toggleViewAction().trigger()
+    w.steps_dock.toggleViewAction().trigger()
+    assert not w.results_dock.isVisible() and not w.steps_dock.isVisible()
+    assert share_at(w, 1366, 768) > before
+    w.results_dock.toggleViewAction().trigger()
+    assert w.results_dock.isVisible() and w.table.isVisible()
+
+
+def test_no_combo_cuts_a_choice_off(inspected, qtbot):
+    """At 1366×768, each combo box shows its longest choice whole, closed (the field beside the
+    arrow) and in its list; a preset's long name may be elided closed, never in the list."""
+    w = inspected
+    share_at(w, 1366, 768)
+    w.steps_dock.raise_()
+    combos = w.findChildren(QComboBox)
+    assert set(w.tolerance.combos()) == set(combos)
+    for combo in combos:
+        fm = combo.fontMetrics()
+        longest = max((combo.itemText(i) for i in range(combo.count())),
+                      key=fm.horizontalAdvance)
+        opt = QStyleOptionComboBox()
+        combo.initStyleOption(opt)
+        field = combo.style().subControlRect(QStyle.CC_ComboBox, opt,
+                                             QStyle.SC_ComboBoxEditField, combo)
+        assert field.width() >= fm.horizontalAdvance(longest), longest
+    w.tolerance.presets["A long part number, 2026 revision C"] = (-0.1, 0.2)
+    w.tolerance._fill_presets()
+    for combo in combos:
+        fm = combo.view().fontMetrics()
+        longest = max((combo.itemText(i) for i in range(combo.count())),
+                      key=fm.horizontalAdvance)
+        combo.showPopup()
+        try:
+            view = combo.view()
+            qtbot.waitUntil(view.isVisible)
+            assert view.viewport().width() >= fm.horizontalAdvance(longest), longest
+            assert view.minimumWidth() >= fm.horizontalAdvance(longest)
+        finally:
+            combo.hidePopup()
