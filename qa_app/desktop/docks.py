@@ -4,8 +4,9 @@ the inspection's steps and its results (points, characteristics, histogram). The
 results can each be hidden (View menu), moved to another side or floated, which gives the views
 the whole width.
 
-At 1366×768 the 3D view takes about 60% of the window, at 1920×1080 about 70%
-(tests/test_app_layout.py measures it): no table, banner or tool bar row takes height from it.
+At 1366×768 the 3D view takes about 57% of the window, at 1920×1080 about 69%
+(tests/test_app_layout.py measures it, at least 55%): no table, banner or tool bar row takes
+height from it, and the 2D view's tab shows only for a contour template.
 """
 
 from __future__ import annotations
