@@ -86,7 +86,7 @@ def test_the_results_wait_in_a_dock_that_can_be_hidden(inspected):
     assert w.results_dock.isVisible() and w.table.isVisible()
 
 
-def test_no_combo_cuts_a_choice_off(inspected, qtbot):
+def test_no_combo_cuts_a_choice_off(inspected, qtbot, tmp_path):
     """At 1366×768, each combo box shows its longest choice whole, closed (the field beside the
     arrow) and in its list; a preset's long name may be elided closed, never in the list."""
     w = inspected
@@ -94,7 +94,9 @@ def test_no_combo_cuts_a_choice_off(inspected, qtbot):
     w.steps_dock.raise_()
     combos = w.findChildren(QComboBox)
     assert set(w.tolerance.combos()) == set(combos)
-    for combo in combos:
+    shown = [c for c in combos if c.isVisible()]  # (DXF units: for a drawing only)
+    assert {w.tolerance.fit, w.tolerance.rule, w.tolerance.preset} <= set(shown)
+    for combo in shown:
         fm = combo.fontMetrics()
         longest = max((combo.itemText(i) for i in range(combo.count())),
                       key=fm.horizontalAdvance)
@@ -103,8 +105,17 @@ def test_no_combo_cuts_a_choice_off(inspected, qtbot):
         field = combo.style().subControlRect(QStyle.CC_ComboBox, opt,
                                              QStyle.SC_ComboBoxEditField, combo)
         assert field.width() >= fm.horizontalAdvance(longest), longest
-    w.tolerance.presets["A long part number, 2026 revision C"] = (-0.1, 0.2)
-    w.tolerance._fill_presets()
+    # A window whose settings hold a preset with a long name.
+    settings = QSettings(str(tmp_path / "presets.ini"), QSettings.IniFormat)
+    settings.setValue("presets/names", ["A long part number, 2026 revision C"])
+    settings.setValue("presets/A long part number, 2026 revision C", [-0.1, 0.2])
+    w = MainWindow(synchronous=True, settings=settings)
+    qtbot.addWidget(w)
+    w.resize(1366, 768)
+    w.show()
+    combos = w.findChildren(QComboBox)
+    assert any("revision C" in w.tolerance.preset.itemText(i)
+               for i in range(w.tolerance.preset.count()))
     for combo in combos:
         fm = combo.view().fontMetrics()
         longest = max((combo.itemText(i) for i in range(combo.count())),
