@@ -190,8 +190,8 @@ class MainWindow(QMainWindow):
         ll = QVBoxLayout(left)
         ll.addWidget(self.steps_scroll, 1)
         ll.addWidget(self.export_button)
-        left.setMaximumWidth(440)
         # Wide enough for the steps and a scroll bar, so that nothing is cut off sideways.
+        # No maximum: the results tabbed with the steps may be widened to show every column.
         left.setMinimumWidth(max(360, steps.minimumSizeHint().width() + 30))
         return left
 
