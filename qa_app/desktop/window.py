@@ -102,7 +102,7 @@ class MainWindow(QMainWindow):
         # The views in the middle (docks.py); at the left the verdict, above the steps and the
         # results in tabbed docks (each may be moved, floated or hidden: View menu).
         self.views = tabs((self.viewport, "3D view"), (self.contour, "2D contour"))
-        self._result(None)
+        self._result(None)  # no result yet: the 2D view's tab hidden
         self.setCentralWidget(central_views(self.message_bar, self.views, self.legend))
         self.bottom = tabs((self.table, "Points"), (self.characteristics, "Characteristics"),
                            (self.histogram, "Histogram"))

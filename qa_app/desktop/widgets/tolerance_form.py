@@ -31,9 +31,8 @@ DXF_UNITS = ("mm", "cm", "m", "in")
 
 def fit_popup(combo: QComboBox) -> None:
     """The combo's list at least as wide as its longest item with the item's margins, so that
-    no choice is cut off there ("Automatic (guarded when the plan states an instrument)"),
-    however narrow the closed combo is: its width follows the panel's, which long texts must
-    not widen."""
+    no choice (a preset's long name) is cut off there, however narrow the closed combo is: its
+    width follows the panel's, which long texts must not widen."""
     view = combo.view()
     fm = view.fontMetrics()
     longest = max((fm.horizontalAdvance(combo.itemText(i)) for i in range(combo.count())),
