@@ -5,7 +5,8 @@
 
 writes ``app_1366x768.png`` and ``app_1920x1080.png`` (and ``app_2d_*.png``: the fuselage
 frame's DXF template in the 2D view; ``app_bracket_*.png``: the seat bracket, a bare-point
-nominal drawn as a shaded display mesh). The lead's screenshot script calls
+nominal drawn as a shaded display mesh; ``app_steps_*.png``: the belly fairing with the steps
+in front and the decision rule's list open). The lead's screenshot script calls
 :func:`app_screenshots`. Needs ``xvfb-run`` (package xvfb).
 """
 
@@ -28,6 +29,11 @@ CASES = {
                      os.path.join(ROOT, "samples", "seat_bracket", "measured.csv")], 0.1),
 }
 """Each screenshot's files and symmetric zone (±mm)."""
+STEPS_SHOWN = {"app_steps": ([os.path.join(BELLY, "nominal.csv"),
+                              os.path.join(BELLY, "measured.csv")], 0.25)}
+"""Screenshots with the inspection's steps in front of the results and the decision rule's
+list open (its longest choice shown whole)."""
+CASES.update(STEPS_SHOWN)
 
 
 def app_screenshots(out_dir: str, sizes=SIZES, cases=("app",)) -> list[str]:
@@ -72,6 +78,9 @@ def shoot(case: str, path: str) -> None:
         for _ in range(20):
             app.processEvents()
         w.table.selectRow(0)
+        if case in STEPS_SHOWN:
+            w.steps_dock.raise_()
+            w.tolerance.rule.showPopup()
         for _ in range(20):
             app.processEvents()
         img = w.screen().grabWindow(0)

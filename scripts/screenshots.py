@@ -2,7 +2,8 @@
 
     .venv/bin/python scripts/screenshots.py [OUT_DIR]
 
-The certificate pages (:func:`certificate_pages`), the desktop app at 1366x768 and 1920x1080
+The certificate pages (:func:`certificate_pages`; :func:`demo_signed_first_page`: page 1
+signed with a demonstration identity), the desktop app at 1366x768 and 1920x1080
 (scripts/app_screenshots.py, on virtual X displays: needs xvfb-run) and the SPC page of a
 drifting lot (scripts/spc_screenshot.py).
 
@@ -61,6 +62,30 @@ def certificate_pages(out_dir: str, dpi: int = 80) -> list[str]:
     return written
 
 
+def demo_signed_first_page(out_dir: str, dpi: int = 60) -> str:
+    """Write ``certificate_demo_signed_p1.png``: page 1 of the belly fairing's certificate
+    signed with a demonstration identity made by ``qa-inspect keygen`` (page 1 says so, as
+    section 11 does); return its path."""
+    os.makedirs(out_dir, exist_ok=True)
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               QA_SCREENSHOT_PASS="screenshot-demo-passphrase")
+    with tempfile.TemporaryDirectory() as tmp:
+        ident = os.path.join(tmp, "id")
+        subprocess.run([sys.executable, "-m", "qa_app.cli", "keygen", "--name",
+                        "Screenshot script", "--organisation", "qa-inspect samples", "--out",
+                        ident, "--pass-env", "QA_SCREENSHOT_PASS"], cwd=ROOT, env=env,
+                       check=True, capture_output=True)
+        pdf = os.path.join(tmp, "signed.pdf")
+        r = subprocess.run([sys.executable, "-m", "qa_app.cli", "inspect",
+                            *CERTIFICATES[0][1], "--report", pdf, *PART, "--sign",
+                            os.path.join(ident, "inspector.p12"), "--sign-pass-env",
+                            "QA_SCREENSHOT_PASS"], cwd=ROOT, env=env, capture_output=True,
+                           text=True)
+        if r.returncode != 0:
+            raise SystemExit(f"signed certificate: qa-inspect exit {r.returncode}: {r.stderr}")
+        return _render(pdf, 1, dpi, os.path.join(out_dir, "certificate_demo_signed_p1"))
+
+
 def _page_count(pdf: str) -> int:
     info = subprocess.run(["pdfinfo", pdf], capture_output=True, text=True, check=True).stdout
     return int(next(line.split()[-1] for line in info.splitlines()
@@ -79,7 +104,7 @@ def main(out: str) -> list[str]:
     import app_screenshots
     import spc_screenshot
 
-    return (certificate_pages(out)
+    return (certificate_pages(out) + [demo_signed_first_page(out)]
             + app_screenshots.app_screenshots(out, cases=tuple(app_screenshots.CASES))
             + [spc_screenshot.main(out)])
 

@@ -891,6 +891,26 @@ def test_make_certificate_keeps_the_rules_for_every_caller(signed):
     assert make_certificate(run, CertificateInfo(inspector="Carol Other"), None)[:5] == b"%PDF-"
 
 
+def test_the_first_page_says_when_the_signer_is_a_demonstration_identity(signed, tmp_path):
+    """Signed with keygen's demonstration identity, page 1 says so in section 11's own words
+    (reports.certificate.layout.DEMONSTRATION_NOTE); signed by an identity of a real CA (one
+    without keygen's mark), neither page says it."""
+    from reports.certificate.layout import DEMONSTRATION_NOTE
+    from reports.signing import load_identity
+
+    demo = load_identity(str(signed.p12), PASSPHRASE.encode())
+    real = load_identity(str(signed.approver_p12), PASSPHRASE.encode())
+    assert demo.demonstration and not real.demonstration
+    pages = [squeeze(p) for p in page_texts(signed.pdf)]
+    assert DEMONSTRATION_NOTE in pages[0]
+    assert DEMONSTRATION_NOTE in next(p for p in pages if "Statement of conformity" in p)
+    code, out, err = sign_frame(signed, tmp_path, *FRAME_ID, p12=signed.approver_p12)
+    assert code == 0, out + err
+    pages = [squeeze(p) for p in page_texts(tmp_path / "c.pdf")]
+    assert f"Inspector {APPROVER}" in pages[0]
+    assert not any("emonstration" in p for p in pages)
+
+
 def test_an_accept_the_result_does_not_support_is_never_certified(tmp_path, monkeypatch):
     """A bug upstream that calls a run with out-of-tolerance points ACCEPT: make_certificate
     refuses with an error of the product's family (a RuntimeError too), and the command line

@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     files = [f for f in (args.nominal, args.measured) if f]
     if files:
         win.controller.open_files(files)
-    win.show()
+    win.showMaximized()  # the 3D view takes most of the screen (issue 26)
 
     def inspect():
         if args.plan and args.tol is not None and args.tol > 0:

@@ -9,7 +9,6 @@ from collections.abc import Callable
 from PySide6.QtCore import QEvent, QObject, QSettings, Qt, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import (
-    QDockWidget,
     QFileDialog,
     QFrame,
     QFormLayout,
@@ -20,8 +19,6 @@ from PySide6.QtWidgets import (
     QProgressBar,
     QPushButton,
     QScrollArea,
-    QSplitter,
-    QTabWidget,
     QToolButton,
     QVBoxLayout,
     QWidget,
@@ -32,6 +29,7 @@ from engine.io.formats import MEASURED_SUFFIXES, NOMINAL_SUFFIXES, PLAN_SUFFIXES
 from .contour_view import ContourView
 from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
+from .docks import arrange_left, central_views, dock, tabs, tool_bar_beside_menus, verdict_dock
 from .model import Session, Step
 from .verify_dialog import VerificationDialog, VerifyDialog
 from .viewport import Viewport3D
@@ -101,22 +99,19 @@ class MainWindow(QMainWindow):
         self.tolerance.cancel_clicked.connect(self.controller.cancel)
         self.tolerance.preset_saved.connect(self._save_presets)
 
-        # The steps in a dock at the left (it may be moved, floated or hidden: View menu), the
-        # verdict, views and table in the middle.
-        self.steps_dock = QDockWidget("Inspection", self)
-        self.steps_dock.setObjectName("stepsDock")
-        self.steps_dock.setFeatures(QDockWidget.DockWidgetMovable
-                                    | QDockWidget.DockWidgetFloatable
-                                    | QDockWidget.DockWidgetClosable)
-        self.steps_dock.setWidget(self._steps_panel())
-        self.addDockWidget(Qt.LeftDockWidgetArea, self.steps_dock)
-        central = QWidget()
-        cl = QVBoxLayout(central)
-        cl.setContentsMargins(4, 4, 4, 0)
-        cl.addWidget(self.message_bar)
-        cl.addWidget(self.banner)
-        cl.addWidget(self._views_panel(), 1)
-        self.setCentralWidget(central)
+        # The views in the middle (docks.py); at the left the verdict, above the steps and the
+        # results in tabbed docks (each may be moved, floated or hidden: View menu).
+        self.views = tabs((self.viewport, "3D view"), (self.contour, "2D contour"))
+        self._result(None)  # no result yet: the 2D view's tab hidden
+        self.setCentralWidget(central_views(self.message_bar, self.views, self.legend))
+        self.bottom = tabs((self.table, "Points"), (self.characteristics, "Characteristics"),
+                           (self.histogram, "Histogram"))
+        """The results' tabs (below the views before issue 26, hence the name)."""
+        self.table.point_activated.connect(self._zoom_to)
+        self.verdict_dock = verdict_dock(self, self.banner)
+        self.steps_dock = dock(self, "Inspection", "stepsDock", self._steps_panel())
+        self.results_dock = dock(self, "Results", "resultsDock", self.bottom)
+        arrange_left(self, self.verdict_dock, self.steps_dock, self.results_dock)
         self._make_actions()
         self.statusBar()
 
@@ -195,37 +190,10 @@ class MainWindow(QMainWindow):
         ll = QVBoxLayout(left)
         ll.addWidget(self.steps_scroll, 1)
         ll.addWidget(self.export_button)
-        left.setMaximumWidth(440)
         # Wide enough for the steps and a scroll bar, so that nothing is cut off sideways.
+        # No maximum: the results tabbed with the steps may be widened to show every column.
         left.setMinimumWidth(max(360, steps.minimumSizeHint().width() + 30))
         return left
-
-    def _views_panel(self) -> QSplitter:
-        """The middle: the 3D and 2D views with the colour bar beside them, above the point
-        table (with the characteristics and the histogram), which gets the larger share of
-        the height: at 1366×768 it shows a dozen points and more."""
-        self.views = QTabWidget()
-        self.views.addTab(self.viewport, "3D view")
-        self.views.addTab(self.contour, "2D contour")
-        self.bottom = QTabWidget()
-        self.bottom.addTab(self.table, "Points")
-        self.bottom.addTab(self.characteristics, "Characteristics")
-        self.bottom.addTab(self.histogram, "Histogram")
-        self.table.point_activated.connect(self._zoom_to)
-        shown = QWidget()
-        hl = QHBoxLayout(shown)
-        hl.setContentsMargins(0, 0, 0, 0)
-        hl.setSpacing(2)
-        hl.addWidget(self.views, 1)
-        # The colour bar beside the colours it explains, in the 3D and the 2D view alike.
-        hl.addWidget(self.legend)
-        self.split = QSplitter(Qt.Vertical)
-        self.split.addWidget(shown)
-        self.split.addWidget(self.bottom)
-        self.split.setStretchFactor(0, 2)
-        self.split.setStretchFactor(1, 3)
-        self.split.setSizes([400, 600])
-        return self.split
 
     def _zoom_to(self, index: int) -> None:
         """A table row double-clicked: the 3D view zooms to its point."""
@@ -294,15 +262,14 @@ class MainWindow(QMainWindow):
         run_menu.addAction(self.act_cancel)
         view_menu = self.menuBar().addMenu("&View")
         view_menu.addAction(self.steps_dock.toggleViewAction())
+        view_menu.addAction(self.results_dock.toggleViewAction())
         view_menu.addSeparator()
         for name in self.viewport.view_buttons:
             view_menu.addAction(act(f"{name} view", lambda _=False, n=name: (
                 self.views.setCurrentWidget(self.viewport), self.viewport.standard_view(n))))
-        tb = self.addToolBar("Main")
-        tb.setObjectName("mainToolBar")
-        for a in (self.act_open_nominal, self.act_open_measured, self.act_inspect,
-                  self.act_cancel, self.act_certificate):
-            tb.addAction(a)
+        self.tool_bar = tool_bar_beside_menus(self.menuBar(), "Main", (
+            self.act_open_nominal, self.act_open_measured, self.act_inspect, self.act_cancel,
+            self.act_certificate))
         self._fill_recent()
 
     def _fit_to_screen(self) -> None:
@@ -359,6 +326,10 @@ class MainWindow(QMainWindow):
                 self._remember(p)
 
     def _result(self, run) -> None:
+        # The 2D view's tab only for a contour template: otherwise its row goes to the 3D view.
+        template = run is not None and run.template is not None
+        self.views.setTabVisible(self.views.indexOf(self.contour), template)
+        self.views.tabBar().setVisible(template)
         if run is not None:
             self.views.setCurrentWidget(self.contour if run.template is not None
                                         else self.viewport)
@@ -366,6 +337,7 @@ class MainWindow(QMainWindow):
             self.bottom.setCurrentWidget(self.characteristics
                                          if getattr(run.result, "plan", None) is not None
                                          else self.table)
+            self.results_dock.raise_()
 
     def _characteristic(self, row) -> None:
         """A characteristic chosen: its points are shown in the 3D view."""

@@ -4,7 +4,7 @@ traceability of the measurement."""
 from __future__ import annotations
 
 from ..results import SOFTWARE_NAME, software_version
-from .layout import Layout
+from .layout import DEMONSTRATION_NOTE, Layout
 from .policy import TRACEABILITY, CertificateInfo, same_person
 
 
@@ -25,8 +25,25 @@ def identification(c: Layout) -> list:
                   ("Certificate No.", c.number),
                   ("Status", "signed (PAdES)" if identity else "UNSIGNED DRAFT")],
                  [28 * mm, 56 * mm])
-    return [P("1  Identification", c.styles["h"]), _two_columns(c, left, right),
-            *_traceability(c)]
+    return [P("1  Identification", c.styles["h"]), *_demonstration(c),
+            _two_columns(c, left, right), *_traceability(c)]
+
+
+def _demonstration(c: Layout) -> list:
+    """Signed with a demonstration identity: said on the first page, in a box, in the words
+    of section 11 (layout.DEMONSTRATION_NOTE); nothing otherwise."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph as P
+    from reportlab.platypus import Spacer, Table
+
+    if c.identity is None or not c.identity.demonstration:
+        return []
+    box = Table([[P(f"<b>{DEMONSTRATION_NOTE}</b>", c.styles["base"])]], colWidths=[c.width],
+                style=[("BOX", (0, 0), (-1, -1), 1.0, (0.60, 0.30, 0.0)),
+                       ("BACKGROUND", (0, 0), (-1, -1), (1.0, 0.96, 0.86)),
+                       ("TOPPADDING", (0, 0), (-1, -1), 3),
+                       ("BOTTOMPADDING", (0, 0), (-1, -1), 4)])
+    return [box, Spacer(1, 2 * mm)]
 
 
 def _two_columns(c: Layout, left, right):

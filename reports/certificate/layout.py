@@ -20,6 +20,9 @@ from .policy import CertificateInfo
 
 
 TITLE = "Dimensional Inspection Certificate"
+DEMONSTRATION_NOTE = "Demonstration identity (qa-inspect keygen), not for production use."
+"""What the certificate says where it names a demonstration signer (reports.signing.DEMO_MARK
+in its certificate): on the first page (section 1) and beside the signatures (section 11)."""
 
 
 def register_fonts():

@@ -10,7 +10,7 @@ from engine.pipeline import Run
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
 
 from ..signing import APPROVER_FIELD, INSPECTOR_FIELD
-from .layout import REASONS_SHOWN, Layout, Slot, esc
+from .layout import DEMONSTRATION_NOTE, REASONS_SHOWN, Layout, Slot, esc
 from .points import point_name
 from .result import type_word
 
@@ -59,8 +59,8 @@ def statement_and_signatures(c: Layout) -> list:
                 f"{', ' + esc(identity.organisation) if identity.organisation else ''}; "
                 f"issuing CA SHA-256 fingerprint "
                 f"<font name='Courier'>{esc(identity.ca_fingerprint or 'not in the file')}"
-                f"</font>." + (" <b>Demonstration identity (qa-inspect keygen), not for "
-                               "production use.</b>" if identity.demonstration else "")
+                f"</font>." + (f" <b>{DEMONSTRATION_NOTE}</b>" if identity.demonstration
+                               else "")
                 if identity else "<b>UNSIGNED DRAFT</b>: this document carries no signature "
                 "and is not a valid certificate.")
     bw = (W - 8 * mm) / 2

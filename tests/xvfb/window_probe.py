@@ -49,6 +49,9 @@ def probe() -> dict:
             "rows_seen": int(rows_seen),
             "table_height": t.height(),
             "views_height": w.views.height(),
+            "viewport": [w.viewport.width(), w.viewport.height()],
+            "render": [w.viewport.plotter.interactor.width(),
+                       w.viewport.plotter.interactor.height()],
             "headers": [[m, header.sectionSize(c), fm.horizontalAdvance(m), fm.height()]
                         for c, m in enumerate(t.model().COLUMNS)],
             "table_right": t.mapTo(w, t.rect().bottomRight()).x(),

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 
-from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel
+from PySide6.QtWidgets import QFrame, QLabel, QVBoxLayout
 
 from engine.choices import Verdict
 from reports.messages import VERDICT_RGB, VERDICT_WORD
@@ -27,9 +27,12 @@ class VerdictBanner(QFrame):
         self.word.setObjectName("verdictWord")
         self.detail = QLabel()
         self.detail.setWordWrap(True)
-        self.setMinimumHeight(92)
-        lay = QHBoxLayout(self)
-        lay.setContentsMargins(14, 8, 14, 8)
+        # The verdict above its reasons and statistics: the banner heads the window's left
+        # column (qa_app/desktop/docks.py).
+        self.setMinimumHeight(60)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(12, 6, 12, 8)
+        lay.setSpacing(2)
         lay.addWidget(self.word)
         lay.addWidget(self.detail, 1)
         session.result_changed.connect(self.update_from)

@@ -147,6 +147,10 @@ class PointTable(QTableView):
         rows.setDefaultSectionSize(self.fontMetrics().height() + 6)
         self.horizontalHeader().setSectionResizeMode(QHeaderView.Interactive)
         self.horizontalHeader().setStretchLastSection(True)
+        # Shown in a dock beside the views: the deviation and the result next to the label,
+        # the coordinates after them (the model's columns keep their order).
+        self.horizontalHeader().moveSection(5, 2)
+        self.horizontalHeader().moveSection(6, 3)
         self.selectionModel().currentRowChanged.connect(self._row_changed)
         self.doubleClicked.connect(lambda index: self.point_activated.emit(
             self.model_.point(index.row())))

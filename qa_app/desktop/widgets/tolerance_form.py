@@ -29,6 +29,20 @@ DXF_UNITS = ("mm", "cm", "m", "in")
 """The units a DXF drawing may be read in (qa-inspect --units)."""
 
 
+def fit_popup(combo: QComboBox) -> None:
+    """The combo's list at least as wide as its longest item with the item's margins, so that
+    no choice (a preset's long name) is cut off there, however narrow the closed combo is: its
+    width follows the panel's, which long texts must not widen."""
+    view = combo.view()
+    fm = view.fontMetrics()
+    longest = max((fm.horizontalAdvance(combo.itemText(i)) for i in range(combo.count())),
+                  default=0)
+    need = max(longest + 3 * fm.height(), view.sizeHintForColumn(0) + fm.height())
+    if combo.count() > combo.maxVisibleItems():
+        need += view.verticalScrollBar().sizeHint().width()
+    view.setMinimumWidth(need)
+
+
 class ToleranceForm(QWidget):
     """Symmetric or asymmetric zone (or, with a plan, the plan's), per-part presets, and the
     Inspect / Cancel buttons.
@@ -53,9 +67,11 @@ class ToleranceForm(QWidget):
             w.toggled.connect(self._mode)
         self.preset.activated.connect(self._apply_preset)
         for combo in (self.fit, self.rule, self.preset):
-            # Long item texts must not set the panel's minimum width.
+            # Long item texts must not set the panel's minimum width; the list shows them whole.
             combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
             combo.setMinimumContentsLength(12)
+        for combo in self.combos():
+            fit_popup(combo)
         self._mode()
         self._applicable()
         session.settings_changed.connect(self.load)
@@ -95,7 +111,9 @@ class ToleranceForm(QWidget):
         self.fit.setToolTip("Least squares spreads the error; minimax finds the pose with the "
                             "smallest largest excursion: can the part be placed in its zone?")
         self.rule = QComboBox()
-        self.rule.addItem("Automatic (guarded when the plan states an instrument)", AUTO_RULE)
+        # Each choice short enough to show whole in the closed combo at the left dock's
+        # width (tests/test_app_layout.py); the tool tip says the rest.
+        self.rule.addItem("Automatic (guarded if the plan has U)", AUTO_RULE)
         self.rule.addItem("Simple (every point in the zone)", DecisionRule.SIMPLE)
         self.rule.addItem("Guarded (ISO 14253-1: each point's U)", DecisionRule.GUARDED)
         self.rule.setToolTip("Guarded (ISO 14253-1): accept only inside the zone shrunk by each "
@@ -169,7 +187,9 @@ class ToleranceForm(QWidget):
         form.addRow("DXF units", self.units)
         form.addRow("DXF layers", self.layers)
         form.addRow("Crop box", self.crop)
-        form.addRow("", self.remove_plane)
+        # Across both columns: beside a label it would set the panel's (and the left dock's)
+        # width.
+        form.addRow(self.remove_plane)
         form.addRow("Plane distance", self.plane_distance)
         self.form = form
         buttons = QHBoxLayout()
@@ -178,6 +198,9 @@ class ToleranceForm(QWidget):
         lay = QVBoxLayout(self)
         lay.addLayout(form)
         lay.addLayout(buttons)
+
+    def combos(self) -> tuple[QComboBox, ...]:
+        return (self.fit, self.rule, self.units, self.preset)
 
     @staticmethod
     def _spin(value, minimum):
@@ -312,6 +335,7 @@ class ToleranceForm(QWidget):
         self.preset.addItem("(choose a preset)")
         for name, (lo, hi) in sorted(self.presets.items()):
             self.preset.addItem(f"{name}: {lo:+.3f} … {hi:+.3f} mm", name)
+        fit_popup(self.preset)
 
     def _apply_preset(self, i):
         name = self.preset.itemData(i)
