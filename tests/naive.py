@@ -73,6 +73,16 @@ def boxes_nearer(p, boxes, limit, done):
     return out - {tuple(d) for d in done}
 
 
+def cell_owners(pts, lo, cell, shape):
+    """Each grid cell's sample nearest its centre, exactly (scipy's kd-tree): the twin of
+    engine.icp_kernels.cell_owners (which is within about a cell of it)."""
+    from scipy.spatial import cKDTree
+
+    axes = [lo[i] + cell * (np.arange(shape[i]) + 0.5) for i in range(3)]
+    centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return cKDTree(pts).query(centres)[1].reshape(shape), centres.reshape(*shape, 3)
+
+
 def nearest_sample(p, lookup, pts):
     """Slow twin of engine.icp_kernels.nearest_sample: (sample, squared distance) -- the owner of the
     point's cell (clamped to the grid), then the first nearer graph neighbour while there is
