@@ -4,6 +4,8 @@ statistics."""
 
 from __future__ import annotations
 
+import math
+
 from engine.verdict import ACCEPT, INCONCLUSIVE
 
 from .. import figures
@@ -48,18 +50,24 @@ def result(c: Layout) -> list:
               S["small"])]
 
 
-_TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": "position",
+TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": "position",
                "size": "size (diameter)", "straightness": "straightness",
                "circularity": "circularity", "cylindricity": "cylindricity",
                "parallelism": "parallelism", "perpendicularity": "perpendicularity",
                "angularity": "angularity", "circular_runout": "circular runout",
-               "total_runout": "total runout", "line_profile": "line profile"}
+               "total_runout": "total runout", "line_profile": "line profile",
+               "coaxiality": "coaxiality", "concentricity": "concentricity",
+               "symmetry": "symmetry"}
+"""Every characteristic type of the plan layer (engine.gdt.plan.CHARACTERISTICS) in words."""
 
 
-def type_word(c: Layout, kind: str) -> str:
-    """A characteristic's type in words (a profile of a 2D contour is a line profile)."""
-    return "line profile" if kind == "profile" and c.is_2d else _TYPE_WORDS[kind]
-_VALUE_WORDS = {
+def type_word(c: Layout, kind: str, feature: str | None = None) -> str:
+    """A characteristic's type in words (a profile of a 2D contour is a line profile; a size,
+    of its ``feature``: a cylinder's diameter by default, a width, a sphere's diameter)."""
+    if kind == "size" and feature in ("width", "sphere"):
+        return "size (width)" if feature == "width" else "size (sphere diameter)"
+    return "line profile" if kind == "profile" and c.is_2d else TYPE_WORDS[kind]
+VALUE_WORDS = {
     "profile": "profile: the width of the smallest zone, centred like its tolerance zone, that "
                "holds every point of its region (form: after the region is fitted alone, "
                "whatever the datums)",
@@ -84,7 +92,11 @@ _VALUE_WORDS = {
                     "about the datum axis",
     "line_profile": "line profile: the largest, over the cross-sections every 'spacing' mm, of "
                     "the width of the smallest zone centred like its tolerance zone holding the "
-                    "section (form only: each section refitted in its plane)"}
+                    "section (form only: each section refitted in its plane)",
+    **{k: f"{k}: the diameter of the smallest cylinder about the datum axis that holds the "
+          "feature's fitted axis" for k in ("coaxiality", "concentricity")},
+    "symmetry": "symmetry: the width of the smallest zone centred on the datum plane that holds "
+                "the width's fitted centre plane"}
 
 
 def _plan_table(c: Layout) -> list:
@@ -104,8 +116,9 @@ def _plan_table(c: Layout) -> list:
     for k, r in enumerate(c.plan.characteristics, start=1):
         ch = r.characteristic
         where = "all points" if ch.region == "(all points)" else f"region {ch.region}"
-        rows.append([_balloon(ch.id), _symbol(ch.type),
-                     P(f"{esc(type_word(c, ch.type))}<br/><font size=6.5>{esc(where)}</font>",
+        rows.append([_balloon(ch.id), symbol_drawing(ch.type, ch.kind),
+                     P(f"{esc(type_word(c, ch.type, ch.kind))}<br/><font size=6.5>"
+                       f"{esc(where)}</font>",
                        S["cell"]),
                      P(esc(limits_text(ch).replace("⌀", "Ø")), S["cell"]),
                      "|".join(ch.datums) or ("—" if ch.type == "size" else "form"),
@@ -118,7 +131,7 @@ def _plan_table(c: Layout) -> list:
     notes = [f"Characteristic {r.characteristic.id}: {r.reason}."
              for r in c.plan.characteristics if r.verdict != ACCEPT and r.reason not in c.reasons]
     types = dict.fromkeys(r.characteristic.type for r in c.plan.characteristics)
-    words = dict(_VALUE_WORDS, **({"position": _VALUE_WORDS["position"].replace(
+    words = dict(VALUE_WORDS, **({"position": VALUE_WORDS["position"].replace(
         "cylinder", "circle").replace("axis", "centre")} if c.is_2d else {}))
     notes.append("Measured value — " + "; ".join(words[t] for t in types) + ". Datums: "
                  "the features the part is placed by (section 6); form: judged by shape alone.")
@@ -146,24 +159,87 @@ def _balloon(text: str):
     return d
 
 
-def _symbol(kind: str):
-    """The characteristic's symbol on a drawing (reports.messages.SYMBOL), drawn: the
-    certificate's font has no glyphs for them."""
-    from reportlab.graphics.shapes import Circle, Drawing, Line, Polygon, Wedge
+def symbol_drawing(kind: str, feature: str | None = None):
+    """The characteristic's symbol on a drawing (engine.gdt.plan.SYMBOLS, ASME Y14.5 / ISO
+    1101), drawn: the certificate's font has no glyphs for them. A size's ``feature``: a
+    cylinder's ⌀ (None), a sphere's S⌀, a width's none (a drawing gives a width no sign)."""
+    from reportlab.graphics.shapes import Circle, Drawing, Line, PolyLine, Polygon, String, Wedge
 
     d = Drawing(12, 12)
     ink = {"fillColor": None, "strokeWidth": 0.8}
+
+    def line(*xy):
+        d.add(PolyLine(list(xy), strokeWidth=0.8, fillColor=None))
+
+    def arrow(x0, y0, x1, y1):  # a line with a filled head at (x1, y1)
+        line(x0, y0, x1, y1)
+        ux, uy = (x1 - x0), (y1 - y0)
+        n = (ux * ux + uy * uy) ** 0.5
+        ux, uy = ux / n, uy / n
+        d.add(Polygon([x1, y1, x1 - 3 * ux - 1.4 * uy, y1 - 3 * uy + 1.4 * ux,
+                       x1 - 3 * ux + 1.4 * uy, y1 - 3 * uy - 1.4 * ux],
+                      fillColor=(0, 0, 0), strokeWidth=0.4))
+
     if kind == "profile":  # a half circle on its diameter
         d.add(Wedge(6, 3, 5, 0, 180, **ink))
+    elif kind == "line_profile":  # a half circle, open
+        line(*[v for a in range(0, 181, 15) for v in (6 + 5 * _cos(a), 3 + 5 * _sin(a))])
     elif kind == "flatness":  # a parallelogram
         d.add(Polygon([1, 3, 8, 3, 11, 9, 4, 9], **ink))
+    elif kind == "straightness":  # a line
+        line(1, 6, 11, 6)
+    elif kind == "circularity":  # a circle
+        d.add(Circle(6, 6, 4, **ink))
+    elif kind == "cylindricity":  # a circle between two parallel slanted lines
+        d.add(Circle(6, 6, 3.2, **ink))
+        line(0.5, 1, 5.2, 11)
+        line(6.8, 1, 11.5, 11)
     elif kind == "position":  # a circle and its cross
         d.add(Circle(6, 6, 3.6, **ink))
         d.add(Line(0.5, 6, 11.5, 6, strokeWidth=0.8))
         d.add(Line(6, 0.5, 6, 11.5, strokeWidth=0.8))
+    elif kind in ("coaxiality", "concentricity"):  # two concentric circles
+        d.add(Circle(6, 6, 4.6, **ink))
+        d.add(Circle(6, 6, 2.2, **ink))
+    elif kind == "symmetry":  # three lines, the middle one longer
+        line(3, 3, 9, 3)
+        line(1, 6, 11, 6)
+        line(3, 9, 9, 9)
+    elif kind == "parallelism":  # two parallel slanted lines
+        line(1.5, 1, 6, 11)
+        line(6, 1, 10.5, 11)
+    elif kind == "perpendicularity":  # an upright on its base
+        line(1, 1.5, 11, 1.5)
+        line(6, 1.5, 6, 11)
+    elif kind == "angularity":  # an angle of 30 degrees on its base
+        line(11, 1.5, 1, 1.5, 10, 1.5 + 9 * _tan(30))
+    elif kind == "circular_runout":  # one slanted arrow
+        arrow(2, 1.5, 9.5, 10.5)
+    elif kind == "total_runout":  # two slanted arrows on a base
+        line(0.5, 1.5, 11.5, 1.5)
+        arrow(1, 1.5, 5.5, 10.5)
+        arrow(6, 1.5, 10.5, 10.5)
+    elif kind == "size" and feature == "sphere":  # S and the diameter sign
+        d.add(String(0, 3, "S", fontName="Vera", fontSize=7))
+        d.add(Circle(8, 6, 3.2, **ink))
+        d.add(Line(4.5, 2.5, 11.5, 9.5, strokeWidth=0.8))
+    elif kind == "size" and feature == "width":
+        pass
     elif kind == "size":  # the diameter sign
         d.add(Circle(6, 6, 4, **ink))
         d.add(Line(1.5, 1.5, 10.5, 10.5, strokeWidth=0.8))
-    # The other types are not drawn yet (their symbols: engine.gdt.plan.SYMBOLS); the type
-    # column names them.
+    else:
+        raise ValueError(f"no symbol is drawn for a {kind} characteristic")
     return d
+
+
+def _cos(deg: float) -> float:
+    return math.cos(math.radians(deg))
+
+
+def _sin(deg: float) -> float:
+    return math.sin(math.radians(deg))
+
+
+def _tan(deg: float) -> float:
+    return math.tan(math.radians(deg))
