@@ -124,7 +124,8 @@ class DatumFlag:
 class Highlight:
     """What the 3D view shows of the selected characteristic.
 
-    row : its row (model.characteristic_rows); id : its balloon; faces : the STEP faces of its
+    row : its row (model.characteristic_rows); id : its balloon; type : its type (engine.gdt.
+    plan.CHARACTERISTICS); faces : the STEP faces of its
     regions (ids; () without a STEP nominal); points : (k,) its measured points (indices);
     datums : its datums' flags, primary first; frame : its feature control frame's text
     (:func:`frame_text`), note : what else it states (:func:`frame_note`); at : where the frame
@@ -134,6 +135,7 @@ class Highlight:
 
     row: int
     id: str
+    type: str
     faces: tuple[int, ...]
     points: np.ndarray
     datums: tuple[DatumFlag, ...]
@@ -173,7 +175,7 @@ def highlight(run, faces: PartFaces | None, row: int) -> Highlight:
         at = 0.5 * (lo + hi)
     radius = 0.5 * FOCUS_MARGIN * float(np.linalg.norm(hi - lo))
     size = float(np.linalg.norm(np.ptp(run.result.deviations.foot, axis=0))) or 1.0
-    return Highlight(row, c.id, mine, points, tuple(flags), frame_text(c), frame_note(c),
+    return Highlight(row, c.id, c.type, mine, points, tuple(flags), frame_text(c), frame_note(c),
                      _tuple3(at), _tuple3(0.5 * (lo + hi)), max(radius, 0.02 * size))
 
 
