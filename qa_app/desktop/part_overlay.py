@@ -174,7 +174,14 @@ def face_at(plotter, x: int, y: int, cell_faces: np.ndarray | None,
     picker.SetTolerance(0.0)
     picker.PickFromListOn()
     picker.AddPickList(actor)
-    if not picker.Pick(x, y, 0, plotter.renderer) or picker.GetCellId() < 0:
+    # The nominal is not pickable (a click picks the measured points): only for this pick.
+    was = actor.GetPickable()
+    actor.SetPickable(True)
+    try:
+        hit = picker.Pick(x, y, 0, plotter.renderer) and picker.GetCellId() >= 0
+    finally:
+        actor.SetPickable(was)
+    if not hit:
         return None
     cell = picker.GetCellId()
     if cell_faces is not None and cell < len(cell_faces):
