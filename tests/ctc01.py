@@ -53,14 +53,17 @@ zone = 0.2
 """
 
 
-def measured_csv(folder, n: int = 1500, seed: int = 7) -> str:
-    """n points on CTC-01's faces written to ``folder``/ctc01.csv; returns its path."""
+def measured_csv(folder, n: int = 1500, seed: int = 7, moved: tuple[int, ...] = (),
+                 by=(0.0, 0.0, 0.0)) -> str:
+    """n points on CTC-01's faces written to ``folder``/ctc01.csv; returns its path. moved :
+    faces whose points are moved ``by`` (3,) mm (a feature out of place)."""
     from engine.io.step import read_step
     from sweep import on_part
 
     rng = np.random.default_rng(seed)
-    P, N, _ = on_part(read_step(STP), rng, n)
+    P, N, F = on_part(read_step(STP), rng, n)
     P = P + rng.normal(0.0, 1e-4, len(P))[:, None] * N
+    P[np.isin(F, moved)] += np.asarray(by, float)
     path = os.path.join(str(folder), "ctc01.csv")
     np.savetxt(path, P, delimiter=",", header="x,y,z", comments="", fmt="%.9f")
     return path

@@ -11,10 +11,12 @@ from PySide6.QtGui import QColor, QFont, QFontMetrics, QImage, QPainter, QPen
 from .part_view import Highlight, PartFaces
 from .widgets.characteristic_table import symbol_icon
 
-ACTORS = ("qa-char-faces", "qa-datum-faces", "qa-datum-flags", "qa-frame", "qa-anchor")
+ACTORS = ("qa-char-faces", "qa-char-edges", "qa-datum-faces", "qa-datum-flags", "qa-frame", "qa-anchor")
 """The actors a highlight adds (removed with it)."""
-FACES_RGB = (1.0, 0.55, 0.0)
-"""The characteristic's faces: orange, apart from the deviation scale's colours."""
+FACES_RGB = (1.0, 0.98, 0.90)
+"""The characteristic's faces: near white, outlined (``EDGES_RGB``), so that no colour of the
+deviation scale (its points') is read on them."""
+EDGES_RGB = (0.85, 0.35, 0.0)
 DATUM_RGB = (0.30, 0.45, 0.85)
 DATUM_OPACITY = 0.35
 """The datums' faces, tinted: a datum plane may be the whole part's face."""
@@ -113,9 +115,17 @@ def draw(plotter, faces: PartFaces | None, h: Highlight | None) -> None:
     if h is None:
         return
     if faces is not None and h.faces:
-        _in_front(plotter.add_mesh(_surface(faces, h.faces), color=FACES_RGB, ambient=0.45,
-                                   pickable=False, name="qa-char-faces", render=False,
-                                   reset_camera=False))
+        surf = _surface(faces, h.faces)
+        _in_front(plotter.add_mesh(surf, color=FACES_RGB, ambient=0.5, pickable=False,
+                                   name="qa-char-faces", render=False, reset_camera=False))
+        # The faces' outlines: their boundaries and sharp edges (a hole's rims).
+        edges = surf.clean().extract_feature_edges(feature_angle=30, boundary_edges=True,
+                                                   feature_edges=True, manifold_edges=False,
+                                                   non_manifold_edges=False)
+        if edges.n_cells:
+            _in_front(plotter.add_mesh(edges, color=EDGES_RGB, line_width=3, pickable=False,
+                                       name="qa-char-edges", render=False,
+                                       reset_camera=False))
     datum_faces = sorted({f for d in h.datums for f in d.faces} - set(h.faces))
     if faces is not None and datum_faces:
         _in_front(plotter.add_mesh(_surface(faces, datum_faces), color=DATUM_RGB,
@@ -130,7 +140,7 @@ def draw(plotter, faces: PartFaces | None, h: Highlight | None) -> None:
             render=False, reset_camera=False)
     if not np.all(np.isfinite(h.at)):
         return
-    plotter.add_points(np.array([h.at]), color=FACES_RGB, point_size=10,
+    plotter.add_points(np.array([h.at]), color=EDGES_RGB, point_size=10,
                        render_points_as_spheres=True, pickable=False, name="qa-anchor",
                        render=False, reset_camera=False)
     mapper = vtkImageMapper()
