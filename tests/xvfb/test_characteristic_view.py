@@ -3,8 +3,6 @@ plan; selecting position 1443 adds its faces (exactly their triangles), its datu
 flags and its frame, fades the nominal and zooms to the slot; deselecting takes them away and
 restores the view; the mouse resting over a face names it."""
 
-import os
-
 import numpy as np
 import pytest
 from PySide6.QtCore import QSettings
