@@ -89,7 +89,9 @@ def test_the_mouse_resting_over_a_face_names_it(window, qtbot):
     assert w.statusBar().currentMessage() == "face 98 · plane · (unnamed)"
     # Beside the part: no face, nothing said.
     assert w.viewport.hover_at(2, 2) == ""
-    # The mouse moved and resting: the view asks itself.
-    w.viewport._hover_at = (int(round(px)), int(round(py)))
-    with qtbot.waitSignal(w.viewport.face_hovered, timeout=2000):
-        w.viewport._hover_timer.start()
+    # The mouse moved there and resting: the view asks itself.
+    iren = pl.iren.interactor
+    iren.SetEventInformation(int(round(px)), int(round(py)))
+    with qtbot.waitSignal(w.viewport.face_hovered, timeout=2000) as said:
+        iren.InvokeEvent("MouseMoveEvent")
+    assert said.args == ["face 98 · plane · (unnamed)"]
