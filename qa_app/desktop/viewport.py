@@ -1,7 +1,9 @@
 """The 3D viewport (pyvistaqt): the nominal surface with the registered points coloured by
 deviation on the tolerance-banded scale (or, after a plan's run, by the plan region each point
 belongs to), standard views, point picking, the selected point's marker, and a characteristic's
-points shown in their colours with the others faded. Where OpenGL cannot show a window (Qt's
+points shown in their colours with the others faded, with, on a STEP nominal, what
+part_view.PartView decides of it (its faces, datums and frame: part_overlay draws them) and the
+name of the face the mouse rests on. Where OpenGL cannot show a window (Qt's
 offscreen platform), a notice takes its place and the rest of the window works on.
 """
 
