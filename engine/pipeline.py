@@ -31,8 +31,8 @@ from .seeds import rng
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .scene_part import on_the_table, the_part
 from .settings import InspectionSettings
-from .step_model import (ExactDistances, exact_deviations, exact_features, face_groups,
-                         face_rivals, face_sample, step_facts)
+from .step_model import (ExactDistances, StepFaces, exact_deviations, exact_features,
+                         face_groups, face_rivals, face_sample, step_facts)
 from .tolerance import Tolerance, check_zone
 from .verdict import ACCEPT, INCONCLUSIVE
 
@@ -67,7 +67,9 @@ class Run:
     selection : which of the measured file's points were inspected (engine.scene.Selection;
     None: every one, ``measured`` is then the file's point set, else the points kept);
     warnings : what the user should know about the inputs, one sentence each (the command
-    line prints them, the JSON lists them, the app shows them).
+    line prints them, the JSON lists them, the app shows them); faces : a STEP nominal's faces
+    (engine.step_model.StepFaces: the face of each nominal sample, the plan regions' groups),
+    None for another nominal.
     """
 
     settings: InspectionSettings
@@ -80,6 +82,7 @@ class Run:
     plan: Plan | None = None
     selection: Selection | None = None
     warnings: tuple[str, ...] = ()
+    faces: StepFaces | None = None
 
     @functools.cached_property
     def worst_order(self) -> np.ndarray:
@@ -407,8 +410,10 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
+    faces = None if source.step is None else StepFaces(
+        source.step.faces, np.asarray(source.step.face_ids), source.points3d.groups or {})
     return Run(settings, result, inputs, measured_ps, nominal, source.template, timings, plan,
-               selection, warnings)
+               selection, warnings, faces)
 
 
 def _select(measured_ps: PointSet, settings: InspectionSettings
