@@ -22,8 +22,6 @@ DATUM_OPACITY = 0.35
 """The datums' faces, tinted: a datum plane may be the whole part's face."""
 FADED_OPACITY = 0.3
 """The nominal's other faces, while a characteristic is shown."""
-DRAWN_SYMBOLS = ("profile", "flatness", "position", "size")
-"""The symbols characteristic_table.symbol_icon draws (fonts lack some: ⌖)."""
 FRAME_OFFSET = (14, 14)
 """The frame's lower-left corner from the feature's centre, pixels (up and right)."""
 
@@ -39,7 +37,7 @@ def frame_image(h: Highlight, font: QFont | None = None) -> QImage:
     small.setPixelSize(12)
     fm, sm = QFontMetrics(font), QFontMetrics(small)
     cells = h.frame.split(" | ")
-    icon = kind in DRAWN_SYMBOLS and cells[0][:1] != "⌀"
+    icon = cells[0][:1] != "⌀"  # every type's symbol is drawn (reports.symbols)
     if icon:
         cells[0] = cells[0].split(" ", 1)[-1]
     elif not fm.inFontUcs4(ord(cells[0][0])):  # a symbol no font has: its name instead

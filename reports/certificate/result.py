@@ -4,12 +4,11 @@ statistics."""
 
 from __future__ import annotations
 
-import math
-
 from engine.verdict import ACCEPT, INCONCLUSIVE
 
 from .. import figures
 from ..messages import VERDICT_RGB, VERDICT_WORD, limits_text
+from ..symbols import BOX, symbol_strokes
 from .layout import Layout, esc
 
 
@@ -160,86 +159,19 @@ def _balloon(text: str):
 
 
 def symbol_drawing(kind: str, feature: str | None = None):
-    """The characteristic's symbol on a drawing (engine.gdt.plan.SYMBOLS, ASME Y14.5 / ISO
-    1101), drawn: the certificate's font has no glyphs for them. A size's ``feature``: a
-    cylinder's ⌀ (None), a sphere's S⌀, a width's none (a drawing gives a width no sign)."""
-    from reportlab.graphics.shapes import Circle, Drawing, Line, PolyLine, Polygon, String, Wedge
+    """The characteristic's symbol (reports.symbols, one drawing for the certificate and the
+    app) as a reportlab drawing: the certificate's font has no glyphs for them."""
+    from reportlab.graphics.shapes import Circle, Drawing, PolyLine, Polygon, String
 
-    d = Drawing(12, 12)
-    ink = {"fillColor": None, "strokeWidth": 0.8}
-
-    def line(*xy):
-        d.add(PolyLine(list(xy), strokeWidth=0.8, fillColor=None))
-
-    def arrow(x0, y0, x1, y1):  # a line with a filled head at (x1, y1)
-        line(x0, y0, x1, y1)
-        ux, uy = (x1 - x0), (y1 - y0)
-        n = (ux * ux + uy * uy) ** 0.5
-        ux, uy = ux / n, uy / n
-        d.add(Polygon([x1, y1, x1 - 3 * ux - 1.4 * uy, y1 - 3 * uy + 1.4 * ux,
-                       x1 - 3 * ux + 1.4 * uy, y1 - 3 * uy - 1.4 * ux],
-                      fillColor=(0, 0, 0), strokeWidth=0.4))
-
-    if kind == "profile":  # a half circle on its diameter
-        d.add(Wedge(6, 3, 5, 0, 180, **ink))
-    elif kind == "line_profile":  # a half circle, open
-        line(*[v for a in range(0, 181, 15) for v in (6 + 5 * _cos(a), 3 + 5 * _sin(a))])
-    elif kind == "flatness":  # a parallelogram
-        d.add(Polygon([1, 3, 8, 3, 11, 9, 4, 9], **ink))
-    elif kind == "straightness":  # a line
-        line(1, 6, 11, 6)
-    elif kind == "circularity":  # a circle
-        d.add(Circle(6, 6, 4, **ink))
-    elif kind == "cylindricity":  # a circle between two parallel slanted lines
-        d.add(Circle(6, 6, 3.2, **ink))
-        line(0.5, 1, 5.2, 11)
-        line(6.8, 1, 11.5, 11)
-    elif kind == "position":  # a circle and its cross
-        d.add(Circle(6, 6, 3.6, **ink))
-        d.add(Line(0.5, 6, 11.5, 6, strokeWidth=0.8))
-        d.add(Line(6, 0.5, 6, 11.5, strokeWidth=0.8))
-    elif kind in ("coaxiality", "concentricity"):  # two concentric circles
-        d.add(Circle(6, 6, 4.6, **ink))
-        d.add(Circle(6, 6, 2.2, **ink))
-    elif kind == "symmetry":  # three lines, the middle one longer
-        line(3, 3, 9, 3)
-        line(1, 6, 11, 6)
-        line(3, 9, 9, 9)
-    elif kind == "parallelism":  # two parallel slanted lines
-        line(1.5, 1, 6, 11)
-        line(6, 1, 10.5, 11)
-    elif kind == "perpendicularity":  # an upright on its base
-        line(1, 1.5, 11, 1.5)
-        line(6, 1.5, 6, 11)
-    elif kind == "angularity":  # an angle of 30 degrees on its base
-        line(11, 1.5, 1, 1.5, 10, 1.5 + 9 * _tan(30))
-    elif kind == "circular_runout":  # one slanted arrow
-        arrow(2, 1.5, 9.5, 10.5)
-    elif kind == "total_runout":  # two slanted arrows on a base
-        line(0.5, 1.5, 11.5, 1.5)
-        arrow(1, 1.5, 5.5, 10.5)
-        arrow(6, 1.5, 10.5, 10.5)
-    elif kind == "size" and feature == "sphere":  # S and the diameter sign
-        d.add(String(0, 3, "S", fontName="Vera", fontSize=7))
-        d.add(Circle(8, 6, 3.2, **ink))
-        d.add(Line(4.5, 2.5, 11.5, 9.5, strokeWidth=0.8))
-    elif kind == "size" and feature == "width":
-        pass
-    elif kind == "size":  # the diameter sign
-        d.add(Circle(6, 6, 4, **ink))
-        d.add(Line(1.5, 1.5, 10.5, 10.5, strokeWidth=0.8))
-    else:
-        raise ValueError(f"no symbol is drawn for a {kind} characteristic")
+    d = Drawing(BOX, BOX)
+    for stroke in symbol_strokes(kind, feature):
+        if stroke[0] == "line":
+            xy = list(stroke[1]) + (list(stroke[1][:2]) if stroke[2] else [])
+            d.add(PolyLine(xy, strokeWidth=0.8, fillColor=None))
+        elif stroke[0] == "circle":
+            d.add(Circle(*stroke[1:], fillColor=None, strokeWidth=0.8))
+        elif stroke[0] == "fill":
+            d.add(Polygon(list(stroke[1]), fillColor=(0, 0, 0), strokeWidth=0.4))
+        else:
+            d.add(String(stroke[1], stroke[2], stroke[3], fontName="Vera", fontSize=stroke[4]))
     return d
-
-
-def _cos(deg: float) -> float:
-    return math.cos(math.radians(deg))
-
-
-def _sin(deg: float) -> float:
-    return math.sin(math.radians(deg))
-
-
-def _tan(deg: float) -> float:
-    return math.tan(math.radians(deg))
