@@ -67,7 +67,8 @@ class Run:
     selection : which of the measured file's points were inspected (engine.scene.Selection;
     None: every one, ``measured`` is then the file's point set, else the points kept);
     warnings : what the user should know about the inputs, one sentence each (the command
-    line prints them, the JSON lists them, the app shows them).
+    line prints them, the JSON lists them, the app shows them); step : the STEP model read as
+    the nominal (engine.io.step.StepNominal), else None.
     """
 
     settings: InspectionSettings
@@ -80,6 +81,7 @@ class Run:
     plan: Plan | None = None
     selection: Selection | None = None
     warnings: tuple[str, ...] = ()
+    step: StepNominal | None = None
 
     @functools.cached_property
     def worst_order(self) -> np.ndarray:
@@ -408,7 +410,7 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
     return Run(settings, result, inputs, measured_ps, nominal, source.template, timings, plan,
-               selection, warnings)
+               selection, warnings, source.step)
 
 
 def _select(measured_ps: PointSet, settings: InspectionSettings
