@@ -355,9 +355,7 @@ def nominal_curve(plane: Plane, nominal=None, step=None) -> SectionCurve:
     ``nominal``'s triangles (engine.nominal.Nominal: a mesh or a grid). Raises SettingsError
     for a nominal of bare points (no surface to cut) and for a plane that misses it."""
     if step is not None:
-        from .io.step.section import brep_section
-
-        curve = brep_section(step, plane)
+        curve = step.section(plane)
         what = f"the STEP model {step.path}"
     elif nominal is not None and nominal.triangles is not None:
         curve = mesh_section(nominal.points, nominal.triangles, plane)
