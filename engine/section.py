@@ -87,7 +87,8 @@ def axis_plane(axis: str, offset: float) -> Plane:
     e = np.eye(3)
     k = AXES.index(axis)
     u, v = {0: (e[1], e[2]), 1: (e[0], e[2]), 2: (e[0], e[1])}[k]
-    origin = e[k] * float(offset)
+    origin = np.zeros(3)
+    origin[k] = float(offset)
     return Plane(origin, np.cross(u, v), u, v, f"{axis} = {float(offset):g} mm", axis,
                  float(offset))
 

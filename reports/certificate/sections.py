@@ -32,8 +32,8 @@ def section_pages(c: Layout) -> list:
                 P(esc(_caption(s, factor)), S["small"])]
         t = s.tolerance
         out.append(c.kv([
-            ("Plane", s.plane.name + " (nominal frame; the drawing looks along the plane's "
-                                     "normal)"),
+            ("Plane", f"{s.plane.name}, nominal frame; drawn in its ({_axes(s.plane)}) "
+                      "coordinates, mm, to scale"),
             ("Nominal section curve", f"{s.curve.length:.3f} mm in {len(s.curve.polylines)} "
                                       f"polyline(s), {sum(s.curve.closed)} closed"),
             ("Measured points in the band", f"{d.size} within ±{s.band:.4g} mm of the plane"),
@@ -42,6 +42,12 @@ def section_pages(c: Layout) -> list:
             ("Outside the zone", f"{int(((d < t.lower) | (d > t.upper)).sum())} of {d.size}"),
         ], [48 * mm, W - 48 * mm]))
     return out + [PageBreak()] if out else out
+
+
+def _axes(plane) -> str:
+    from ..figures.sections import AXIS_NAMES
+
+    return ", ".join(AXIS_NAMES.get(plane.axis or "", ("u", "v")))
 
 
 def _caption(s, factor: float) -> str:

@@ -23,8 +23,42 @@ AXIS_NAMES = {"x": ("y", "z"), "y": ("x", "z"), "z": ("x", "y")}
 """The plane's 2D axes, named by the nominal's axes they are (engine.section.axis_plane)."""
 
 
+WHISKER_SHARE = 0.03
+"""The magnification (a 1-2-5 factor) draws the tolerance zone's farther limit as about this
+share of the section's extent: the envelope stays clear of a part's smaller features ..."""
+WHISKER_MAX_SHARE = 0.15
+"""... and the largest deviation as at most this share."""
+MITRE_LIMIT = 0.2
+"""An envelope's corner is mitred (its offset lines meet) where 1 + cos(turn) exceeds this (a
+turn under about 143 degrees); a sharper one is bevelled."""
+
+
 def _closed(p: np.ndarray, closed: bool) -> np.ndarray:
     return np.vstack([p, p[:1]]) if closed else p
+
+
+def offset_polyline(p: np.ndarray, normals: np.ndarray, closed: bool, delta: float
+                    ) -> np.ndarray:
+    """The polyline ``p`` (k, 2) offset by ``delta`` along its outward side (given by its vertex
+    normals (k, 2)): each chord moved square to itself by delta, consecutive chords' offsets
+    meeting at their mitre (a straight edge's offset is parallel to it at delta, not short of
+    it at a corner), bevelled at a turn sharper than ``MITRE_LIMIT`` allows."""
+    q = _closed(p, closed)
+    t = np.diff(q, axis=0)
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    c = np.column_stack([t[:, 1], -t[:, 0]])  # square to each chord
+    side = normals + np.roll(normals, -1, axis=0) if closed else normals[:-1] + normals[1:]
+    c[np.einsum("ij,ij->i", c, side) < 0] *= -1
+    before = np.roll(c, 1, axis=0) if closed else np.vstack([c[:1], c])
+    after = c if closed else np.vstack([c, c[-1:]])
+    out = []
+    for x, a, b in zip(p, before, after):
+        s = 1.0 + float(a @ b)
+        if s > MITRE_LIMIT:
+            out.append(x + delta * (a + b) / s)
+        else:
+            out += [x + delta * a, x + delta * b]
+    return np.array(out)
 
 
 def section_map(section: "Section", width: float, height: float):
@@ -39,8 +73,11 @@ def section_map(section: "Section", width: float, height: float):
     allp = np.vstack(curves + [section.foot.reshape(-1, 2)])
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     extent = float(max(hi - lo)) or 1.0
-    reach = max(float(np.abs(d).max()) if d.size else 0.0, abs(tol.lower), abs(tol.upper))
-    factor = whisker_factor(extent, reach)
+    zone = max(abs(tol.lower), abs(tol.upper))
+    worst = float(np.abs(d).max()) if d.size else 0.0
+    factor = min(whisker_factor(extent, zone, WHISKER_SHARE),
+                 whisker_factor(extent, worst, WHISKER_MAX_SHARE))
+    reach = max(zone, worst)
     pad = 0.04 * extent + factor * reach
     lo, hi = lo - pad, hi + pad
     ml, mb, top, legend_h = 30.0, 16.0, 4.0, 40.0  # frame margins, legend band below
@@ -57,7 +94,7 @@ def section_map(section: "Section", width: float, height: float):
     dash = colors.Color(*ENVELOPE_RGB)
     for c, n, closed in zip(curves, section.curve.normals, section.curve.closed):
         for limit in (tol.lower, tol.upper):
-            x, y = P(_closed(c + factor * limit * n, closed))
+            x, y = P(_closed(offset_polyline(c, n, closed, factor * limit), closed))
             g.add(PolyLine(list(np.column_stack([x, y]).ravel()), strokeColor=dash,
                            strokeWidth=0.5, strokeDashArray=[2.5, 1.8]))
         x, y = P(_closed(c, closed))
@@ -72,9 +109,11 @@ def section_map(section: "Section", width: float, height: float):
         g.add(Line(fx[i], fy[i], tx[i], ty[i], strokeColor=c, strokeWidth=0.8))
         g.add(Circle(fx[i], fy[i], 0.7, fillColor=colors.black, strokeColor=None))
         g.add(Circle(tx[i], ty[i], 1.1, fillColor=c, strokeColor=None))
-    for i, word in _extremes(d):
-        g.add(String(tx[i] + 2.5, ty[i] + 2.5, f"{word} {d[i]:+.3f}", fontName="Helvetica-Bold",
-                     fontSize=6.5))
+    for i, word in _extremes(d):  # labelled beside the tip, on the side with room
+        right = tx[i] < ox + 0.8 * plot_w
+        g.add(String(tx[i] + (2.5 if right else -2.5), ty[i] + 2.5, f"{word} {d[i]:+.3f}",
+                     fontName="Helvetica-Bold", fontSize=6.5,
+                     textAnchor="start" if right else "end"))
     _legend(g, section, factor, k, width, legend_h)
     return g, factor
 
@@ -115,7 +154,7 @@ def _frame(g, lo, hi, P, k: float, plane) -> None:
                 g.add(String(x0 - 4, y - 2.3, text, fontName="Helvetica", fontSize=6.5,
                              textAnchor="end"))
             v += step
-    g.add(String(x1, y0 - 10, f"{names[0]} (mm)", fontName="Helvetica-Bold", fontSize=6.5,
+    g.add(String(x1, y0 - 19, f"{names[0]} (mm)", fontName="Helvetica-Bold", fontSize=6.5,
                  textAnchor="end"))
     g.add(String(x0 + 3, y1 - 9, f"{names[1]} (mm)", fontName="Helvetica-Bold", fontSize=6.5))
 
