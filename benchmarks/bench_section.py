@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -79,7 +80,14 @@ def fairing() -> None:
               f"{s.curve.length:.1f} mm; {s.signed.size} points within ±{s.band:.3f} mm")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    return p.parse_args(argv)
+
+
 if __name__ == "__main__":
+    parse_args()
     from engine import warm_up
 
     warm_up()

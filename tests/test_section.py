@@ -23,7 +23,7 @@ from engine.scene import typical_spacing
 from engine.section import (axis_plane, chain_order, mesh_cut, mesh_section, nominal_curve,
                             point_plane, section_name, section_of)
 from qa_app.cli import main
-from surfaces import (height, height_grid, height_normal, point_set, random_rotation,
+from surfaces import (height_grid, point_set, points_off_surface, random_rotation,
                       write_grid_nominal, write_labelled_points)
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "step")
@@ -247,9 +247,7 @@ def inspected():
     pts, nrm, grid = height_grid(120, 60)
     nominal = Nominal.from_point_set(point_set(pts, nrm, grid))
     rng = np.random.default_rng(3)
-    x, y = rng.uniform(-240, 240, 3000), rng.uniform(-115, 115, 3000)
-    q = np.column_stack([x, y, height(x, y)]) + rng.normal(0, 0.01, 3000)[:, None] * \
-        height_normal(x, y)
+    q = points_off_surface(rng, 3000, rng.normal(0, 0.01, 3000))
     measured = apply_transform(make_transform(random_rotation(rng), [40.0, -20.0, 300.0]), q)
     return nominal, inspect(nominal, measured, Tolerance.symmetric(0.05))
 
@@ -290,9 +288,7 @@ def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("seccli")
     write_grid_nominal(d / "nominal.csv", 90, 60)
     rng = np.random.default_rng(1)
-    x, y = rng.uniform(-240, 240, 600), rng.uniform(-115, 115, 600)
-    q = np.column_stack([x, y, height(x, y)]) + rng.normal(0, 0.01, 600)[:, None] * \
-        height_normal(x, y)
+    q = points_off_surface(rng, 600, rng.normal(0, 0.01, 600))
     write_labelled_points(d / "measured.csv",
                           apply_transform(make_transform(random_rotation(rng), [1, 2, 3]), q))
     return d
