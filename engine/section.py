@@ -306,7 +306,8 @@ class Section:
 
     name : "A-A"; plane; curve : the nominal's; band : the half-width of the band of measured
     points, mm; index (p,) : the measured points within it (indices into the inspection's
-    points); signed (p,) : their deviations (the inspection's), mm; offset (p,) : their
+    points, those with a deviation); signed (p,) : their deviations (the inspection's), mm;
+    offset (p,) : their
     distances from the plane, mm; foot (p, 2) : their feet on the nominal in the plane's frame;
     direction (p, 2) : the unit whisker direction (outward normal in the plane); tolerance :
     the zone the whiskers and the envelope are drawn against.
@@ -399,8 +400,9 @@ def section_of(result, plane: Plane, name: str = "A-A", band: float | None = Non
     elif not (math.isfinite(band) and band > 0):
         raise SettingsError(f"a section's band must be a positive number of mm, got {band:g}")
     off = plane.distance(X)
-    idx = np.flatnonzero(np.abs(off) <= band)
     dev = result.deviations
+    # (A point without a deviation, which OpenCascade could not measure, has no whisker.)
+    idx = np.flatnonzero((np.abs(off) <= band) & np.isfinite(dev.signed))
     foot = plane.to_2d(dev.foot[idx])
     nrm = dev.normal[idx]
     direction = np.column_stack([nrm @ plane.u, nrm @ plane.v])

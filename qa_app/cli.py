@@ -389,7 +389,7 @@ def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
     from engine.pipeline import inspection_settings, run_files
     from reports.outputs import Output, OutputConflictError, write_all
-    from qa_app.sections import results_document, run_sections
+    from qa_app.sections import results_document, run_sections, summary_lines
     from reports.results import points_csv, result_json
 
     info, identity = _certificate_identity(args, "inspect")
@@ -442,7 +442,8 @@ def _run_inspect(args, tol, renderer) -> int:
     if stdout is not None:
         sys.stdout.write(stdout)
     else:
-        print(summary_text(result, written, run.selection))
+        print("\n".join([summary_text(result, written, run.selection)]
+                        + summary_lines(sections)))
     return EXIT[result.verdict]
 
 

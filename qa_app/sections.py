@@ -75,3 +75,16 @@ def results_document(run, sections) -> dict:
     if sections:
         doc["sections"] = [s.document() for s in sections]
     return doc
+
+
+def summary_lines(sections) -> list[str]:
+    """One line per section for the command line's summary."""
+    out = []
+    for s in sections:
+        d, t = s.signed, s.tolerance
+        spread = (f"deviations {float(d.min()):+.4f} … {float(d.max()):+.4f} mm, "
+                  f"{int(((d < t.lower) | (d > t.upper)).sum())} out of tolerance"
+                  if d.size else "no deviation to show")
+        out.append(f"  section {s.name}, {s.plane.name}: curve {s.curve.length:.1f} mm; "
+                   f"{d.size} points within ±{s.band:.3g} mm of the plane, {spread}")
+    return out
