@@ -373,3 +373,24 @@ def test_the_certificate_has_a_page_per_section(sectioned):
         assert "magnified" in page and "tolerance envelope" in page
     pages_of = [k for k, p in enumerate(pages) if "Section A-A" in p or "Section B-B" in p]
     assert pages_of[1] == pages_of[0] + 1
+
+
+def test_a_step_nominal_is_cut_exactly_from_the_command_line(tmp_path, capsys):
+    """The box with a hole as the STEP nominal: the JSON's section is OpenCascade's (its
+    rectangle and circle), with the inspection's points and deviations in the band."""
+    step = sm.write_step(sm.box_with_hole(), tmp_path / "box.stp")
+    rng = np.random.default_rng(4)
+    feet, normals, _ = sm.box_face_samples(rng, 150)
+    q = feet + rng.normal(0, 0.005, len(feet))[:, None] * normals
+    write_labelled_points(tmp_path / "m.csv",
+                          apply_transform(make_transform(random_rotation(rng), [9, 8, 7]), q))
+    out = tmp_path / "r.json"
+    assert _cli("inspect", step, tmp_path / "m.csv", "--tol", "0.05", "--json", out,
+                "--section", "z=10", "--section-band", "1.5") == 0
+    assert "section A-A, z = 10 mm: curve" in capsys.readouterr().out
+    s = json.loads(out.read_text())["sections"][0]
+    assert s["curve"]["source"] == "step" and s["curve"]["polylines"] == 2
+    assert s["curve"]["closed"] == 2 and s["curve"]["chord_mm"] > 0
+    full = 2 * (sm.BOX[0] + sm.BOX[1]) + 2 * math.pi * sm.HOLE_RADIUS
+    assert full - 2.1 * s["curve"]["chord_mm"] <= s["curve"]["length_mm"] <= full
+    assert s["n_points"] > 10 and abs(s["deviation_min"]) < 0.05
