@@ -291,3 +291,27 @@ def nonzero_area_xyz(a, b, c):
     area2sq = cx * cx + cy * cy + cz * cz
     scale = np.maximum(sum(e * e for e in e1), sum(e * e for e in e2))
     return area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2
+
+
+def plane_cut_segments(points, triangles, origin, normal):
+    """The plane's cut of a triangle mesh, one triangle at a time in plain Python: for each
+    triangle, the points where its edges cross the plane (a vertex on the plane counts as
+    above it), each edge's crossing computed from its lower-numbered vertex. Returns a list of
+    segments ((x, y, z), (x, y, z))."""
+    o = [float(c) for c in origin]
+    n = [float(c) for c in normal]
+    P = [[float(c) for c in p] for p in points]
+    d = [sum((p[i] - o[i]) * n[i] for i in range(3)) for p in P]
+    out = []
+    for tri in triangles:
+        ends = []
+        for k in range(3):
+            a, b = int(tri[k]), int(tri[(k + 1) % 3])
+            if (d[a] >= 0) == (d[b] >= 0):
+                continue
+            lo, hi = min(a, b), max(a, b)
+            t = d[lo] / (d[lo] - d[hi])
+            ends.append(tuple(P[lo][i] + t * (P[hi][i] - P[lo][i]) for i in range(3)))
+        if len(ends) == 2:
+            out.append((ends[0], ends[1]))
+    return out
