@@ -3,14 +3,15 @@
 engine.gdt.plan.Plan, the same object a TOML plan gives.
 
 What is read
-    * units: the file's primary linear unit (``FileUnits``), a value's own ``linearUnit`` where
+    * units: the file's primary linear unit (``FileUnits``; its ``PMILinearUnit``, where it
+      states one, for the characteristics' values), a value's own ``linearUnit`` where
       it names another of the file's units, and the ``ScaleCoefficient`` the Product declares
       for its geometry (Product and Features values are divided by it); everything in mm.
     * features: each ``…FeatureNominal`` with the faces of the file's own B-rep it is made of
       (``EntityInternalIds``); a plan region per feature (``qif:ID``), or per set of features
       a characteristic applies to together (``qif:ID+ID``), selecting the group of the same
       name: the STEP faces :func:`qif_face_groups` finds for it by geometry.
-    * datums: each ``DatumDefinition`` on one plane, cylinder or sphere feature, as a plan datum
+    * datums: each ``DatumDefinition`` on one plane, cylinder, sphere or width feature, as a plan datum
       (tangent, the ASME / ISO default) on that feature's region.
     * datum reference frames: their simple datums, and a ``CompoundDatum`` as the common
       datum "A-B"; a datum at MMC / LMC makes the characteristics that use it not judged.
@@ -47,7 +48,8 @@ from .qif_characteristics import RFS, CharacteristicReader, ids_of, local_name, 
 from .qif_faces import MATCH_FRACTION, FaceMatcher, QifFace, face_of
 
 QIF3_NAMESPACE = "http://qifstandards.org/xsd/qif3"
-DATUM_FEATURES = {"Plane": "plane", "Cylinder": "cylinder", "Sphere": "sphere"}
+DATUM_FEATURES = {"Plane": "plane", "Cylinder": "cylinder", "Sphere": "sphere",
+                  "OppositeParallelPlanes": "width"}
 """QIF feature kinds a plan datum can be, and the plan's word for each."""
 KNOWN_UNITS = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "m": 1000.0,
                "meter": 1000.0, "metre": 1000.0, "um": 1e-3, "micrometer": 1e-3,
@@ -259,7 +261,10 @@ def _children(root, path: str) -> list:
 
 
 class _Units:
-    """The file's linear units (name -> mm), its primary one, and the geometry's scale."""
+    """The file's linear units (name -> mm), its primary one, the primary one of its PMI (the
+    Characteristics' values: ``PMILinearUnit``, which the QIF 3.0 schema says overrides the
+    primary unit there; the primary one where the file states none), and the geometry's
+    scale."""
 
     def __init__(self, root, path: str):
         self.path = path
@@ -268,13 +273,16 @@ class _Units:
         if primary is None:
             raise InputError("states no linear unit (FileUnits/PrimaryUnits/LinearUnit): its "
                              "lengths cannot be read as mm", path)
-        for u in (primary, *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
+        pmi = root.find("{*}FileUnits/{*}PrimaryUnits/{*}PMILinearUnit")
+        for u in (primary, *(() if pmi is None else (pmi,)),
+                  *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
             factor = u.findtext("{*}UnitConversion/{*}Factor")
             self.mm[(u.findtext("{*}UnitName") or "").strip()] = 1000.0 * _number(
                 factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
                 path)
         self.unit = (primary.findtext("{*}UnitName") or "").strip()
         self.mm_per_unit = self.mm[self.unit]
+        self.pmi_unit = self.unit if pmi is None else (pmi.findtext("{*}UnitName") or "").strip()
         scale = root.findtext("{*}Product/{*}Header/{*}ScaleCoefficient")
         self.scale = 1.0 if scale is None else _number(scale, "ScaleCoefficient", path)
         if not self.scale > 0:
@@ -282,15 +290,17 @@ class _Units:
                              path)
 
     def length(self, e, what: str, geometry: bool = False) -> float:
-        """The value of element ``e`` in mm (its own ``linearUnit`` where it names one; a
-        Product or Features value divided by the declared scale)."""
+        """The value of element ``e`` in mm (its own ``linearUnit`` where it names one, else the
+        PMI's primary unit: a characteristic's value; a Product or Features value,
+        ``geometry``, in the primary unit divided by the declared scale)."""
         unit = e.get("linearUnit")
         if unit is not None and unit not in self.mm and unit in KNOWN_UNITS:
             self.mm[unit] = KNOWN_UNITS[unit]
         if unit is not None and unit not in self.mm:
             raise InputError(f"{what}: linearUnit '{unit}' is not one of the file's units "
                              f"({', '.join(self.mm)})", self.path)
-        value = _number(e.text, what, self.path) * self.mm[unit or self.unit]
+        value = _number(e.text, what, self.path) * self.mm[
+            unit or (self.unit if geometry else self.pmi_unit)]
         return value / self.scale if geometry else value
 
 
@@ -339,7 +349,7 @@ def _features(root, index: dict, units: _Units, path: str) -> dict[str, QifFeatu
 
 
 def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str, str]]:
-    """{DatumDefinition id: plan Datum} for those on one plane, cylinder or sphere with faces,
+    """{DatumDefinition id: plan Datum} for those on one plane, cylinder, sphere or width with faces,
     and {id: why not} for the others (with their label)."""
     datums, notes = {}, {}
     for e in _children(root, "DatumDefinitions"):
@@ -352,7 +362,7 @@ def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str
                 _article(words(kinds[0])) + " feature" + ("" if kinds[0] == "?" or
                                                      features[ids[0]].faces else " without faces"))
             notes[e.get("id")] = (f"datum {label} is {what}; a plan datum is one plane, "
-                                  "cylinder or sphere")
+                                  "cylinder, sphere or width")
             continue
         datums[e.get("id")] = Datum(label=label, region=f"qif:{ids[0]}",
                                     feature=DATUM_FEATURES[kinds[0]])
