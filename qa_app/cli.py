@@ -24,23 +24,12 @@ import os
 import sys
 
 from engine.choices import Verdict
-from engine.errors import QAError
 from qa_app.arguments import add_commands
 from qa_app.summary import summary_text
-from qa_app.usage import EXAMPLES, EXIT_CODES, usage
+from qa_app.usage import EXAMPLES, EXIT_CODES, UsageError, usage
 
 EXIT = {Verdict.ACCEPT: 0, Verdict.REJECT: 1, Verdict.INCONCLUSIVE: 2}
 EX_USAGE, EX_DATAERR, EX_NOINPUT, EX_UNAVAILABLE, EX_SOFTWARE, EX_CANTCREAT = 64, 65, 66, 69, 70, 73
-
-
-class UsageError(QAError, ValueError):
-    """The command line was used wrongly (exit code 64, EX_USAGE): a missing or contradictory
-    option, not a problem in the files it names. ``command``: the subcommand whose usage is
-    shown with the message (None: the one parsed, else all of them)."""
-
-    def __init__(self, message: str, command: str | None = None):
-        super().__init__(message)
-        self.command = command
 
 
 class _Parser(argparse.ArgumentParser):

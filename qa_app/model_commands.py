@@ -3,7 +3,7 @@ measurement. ``faces PART.stp``: every face of the STEP nominal with the id a pl
 names (``group = "face:N"``); ``plan SOURCE``: a TOML or QIF 3.0 plan as a table, and with
 ``--toml`` as a TOML plan to review and edit (reports.faces, reports.plan_table,
 reports.plan_toml). Bad input raises engine.errors.InputError (exit 65, naming the file and
-the item), a usage error qa_app.cli.UsageError (64); qa_app.cli runs them guarded."""
+the item), a usage error qa_app.usage.UsageError (64); qa_app.cli runs them guarded."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from engine.errors import InputError
 
 
 def _usage(message: str, command: str):
-    from qa_app.cli import UsageError
+    from qa_app.usage import UsageError
 
     return UsageError(f"qa-inspect {command}: {message}", command)
 

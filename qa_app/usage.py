@@ -3,6 +3,19 @@ and each subcommand's usage, shown with its usage errors."""
 
 from __future__ import annotations
 
+from engine.errors import QAError
+
+
+class UsageError(QAError, ValueError):
+    """The command line was used wrongly (exit code 64, EX_USAGE): a missing or contradictory
+    option, not a problem in the files it names. ``command``: the subcommand whose usage is
+    shown with the message (None: the one parsed, else all of them)."""
+
+    def __init__(self, message: str, command: str | None = None):
+        super().__init__(message)
+        self.command = command
+
+
 EXAMPLES = """examples:
   qa-inspect inspect nominal.csv measured.csv --tol 0.25 --json r.json --csv r.csv
   qa-inspect inspect nominal.xyz measured.csv --plan plan.toml --report cert.pdf \\

@@ -53,12 +53,12 @@ def test_every_exception_the_product_defines_is_a_qa_error():
     strays = sorted(n for n, c in named.items() if not issubclass(c, QAError))
     assert not strays, f"exceptions outside the QAError family: {strays}"
     # The walk found the classes it should (a walk that found nothing would pass vacuously).
-    assert {"engine.errors.InputError", "qa_app.cli.UsageError",
+    assert {"engine.errors.InputError", "qa_app.usage.UsageError",
             "reports.signing.OutputExistsError", "reports.figures.process.RenderError"} <= set(named)
 
 
 @pytest.mark.parametrize("cls, builtin", [
-    ("qa_app.cli.UsageError", ValueError),
+    ("qa_app.usage.UsageError", ValueError),
     ("reports.signing.OutputExistsError", FileExistsError),
     ("reports.figures.RenderError", RuntimeError),
 ])

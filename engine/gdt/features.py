@@ -455,3 +455,48 @@ def _hull_vertices(q: np.ndarray) -> np.ndarray:
         return q[ConvexHull(q).vertices]
     except QhullError:
         return q
+
+
+WIDTH_SIDE = 3
+"""Fewest points each face of a width needs (three determine a plane)."""
+
+
+@dataclass(frozen=True)
+class SizeFit:
+    """A feature of size fitted one way: its size and where it is.
+
+    size : the diameter (cylinder, sphere, circle) or the width, mm.
+    point : (dim,) a point of the axis (cylinder), the centre (sphere, circle) or a point of
+        the median plane (width), mm.
+    direction : (3,) the unit axis (cylinder) or the median plane's normal (width); None for a
+        sphere or circle.
+    """
+
+    size: float
+    point: np.ndarray
+    direction: np.ndarray | None = None
+
+
+def width_sides(normals: np.ndarray, axis: np.ndarray | None = None) -> tuple[np.ndarray,
+                                                                                 np.ndarray]:
+    """(side (n,) of +-1, the unit axis (dim,)) of a width's points from their nominal outward
+    ``normals`` (n, dim): the side each faces along ``axis`` (default: the normals' principal
+    direction)."""
+    if axis is None:
+        axis = np.linalg.eigh(normals.T @ normals)[1][:, -1]
+    return np.where(normals @ axis >= 0.0, 1.0, -1.0), axis
+
+
+def width_lsq(points: np.ndarray, side: np.ndarray, hint: np.ndarray) -> SizeFit:
+    """The least-squares width of ``points`` (n, dim) on two faces (``side`` +-1): two parallel
+    planes of one normal, each through its face's centroid, the normal of least pooled spread
+    (on the side of ``hint``); size: their distance, point: midway between the centroids."""
+    up, down = points[side > 0], points[side < 0]
+    if len(up) < WIDTH_SIDE or len(down) < WIDTH_SIDE:
+        raise FeatureError(f"a width needs {WIDTH_SIDE} points on each face; it has "
+                           f"{len(up)} and {len(down)}")
+    a, b = up.mean(axis=0), down.mean(axis=0)
+    pooled = np.vstack([up - a, down - b])
+    n = np.linalg.eigh(pooled.T @ pooled)[1][:, 0]
+    n = n if n @ hint >= 0.0 else -n
+    return SizeFit(float(abs((a - b) @ n)), 0.5 * (a + b), n)

@@ -152,14 +152,12 @@ def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:
     """The least-squares ``kind`` of the points X (the region's nominal outward ``normals``
     orient a plane and start a cylinder's axis); None when X does not determine it."""
     from .features import (FeatureError, fit_circle_lsq, fit_cylinder_lsq, fit_plane_lsq,
-                           fit_sphere_lsq)
+                           fit_sphere_lsq, width_lsq, width_sides)
 
     f: PlaneFit | RoundFit | CylinderFit
     out: dict[str, np.ndarray | float]
     try:
         if kind == "width":  # its median plane (a datum of two opposed faces: a slot, a tab)
-            from .size import width_lsq, width_sides
-
             side, axis = width_sides(normals)
             w = width_lsq(X, side, axis)
             if w.direction is None:

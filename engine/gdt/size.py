@@ -31,34 +31,14 @@ import numpy as np
 from ..errors import InputError
 from ..verdict import ACCEPT, INCONCLUSIVE, REJECT
 from .decision import by_value, own, value_guard
-from .features import (FeatureError, axis_distances, complement, cylinder_axis,
-                       fit_sphere_lsq)
+from .features import (WIDTH_SIDE, FeatureError, SizeFit, axis_distances, complement,
+                       cylinder_axis, fit_sphere_lsq, width_lsq, width_sides)
 from .form import chebyshev
 from .plan import SIZE_METHOD_WORDS, Characteristic
 from .region_features import FACING, measured_hole, nominal_cylinder, region_nominal
 from .results import CharacteristicResult, Geometry
 
 ENVELOPES = ("min-circumscribed", "max-inscribed")
-WIDTH_SIDE = 3
-"""Fewest points each face of a width needs (three determine a plane)."""
-
-
-@dataclass(frozen=True)
-class SizeFit:
-    """A feature of size fitted one way: its size and where it is.
-
-    size : the diameter (cylinder, sphere, circle) or the width, mm.
-    point : (dim,) a point of the axis (cylinder), the centre (sphere, circle) or a point of
-        the median plane (width), mm.
-    direction : (3,) the unit axis (cylinder) or the median plane's normal (width); None for a
-        sphere or circle.
-    """
-
-    size: float
-    point: np.ndarray
-    direction: np.ndarray | None = None
-
-
 @dataclass(frozen=True)
 class Width:
     """A width's two faces: ``side`` (n,) +1 for the points of the face that lies on the side
@@ -68,16 +48,6 @@ class Width:
     side: np.ndarray
     normal: np.ndarray
     internal: bool
-
-
-def width_sides(normals: np.ndarray, axis: np.ndarray | None = None) -> tuple[np.ndarray,
-                                                                                 np.ndarray]:
-    """(side (n,) of +-1, the unit axis (dim,)) of a width's points from their nominal outward
-    ``normals`` (n, dim): the side each faces along ``axis`` (default: the normals' principal
-    direction)."""
-    if axis is None:
-        axis = np.linalg.eigh(normals.T @ normals)[1][:, -1]
-    return np.where(normals @ axis >= 0.0, 1.0, -1.0), axis
 
 
 def nominal_width(c: Characteristic, points: np.ndarray, normals: np.ndarray) -> tuple[
@@ -94,21 +64,6 @@ def nominal_width(c: Characteristic, points: np.ndarray, normals: np.ndarray) ->
     gap = (points[facing > 0].mean(axis=0) - points[facing < 0].mean(axis=0)) @ axis
     side = -facing if gap < 0.0 else facing
     return Width(side, axis, bool(gap < 0.0)), width_lsq(points, side, axis)
-
-
-def width_lsq(points: np.ndarray, side: np.ndarray, hint: np.ndarray) -> SizeFit:
-    """The least-squares width of ``points`` (n, dim) on two faces (``side`` +-1): two parallel
-    planes of one normal, each through its face's centroid, the normal of least pooled spread
-    (on the side of ``hint``); size: their distance, point: midway between the centroids."""
-    up, down = points[side > 0], points[side < 0]
-    if len(up) < WIDTH_SIDE or len(down) < WIDTH_SIDE:
-        raise FeatureError(f"a width needs {WIDTH_SIDE} points on each face; it has "
-                           f"{len(up)} and {len(down)}")
-    a, b = up.mean(axis=0), down.mean(axis=0)
-    pooled = np.vstack([up - a, down - b])
-    n = np.linalg.eigh(pooled.T @ pooled)[1][:, 0]
-    n = n if n @ hint >= 0.0 else -n
-    return SizeFit(float(abs((a - b) @ n)), 0.5 * (a + b), n)
 
 
 def _width_residuals(q: np.ndarray, side: np.ndarray):

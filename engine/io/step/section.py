@@ -11,11 +11,14 @@ edge between two faces, the sum of theirs), projected into the plane.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from engine.section import Plane, SectionCurve, chained
 
-from .brep import StepNominal, deflection_for
+StepNominal = Any
+"""brep.StepNominal, which calls this module (StepNominal.section): not imported here."""
 
 JOIN_MM = 1e-4
 """Section edges whose ends lie within this of each other are joined there (their shared
@@ -24,10 +27,10 @@ vertex; OpenCascade's vertices of one section are shared, so this only absorbs r
 
 def brep_section(step: StepNominal, plane: Plane, chord_mm: float | None = None) -> SectionCurve:
     """The section curve of ``step`` by ``plane`` (chord_mm: the discretisation's chord
-    tolerance, mm; default the model's tessellation deflection, :func:`deflection_for` its
-    bounding-box diagonal: 1 to 10 µm)."""
+    tolerance, mm; default the model's tessellation deflection, ``step.deflection``: 1 to
+    10 µm by its bounding-box diagonal, brep.deflection_for)."""
     if chord_mm is None:
-        chord_mm = deflection_for(float(np.linalg.norm(step.bounds[1] - step.bounds[0])))
+        chord_mm = float(step.deflection)
     pieces = section_edges(step, plane, chord_mm)
     if not pieces:
         return SectionCurve((), (), (), float(chord_mm), "step")
