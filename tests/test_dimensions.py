@@ -1,0 +1,158 @@
+"""Dimensions of a plan (engine.gdt.dimensions): a radius, the angle between two features and
+the distance between two features, on a synthetic part measured in a random pose with planted
+errors and noise; each value against the construction's own number (analytic geometry
+written here), and bad plans refused naming the plan, the table and the key."""
+
+import numpy as np
+import pytest
+
+from engine.gdt.characteristics import inspect_plan
+from engine.gdt.plan import Alignment, Characteristic, Part, Plan, Region
+from engine.inspection import Tolerance, inspect
+from engine.nominal import Nominal
+from engine.pointset import PointSet
+from engine.pose import make_transform, rotation_from_rotvec
+from engine.verdict import ACCEPT, REJECT
+from plan_runs import by_id
+
+# Faces of a part (not closed: each a patch of its surface), mm:
+# base z = 0 (x 0 .. 100, y 0 .. 60, normal -z); top z = 20 (x 0 .. 60); a ramp down from the
+# top's edge x = 60 at RAMP degrees below it (normal (sin, 0, cos)); side x = 0 (normal -x); a
+# hole of radius 5 along z at (20, 30); a pin of radius 4 along z at (45, 15), z 20 .. 35; a
+# ball of radius 4 centred (30, 50, 26) (its upper half); a fillet: a quarter cylinder of
+# radius 3 along y about (90, y, 10), its outward normals from +x to +z.
+RAMP, TOP, HOLE, PIN, BALL, FILLET = 30.0, 20.0, (20.0, 30.0), (45.0, 15.0), (30, 50, 26), 3.0
+
+
+def _faces(rng, n, turn=0.0, lift=0.0, fillet=0.0, noise=0.0, gap=0.0):
+    """{face: (points, outward normals)}: ``n`` points a face, the ramp turned by ``turn``
+    degrees more about the top's edge, the top lifted by ``lift``, the fillet's radius grown
+    by ``fillet``; each point twice, ``noise`` mm out and in along its normal (a noise whose
+    least-squares features are the construction's); with a ``gap`` (the measured part) the
+    base and top that far off the hole's and the pin's feet and every face's points off its
+    edges (a probe keeps off them), else (the nominal) over whole faces."""
+    u, v = rng.uniform(0.05, 0.95, (2, n)) if gap else rng.uniform(0, 1, (2, n))
+    out = {"base": (np.column_stack([100 * u, 60 * v, 0 * u]), [0, 0, -1.0]),
+           "top": (np.column_stack([60 * u, 60 * v, TOP + lift + 0 * u]), [0, 0, 1.0]),
+           "side": (np.column_stack([0 * u, 60 * v, 20 * u]), [-1.0, 0, 0])}
+    a = np.radians(RAMP + turn)
+    s = 15 * u  # along the ramp, down from the top's edge
+    out["ramp"] = (np.column_stack([60 + s * np.cos(a), 60 * v, TOP - s * np.sin(a)]),
+                   [np.sin(a), 0, np.cos(a)])
+    for k, holes in (("base", (HOLE,)), ("top", (HOLE, PIN))):  # the hole goes through
+        p, m = out[k]
+        keep = np.all([np.hypot(p[:, 0] - c[0], p[:, 1] - c[1]) > 5 + gap for c in holes], axis=0)
+        out[k] = (p[keep], m)
+    out = {k: (p, np.broadcast_to(np.asarray(m), p.shape)) for k, (p, m) in out.items()}
+    t = 2 * np.pi * u
+    e = np.column_stack([np.cos(t), np.sin(t), 0 * t])
+    out["hole"] = (np.column_stack([HOLE[0] + 5 * e[:, 0], HOLE[1] + 5 * e[:, 1], 20 * v]), -e)
+    out["pin"] = (np.column_stack([PIN[0] + 4 * e[:, 0], PIN[1] + 4 * e[:, 1],
+                                   20 + 15 * v]), e)
+    lat = np.arcsin(v * 0.98)
+    g = np.column_stack([np.cos(lat) * np.cos(t), np.cos(lat) * np.sin(t), np.sin(lat)])
+    out["ball"] = (np.asarray(BALL) + 4 * g, g)
+    q = 0.5 * np.pi * u
+    f = np.column_stack([np.cos(q), 0 * q, np.sin(q)])
+    out["fillet"] = (np.array([90.0, 0, 10]) + (FILLET + fillet) * f + np.outer(60 * v,
+                                                                                 [0, 1, 0]), f)
+    if noise:
+        out = {k: (np.vstack([p + noise * m, p - noise * m]), np.vstack([m, m]))
+               for k, (p, m) in out.items()}
+    return out
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    f = _faces(np.random.default_rng(7), 4000)
+    names = list(f)
+    P = np.vstack([p for p, _ in f.values()])
+    groups, at = {}, 0
+    for name in names:
+        groups[name] = np.arange(at, at + len(f[name][0]))
+        at += len(f[name][0])
+    return Nominal.from_point_set(PointSet(P, np.vstack([m for _, m in f.values()]))), groups
+
+
+def _run(nominal, plan, seed, **planted):
+    rng = np.random.default_rng(seed)
+    f = _faces(rng, 300, noise=0.002, gap=2.0, **planted)
+    P = np.vstack([p for p, _ in f.values()])
+    R = rotation_from_rotvec(rng.uniform(-np.pi, np.pi, (1, 3)))[0]
+    M = P @ R.T + rng.uniform(-300, 300, 3)
+    nom, groups = nominal
+    res = inspect(nom, M, Tolerance.symmetric(0.5))
+    return inspect_plan(res, plan, nom, None, M, None, False, nominal_groups=groups)
+
+
+def _plan(*characteristics):
+    regions = tuple(Region(k, group=k) for k in ("base", "top", "side", "ramp", "hole", "pin",
+                                                 "ball", "fillet"))
+    return Plan("plan.toml", "0" * 64, Part(), regions, (), Alignment("best-fit"),
+                tuple(characteristics))
+
+
+def D(ident, kind, regions, nominal, lower, upper, features=("plane", "plane")):
+    return Characteristic(ident, kind, regions[0], lower, upper, nominal=nominal,
+                          regions=tuple(regions), features=tuple(features))
+
+
+PLAN = _plan(
+    D("a", "angle", ("top", "ramp"), 30.0, -0.5, 0.5),
+    D("a150", "angle", ("ramp", "top"), 150.0, -0.5, 0.5),
+    D("a90", "angle", ("base", "side"), 90.0, -0.5, 0.5),
+    D("ax", "angle", ("ramp", "hole"), 60.0, -0.5, 0.5, ("plane", "cylinder")),
+    D("d", "distance", ("base", "top"), 20.0, -0.1, 0.1),
+    D("dh", "distance", ("side", "hole"), 20.0, -0.1, 0.1, ("plane", "cylinder")),
+    D("dhp", "distance", ("hole", "pin"), float(np.hypot(25, 15)), -0.1, 0.1,
+      ("cylinder", "cylinder")),
+    D("db", "distance", ("ball", "hole"), float(np.hypot(10, 20)), -0.1, 0.1,
+      ("sphere", "cylinder")),
+    D("dbt", "distance", ("top", "ball"), 6.0, -0.1, 0.1, ("plane", "sphere")),
+    Characteristic("r", "radius", "fillet", -0.1, 0.1, nominal=FILLET),
+    Characteristic("rb", "radius", "ball", -0.1, 0.1, nominal=4.0, kind="sphere"),
+    Characteristic("rh", "radius", "hole", -0.1, 0.1, nominal=5.0))
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_each_dimension_equals_the_construction(nominal, seed):
+    res = _run(nominal, PLAN, seed)
+    expected = {"a": 30.0, "a150": 150.0, "a90": 90.0, "ax": 60.0, "d": 20.0, "dh": 20.0,
+                "dhp": np.hypot(25, 15), "db": np.hypot(10, 20), "dbt": 6.0, "r": FILLET,
+                "rb": 4.0, "rh": 5.0}
+    for ident, value in expected.items():
+        r = by_id(res, ident)
+        tol = 1e-5 if r.characteristic.type == "angle" else 1e-6
+        assert r.value == pytest.approx(value, abs=tol), (ident, r.reason)
+        assert r.verdict == ACCEPT, (ident, r.reason)
+    assert res.plan.verdict == ACCEPT
+    angle = by_id(res, "a")
+    assert angle.facts["unit"] == "degree" and "°" in angle.reason and " mm" not in angle.reason
+    assert by_id(res, "d").facts["unit"] == "mm"
+
+
+def test_planted_errors_move_their_dimension_only(nominal):
+    """The ramp turned 0.8° more, the top lifted 0.3 mm, the fillet grown 0.25 mm: the angle
+    is 30.8° (REJECT against ±0.5°), the distance 20.3 (REJECT), the radius 3.25 (REJECT); the
+    distance of the side to the hole stays (ACCEPT)."""
+    res = _run(nominal, PLAN, 3, turn=0.8, lift=0.3, fillet=0.25)
+    for ident, value in {"a": 30.8, "a150": 149.2, "d": 20.3, "r": 3.25}.items():
+        r = by_id(res, ident)
+        tol = 1e-5 if r.characteristic.type == "angle" else 1e-6
+        assert r.value == pytest.approx(value, abs=tol), (ident, r.reason)
+        assert r.verdict == REJECT, (ident, r.reason)
+    assert by_id(res, "dh").verdict == ACCEPT and by_id(res, "a90").verdict == ACCEPT
+    assert by_id(res, "dbt").value == pytest.approx(6.0 - 0.3, abs=1e-6)
+    assert res.plan.verdict == REJECT
+
+
+def test_a_plan_nominal_the_model_does_not_have_is_refused(nominal):
+    """An angle of 45° between faces at 30° (150°), a distance between a plane and a plane at
+    30° to it: the plan does not fit its part (InputError naming the characteristic)."""
+    from engine.errors import InputError
+
+    with pytest.raises(InputError, match=r"'bad'.*30\.0000° \(or 150\.0000°\) on the nominal, "
+                                         r"not the 45° the plan states"):
+        _run(nominal, _plan(D("bad", "angle", ("top", "ramp"), 45.0, -0.5, 0.5)), 4)
+    with pytest.raises(InputError, match=r"'bad'.*no parallel planes on the nominal"):
+        _run(nominal, _plan(D("bad", "distance", ("top", "ramp"), 5.0, -0.5, 0.5)), 4)
