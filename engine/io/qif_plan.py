@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -117,8 +118,10 @@ def qif_face_groups(path: str | os.PathLike, step) -> dict[str, tuple[int, ...]]
                                  f") matches no face of {os.path.basename(step.path)} within "
                                  f"{matcher.tol:.2g} mm", doc.plan.path)
             ids.update(hit)
+            found[f"{feature.id}/{face_id}"] = sorted(hit)
         found[feature.id] = sorted(ids)
-    # A QIF plan's regions are each one group "qif:<feature ids>" (parse_qif).
+    # A QIF plan's regions are each one group "qif:<feature ids>" (parse_qif), a feature's
+    # face "FEATURE/FACE" (an angle between the two faces of one feature).
     groups = [cast(str, r.group) for r in doc.plan.regions]
     return {g: tuple(sorted({f for fid in g[4:].split("+") for f in found[fid]})) for g in groups}
 
@@ -198,7 +201,7 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
     for e in nominals:
         reader.read(e)
     reader.finish()
-    used = {fid for r in reader.regions for fid in r[4:].split("+")}
+    used = {part.partition("/")[0] for r in reader.regions for part in r[4:].split("+")}
     used |= {d.region[4:] for d in datums.values()}
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(), part=_part(root),
                 regions=tuple(Region(name=g, group=g) for g in
@@ -259,7 +262,10 @@ def _children(root, path: str) -> list:
 
 
 class _Units:
-    """The file's linear units (name -> mm), its primary one, and the geometry's scale."""
+    """The file's linear units (name -> mm), its primary one, the one of its characteristics'
+    values (``PMILinearUnit`` where it declares one, QIF 3's PrimaryUnitsType: it overrides
+    the primary unit in Characteristics), its angular units (name -> degrees) and the
+    geometry's scale."""
 
     def __init__(self, root, path: str):
         self.path = path
@@ -268,13 +274,28 @@ class _Units:
         if primary is None:
             raise InputError("states no linear unit (FileUnits/PrimaryUnits/LinearUnit): its "
                              "lengths cannot be read as mm", path)
-        for u in (primary, *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
+        pmi = root.find("{*}FileUnits/{*}PrimaryUnits/{*}PMILinearUnit")
+        for u in (primary, *([] if pmi is None else [pmi]),
+                  *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
             factor = u.findtext("{*}UnitConversion/{*}Factor")
             self.mm[(u.findtext("{*}UnitName") or "").strip()] = 1000.0 * _number(
                 factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
                 path)
         self.unit = (primary.findtext("{*}UnitName") or "").strip()
+        self.pmi_unit = self.unit if pmi is None else (pmi.findtext("{*}UnitName") or "").strip()
         self.mm_per_unit = self.mm[self.unit]
+        self.degrees: dict[str, float] = {}
+        for u in root.iterfind("{*}FileUnits/{*}*/{*}*"):
+            if local_name(u) in ("AngularUnit", "PMIAngularUnit"):
+                factor = u.findtext("{*}UnitConversion/{*}Factor")
+                self.degrees[(u.findtext("{*}UnitName") or "").strip()] = math.degrees(_number(
+                    factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
+                    path))
+        angular = [root.find(f"{{*}}FileUnits/{{*}}PrimaryUnits/{{*}}{k}")
+                   for k in ("PMIAngularUnit", "AngularUnit")]
+        primary_angle = next((u for u in angular if u is not None), None)
+        self.angle_unit = None if primary_angle is None else (
+            primary_angle.findtext("{*}UnitName") or "").strip()
         scale = root.findtext("{*}Product/{*}Header/{*}ScaleCoefficient")
         self.scale = 1.0 if scale is None else _number(scale, "ScaleCoefficient", path)
         if not self.scale > 0:
@@ -290,8 +311,18 @@ class _Units:
         if unit is not None and unit not in self.mm:
             raise InputError(f"{what}: linearUnit '{unit}' is not one of the file's units "
                              f"({', '.join(self.mm)})", self.path)
-        value = _number(e.text, what, self.path) * self.mm[unit or self.unit]
+        value = _number(e.text, what, self.path) * self.mm[
+            unit or (self.unit if geometry else self.pmi_unit)]
         return value / self.scale if geometry else value
+
+    def angle(self, e, what: str) -> float:
+        """The angle element ``e`` states, in degrees (its own ``angularUnit``, else the
+        file's PMI or primary angular unit; a file that declares none: degrees)."""
+        unit = e.get("angularUnit") or self.angle_unit
+        if unit is not None and unit not in self.degrees:
+            raise InputError(f"{what}: angularUnit '{unit}' is not one of the file's units "
+                             f"({', '.join(self.degrees) or 'it declares none'})", self.path)
+        return _number(e.text, what, self.path) * (1.0 if unit is None else self.degrees[unit])
 
 
 def _number(text: str | None, what: str, path: str) -> float:
