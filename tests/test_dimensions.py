@@ -127,8 +127,9 @@ def test_each_dimension_equals_the_construction(nominal, seed):
         assert r.verdict == ACCEPT, (ident, r.reason)
     assert res.plan.verdict == ACCEPT
     angle = by_id(res, "a")
-    assert angle.facts["unit"] == "degree" and "°" in angle.reason and " mm" not in angle.reason
-    assert by_id(res, "d").facts["unit"] == "mm"
+    assert angle.characteristic.unit == "degree" and by_id(res, "d").characteristic.unit == "mm"
+    assert "°" in angle.reason and " mm" not in angle.reason
+    assert angle.facts["model_value"] == pytest.approx(30.0, abs=1e-9)
 
 
 def test_planted_errors_move_their_dimension_only(nominal):

@@ -72,14 +72,12 @@ def judge_dimension(c: Characteristic, idx: np.ndarray, geo: Geometry, shared):
     if c.type == "angle":
         branch = _branch(c, angle_between(n1, n2))
         value = _on_branch(angle_between(m1, m2), branch)
-        facts = {"unit": "degree", "model_value": _on_branch(angle_between(n1, n2), branch),
-                 "features": list(c.features)}
+        facts = {"model_value": _on_branch(angle_between(n1, n2), branch)}
         return by_value(c, idx, value, facts, "angle between the least-squares features",
                         _angle_guard(geo, idx, (m1, m2)), unit="degree")
     _parallel(c, n1, n2)
     value = distance_between(m1, m2)
-    facts = {"unit": "mm", "model_value": distance_between(n1, n2),
-             "features": list(c.features)}
+    facts = {"model_value": distance_between(n1, n2)}
     return by_value(c, idx, value, facts, "distance between the least-squares features",
                     value_guard(geo, idx, geo.T0, form_only=True))
 
@@ -89,7 +87,7 @@ def _radius(c: Characteristic, idx: np.ndarray, geo: Geometry, shared):
     if isinstance(m, CharacteristicResult):
         return m
     guard = value_guard(geo, idx, geo.T0, form_only=True)
-    facts = {"feature": c.feature, "internal": m.internal, "fit": "least squares",
+    facts = {"internal": m.internal, "fit": "least squares",
              "diameter": m.lsq.size}
     if m.form_error is not None:
         facts["form_error"] = m.form_error

@@ -4,6 +4,7 @@ statistics."""
 
 from __future__ import annotations
 
+from engine.gdt.plan import DIMENSIONS
 from engine.verdict import ACCEPT, INCONCLUSIVE
 
 from .. import figures
@@ -53,7 +54,8 @@ _TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position":
                "circularity": "circularity", "cylindricity": "cylindricity",
                "parallelism": "parallelism", "perpendicularity": "perpendicularity",
                "angularity": "angularity", "circular_runout": "circular runout",
-               "total_runout": "total runout", "line_profile": "line profile"}
+               "total_runout": "total runout", "line_profile": "line profile",
+               "radius": "radius", "angle": "angle (degrees)", "distance": "distance"}
 
 
 def type_word(c: Layout, kind: str) -> str:
@@ -84,7 +86,12 @@ _VALUE_WORDS = {
                     "about the datum axis",
     "line_profile": "line profile: the largest, over the cross-sections every 'spacing' mm, of "
                     "the width of the smallest zone centred like its tolerance zone holding the "
-                    "section (form only: each section refitted in its plane)"}
+                    "section (form only: each section refitted in its plane)",
+    "radius": "radius: half the diameter of the least-squares cylinder or sphere",
+    "angle": "angle: between the least-squares planes or axes of its two regions, in degrees "
+             "(value and requirement in degrees, not mm)",
+    "distance": "distance: between the least-squares planes, axes or centres of its two "
+                "regions"}
 
 
 def _plan_table(c: Layout) -> list:
@@ -108,8 +115,10 @@ def _plan_table(c: Layout) -> list:
                      P(f"{esc(type_word(c, ch.type))}<br/><font size=6.5>{esc(where)}</font>",
                        S["cell"]),
                      P(esc(limits_text(ch).replace("⌀", "Ø")), S["cell"]),
-                     "|".join(ch.datums) or ("—" if ch.type == "size" else "form"),
-                     "—" if r.value is None else f"{r.value:.4f}", f"{r.indices.size}",
+                     "|".join(ch.datums) or ("—" if ch.type in ("size",) + DIMENSIONS
+                                             else "form"),
+                     "—" if r.value is None else f"{r.value:.4f}" + (
+                         "°" if ch.unit == "degree" else ""), f"{r.indices.size}",
                      VERDICT_WORD[r.verdict]])
         cmds += [("BACKGROUND", (7, k), (7, k), colors.Color(*VERDICT_RGB[r.verdict])),
                  ("TEXTCOLOR", (7, k), (7, k), colors.white),
