@@ -288,9 +288,11 @@ class _Units:
         for u in root.iterfind("{*}FileUnits/{*}*/{*}*"):
             if local_name(u) in ("AngularUnit", "PMIAngularUnit"):
                 factor = u.findtext("{*}UnitConversion/{*}Factor")
-                self.degrees[(u.findtext("{*}UnitName") or "").strip()] = math.degrees(_number(
-                    factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
-                    path))
+                deg = math.degrees(_number(factor if factor is not None else "1",
+                                           f"unit {u.findtext('{*}UnitName')}", path))
+                # A degree's factor written to 15 digits (NIST's 0.017453292519943) is one.
+                self.degrees[(u.findtext("{*}UnitName") or "").strip()] = \
+                    1.0 if abs(deg - 1.0) < 1e-9 else deg
         angular = [root.find(f"{{*}}FileUnits/{{*}}PrimaryUnits/{{*}}{k}")
                    for k in ("PMIAngularUnit", "AngularUnit")]
         primary_angle = next((u for u in angular if u is not None), None)
