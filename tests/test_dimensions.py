@@ -157,3 +157,149 @@ def test_a_plan_nominal_the_model_does_not_have_is_refused(nominal):
         _run(nominal, _plan(D("bad", "angle", ("top", "ramp"), 45.0, -0.5, 0.5)), 4)
     with pytest.raises(InputError, match=r"'bad'.*no parallel planes on the nominal"):
         _run(nominal, _plan(D("bad", "distance", ("top", "ramp"), 5.0, -0.5, 0.5)), 4)
+
+
+# ---------------------------------------------------------------- the TOML contract
+TOML_REGIONS = "".join(f'[[region]]\nname = "{k}"\ngroup = "{k}"\n'
+                       for k in ("top", "ramp", "hole", "ball", "fillet"))
+GOOD = TOML_REGIONS + """
+[[characteristic]]
+id = "r"
+type = "radius"
+region = "fillet"
+nominal = 3
+lower = -0.1
+upper = 0.1
+
+[[characteristic]]
+id = "rb"
+type = "radius"
+region = "ball"
+nominal = 4.0
+lower = -0.1
+upper = 0.05
+feature = "sphere"
+
+[[characteristic]]
+id = "a"
+type = "angle"
+regions = ["top", "ramp"]
+nominal = 150
+lower = -0.5
+upper = 0.25
+
+[[characteristic]]
+id = "d"
+type = "distance"
+regions = ["ramp", "hole"]
+nominal = 40.0
+lower = -0.2
+upper = 0.1
+features = ["plane", "cylinder"]
+"""
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "plan.toml"
+    path.write_text(text, encoding="utf-8")
+    return str(path)
+
+
+def test_the_toml_plan_reads_each_dimension_into_the_exact_characteristic(tmp_path):
+    from engine.io.plan import read_plan
+
+    plan = read_plan(_write(tmp_path, GOOD))
+    assert plan.characteristics == (
+        Characteristic("r", "radius", "fillet", -0.1, 0.1, nominal=3.0),
+        Characteristic("rb", "radius", "ball", -0.1, 0.05, nominal=4.0, kind="sphere"),
+        Characteristic("a", "angle", "top", -0.5, 0.25, nominal=150.0, regions=("top", "ramp"),
+                       features=("plane", "plane")),
+        Characteristic("d", "distance", "ramp", -0.2, 0.1, nominal=40.0,
+                       regions=("ramp", "hole"), features=("plane", "cylinder")))
+    assert [c.unit for c in plan.characteristics] == ["mm", "mm", "degree", "mm"]
+
+
+def _char(body):
+    return TOML_REGIONS + '[[characteristic]]\nid = "7"\n' + body
+
+
+ANGLE = 'type = "angle"\nregions = ["top", "ramp"]\n'
+BAD = [
+    ("an angle with one region", _char('type = "angle"\nregion = "top"\nnominal = 30\n'
+                                       'lower = -1\nupper = 1\n'), "region",
+     "is not how an angle names its features: give regions = [\"a\", \"b\"]"),
+    ("an angle of three", _char('type = "angle"\nregions = ["top", "ramp", "hole"]\n'
+                                'nominal = 30\nlower = -1\nupper = 1\n'), "regions",
+     "names 3 regions; an angle is between two features"),
+    ("an unknown region", _char('type = "angle"\nregions = ["top", "nope"]\nnominal = 30\n'
+                                'lower = -1\nupper = 1\n'), "regions",
+     'names "nope", which is not the name of any [[region]]'),
+    ("an angle of 200°", _char(ANGLE + "nominal = 200\nlower = -1\nupper = 1\n"), "nominal",
+     "must be an angle between 0 and 180 degrees"),
+    ("an angle past 180°", _char(ANGLE + "nominal = 179.5\nlower = -1\nupper = 1\n"), "upper",
+     "takes the angle beyond 0 .. 180 degrees"),
+    ("an angle as a zone", _char(ANGLE + "nominal = 30\nzone = 1\n"), "zone",
+     "does not apply to angle: give 'nominal' and 'lower' and 'upper' (offsets about it, "
+     "degrees)"),
+    ("an angle without limits", _char(ANGLE + "nominal = 30\nlower = -1\n"), "upper",
+     "is missing: an angle has 'lower' and 'upper' limits about its nominal (degrees)"),
+    ("an angle with datums", _char(ANGLE + 'nominal = 30\nlower = -1\nupper = 1\n'
+                                   'datums = ["A"]\n'), "datums",
+     "must not be given: an angle is a dimension, relative to no datum"),
+    ("an angle to a sphere", _char(ANGLE + 'nominal = 30\nlower = -1\nupper = 1\n'
+                                   'features = ["plane", "sphere"]\n'), "features",
+     "must be two of plane, cylinder (one per region"),
+    ("a distance without nominal", _char('type = "distance"\nregions = ["top", "ramp"]\n'
+                                         'lower = -1\nupper = 1\n'), "nominal",
+     "is missing (the nominal distance, mm)"),
+    ("a distance's limits upside down", _char('type = "distance"\nregions = ["top", "hole"]\n'
+                                              'nominal = 5\nlower = 1\nupper = -1\n'), "upper",
+     "must be above 'lower'"),
+    ("a radius of a width", _char('type = "radius"\nregion = "hole"\nnominal = 5\nlower = -1\n'
+                                  'upper = 1\nfeature = "width"\n'), "feature",
+     "must be one of cylinder, sphere"),
+    ("a radius of two", _char('type = "radius"\nregions = ["hole", "ball"]\nnominal = 5\n'
+                              'lower = -1\nupper = 1\n'), "regions",
+     "is not how a radius names its feature: give 'region'"),
+    ("a radius leaving none", _char('type = "radius"\nregion = "hole"\nnominal = 5\n'
+                                    'lower = -5\nupper = 1\n'), "lower",
+     "leaves no radius: nominal 5 + lower -5 must be > 0"),
+    ("a radius with a method", _char('type = "radius"\nregion = "hole"\nnominal = 5\n'
+                                     'lower = -1\nupper = 1\nmethod = "two-point"\n'), "method",
+     "does not apply to radius (its keys are id, type, region, nominal, lower, upper, feature)"),
+    ("features on a profile", _char('type = "profile"\nregion = "top"\nzone = 0.1\n'
+                                    'features = ["plane", "plane"]\n'), "features",
+     "applies to angle and distance only, not profile"),
+    ("a region two features at once", _char('type = "radius"\nregion = "hole"\nnominal = 5\n'
+                                            'lower = -1\nupper = 1\n') +
+     '[[characteristic]]\nid = "8"\ntype = "distance"\nregions = ["top", "hole"]\n'
+     'nominal = 5\nlower = -1\nupper = 1\n', "type",
+     '"distance" is judged on a plane and region "hole" is no plane: characteristic "7" '
+     "(radius) takes it for a cylinder"),
+]
+
+
+@pytest.mark.parametrize("text, key, words", [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_bad_dimensions_are_refused_naming_file_table_and_key(tmp_path, text, key, words):
+    from engine.errors import InputError
+    from engine.io.plan import read_plan
+
+    path = _write(tmp_path, text)
+    with pytest.raises(InputError) as e:
+        read_plan(path)
+    message = str(e.value)
+    number = "#2 (id \"8\")" if "id = \"8\"" in text else "#1 (id \"7\")"
+    assert message.startswith(f"{path}: [[characteristic]] {number}: '{key}' "), message
+    assert words in message, message
+
+
+def test_a_bad_dimension_exits_65_on_the_command_line(tmp_path, capsys):
+    from qa_app.cli import main
+
+    plan = _write(tmp_path, _char(ANGLE + "nominal = 200\nlower = -1\nupper = 1\n"))
+    np.savetxt(tmp_path / "m.csv", np.eye(3) * 10, delimiter=",")
+    np.savetxt(tmp_path / "n.csv", np.eye(3) * 10, delimiter=",")
+    code = main(["inspect", str(tmp_path / "n.csv"), str(tmp_path / "m.csv"), "--plan", plan])
+    assert code == 65
+    assert f"{plan}: [[characteristic]] #1 (id \"7\"): 'nominal' must be an angle" in \
+        capsys.readouterr().err

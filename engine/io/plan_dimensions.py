@@ -37,7 +37,7 @@ def dimension(t: Table, ident: str, kind: str, regions: list[str]) -> Characteri
         raise t.fail("nominal", f"is missing (the nominal {kind}, {unit})")
     for key, value in (("lower", lower), ("upper", upper)):
         if value is None:
-            raise t.fail(key, f"is missing: a {kind} has 'lower' and 'upper' limits about its "
+            raise t.fail(key, f"is missing: {_a(kind)} has 'lower' and 'upper' limits about its "
                          f"nominal ({unit})")
     assert lower is not None and upper is not None  # for mypy: refused above
     if not lower < upper:
@@ -53,10 +53,10 @@ def dimension(t: Table, ident: str, kind: str, regions: list[str]) -> Characteri
     else:
         least = "> 0" if kind == "radius" else ">= 0"
         if not (nominal > 0.0 if kind == "radius" else nominal >= 0.0):
-            raise t.fail("nominal", f"must be {least} (a {kind}, mm), got "
+            raise t.fail("nominal", f"must be {least} ({_a(kind)}, mm), got "
                          f"{show(t.data['nominal'])}")
         if nominal > ZONE_LIMIT_MM:
-            raise t.fail("nominal", f"is a {kind} of {nominal:g} mm, beyond 1e6 mm (1 km): no "
+            raise t.fail("nominal", f"is {_a(kind)} of {nominal:g} mm, beyond 1e6 mm (1 km): no "
                          "part has such a feature")
         if kind == "radius" and nominal + lower <= 0.0:
             raise t.fail("lower", f"leaves no radius: nominal {nominal:g} + lower {lower:g} "
@@ -75,15 +75,19 @@ def dimension(t: Table, ident: str, kind: str, regions: list[str]) -> Characteri
                           features=features)
 
 
+def _a(kind: str) -> str:
+    return ("an " if kind[0] in "aeiou" else "a ") + kind
+
+
 def _why_not(key: str, kind: str) -> str:
     if key == "zone":
         return (f"does not apply to {kind}: give 'nominal' and 'lower' and 'upper' (offsets "
                 f"about it, {UNIT_WORDS[kind]})")
     if key == "datums":
-        return f"must not be given: a {kind} is a dimension, relative to no datum"
+        return f"must not be given: {_a(kind)} is a dimension, relative to no datum"
     if key in ("region", "regions"):
         return ("is not how a radius names its feature: give 'region'" if kind == "radius"
-                else f"is not how a {kind} names its features: give regions = [\"a\", \"b\"] "
+                else f"is not how {_a(kind)} names its features: give regions = [\"a\", \"b\"] "
                 "(two features)")
     if key in ("feature", "features"):
         other = "features" if key == "feature" else "feature"
@@ -101,12 +105,12 @@ def _region(t: Table, regions: list[str]) -> str:
 
 def _pair(t: Table, kind: str, regions: list[str]) -> tuple[str, str]:
     if "regions" not in t:
-        raise t.fail("regions", f"is missing: a {kind} is between two features, e.g. "
+        raise t.fail("regions", f"is missing: {_a(kind)} is between two features, e.g. "
                      "regions = [\"face_a\", \"face_b\"]")
     pair = t.texts("regions", '["face_a", "face_b"]')
     if len(pair) != 2:
-        raise t.fail("regions", f"names {len(pair)} region{'' if len(pair) == 1 else 's'}; a "
-                     f"{kind} is between two features")
+        raise t.fail("regions", f"names {len(pair)} region{'' if len(pair) == 1 else 's'}; "
+                     f"{_a(kind)} is between two features")
     for name in pair:
         if name not in regions:
             raise t.fail("regions", f"names {show(name)}, which is not the name of any "
