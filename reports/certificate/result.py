@@ -105,8 +105,9 @@ def _plan_table(c: Layout) -> list:
     if c.plan is None:
         return []
     S, W = c.styles, c.width
-    rows = [["No.", "", "Characteristic", "Requirement", "Datums", "Measured (mm)", "Points",
-             "Result"]]
+    degrees = any(r.characteristic.unit == "degree" for r in c.plan.characteristics)
+    rows = [["No.", "", "Characteristic", "Requirement", "Datums",
+             "Measured (mm, °)" if degrees else "Measured (mm)", "Points", "Result"]]
     cmds = []
     for k, r in enumerate(c.plan.characteristics, start=1):
         ch = r.characteristic
