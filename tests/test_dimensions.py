@@ -11,7 +11,7 @@ from engine.gdt.plan import Alignment, Characteristic, Part, Plan, Region
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.pointset import PointSet
-from engine.pose import make_transform, rotation_from_rotvec
+from engine.pose import rotation_from_rotvec
 from engine.verdict import ACCEPT, REJECT
 from plan_runs import by_id
 

@@ -182,19 +182,15 @@ def distance_between(a: Element, b: Element) -> float:
     if a.kind == "plane" and b.kind != "plane":
         a, b = b, a
     w = b.point - a.point
-    if b.kind == "plane":
-        n = b.direction
-        if a.kind == "plane":  # the mean normal of two (nearly) parallel planes
-            m = a.direction if a.direction @ b.direction >= 0.0 else -a.direction
-            n = (m + b.direction) / np.linalg.norm(m + b.direction)
-        return float(abs(w @ n))
-    if a.direction is None and b.direction is None:
+    u, v = a.direction, b.direction
+    if u is not None and v is not None and a.kind == b.kind:  # parallel: the mean direction
+        m = u if u @ v >= 0.0 else -u
+        v = (v + m) / np.linalg.norm(v + m)
+    if b.kind == "plane" and v is not None:
+        return float(abs(w @ v))
+    d = v if v is not None else u
+    if d is None:  # two centres
         return float(np.linalg.norm(w))
-    if a.direction is not None and b.direction is not None:
-        m = a.direction if a.direction @ b.direction >= 0.0 else -a.direction
-        d = (m + b.direction) / np.linalg.norm(m + b.direction)
-    else:
-        d = a.direction if a.direction is not None else b.direction
     return float(np.linalg.norm(w - (w @ d) * d))
 
 

@@ -113,8 +113,8 @@ def _angle(reader, cid: str, feats, nominal: float, low: float,
     from .qif_characteristics import words
 
     if len(feats) == 1 and feats[0].kind == "OppositeAngledPlanes" and len(feats[0].faces) == 2:
-        regions = tuple(f"qif:{feats[0].id}/{face}" for face in feats[0].faces)
-        kinds = ("plane", "plane")
+        regions: tuple[str, ...] = tuple(f"qif:{feats[0].id}/{face}" for face in feats[0].faces)
+        kinds: tuple[str, ...] = ("plane", "plane")
     elif len(feats) == 2 and all(ELEMENTS.get(f.kind) in ("plane", "cylinder") for f in feats):
         regions = tuple(f"qif:{f.id}" for f in feats)
         kinds = tuple(ELEMENTS[f.kind] for f in feats)
