@@ -247,11 +247,11 @@ DIMENSION_DEFINITION = (
     "upper; radius: half the least-squares diameter of a cylinder or sphere; angle: between "
     "the least-squares planes (their normals) or axes of its two 'regions' ('features'), 90 "
     "degrees less the angle between a plane's normal and an axis, on the branch (a or 180 - a) "
-    "the nominal model's features make with 'nominal'; distance: two planes: between their "
-    "points' centroids along the mean fitted normal; a plane and an axis or centre: from the "
-    "axis' middle or the centre to the plane; two axes: between the lines along their mean "
-    "direction; an axis and a centre, two centres: point to line, point to point; model_value: "
-    "the same on the nominal model")
+    "the nominal model's features make with 'nominal'; distance: two planes: the smaller's "
+    "points' centroid from the larger's fitted plane (larger: the greater spread across it); a "
+    "plane and an axis or centre: from the axis' middle or the centre to the plane; two axes: "
+    "the shorter's middle from the longer's line; an axis and a centre, two centres: point to "
+    "line, point to point; model_value: the same on the nominal model")
 
 
 def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:

@@ -10,12 +10,13 @@ on the least-squares fit of each feature's measured points (engine.gdt.features)
   in degrees; of the two angles two lines make (a and 180° - a) the one the nominal model's
   features make with the plan's nominal, which must agree with the model within AGREES;
 * ``distance`` (planes, cylinders' axes, spheres' centres): two planes (parallel on the model
-  within AGREES): the distance between their points' centroids along the mean of their fitted
-  normals (the distance of the planes where they are parallel); a plane and an axis or a
-  centre: from the axis' middle (the axis point nearest its points' centroid) or the centre to
-  the fitted plane; two axes (parallel on the model): the distance between the lines along the
-  mean direction through the axes' middles; an axis and a centre: the centre's distance from
-  the axis; two centres: their distance. mm.
+  within AGREES): the distance of the smaller one's centroid (its points') from the larger
+  one's fitted plane (larger: the greater spread across it, whose normal its points fix best:
+  a pad 2 mm wide tilted by its points' noise must not swing a lever of 200 mm); a plane and an
+  axis or a centre: from the axis' middle (the axis point nearest its points' centroid) or the
+  centre to the fitted plane; two axes (parallel on the model): the shorter's middle from the
+  longer's line; an axis and a centre: the centre's distance from the axis; two centres: their
+  distance. mm.
 
 Under the guarded decision rule a radius or a distance is guarded by its points' uncertainty
 as a size is (engine.gdt.decision.value_guard; half of it for a radius); an angle by the tilt
@@ -178,19 +179,18 @@ def _parallel(c: Characteristic, a: Element, b: Element) -> None:
 
 
 def distance_between(a: Element, b: Element) -> float:
-    """The distance between two features (module docstring), mm."""
-    if a.kind == "plane" and b.kind != "plane":
+    """The distance between two features (module docstring), mm: of ``a``'s point from ``b``
+    (a plane, or the larger of two planes or the longer of two axes)."""
+    if (a.kind == "plane") != (b.kind == "plane"):
+        a, b = (b, a) if a.kind == "plane" else (a, b)
+    elif a.extent > b.extent:
         a, b = b, a
-    w = b.point - a.point
-    u, v = a.direction, b.direction
-    if u is not None and v is not None and a.kind == b.kind:  # parallel: the mean direction
-        m = u if u @ v >= 0.0 else -u
-        v = (v + m) / np.linalg.norm(v + m)
-    if b.kind == "plane" and v is not None:
-        return float(abs(w @ v))
-    d = v if v is not None else u
+    w = a.point - b.point
+    d = b.direction if b.direction is not None else a.direction
     if d is None:  # two centres
         return float(np.linalg.norm(w))
+    if b.kind == "plane":
+        return float(abs(w @ d))
     return float(np.linalg.norm(w - (w @ d) * d))
 
 
