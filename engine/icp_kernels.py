@@ -37,6 +37,55 @@ def _cell_index(x, lo, cell, n):
 
 
 @njit(cache=True, nogil=True)
+def cell_owners(pts, lo, cell, nx, ny, nz):
+    """(nx, ny, nz) int32: for each cell of the grid from ``lo`` in cubes of edge ``cell``, a
+    sample of ``pts`` (L, 3) near its centre, for ``neighbours.SampleLookup``: each occupied
+    cell's sample nearest its centre, then two raster sweeps (forward, backward) in which a
+    cell takes the nearer to its centre of its own sample and those of the 13 neighbours the
+    sweep has passed (the dead-reckoning distance transform: within about a cell of the nearest
+    sample, which the lookup's walk then reaches). Twin: tests/naive.py cell_owners (scipy's
+    kd-tree, the nearest sample exactly)."""
+    owner = np.full((nx, ny, nz), -1, np.int32)
+    best = np.full((nx, ny, nz), np.inf)
+    for s in range(pts.shape[0]):
+        i = _cell_index(pts[s, 0], lo[0], cell, nx)
+        j = _cell_index(pts[s, 1], lo[1], cell, ny)
+        k = _cell_index(pts[s, 2], lo[2], cell, nz)
+        d = _squared_distance(pts, s, lo[0] + (i + 0.5) * cell, lo[1] + (j + 0.5) * cell,
+                              lo[2] + (k + 0.5) * cell)
+        if d < best[i, j, k]:
+            best[i, j, k], owner[i, j, k] = d, s
+    for sweep in range(2):
+        step = 1 if sweep == 0 else -1
+        for a in range(nx):
+            i = a if step == 1 else nx - 1 - a
+            for b in range(ny):
+                j = b if step == 1 else ny - 1 - b
+                for c in range(nz):
+                    k = c if step == 1 else nz - 1 - c
+                    x = lo[0] + (i + 0.5) * cell
+                    y = lo[1] + (j + 0.5) * cell
+                    z = lo[2] + (k + 0.5) * cell
+                    for di in range(-1, 2):
+                        for dj in range(-1, 2):
+                            for dk in range(-1, 2):
+                                # The 13 neighbours this sweep has passed already.
+                                if (di * 9 + dj * 3 + dk) * step >= 0:
+                                    continue
+                                ii, jj, kk = i + di, j + dj, k + dk
+                                if ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 \
+                                        or kk >= nz:
+                                    continue
+                                o = owner[ii, jj, kk]
+                                if o < 0:
+                                    continue
+                                d = _squared_distance(pts, o, x, y, z)
+                                if d < best[i, j, k]:
+                                    best[i, j, k], owner[i, j, k] = d, o
+    return owner
+
+
+@njit(cache=True, nogil=True)
 def nearest_sample(x, y, z, lo, cell, owner, graph, pts):
     """(sample index, squared distance) paired with the point (x, y, z) by a
     ``neighbours.SampleLookup`` (lo, cell, owner, graph over the samples pts): the owner of the

@@ -35,8 +35,8 @@ class SampleLookup:
     some 10^5 points with a 10^3-sample level: scipy's kd-tree answers each in about 0.5 us, this
     in a few tens of nanoseconds.
 
-    A point's cell (clamped to the grid) gives the sample nearest to the cell's centre (one
-    kd-tree query per cell, at build); from there the pairing
+    A point's cell (clamped to the grid) gives a sample near the cell's centre
+    (``icp_kernels.cell_owners``, a distance transform over the grid); from there the pairing
     walks the samples' graph of ``LOOKUP_NEIGHBOURS`` nearest others (scipy's kd-tree) to a
     neighbour nearer the point while there is one. The walk ends at a sample that no graph
     neighbour beats: the nearest sample itself but for unusual layouts (a point far off the
@@ -66,13 +66,11 @@ class SampleLookup:
         while np.prod(np.maximum(np.ceil(size / cell), 1.0)) > LOOKUP_CELLS:  # float: no overflow
             cell *= 1.05
         shape = np.maximum(np.ceil(size / cell).astype(np.int64), 1)
-        # Each cell's owner: the sample nearest its centre. (scipy.ndimage's distance transform
-        # over the occupied cells did it before; importing scipy.ndimage alone cost a cold
-        # process 0.3-0.4 s, more than the whole search it serves.)
-        axes = [lo[i] + cell * (np.arange(shape[i]) + 0.5) for i in range(3)]
-        centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        _, own = tree.query(centres, workers=query_workers(len(centres)))
-        owner = np.ascontiguousarray(np.asarray(own, np.int32).reshape(tuple(shape)))
+        # Each cell's owner: a sample near its centre (icp_kernels.cell_owners; scipy.ndimage's
+        # distance transform did it before, but importing scipy.ndimage alone cost a cold
+        # process 0.3-0.4 s, and a kd-tree query per cell 60 ms a lookup).
+        owner = icp_kernels.cell_owners(np.ascontiguousarray(pts, np.float64), lo, float(cell),
+                                        *(int(v) for v in shape))
         k = min(LOOKUP_NEIGHBOURS + 1, len(pts))
         _, nb = tree.query(pts, k=k)
         graph = np.ascontiguousarray(np.asarray(nb).reshape(len(pts), k)[:, 1:], np.int32)

@@ -31,8 +31,9 @@ from .seeds import rng
 from .scene import Selection, check_box, check_plane_distance, extent_warning, select_points
 from .scene_part import on_the_table, the_part
 from .settings import InspectionSettings
-from .step_model import (ExactDistances, exact_deviations, exact_features, face_groups,
-                         face_rivals, face_sample, step_facts)
+from .hints import not_planar_hint, swap_hint
+from .step_model import (ExactDistances, StepFaces, exact_deviations, exact_features,
+                         face_groups, face_rivals, face_sample, step_facts)
 from .tolerance import Tolerance, check_zone
 from .verdict import ACCEPT, INCONCLUSIVE
 
@@ -67,7 +68,10 @@ class Run:
     selection : which of the measured file's points were inspected (engine.scene.Selection;
     None: every one, ``measured`` is then the file's point set, else the points kept);
     warnings : what the user should know about the inputs, one sentence each (the command
-    line prints them, the JSON lists them, the app shows them).
+    line prints them, the JSON lists them, the app shows them); faces : a STEP nominal's faces
+    (engine.step_model.StepFaces: the face of each nominal sample, the plan regions' groups),
+    None for another nominal; step : the STEP model read as the nominal
+    (engine.io.step.StepNominal, not picklable), else None.
     """
 
     settings: InspectionSettings
@@ -80,6 +84,8 @@ class Run:
     plan: Plan | None = None
     selection: Selection | None = None
     warnings: tuple[str, ...] = ()
+    faces: StepFaces | None = None
+    step: StepNominal | None = None
 
     @functools.cached_property
     def worst_order(self) -> np.ndarray:
@@ -171,56 +177,6 @@ def run_files(nominal_path: str, measured_path: str, settings: InspectionSetting
     """
     with reporting(progress):
         return _run_files(nominal_path, measured_path, settings)
-
-
-SWAP_RATIO = 10
-"""A measured file with this many times the nominal's points, carrying what a nominal carries
-(normals, a grid, facets) while the nominal is a bare cloud, looks swapped."""
-NOT_PLANAR = 0.1
-"""3D points against a 2D template whose flatness exceeds this fraction of their extent in the
-plane are not a planar contour."""
-
-
-def _structure(ps: PointSet) -> str:
-    """What ``ps`` carries besides points, in words ("" for a bare cloud)."""
-    parts = []
-    if ps.triangles is not None:
-        parts.append(f"{ps.triangles.shape[0]:,} mesh facets")
-    if ps.grid_shape is not None:
-        parts.append(f"a {ps.grid_shape[0]} x {ps.grid_shape[1]} grid")
-    if ps.normals is not None:
-        parts.append("normals")
-    return " and ".join(parts)
-
-
-def swap_hint(nominal: PointSet, measured: PointSet) -> str | None:
-    """A sentence saying the two files look swapped, or None.
-
-    Only the files' make-up is used: a dense scan against a coarser nominal is normal, so the
-    measured file must also carry a nominal's structure (normals, grid, facets) while the nominal
-    carries none. The caller adds it only to a verdict that is not ACCEPT.
-    """
-    if measured.n < SWAP_RATIO * nominal.n or _structure(nominal) or not _structure(measured):
-        return None
-    return (f"the files look swapped: NOMINAL {nominal.path} has {nominal.n:,} points without "
-            f"normals, grid or facets, MEASURED {measured.path} has {measured.n:,} points with "
-            f"{_structure(measured)}; is the first argument the nominal?")
-
-
-def not_planar_hint(result: InspectionResult, measured: PointSet, template_path: str
-                    ) -> str | None:
-    """A sentence saying 3D measured points are no planar contour (2D template), or None."""
-    flat = result.extra.get("flatness")
-    if flat is None:
-        return None
-    xy = result.registered[:, :2]
-    extent = float(np.max(np.ptp(xy, axis=0))) if xy.shape[0] else 0.0
-    if not flat["peak_to_valley"] > NOT_PLANAR * extent:
-        return None
-    return (f"the measured points {measured.path} are not a planar contour: they lie "
-            f"{flat['peak_to_valley']:.4g} mm out of their best plane over {extent:.4g} mm "
-            f"across, but the nominal {template_path} is a 2D template; a 3D part needs a 3D "
-            "nominal")
 
 
 @dataclass(frozen=True)
@@ -407,8 +363,10 @@ def _inspect_measured(loaded: LoadedNominal, measured_path: str) -> Run:
     t2 = time.perf_counter()
     timings = {"load": t1 - t0, "register": result.timings_s["register"],
                "deviation": result.timings_s["deviation"], "total": t2 - t0}
+    faces = None if source.step is None else StepFaces(
+        source.step.faces, np.asarray(source.step.face_ids), source.points3d.groups or {})
     return Run(settings, result, inputs, measured_ps, nominal, source.template, timings, plan,
-               selection, warnings)
+               selection, warnings, faces, source.step)
 
 
 def _select(measured_ps: PointSet, settings: InspectionSettings

@@ -98,6 +98,23 @@ def face_rivals(distances: "ExactDistances"):
     return rivals
 
 
+@dataclasses.dataclass(frozen=True)
+class StepFaces:
+    """A STEP nominal's faces as a run keeps them for its views (engine.pipeline.Run ``faces``),
+    without the OpenCascade shapes, so that a run still pickles.
+
+    faces : the face records (engine.io.step.StepFace), ``faces[i].id == i + 1``.
+    face_ids : (n,) int, the face of each nominal sample (the tessellation's points: the run's
+        nominal's, in order; a triangle's three corners lie on one face).
+    groups : the nominal's point groups a plan's region may select (:func:`face_groups`, and
+        a QIF plan's regions: engine.io.qif_plan.qif_nominal_groups).
+    """
+
+    faces: tuple
+    face_ids: np.ndarray
+    groups: dict
+
+
 def face_groups(step) -> dict[str, np.ndarray]:
     """A STEP model's faces as the tessellation's point groups a plan's region may select:
     ``face:N`` (its id) and ``name:NAME`` (where the file names the face, or its part)."""

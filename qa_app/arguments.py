@@ -8,6 +8,7 @@ import math
 
 from engine.choices import DecisionRule, Fit
 from engine.seeds import DEFAULT_SEED
+from qa_app.sections import BAND_HELP, SECTION_HELP, section_spec
 from qa_app.usage import EXAMPLES, EXIT_CODES
 
 
@@ -66,6 +67,10 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     _add_template_options(i)
     _add_fit_options(i)
     _add_scene_options(i)
+    g = i.add_argument_group("sections")
+    g.add_argument("--section", action="append", type=section_spec, metavar="AXIS=MM",
+                   help=SECTION_HELP)
+    g.add_argument("--section-band", type=_finite_float, metavar="MM", help=BAND_HELP)
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")

@@ -195,8 +195,19 @@ def _guarded(command, args) -> int:
         return EX_SOFTWARE
 
 
+def _checked(check, command: str = "inspect"):
+    """check()'s value; its SettingsError a usage error of ``command``."""
+    from engine.errors import SettingsError
+
+    try:
+        return check()
+    except SettingsError as e:
+        raise UsageError(f"qa-inspect {command}: {e}") from e
+
+
 def _cmd_inspect(args) -> int:
     from engine.io import is_template
+    from qa_app.sections import check_section_options
     from reports.outputs import OutputConflictError, check_outputs
 
     _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
@@ -204,6 +215,7 @@ def _cmd_inspect(args) -> int:
                                 "--sign": args.sign, "--plan": args.plan})
     tol = _tolerance(args)  # usage errors first, before any process is started
     _scene_options(args, "inspect")
+    _checked(lambda: check_section_options(args.section, args.section_band, args.nominal))
     if args.sign and not args.report:
         raise UsageError("qa-inspect inspect: --sign needs --report FILE.pdf")
     if args.report == "-":
@@ -377,7 +389,8 @@ def _run_inspect(args, tol, renderer) -> int:
     from engine.errors import SettingsError
     from engine.pipeline import inspection_settings, run_files
     from reports.outputs import Output, OutputConflictError, write_all
-    from reports.results import points_csv, result_json, run_document
+    from qa_app.sections import results_document, run_sections, summary_lines
+    from reports.results import points_csv, result_json
 
     info, identity = _certificate_identity(args, "inspect")
     try:
@@ -391,6 +404,8 @@ def _run_inspect(args, tol, renderer) -> int:
     except SettingsError as e:
         raise UsageError(f"qa-inspect inspect: {e}") from e
     result = run.result
+    # Before any output: a section that misses the part writes nothing.
+    sections = _checked(lambda: run_sections(run, args.section, args.section_band))
     outputs = []
     if args.report:
         from reports.certificate import (CertificationError, certified_info, make_certificate,
@@ -401,7 +416,8 @@ def _run_inspect(args, tol, renderer) -> int:
         except CertificationError as e:
             raise UsageError(f"qa-inspect inspect: {e}") from e
         outputs.append(Output(args.report, make_certificate(run, info, identity,
-                                                            renderer=renderer)))
+                                                            renderer=renderer,
+                                                            sections=sections)))
     stdout = None  # "-": the one output written to standard output
     if args.csv:
         csv_text = points_csv(result, run.measured.points, run.measured.labels)
@@ -411,9 +427,9 @@ def _run_inspect(args, tol, renderer) -> int:
             outputs.append(Output(args.csv, csv_text))
     if args.json:
         if args.json == "-":
-            stdout = result_json(run_document(run))
+            stdout = result_json(results_document(run, sections))
         else:
-            outputs.append(Output(args.json, result_json(run_document(run))))
+            outputs.append(Output(args.json, result_json(results_document(run, sections))))
     try:
         write_all(outputs)  # every file or none; stdout only after they all succeeded
     except OutputConflictError as e:  # the target changed into a folder, key... during the run
@@ -426,7 +442,8 @@ def _run_inspect(args, tol, renderer) -> int:
     if stdout is not None:
         sys.stdout.write(stdout)
     else:
-        print(summary_text(result, written, run.selection))
+        print("\n".join([summary_text(result, written, run.selection)]
+                        + summary_lines(sections)))
     return EXIT[result.verdict]
 
 

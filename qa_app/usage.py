@@ -9,6 +9,7 @@ EXAMPLES = """examples:
       --sign inspector.p12 --part-number SB-1020 --serial S-17
   qa-inspect inspect part.stp scan.ply --tol 0.1 --uncertainty 0.012
   qa-inspect inspect frame.dxf points.csv --tol-lower -0.1 --tol-upper 0.3
+  qa-inspect inspect part.stp scan.ply --tol 0.1 --section z=120 --section x=40 --report c.pdf
   qa-inspect batch nominal.csv 'lot-0412/*.csv' --tol 0.15 --out results/lot-0412
   qa-inspect keygen --name "Ann Inspector" --out identity/
   qa-inspect verify cert.pdf --trust ca.pem --nominal nominal.csv --measured measured.csv
@@ -39,6 +40,7 @@ USAGES = {
                   [--layer NAME] [--units U] [--scale CHORD]
                   [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
                   [--remove-plane [--remove-plane-distance MM]]
+                  [--section AXIS=MM ... [--section-band MM]]
                   [--report FILE.pdf [--sign ID.p12 [--sign-pass-env VAR]] [--part-number …]]""",
     "batch": """qa-inspect batch NOMINAL MEASURED... (--tol T | --tol-lower L --tol-upper U |
                   --plan PLAN.toml) --out DIR [--layer NAME] [--units U] [--scale CHORD]

@@ -62,9 +62,10 @@ SYMBOL = SYMBOLS
 def limits_text(c) -> str:
     """A plan characteristic's requirement as a drawing states it: 'zone 0.0200 mm' for a
     profile (centred: else its limits), flatness or position; '⌀8.0000 -0.0500/+0.0500 mm' for
-    a size."""
+    a size (a sphere's 'S⌀…', a width's without a sign)."""
     if c.type == "size":
-        return f"⌀{c.nominal:.4f} {c.lower:+.4f}/{c.upper:+.4f} mm"
+        sign = {"width": "", "sphere": "S⌀"}.get(c.kind or "", "⌀")
+        return f"{sign}{c.nominal:.4f} {c.lower:+.4f}/{c.upper:+.4f} mm"
     if c.type == "angle":
         return f"{c.nominal:.4f}° {c.lower:+.4f}/{c.upper:+.4f}°"
     if c.type in ("radius", "distance"):

@@ -6,7 +6,8 @@
 writes ``app_1366x768.png`` and ``app_1920x1080.png`` (and ``app_2d_*.png``: the fuselage
 frame's DXF template in the 2D view; ``app_bracket_*.png``: the seat bracket, a bare-point
 nominal drawn as a shaded display mesh; ``app_steps_*.png``: the belly fairing with the steps
-in front and the decision rule's list open). The lead's screenshot script calls
+in front and the decision rule's list open; ``app_characteristic_*.png``: NIST CTC-01 with
+its failing slot's position selected, shown on the part). The lead's screenshot script calls
 :func:`app_screenshots`. Needs ``xvfb-run`` (package xvfb).
 """
 
@@ -34,6 +35,11 @@ STEPS_SHOWN = {"app_steps": ([os.path.join(BELLY, "nominal.csv"),
 """Screenshots with the inspection's steps in front of the results and the decision rule's
 list open (its longest choice shown whole)."""
 CASES.update(STEPS_SHOWN)
+CHARACTERISTIC = {"app_characteristic": "1443"}
+"""Screenshots of NIST CTC-01 inspected with its QIF plan, its slot moved 0.6 mm along x (its
+position 1443, ⌀0.75 to A|B|C, REJECTed), with that characteristic selected: its faces, datums
+and frame shown on the part (points planted on the exact faces by tests/ctc01.py)."""
+CASES.update({k: ([], 0.0) for k in CHARACTERISTIC})
 
 
 def app_screenshots(out_dir: str, sizes=SIZES, cases=("app",)) -> list[str]:
@@ -70,14 +76,25 @@ def shoot(case: str, path: str) -> None:
         w = MainWindow(synchronous=True,
                        settings=QSettings(os.path.join(tmp, "qa-app.ini"), QSettings.IniFormat))
         files, tol = CASES[case]
-        w.controller.open_files(files)
-        w.tolerance.set_zone(-tol, tol)
+        if case in CHARACTERISTIC:
+            sys.path.insert(0, os.path.join(ROOT, "tests"))
+            from ctc01 import QIF, SLOT, STP, measured_csv
+
+            w.controller.open_files([STP, measured_csv(tmp, moved=SLOT, by=(0.6, 0.0, 0.0))])
+            w.controller.open_plan(QIF)  # the plan's zone: statistics only
+        else:
+            w.controller.open_files(files)
+            w.tolerance.set_zone(-tol, tol)
         w.setGeometry(w.screen().availableGeometry())
         w.show()
         w.inspect()
         for _ in range(20):
             app.processEvents()
-        w.table.selectRow(0)
+        if case in CHARACTERISTIC:
+            ids = [r.characteristic.id for r in w.session.run.result.plan.characteristics]
+            w.characteristics.view.selectRow(ids.index(CHARACTERISTIC[case]))
+        else:
+            w.table.selectRow(0)
         if case in STEPS_SHOWN:
             w.steps_dock.raise_()
             w.tolerance.rule.showPopup()

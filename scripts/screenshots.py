@@ -3,7 +3,7 @@
     .venv/bin/python scripts/screenshots.py [OUT_DIR]
 
 The certificate pages (:func:`certificate_pages`; :func:`demo_signed_first_page`: page 1
-signed with a demonstration identity), the desktop app at 1366x768 and 1920x1080
+signed with a demonstration identity; :func:`section_page`: a section page), the desktop app at 1366x768 and 1920x1080
 (scripts/app_screenshots.py, on virtual X displays: needs xvfb-run) and the SPC page of a
 drifting lot (scripts/spc_screenshot.py).
 
@@ -86,6 +86,25 @@ def demo_signed_first_page(out_dir: str, dpi: int = 60) -> str:
         return _render(pdf, 1, dpi, os.path.join(out_dir, "certificate_demo_signed_p1"))
 
 
+def section_page(out_dir: str, dpi: int = 80) -> str:
+    """Write ``certificate_section.png``: the section page of the belly fairing's certificate
+    at +-0.05 mm cut through its dent (``--section y=-40``); return its path."""
+    os.makedirs(out_dir, exist_ok=True)
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with tempfile.TemporaryDirectory() as tmp:
+        pdf = os.path.join(tmp, "section.pdf")
+        r = subprocess.run([sys.executable, "-m", "qa_app.cli", "inspect",
+                            *CERTIFICATES[0][1][:2], "--tol", "0.05", "--section", "y=-40",
+                            "--report", pdf, *PART], cwd=ROOT, env=env, capture_output=True,
+                           text=True)
+        if r.returncode not in (0, 1, 2):
+            raise SystemExit(f"section: qa-inspect exit {r.returncode}: {r.stderr}")
+        text = subprocess.run(["pdftotext", pdf, "-"], capture_output=True, text=True,
+                              check=True).stdout
+        page = next(k for k, t in enumerate(text.split("\f"), 1) if "Section A-A" in t)
+        return _render(pdf, page, dpi, os.path.join(out_dir, "certificate_section"))
+
+
 def _page_count(pdf: str) -> int:
     info = subprocess.run(["pdfinfo", pdf], capture_output=True, text=True, check=True).stdout
     return int(next(line.split()[-1] for line in info.splitlines()
@@ -104,7 +123,7 @@ def main(out: str) -> list[str]:
     import app_screenshots
     import spc_screenshot
 
-    return (certificate_pages(out) + [demo_signed_first_page(out)]
+    return (certificate_pages(out) + [demo_signed_first_page(out), section_page(out)]
             + app_screenshots.app_screenshots(out, cases=tuple(app_screenshots.CASES))
             + [spc_screenshot.main(out)])
 

@@ -73,6 +73,16 @@ def boxes_nearer(p, boxes, limit, done):
     return out - {tuple(d) for d in done}
 
 
+def cell_owners(pts, lo, cell, shape):
+    """Each grid cell's sample nearest its centre, exactly (scipy's kd-tree): the twin of
+    engine.icp_kernels.cell_owners (which is within about a cell of it)."""
+    from scipy.spatial import cKDTree
+
+    axes = [lo[i] + cell * (np.arange(shape[i]) + 0.5) for i in range(3)]
+    centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return cKDTree(pts).query(centres)[1].reshape(shape), centres.reshape(*shape, 3)
+
+
 def nearest_sample(p, lookup, pts):
     """Slow twin of engine.icp_kernels.nearest_sample: (sample, squared distance) -- the owner of the
     point's cell (clamped to the grid), then the first nearer graph neighbour while there is
@@ -281,3 +291,27 @@ def nonzero_area_xyz(a, b, c):
     area2sq = cx * cx + cy * cy + cz * cz
     scale = np.maximum(sum(e * e for e in e1), sum(e * e for e in e2))
     return area2sq > 1e-24 * np.maximum(scale, 1e-300) ** 2
+
+
+def plane_cut_segments(points, triangles, origin, normal):
+    """The plane's cut of a triangle mesh, one triangle at a time in plain Python: for each
+    triangle, the points where its edges cross the plane (a vertex on the plane counts as
+    above it), each edge's crossing computed from its lower-numbered vertex. Returns a list of
+    segments ((x, y, z), (x, y, z))."""
+    o = [float(c) for c in origin]
+    n = [float(c) for c in normal]
+    P = [[float(c) for c in p] for p in points]
+    d = [sum((p[i] - o[i]) * n[i] for i in range(3)) for p in P]
+    out = []
+    for tri in triangles:
+        ends = []
+        for k in range(3):
+            a, b = int(tri[k]), int(tri[(k + 1) % 3])
+            if (d[a] >= 0) == (d[b] >= 0):
+                continue
+            lo, hi = min(a, b), max(a, b)
+            t = d[lo] / (d[lo] - d[hi])
+            ends.append(tuple(P[lo][i] + t * (P[hi][i] - P[lo][i]) for i in range(3)))
+        if len(ends) == 2:
+            out.append((ends[0], ends[1]))
+    return out

@@ -13,7 +13,7 @@ from engine.pose import min_norm_solve
 from engine.neighbours import spread_subset
 from engine.registration import _hypotheses, _icp_batch, _icp_poses
 from engine.registration_types import RegistrationSettings
-from naive import LookupAsTree, icp_batch, nearest_sample
+from naive import LookupAsTree, cell_owners, icp_batch, nearest_sample
 from surfaces import height, height_grid, point_set, random_rotation
 
 
@@ -39,8 +39,8 @@ def _pair(lookup, pts, X):
 
 def test_the_lookup_pairs_with_the_nearest_sample_or_one_within_its_bound(level):
     """Near the surface almost every point gets its nearest sample (scipy's kd-tree); every point
-    in the grid gets one at most 2 sqrt(3) cells farther than the nearest (the cell's owner is the
-    sample of the occupied voxel nearest to it; the walk only comes nearer), and no graph
+    in the grid gets one at most 2 sqrt(3) cells farther than the nearest (the cell's owner lies
+    within a cell of the sample nearest the cell's centre; the walk only comes nearer), and no graph
     neighbour of the sample found is nearer; outside the grid, the walk still ends at a sample
     no graph neighbour beats. The compiled pairing is its slow twin's."""
     _, pts, _, _, h, tree, lookup = level
@@ -60,6 +60,18 @@ def test_the_lookup_pairs_with_the_nearest_sample_or_one_within_its_bound(level)
         if exact_share is not None:
             assert np.mean(j == j_true) >= exact_share
             assert np.all(np.sqrt(d2) <= d_true + 2 * np.sqrt(3) * lookup.cell + 1e-9)
+
+
+def test_each_cell_owner_lies_within_a_cell_of_the_nearest_sample(level):
+    """The lookup's cell owners (engine.icp_kernels.cell_owners, a distance transform by two
+    raster sweeps) against the nearest sample to each cell's centre found by scipy's kd-tree:
+    never more than one cell farther, and on most cells the same sample."""
+    _, pts, _, _, _, _, lookup = level
+    exact, centres = cell_owners(pts, lookup.lo, lookup.cell, lookup.owner.shape)
+    d_owner = np.linalg.norm(pts[lookup.owner] - centres, axis=-1)
+    d_exact = np.linalg.norm(pts[exact] - centres, axis=-1)
+    assert np.all(d_owner <= d_exact + lookup.cell)
+    assert np.mean(lookup.owner == exact) >= 0.3
 
 
 def test_symmetric_eigen_and_the_min_norm_step_match_lapack():

@@ -272,7 +272,7 @@ class CharacteristicRow:
 
     id: str
     type: str
-    """profile, flatness, position or size."""
+    """A characteristic type (engine.gdt.plan.CHARACTERISTICS)."""
     symbol: str
     """The drawing's symbol (reports.messages.SYMBOL: "⌓" for a surface profile)."""
     region: str
@@ -287,6 +287,8 @@ class CharacteristicRow:
     verdict: str
     reason: str
     indices: object
+    feature: str | None = None
+    """A size's or location's feature (engine.gdt.plan.SIZE_FEATURES; None: a cylinder)."""
 
 
 def characteristic_rows(run) -> list[CharacteristicRow]:
@@ -304,5 +306,5 @@ def characteristic_rows(run) -> list[CharacteristicRow]:
             c.id, c.type, SYMBOL.get(c.type, ""), c.region,
             "|".join(c.datums) if c.datums else "—", limits_text(c),
             "—" if r.value is None else f"{r.value:.4f} mm", int(r.indices.size), r.verdict,
-            r.reason, r.indices))
+            r.reason, r.indices, c.kind))
     return rows

@@ -1,21 +1,25 @@
 """The 3D viewport (pyvistaqt): the nominal surface with the registered points coloured by
 deviation on the tolerance-banded scale (or, after a plan's run, by the plan region each point
 belongs to), standard views, point picking, the selected point's marker, and a characteristic's
-points shown in their colours with the others faded. Where OpenGL cannot show a window (Qt's
+points shown in their colours with the others faded, with, on a STEP nominal, what
+part_view.PartView decides of it (its faces, datums and frame: part_overlay draws them) and the
+name of the face the mouse rests on. Where OpenGL cannot show a window (Qt's
 offscreen platform), a notice takes its place and the rest of the window works on.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from PySide6.QtCore import Signal
+from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from reports import figures
 from reports.callouts import callout_points
 from reports.messages import VERDICT_WORD
 
+from . import part_overlay
 from .model import Session, characteristic_rows
+from .part_view import Highlight, PartView, part_faces
 
 STANDARD_VIEWS = ("Face-on", "Iso", "Top", "Front", "Side")
 FLAGS = 5
@@ -24,6 +28,11 @@ FRAME_MARGIN = 1.1
 """The whole part framed, with this much room around it."""
 ZOOM_SHARE = 0.12
 """Zoomed to a point, the view spans this share of the part's size."""
+EDGE_ON, TILT_DEGREES = 0.35, 40.0
+"""A characteristic's faces seen this edge-on (part_overlay.facing) are looked at from this much
+lower (a hole's or a slot's walls seen from above)."""
+HOVER_MS = 250
+"""The mouse resting this long over a face tells which it is (``face_hovered``)."""
 
 
 def can_render_3d() -> bool:
@@ -37,6 +46,10 @@ class Viewport3D(QWidget):
     FADED_RGB = (0.70, 0.71, 0.73)
     """The points outside the selected characteristic."""
 
+    face_hovered = Signal(str)
+    """The face under the resting mouse in words ("face 25 · plane · (unnamed)"), "" for
+    none (a STEP nominal's; part_view.PartView.face_text)."""
+
     colouring_changed = Signal(object)
     """The regions' legend (reports.figures.region_colours) when the points show their plan
     regions, None when they show their deviations."""
@@ -49,6 +62,13 @@ class Viewport3D(QWidget):
         self._colours = None  # the prepared display: "rgb", "regions"
         self._home = None  # (view vector, view up) of the face-on view
         self._tree = None
+        self.part_view: PartView | None = None
+        self.highlight: Highlight | None = None
+        """The characteristic shown on the part (part_view.Highlight), or None."""
+        self._camera_before = None  # the view before a characteristic was zoomed to
+        self._hover_at = (0, 0)
+        self._hover_timer = QTimer(self, singleShot=True, interval=HOVER_MS)
+        self._hover_timer.timeout.connect(lambda: self.hover_at(*self._hover_at))
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
         bar = QHBoxLayout()
@@ -81,6 +101,7 @@ class Viewport3D(QWidget):
             self.plotter.enable_point_picking(callback=self._picked, show_message=False,
                                               left_clicking=True, show_point=False,
                                               use_picker=True)
+            self.plotter.iren.add_observer("MouseMoveEvent", self._mouse_moved)
             lay.addWidget(self.plotter.interactor, 1)
         else:
             notice = QLabel("The 3D view needs an OpenGL display; the table, 2D view and "
@@ -125,6 +146,11 @@ class Viewport3D(QWidget):
             out["shown"] = res.deviations.foot + lift * res.deviations.normal
             face = figures.face_on_direction(res.deviations.foot, res.deviations.normal)
             out["home"] = (tuple(face), tuple(figures.any_perpendicular(face)))
+        out["faces"] = faces = part_faces(run)
+        # Each display cell's STEP face, for the hover (None once the surface is simplified).
+        out["cell_faces"] = (faces.triangle_faces if faces is not None and out["surface"]
+                             is not None and out["surface"].n_cells == len(faces.triangles)
+                             else None)
         out["tree"] = cKDTree(out["shown"])
         out["flags"] = np.array(callout_points(out["shown"], d, res.tolerance.lower,
                                                res.tolerance.upper, max_callouts=FLAGS), int)
@@ -132,6 +158,7 @@ class Viewport3D(QWidget):
 
     def show_run(self, run) -> None:
         self._shown = self._tree = self._colours = None
+        self.highlight = self._camera_before = None
         self.readout.setText(self.READOUT_HINT)  # the picked point was the last run's
         if self.plotter is not None:
             # Remove our actors by name: Plotter.clear() would also remove the lights.
@@ -338,3 +365,65 @@ class Viewport3D(QWidget):
             self.plotter.add_mesh(pv.Sphere(radius=r, center=p), color="magenta",
                                   name="qa-selection", pickable=False, render=False)
             self._redraw()
+
+    # ------------------------------------------------------------------ a characteristic on the part
+    def use(self, part_view: PartView) -> None:
+        """Show what ``part_view`` decides for the selected characteristic (its ``changed``)
+        and name the faces hovered with it."""
+        self.part_view = part_view
+        part_view.changed.connect(self.show_highlight)
+
+    def show_highlight(self, h: Highlight | None) -> None:
+        """Show a characteristic on the part (part_view.Highlight): its faces over the faded
+        nominal, its datums' faces and flags, its frame, zoomed to; None: the part as before,
+        seen as before."""
+        before, self.highlight = self.highlight, h
+        if self.plotter is None or self._shown is None:
+            return
+        faces = None if self.part_view is None else self.part_view.faces
+        part_overlay.draw(self.plotter, faces, h)
+        cam = self.plotter.camera
+        if h is not None:
+            if before is None:
+                self._camera_before = (cam.position, cam.focal_point, cam.up)
+            self.zoom_to_highlight(h)
+        elif self._camera_before is not None:
+            cam.position, cam.focal_point, cam.up = self._camera_before
+            self._camera_before = None
+            self.plotter.renderer.reset_camera_clipping_range()
+        self._redraw()
+
+    def zoom_to_highlight(self, h: Highlight) -> None:
+        """Frame the characteristic's sphere (centre, radius) from the direction of view, or
+        from higher up when its faces are seen edge-on (a hole's wall from above)."""
+        cam = self.plotter.camera
+        back = np.subtract(cam.position, cam.focal_point)
+        back /= np.linalg.norm(back) or 1.0
+        faces = None if self.part_view is None else self.part_view.faces
+        if faces is not None and h.faces and part_overlay.facing(faces, h.faces, back) < EDGE_ON:
+            cam.Elevation(-TILT_DEGREES)
+            cam.OrthogonalizeViewUp()
+            back = np.subtract(cam.position, cam.focal_point)
+            back /= np.linalg.norm(back) or 1.0
+        w, hgt = self.plotter.window_size
+        half = np.radians(0.5 * cam.view_angle)
+        # The view angle is the height's: a window wider than high frames the sphere by it.
+        dist = h.radius / np.tan(half) * max(1.0, hgt / max(w, 1))
+        cam.focal_point = h.centre
+        cam.position = tuple(np.add(h.centre, dist * back))
+        self.plotter.renderer.reset_camera_clipping_range()
+
+    def _mouse_moved(self, iren, _event) -> None:
+        self._hover_at = tuple(iren.GetEventPosition())
+        self._hover_timer.start()
+
+    def hover_at(self, x: int, y: int) -> str:
+        """Name the face under display pixel (x, y) (VTK's, from the bottom left) through
+        ``face_hovered``; returns the text ("" for none)."""
+        if self.plotter is None or self.part_view is None or self._colours is None:
+            return ""
+        face = part_overlay.face_at(self.plotter, x, y, self._colours.get("cell_faces"),
+                                    self.part_view.faces)
+        text = self.part_view.face_text(face)
+        self.face_hovered.emit(text)
+        return text

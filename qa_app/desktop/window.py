@@ -31,6 +31,7 @@ from .controller import SESSION_SUFFIX, Controller
 from .dialogs import CertificateDialog
 from .docks import arrange_left, central_views, dock, tabs, tool_bar_beside_menus, verdict_dock
 from .model import Session, Step
+from .part_view import PartView
 from .verify_dialog import VerificationDialog, VerifyDialog
 from .viewport import Viewport3D
 from .widgets import (
@@ -94,6 +95,8 @@ class MainWindow(QMainWindow):
         self.table = PointTable(s)
         self.characteristics = CharacteristicTable(s)
         self.viewport.colouring_changed.connect(self.legend.show_regions)
+        self.part_view = PartView(s)  # what the 3D view shows of a characteristic (no Qt)
+        self.viewport.use(self.part_view)
         self.tolerance = ToleranceForm(s, self._load_presets())
         self.tolerance.inspect_clicked.connect(self.inspect)
         self.tolerance.cancel_clicked.connect(self.controller.cancel)
@@ -114,6 +117,7 @@ class MainWindow(QMainWindow):
         arrange_left(self, self.verdict_dock, self.steps_dock, self.results_dock)
         self._make_actions()
         self.statusBar()
+        self.viewport.face_hovered.connect(lambda t: t and self.statusBar().showMessage(t, 5000))
 
         self._subscribe(s)
         self._inputs()

@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import datetime as dt
 import io
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from engine.pipeline import Run
+from engine.section import Section
 
 from .. import figures
 from ..messages import VERDICT_WORD
@@ -34,17 +36,20 @@ from .policy import (CertificateError, CertificateInfo, certificate_number, cert
 from .registration import registration
 from .requirement import requirement
 from .result import result
+from .sections import section_pages
 from .statement import evidence, statement_and_signatures
 
 
 def make_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
-                     issued: dt.datetime | None = None, renderer=None) -> bytes:
+                     issued: dt.datetime | None = None, renderer=None,
+                     sections: Sequence[Section] = ()) -> bytes:
     """The finished certificate PDF (signed when ``identity`` is given).
 
     renderer : a :class:`reports.figures.RenderProcess` started earlier (default: render in
-        this process).
+        this process). sections : planar sections of the run (engine.section), a page each.
     """
-    return finish_certificate(draft_certificate(run, info, identity, issued, renderer), identity)
+    return finish_certificate(draft_certificate(run, info, identity, issued, renderer,
+                                                sections), identity)
 
 
 @dataclass(frozen=True)
@@ -62,11 +67,12 @@ class CertificateDraft:
 
 
 def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None,
-                      issued: dt.datetime | None = None, renderer=None) -> CertificateDraft:
+                      issued: dt.datetime | None = None, renderer=None,
+                      sections: Sequence[Section] = ()) -> CertificateDraft:
     """Lay out the certificate of ``run`` as ``identity`` will sign it (None: an unsigned
     draft). ``identity`` may be :meth:`Identity.public`: no key is used here. Raises
     CertificationError as :func:`certified_info` does; renderer : as for
-    :func:`make_certificate`."""
+    :func:`make_certificate`; sections : as for :func:`make_certificate`."""
     check_trustworthy(run)
     res = run.result
     info = certified_info(plan_info(info, run), identity, res.verdict)
@@ -89,6 +95,8 @@ def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None
         cert_doc["plan_part"] = {k: v for k, v in asdict(run.plan.part).items()
                                  if v or k in ("number", "name", "revision")}
     doc = dict(run_document(run), certificate=cert_doc)
+    if sections:
+        doc["sections"] = [s.document() for s in sections]
     attachments = [
         Attachment("points.csv", points_csv(res, run.measured.points,
                                             run.measured.labels).encode(),
@@ -105,7 +113,7 @@ def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None
         import pyhanko.sign.signers  # noqa: F401  (the import overlaps the render)
     if run.template is None:
         views = pending.result()
-    pdf, slots = build_pdf(run, info, number, issued, identity, attachments, views)
+    pdf, slots = build_pdf(run, info, number, issued, identity, attachments, views, sections)
     return CertificateDraft(pdf, attachments, slots,
                             f"Inspection certificate {number}: {VERDICT_WORD[res.verdict]}",
                             info.organisation or "")
@@ -120,10 +128,12 @@ def finish_certificate(draft: CertificateDraft, identity: Identity | None) -> by
 
 def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
               identity: Identity | None, attachments: list[Attachment],
-              views: list[figures.View] | None) -> tuple[bytes, dict[str, SignatureSlot]]:
+              views: list[figures.View] | None, sections: Sequence[Section] = ()
+              ) -> tuple[bytes, dict[str, SignatureSlot]]:
     """Lay out the certificate; return the PDF and where the signature boxes are.
 
-    views : the 3D renders (None for a 2D template, whose map is drawn here).
+    views : the 3D renders (None for a 2D template, whose map is drawn here); sections : the
+    planar sections, a page each after section 8.
     """
     from reportlab.lib.pagesizes import A4
     from reportlab.lib.units import mm
@@ -131,7 +141,7 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
 
     register_fonts()
     c = Layout(run, info, number, issued, identity, attachments, views, run_document(run),
-               paragraph_styles(), A4[0] - 36 * mm, {})
+               paragraph_styles(), A4[0] - 36 * mm, {}, tuple(sections))
     story = [flowable for section in _SECTIONS for flowable in section(c)]
     res = run.result
     buf = io.BytesIO()
@@ -149,5 +159,6 @@ def build_pdf(run: Run, info: CertificateInfo, number: str, issued: dt.datetime,
 
 
 _SECTIONS = (identification, result, requirement, method, inputs, registration,
-             deviation_map, histogram, characteristics, evidence, statement_and_signatures)
+             deviation_map, histogram, section_pages, characteristics, evidence,
+             statement_and_signatures)
 """The certificate's sections in their order; each returns its flowables."""

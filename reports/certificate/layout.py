@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from engine.gdt.plan import Plan
 from engine.pipeline import Run
+from engine.section import Section
 
 from .. import figures
 from ..messages import VERDICT_RGB, VERDICT_WORD, printable
@@ -207,6 +208,8 @@ class Layout:
     """Text width, points (A4 less the margins)."""
     slots: dict[str, SignatureSlot]
     """Where each signature box landed, filled by the layout."""
+    sections: tuple[Section, ...] = ()
+    """The planar sections (engine.section), a page each."""
 
     @property
     def res(self):

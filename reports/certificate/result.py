@@ -9,6 +9,7 @@ from engine.verdict import ACCEPT, INCONCLUSIVE
 
 from .. import figures
 from ..messages import VERDICT_RGB, VERDICT_WORD, limits_text
+from ..symbols import BOX, symbol_strokes
 from .layout import Layout, esc
 
 
@@ -49,19 +50,25 @@ def result(c: Layout) -> list:
               S["small"])]
 
 
-_TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": "position",
+TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": "position",
                "size": "size (diameter)", "straightness": "straightness",
                "circularity": "circularity", "cylindricity": "cylindricity",
                "parallelism": "parallelism", "perpendicularity": "perpendicularity",
                "angularity": "angularity", "circular_runout": "circular runout",
                "total_runout": "total runout", "line_profile": "line profile",
-               "radius": "radius", "angle": "angle (degrees)", "distance": "distance"}
+               "coaxiality": "coaxiality", "concentricity": "concentricity",
+               "symmetry": "symmetry", "radius": "radius", "angle": "angle (degrees)",
+               "distance": "distance"}
+"""Every characteristic type of the plan layer (engine.gdt.plan.CHARACTERISTICS) in words."""
 
 
-def type_word(c: Layout, kind: str) -> str:
-    """A characteristic's type in words (a profile of a 2D contour is a line profile)."""
-    return "line profile" if kind == "profile" and c.is_2d else _TYPE_WORDS[kind]
-_VALUE_WORDS = {
+def type_word(c: Layout, kind: str, feature: str | None = None) -> str:
+    """A characteristic's type in words (a profile of a 2D contour is a line profile; a size,
+    of its ``feature``: a cylinder's diameter by default, a width, a sphere's diameter)."""
+    if kind == "size" and feature in ("width", "sphere"):
+        return "size (width)" if feature == "width" else "size (sphere diameter)"
+    return "line profile" if kind == "profile" and c.is_2d else TYPE_WORDS[kind]
+VALUE_WORDS = {
     "profile": "profile: the width of the smallest zone, centred like its tolerance zone, that "
                "holds every point of its region (form: after the region is fitted alone, "
                "whatever the datums)",
@@ -87,6 +94,10 @@ _VALUE_WORDS = {
     "line_profile": "line profile: the largest, over the cross-sections every 'spacing' mm, of "
                     "the width of the smallest zone centred like its tolerance zone holding the "
                     "section (form only: each section refitted in its plane)",
+    **{k: f"{k}: the diameter of the smallest cylinder about the datum axis that holds the "
+          "feature's fitted axis" for k in ("coaxiality", "concentricity")},
+    "symmetry": "symmetry: the width of the smallest zone centred on the datum plane that holds "
+                "the width's fitted centre plane",
     "radius": "radius: half the diameter of the least-squares cylinder or sphere",
     "angle": "angle: between the least-squares planes or axes of its two regions, in degrees "
              "(value and requirement in degrees, not mm)",
@@ -112,8 +123,9 @@ def _plan_table(c: Layout) -> list:
     for k, r in enumerate(c.plan.characteristics, start=1):
         ch = r.characteristic
         where = "all points" if ch.region == "(all points)" else f"region {ch.region}"
-        rows.append([_balloon(ch.id), _symbol(ch.type),
-                     P(f"{esc(type_word(c, ch.type))}<br/><font size=6.5>{esc(where)}</font>",
+        rows.append([_balloon(ch.id), symbol_drawing(ch.type, ch.kind),
+                     P(f"{esc(type_word(c, ch.type, ch.kind))}<br/><font size=6.5>"
+                       f"{esc(where)}</font>",
                        S["cell"]),
                      P(esc(limits_text(ch).replace("⌀", "Ø")), S["cell"]),
                      "|".join(ch.datums) or ("—" if ch.type in ("size",) + DIMENSIONS
@@ -128,7 +140,7 @@ def _plan_table(c: Layout) -> list:
     notes = [f"Characteristic {r.characteristic.id}: {r.reason}."
              for r in c.plan.characteristics if r.verdict != ACCEPT and r.reason not in c.reasons]
     types = dict.fromkeys(r.characteristic.type for r in c.plan.characteristics)
-    words = dict(_VALUE_WORDS, **({"position": _VALUE_WORDS["position"].replace(
+    words = dict(VALUE_WORDS, **({"position": VALUE_WORDS["position"].replace(
         "cylinder", "circle").replace("axis", "centre")} if c.is_2d else {}))
     notes.append("Measured value — " + "; ".join(words[t] for t in types) + ". Datums: "
                  "the features the part is placed by (section 6); form: judged by shape alone.")
@@ -156,24 +168,20 @@ def _balloon(text: str):
     return d
 
 
-def _symbol(kind: str):
-    """The characteristic's symbol on a drawing (reports.messages.SYMBOL), drawn: the
-    certificate's font has no glyphs for them."""
-    from reportlab.graphics.shapes import Circle, Drawing, Line, Polygon, Wedge
+def symbol_drawing(kind: str, feature: str | None = None):
+    """The characteristic's symbol (reports.symbols, one drawing for the certificate and the
+    app) as a reportlab drawing: the certificate's font has no glyphs for them."""
+    from reportlab.graphics.shapes import Circle, Drawing, PolyLine, Polygon, String
 
-    d = Drawing(12, 12)
-    ink = {"fillColor": None, "strokeWidth": 0.8}
-    if kind == "profile":  # a half circle on its diameter
-        d.add(Wedge(6, 3, 5, 0, 180, **ink))
-    elif kind == "flatness":  # a parallelogram
-        d.add(Polygon([1, 3, 8, 3, 11, 9, 4, 9], **ink))
-    elif kind == "position":  # a circle and its cross
-        d.add(Circle(6, 6, 3.6, **ink))
-        d.add(Line(0.5, 6, 11.5, 6, strokeWidth=0.8))
-        d.add(Line(6, 0.5, 6, 11.5, strokeWidth=0.8))
-    elif kind == "size":  # the diameter sign
-        d.add(Circle(6, 6, 4, **ink))
-        d.add(Line(1.5, 1.5, 10.5, 10.5, strokeWidth=0.8))
-    # The other types are not drawn yet (their symbols: engine.gdt.plan.SYMBOLS); the type
-    # column names them.
+    d = Drawing(BOX, BOX)
+    for stroke in symbol_strokes(kind, feature):
+        if stroke[0] == "line":
+            xy = list(stroke[1]) + (list(stroke[1][:2]) if stroke[2] else [])
+            d.add(PolyLine(xy, strokeWidth=0.8, fillColor=None))
+        elif stroke[0] == "circle":
+            d.add(Circle(*stroke[1:], fillColor=None, strokeWidth=0.8))
+        elif stroke[0] == "fill":
+            d.add(Polygon(list(stroke[1]), fillColor=(0, 0, 0), strokeWidth=0.4))
+        else:
+            d.add(String(stroke[1], stroke[2], stroke[3], fontName="Vera", fontSize=stroke[4]))
     return d

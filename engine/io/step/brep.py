@@ -166,6 +166,13 @@ class StepNominal:
         keep = d <= reach[pairs[:, 0]]
         return pairs[keep], d[keep]
 
+    def section(self, plane, chord_mm: float | None = None):
+        """The B-rep's section by ``plane`` (engine.section.Plane): OpenCascade's, as ordered
+        polylines (engine.io.step.section.brep_section)."""
+        from .section import brep_section
+
+        return brep_section(self, plane, chord_mm)
+
     def face_shape(self, fid: int):
         """Face ``fid``'s OpenCascade shape (a located TopoDS_Face), for checks on the exact
         surface."""

@@ -4,8 +4,8 @@ first-article report lists them, each with its drawing symbol.
 
 from __future__ import annotations
 
-from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPointF, QRectF, Qt
-from PySide6.QtGui import QColor, QPainter, QPainterPath, QPen, QPixmap
+from PySide6.QtCore import QAbstractTableModel, QModelIndex, QPointF, Qt
+from PySide6.QtGui import QColor, QPainter, QPen, QPixmap
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QHeaderView,
@@ -16,6 +16,7 @@ from PySide6.QtWidgets import (
 )
 
 from reports.messages import VERDICT_RGB, VERDICT_WORD, alignment_text
+from reports.symbols import BOX, symbol_strokes
 
 from ..model import Session, characteristic_rows
 from .colours import qcolor
@@ -60,7 +61,7 @@ class CharacteristicTableModel(QAbstractTableModel):
         if role == Qt.ToolTipRole:
             return f"{r.symbol} {r.type}: {r.verdict}: {r.reason}"
         if role == Qt.DecorationRole and c == 1:
-            return symbol_icon(r.type)
+            return symbol_icon(r.type, feature=r.feature)
         if role == Qt.TextAlignmentRole and c in (5, 6):
             return int(Qt.AlignRight | Qt.AlignVCenter)
         if c == 7 and role == Qt.BackgroundRole:
@@ -70,33 +71,40 @@ class CharacteristicTableModel(QAbstractTableModel):
         return None
 
 
-def symbol_icon(kind: str, size: int = 16) -> QPixmap:
-    """The drawing's symbol of a characteristic (ASME Y14.5 / ISO 1101), drawn: fonts lack some
-    of them (⌖). profile: a closed half circle; flatness: a parallelogram; position: a circle
-    with a cross; size: a circle with a slash (⌀)."""
+def symbol_icon(kind: str, size: int = 16, feature: str | None = None) -> QPixmap:
+    """The drawing's symbol of a characteristic (ASME Y14.5 / ISO 1101; reports.symbols, the
+    certificate's strokes), drawn: fonts lack most of them (⌖). A size's ``feature``: a
+    cylinder's ⌀ (None), a sphere's S⌀, a width's none."""
     pm = QPixmap(size, size)
     pm.fill(Qt.transparent)
     p = QPainter(pm)
     p.setRenderHint(QPainter.Antialiasing)
-    p.setPen(QPen(QColor("#222"), 1.3))
-    m, w = 2.0, size - 4.0
-    if kind == "profile":
-        path = QPainterPath(QPointF(m, m + 0.75 * w))
-        path.arcTo(QRectF(m, m + 0.25 * w, w, w), 180, -180)
-        path.closeSubpath()
-        p.drawPath(path)
-    elif kind == "flatness":
-        p.drawPolygon([QPointF(m + 0.3 * w, m + 0.25 * w), QPointF(m + w, m + 0.25 * w),
-                       QPointF(m + 0.7 * w, m + 0.75 * w), QPointF(m, m + 0.75 * w)])
-    elif kind in ("position", "size"):
-        r = 0.3 * w if kind == "position" else 0.4 * w
-        c = QPointF(m + 0.5 * w, m + 0.5 * w)
-        p.drawEllipse(c, r, r)
-        if kind == "position":
-            p.drawLine(QPointF(m, c.y()), QPointF(m + w, c.y()))
-            p.drawLine(QPointF(c.x(), m), QPointF(c.x(), m + w))
+    ink = QColor("#222")
+    p.setPen(QPen(ink, 1.3))
+    m, k = 2.0, (size - 4.0) / BOX
+
+    def at(x: float, y: float) -> QPointF:  # the symbol's box is y up, the pixmap's y down
+        return QPointF(m + k * x, m + k * (BOX - y))
+
+    for stroke in symbol_strokes(kind, feature):
+        if stroke[0] in ("line", "fill"):
+            xy = stroke[1]
+            pts = [at(xy[i], xy[i + 1]) for i in range(0, len(xy), 2)]
+            if stroke[0] == "fill":
+                p.setBrush(ink)
+                p.drawPolygon(pts)
+                p.setBrush(Qt.NoBrush)
+            elif stroke[2]:
+                p.drawPolygon(pts)
+            else:
+                p.drawPolyline(pts)
+        elif stroke[0] == "circle":
+            p.drawEllipse(at(stroke[1], stroke[2]), k * stroke[3], k * stroke[3])
         else:
-            p.drawLine(QPointF(m + 0.15 * w, m + 0.85 * w), QPointF(m + 0.85 * w, m + 0.15 * w))
+            font = p.font()
+            font.setPixelSize(max(1, int(round(k * stroke[4]))))
+            p.setFont(font)
+            p.drawText(at(stroke[1], stroke[2]), stroke[3])
     p.end()
     return pm
 
