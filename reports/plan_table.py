@@ -42,7 +42,7 @@ def modifier_words(c: Characteristic) -> str:
     out = []
     if c.modifier != "RFS":
         out.append(c.modifier)
-    if c.regions:
+    if c.regions and not c.features:  # (an angle's, a distance's two: not a pattern)
         out.append(f"pattern of {len(c.regions)}")
     if c.type in ORIENTATION or c.type == "straightness":
         out.append("axis" if c.diametral else "plane")

@@ -161,3 +161,11 @@ def test_a_lot_tracks_a_dimension_between_its_limits_in_its_unit(run):
     got = {t.id: t for t in tracked_characteristics(Loaded)}
     assert (got["1491"].unit, got["1491"].lower, got["1491"].upper) == ("degree", 59.5, 60.5)
     assert (got["D430"].unit, got["D430"].lower, got["D430"].upper) == ("mm", 429.9, 430.1)
+
+
+def test_the_plan_table_states_the_angle_in_degrees_between_its_two_faces(capsys):
+    assert main(["plan", QIF, "--nominal", STP]) == 0
+    row = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("1491 "))
+    assert "∡ angle" in row and "60° -0.5°/+0.5°" in row and "plane and plane" in row, row
+    assert "pattern" not in row and row.rstrip().endswith("yes"), row
+    assert "qif:2180/1296 -> face 18; qif:2180/1314 -> face 16" in row, row
