@@ -248,7 +248,8 @@ DIMENSION_DEFINITION = (
     "the least-squares planes (their normals) or axes of its two 'regions' ('features'), 90 "
     "degrees less the angle between a plane's normal and an axis, on the branch (a or 180 - a) "
     "the nominal model's features make with 'nominal'; distance: two planes: the smaller's "
-    "points' centroid from the larger's fitted plane (larger: the greater spread across it); a "
+    "points' centroid from the larger's fitted plane (larger: the wider across its narrowest "
+    "way); a "
     "plane and an axis or centre: from the axis' middle or the centre to the plane; two axes: "
     "the shorter's middle from the longer's line; an axis and a centre, two centres: point to "
     "line, point to point; model_value: the same on the nominal model")

@@ -74,14 +74,14 @@ def nominal():
     return Nominal.from_point_set(PointSet(P, np.vstack([m for _, m in f.values()]))), groups
 
 
-def _run(nominal, plan, seed, **planted):
+def _run(nominal, plan, seed, rule=None, **planted):
     rng = np.random.default_rng(seed)
     f = _faces(rng, 300, noise=0.002, gap=2.0, **planted)
     P = np.vstack([p for p, _ in f.values()])
     R = rotation_from_rotvec(rng.uniform(-np.pi, np.pi, (1, 3)))[0]
     M = P @ R.T + rng.uniform(-300, 300, 3)
     nom, groups = nominal
-    res = inspect(nom, M, Tolerance.symmetric(0.5))
+    res = inspect(nom, M, Tolerance.symmetric(0.5), **(rule or {}))
     return inspect_plan(res, plan, nom, None, M, None, False, nominal_groups=groups)
 
 
@@ -145,6 +145,32 @@ def test_planted_errors_move_their_dimension_only(nominal):
     assert by_id(res, "dh").verdict == ACCEPT and by_id(res, "a90").verdict == ACCEPT
     assert by_id(res, "dbt").value == pytest.approx(6.0 - 0.3, abs=1e-6)
     assert res.plan.verdict == REJECT
+
+
+def test_the_guarded_rule_guards_an_angle_by_the_tilt_its_uncertainty_allows(nominal):
+    """U about 1 µm: a distance is guarded by 2U, a radius by half a diameter's bound, the angle between the top (54
+    mm across its narrower way) and the ramp (13.5 mm down its slope) by 2U / 13.5 mm + 2U /
+    54 mm in degrees; the ramp turned 0.495° (0.005° inside its limit) is INCONCLUSIVE
+    guarded, ACCEPT by the simple rule."""
+    from engine.uncertainty import Instrument
+
+    plan = _plan(D("a", "angle", ("top", "ramp"), 30.0, -0.5, 0.5),
+                 D("d", "distance", ("base", "top"), 20.0, -0.1, 0.1),
+                 Characteristic("r", "radius", "fillet", -0.1, 0.1, nominal=FILLET),
+                 Characteristic("s", "size", "fillet", -0.2, 0.2, nominal=2 * FILLET))
+    guarded = {"decision_rule": "guarded", "instrument": Instrument(uncertainty_mm=0.001)}
+    res = _run(nominal, plan, 5, guarded, turn=0.495)
+    a, d = by_id(res, "a"), by_id(res, "d")
+    two_u = d.facts["uncertainty_bound"]  # 2U of the planes' points (U: 1 µm stated, expanded)
+    assert 0.0015 <= two_u <= 0.0025
+    assert a.facts["uncertainty_bound"] == pytest.approx(
+        np.degrees(two_u / 13.5 + two_u / 54), rel=0.02), a.facts
+    assert a.value == pytest.approx(30.495, abs=1e-5)
+    assert a.verdict == "INCONCLUSIVE" and "°" in a.reason and "tilt" in a.reason, a.reason
+    r, size = by_id(res, "r"), by_id(res, "s")  # (their sampling margins on the curve too)
+    assert r.facts["uncertainty_bound"] == pytest.approx(0.5 * size.facts["uncertainty_bound"])
+    assert r.value == pytest.approx(0.5 * size.value, abs=1e-12) and r.verdict == ACCEPT
+    assert by_id(_run(nominal, plan, 5, turn=0.495), "a").verdict == ACCEPT
 
 
 def test_a_plan_nominal_the_model_does_not_have_is_refused(nominal):

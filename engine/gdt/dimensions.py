@@ -11,17 +11,17 @@ on the least-squares fit of each feature's measured points (engine.gdt.features)
   features make with the plan's nominal, which must agree with the model within AGREES;
 * ``distance`` (planes, cylinders' axes, spheres' centres): two planes (parallel on the model
   within AGREES): the distance of the smaller one's centroid (its points') from the larger
-  one's fitted plane (larger: the greater spread across it, whose normal its points fix best:
-  a pad 2 mm wide tilted by its points' noise must not swing a lever of 200 mm); a plane and an
-  axis or a centre: from the axis' middle (the axis point nearest its points' centroid) or the
-  centre to the fitted plane; two axes (parallel on the model): the shorter's middle from the
-  longer's line; an axis and a centre: the centre's distance from the axis; two centres: their
-  distance. mm.
+  one's fitted plane (larger: the wider across its narrowest way, whose normal its points fix
+  best: a pad 2 mm wide tilted by its points' noise must not swing a lever of 200 mm); a plane
+  and an axis or a centre: from the axis' middle (the axis point nearest its points' centroid)
+  or the centre to the fitted plane; two axes (parallel on the model): the shorter's middle
+  from the longer's line; an axis and a centre: the centre's distance from the axis; two
+  centres: their distance. mm.
 
 Under the guarded decision rule a radius or a distance is guarded by its points' uncertainty
 as a size is (engine.gdt.decision.value_guard; half of it for a radius); an angle by the tilt
-that uncertainty can give each fitted feature over its smaller extent, 2U / extent, the two
-added, in degrees.
+that uncertainty can give each fitted feature over its narrowest width (an axis: its length),
+2U / extent, the two added, in degrees.
 
 Shapes: points (n, 3), unit vectors (3,), mm, nominal frame.
 """
@@ -47,8 +47,8 @@ from .size import measured_feature
 class Element:
     """A feature as a dimension sees it: a plane (``point``: its points' centroid,
     ``direction``: its normal), a cylinder's axis (``point``: its middle, ``direction``) or a
-    sphere's centre (``direction`` None); ``extent``: a plane's smaller spread across it, an
-    axis' length, mm (0 for a centre)."""
+    sphere's centre (``direction`` None); ``extent``: a plane's narrowest width across it
+    (:func:`narrowest`), an axis' length, mm (0 for a centre)."""
 
     kind: str
     point: np.ndarray
@@ -135,11 +135,19 @@ def _measured(c: Characteristic, region: str, kind: str, nominal: Element, geo: 
         return CharacteristicResult(c, None, INCONCLUSIVE, f"the {idx.size} points of region "
                                     f"'{region}' do not determine its plane (their fit stands "
                                     "more than 10° from the nominal face)", idx)
-    q = X - plane.centroid
-    q -= np.outer(q @ plane.normal, plane.normal)
-    spread = np.linalg.svd(q, compute_uv=False)
-    across = np.linalg.svd(q, full_matrices=False)[2][1] if spread.size > 1 else plane.normal
-    return Element(kind, plane.centroid, plane.normal, float(np.ptp(q @ across)))
+    return Element(kind, plane.centroid, plane.normal, narrowest(X - plane.centroid,
+                                                                 plane.normal))
+
+
+def narrowest(q: np.ndarray, normal: np.ndarray) -> float:
+    """The smallest width of points ``q`` (n, 3) across a plane of unit ``normal``: the least
+    extent of their projections on the in-plane directions, one every degree, mm."""
+    u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    t = np.radians(np.arange(180.0))
+    return float(np.min(np.ptp(q @ (np.outer(np.cos(t), u) + np.outer(np.sin(t), v)).T,
+                               axis=0)))
 
 
 def angle_between(a: Element, b: Element) -> float:
