@@ -19,7 +19,8 @@ What is read
       DiametricalZone is ``diametral``), location (holes, pins, widths, spheres, patterns, at
       MMC / LMC with the feature's size), runout and size (one per feature when it applies to
       several: ``ID.1``, ``ID.2`` …). Every other one is kept in ``Plan.not_judged`` with its
-      reason (a datum at MMC, a distance between, a datum that is a width …): never dropped.
+      reason (a datum at MMC, a length, a datum that is a width …): never dropped. Dimensions
+      (radius, angle, distance) are read by engine.io.qif_dimensions.
 
 Refusals (engine.errors.InputError, exit 65, naming the file and the item): not well-formed XML
 or XML with a DOCTYPE (no entity is ever expanded, no network, no huge trees), a document that is
