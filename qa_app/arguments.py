@@ -297,7 +297,8 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
                        "and modifiers, datum reference frame, features -> STEP face ids, and "
                        "whether the product judges it (no: the reason). With --toml, write it "
                        "as a TOML plan to review and edit; the characteristics it cannot judge "
-                       "are comments there. Exit code 0, 65 for a bad plan or model.")
+                       "are [[not_judged]] tables there, with their reasons. Exit code 0, 65 "
+                       "for a bad plan or model.")
     p.add_argument("source", metavar="SOURCE", help="the plan: PLAN.toml or PART.qif")
     p.add_argument("--nominal", metavar="PART.stp",
                    help="the STEP nominal a QIF plan's features are matched to (by geometry): "

@@ -385,7 +385,7 @@ BAD = [
     ("datum on a missing region", BASE + datum("D", "flange"), '[[datum]] #4 (label "D")',
      "region", '"flange" is not the name of any [[region]]'),
     ("unknown feature", BASE + datum("D", "A", "planar"), '[[datum]] #4 (label "D")', "feature",
-     "must be one of plane, cylinder, sphere, line, circle"),
+     "must be one of plane, cylinder, sphere, width, line, circle"),
     ("unknown datum fit", BASE + datum("D", "A", extra='fit = "minimax"'),
      '[[datum]] #4 (label "D")', "fit", "must be one of tangent, lsq"),
     ("datum without feature", BASE + '\n[[datum]]\nlabel = "D"\nregion = "A"\n',

@@ -330,3 +330,34 @@ def test_orientation_zones_and_location_features_follow_the_qif(part):
                 assert set(c.all_regions) <= sized
             checked += 1
     assert checked >= 3
+
+
+def test_a_pmi_linear_unit_is_the_unit_of_the_characteristics_values(tmp_path):
+    """QIF 3.0 (Units.xsd, PrimaryUnitsType): a ``PMILinearUnit`` overrides the primary linear
+    unit for every value of the Characteristics. NIST FTC-06 (primary mm, PMI inch) gives its
+    widths' targets and limits without a ``linearUnit``: read as mm, a perfect part's 12 in
+    (304.8 mm) width was a confident REJECT against "12 ± 0.01 mm". Here CTC-01's file, its
+    values' ``linearUnit="mm"`` removed and a PMI unit of inches declared: every length of
+    every characteristic reads 25.4 times the original, the geometry (and the faces matched
+    to it) as before."""
+    from engine.io.qif_plan import qif_face_groups, read_qif_plan
+    from engine.io.step import read_step
+
+    text = Path(qif("CTC-01")).read_text("utf-8")
+    assert text.count(' linearUnit="mm"') == 27
+    head, tail = text.split("      </LinearUnit>\n", 1)
+    pmi = ("      </LinearUnit>\n      <PMILinearUnit>\n        <SIUnitName>meter</SIUnitName>\n"
+           "        <UnitName>inch</UnitName>\n        <UnitConversion>\n"
+           "          <Factor>0.0254</Factor>\n        </UnitConversion>\n"
+           "      </PMILinearUnit>\n")
+    inch = tmp_path / "ctc01_pmi_inch.qif"
+    inch.write_text((head + pmi + tail).replace(' linearUnit="mm"', ""), encoding="utf-8")
+    a, b = read_qif_plan(qif("CTC-01")), read_qif_plan(inch)
+    assert len(a.characteristics) == len(b.characteristics) == 13
+    for x, y in zip(a.characteristics, b.characteristics):
+        assert (y.lower, y.upper) == pytest.approx((25.4 * x.lower, 25.4 * x.upper), rel=1e-12)
+        if x.nominal is not None:
+            assert y.nominal == pytest.approx(25.4 * x.nominal, rel=1e-12)
+    step = read_step(stp("CTC-01"))
+    assert {k: list(v) for k, v in qif_face_groups(str(inch), step).items()} == \
+        {k: list(v) for k, v in qif_face_groups(qif("CTC-01"), step).items()}

@@ -3,6 +3,8 @@ a block with a datum base, a slot (a width), a hole, a stepped shaft and a ball,
 random pose with planted errors, registered and judged; each value against an independent
 computation written here (analytic, or a brute-force search with a scipy twin)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -428,3 +430,39 @@ def test_a_form_value_near_zero_is_not_on_a_limit():
     r = by_value(Characteristic("1", "flatness", "A", 0.0, 0.01, ()), np.arange(3), 1e-7, {},
                  "minimum-zone width")
     assert r.verdict == "ACCEPT" and "on its" not in r.reason
+
+
+def _with_width_datum(*characteristics):
+    """plan_of's plan with one more datum: W, the slot's median plane (a datum of size)."""
+    return Plan("plan.toml", "0" * 64, Part(), REGIONS, DATUMS + (Datum("W", "slot", "width"),),
+                Alignment("best-fit"), tuple(characteristics))
+
+
+@pytest.mark.parametrize("fit", ["tangent", "lsq"])
+def test_a_width_as_datum_locates_by_its_median_plane(nominal, fit):
+    """Datum W is the slot (two opposed planes): its median plane locates x. The slot moved by
+    v carries the frame A|W|C with it, so the hole, where it belongs, lies v off its true
+    position: a zone of 2v. Widened by w and not moved, the slot leaves the hole where it is
+    (the datum's size floats: its median plane is what locates). Within 1e-6 mm."""
+    v, w = 0.02, 0.04
+    plan = _with_width_datum(C("1", "position", "hole", 0.05, "AWC"))
+    if fit == "lsq":
+        plan = replace(plan, datums=DATUMS + (Datum("W", "slot", "width", "lsq"),))
+    moved = run(nominal, *measured(np.random.default_rng(5), slot_shift=v)[:2], plan)
+    assert by_id(moved, "1").value == pytest.approx(2 * v, abs=1e-6)
+    wider = run(nominal, *measured(np.random.default_rng(6), slot_widen=w)[:2], plan)
+    assert by_id(wider, "1").value == pytest.approx(0.0, abs=1e-6)
+    # Relative to B (the side face) the moved slot's hole is where it belongs.
+    plain = run(nominal, *measured(np.random.default_rng(5), slot_shift=v)[:2],
+                plan_of(C("1", "position", "hole", 0.05, "ABC")))
+    assert by_id(plain, "1").value == pytest.approx(0.0, abs=1e-6)
+
+
+def test_orientation_to_a_width_datum_is_to_its_median_plane(nominal):
+    """Side B (x = 0) is parallel to the slot's median plane (x = 40): parallelism 0, and
+    perpendicularity of the base A to it 0, from a random pose."""
+    M, labels, _, _ = measured(np.random.default_rng(8))
+    res = run(nominal, M, labels, _with_width_datum(C("1", "parallelism", "B", 0.05, "W"),
+                                                    C("2", "perpendicularity", "A", 0.05, "W")))
+    assert by_id(res, "1").value == pytest.approx(0.0, abs=1e-6), by_id(res, "1").reason
+    assert by_id(res, "2").value == pytest.approx(0.0, abs=1e-6), by_id(res, "2").reason

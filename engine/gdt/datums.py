@@ -21,8 +21,9 @@ third direction from the turn about its own axis.) Fits:
 * ``tangent`` (the default of both standards): the datum simulator lies outside the material and
   touches the feature's high points. For a plane or line: no point beyond the nominal surface,
   the largest gap the smallest (a linear program). For a size feature (cylinder, sphere,
-  circle) the simulator's size floats too: the largest inscribed hole / smallest circumscribed
-  shaft (a linear program with a uniform offset of the surface).
+  circle, width) the simulator's size floats too: the largest inscribed hole or slot / smallest
+  circumscribed shaft or tab (a linear program with a uniform offset of the surface). A width's
+  datum is its median plane: it takes what a plane would.
 * ``lsq``: least squares of the deviations (with the uniform offset for a size feature, so that a
   hole of another diameter is centred, not pulled).
 
@@ -42,7 +43,7 @@ import numpy as np
 from ..pose import apply_update, pose_jacobian
 from .plan import MIN_POINTS
 
-SIZE_FEATURES = ("cylinder", "sphere", "circle")
+SIZE_FEATURES = ("cylinder", "sphere", "circle", "width")
 RANK_TOLERANCE = 1e-6
 """RPS: a direction counts as locked when its singular value exceeds this fraction of the
 largest one (exact lock axes give exact zeros)."""
@@ -235,8 +236,9 @@ def invariant_motions(feature: str, nominal: dict, centre: np.ndarray,
                       length: float) -> np.ndarray:
     """(dof, k): the rigid motions, in the fits' coordinates (rotation x length, translation;
     about ``centre``), that leave the ideal feature in place. ``nominal`` as
-    engine.gdt.characteristics fits it: a plane {point, normal}, a cylinder {point, direction}, a
-    sphere {centre}; in 2D a line {point, normal}, a circle {centre}."""
+    engine.gdt.characteristics fits it: a plane {point, normal}, a width's median plane {point,
+    normal}, a cylinder {point, direction}, a sphere {centre}; in 2D a line {point, normal}, a
+    circle {centre}."""
     c = np.asarray(centre, float)
 
     def turn(axis, through):
@@ -249,7 +251,7 @@ def invariant_motions(feature: str, nominal: dict, centre: np.ndarray,
     def slide(u):
         return np.concatenate([np.zeros(3 if c.size == 3 else 1), u])
 
-    if feature == "plane":
+    if feature in ("plane", "width"):  # a width: its median plane
         n = nominal["normal"]
         u, v = np.linalg.svd(n[None, :])[2][1:]
         return np.column_stack([slide(u), slide(v), turn(n, nominal["point"])])

@@ -189,8 +189,10 @@ def _true_position(c: Characteristic, geo: Geometry, shared) -> dict:
 
 def _datum_nominal(c: Characteristic, geo: Geometry, shared, kind: str) -> dict:
     primary = shared.datums[c.datums[0]]
-    got = region_nominal(kind, geo, geo.nominal_masks[primary.region])
-    if primary.feature != kind or got is None:
+    # A width's datum is its median plane.
+    feature = "plane" if primary.feature == "width" else primary.feature
+    got = region_nominal(primary.feature, geo, geo.nominal_masks[primary.region])
+    if feature != kind or got is None:
         raise InputError(f"[[characteristic]] '{c.id}': a {c.type} is relative to a datum "
                          f"{'axis' if kind == 'cylinder' else 'plane'}; datum "
                          f"{primary.label} is no {kind} on the nominal")

@@ -119,7 +119,7 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
     """(value, facts, what it is, its uncertainty bound), or an INCONCLUSIVE result when the
     points do not determine the axis."""
     primary = shared.datum(c.datums[0])
-    if primary.feature not in ("plane", "cylinder"):
+    if primary.feature not in ("plane", "cylinder", "width"):  # a width: its median plane
         raise InputError(f"[[characteristic]] '{c.id}': a {c.type} is relative to a plane or "
                          f"an axis; its primary datum {primary.label} is a {primary.feature}")
     datum = region_nominal(primary.feature, geo, geo.nominal_masks[primary.region])
@@ -127,7 +127,7 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
     if datum is None or len(turns) > 1:
         raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} do "
                          f"not orient the feature")
-    a = datum["normal" if primary.feature == "plane" else "direction"]
+    a = datum["direction" if primary.feature == "cylinder" else "normal"]
     X = geo.evaluate(al.T_nominal_measured, idx)[0]
     if c.diametral:
         nom, normals = nominal_cylinder(c, geo, shared)

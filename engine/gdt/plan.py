@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from ..errors import InputError
 from ..uncertainty import Instrument
 
-FEATURES_3D = ("plane", "cylinder", "sphere")
+FEATURES_3D = ("plane", "cylinder", "sphere", "width")
 FEATURES_2D = ("line", "circle")
 DATUM_FITS = ("tangent", "lsq")
 ALIGNMENTS = ("best-fit", "datums", "rps")

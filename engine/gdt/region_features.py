@@ -113,7 +113,7 @@ def _nominal_feature(kind: str, points: np.ndarray, normals: np.ndarray) -> dict
     if fit is None:
         return None
     out = {k: v for k, v in fit.items() if k not in ("form_error", "n_points")}
-    if kind not in ("plane", "line"):
+    if kind not in ("plane", "line", "width"):
         radial = points - out.get("centre", out.get("point"))
         if kind == "cylinder":
             radial -= np.outer(radial @ out["direction"], out["direction"])
@@ -157,6 +157,15 @@ def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:
     f: PlaneFit | RoundFit | CylinderFit
     out: dict[str, np.ndarray | float]
     try:
+        if kind == "width":  # its median plane (a datum of two opposed faces: a slot, a tab)
+            from .size import width_lsq, width_sides
+
+            side, axis = width_sides(normals)
+            w = width_lsq(X, side, axis)
+            if w.direction is None:
+                return None
+            return {"point": w.point, "normal": w.direction, "width": w.size,
+                    "form_error": 0.0, "n_points": int(len(X))}
         if kind in ("plane", "line"):
             f = fit_plane_lsq(X, normals.sum(axis=0))
             out = {"point": f.centroid, "normal": f.normal}

@@ -3,14 +3,15 @@
 engine.gdt.plan.Plan, the same object a TOML plan gives.
 
 What is read
-    * units: the file's primary linear unit (``FileUnits``), a value's own ``linearUnit`` where
+    * units: the file's primary linear unit (``FileUnits``; its ``PMILinearUnit``, where it
+      states one, for the characteristics' values), a value's own ``linearUnit`` where
       it names another of the file's units, and the ``ScaleCoefficient`` the Product declares
       for its geometry (Product and Features values are divided by it); everything in mm.
     * features: each ``…FeatureNominal`` with the faces of the file's own B-rep it is made of
       (``EntityInternalIds``); a plan region per feature (``qif:ID``), or per set of features
       a characteristic applies to together (``qif:ID+ID``), selecting the group of the same
       name: the STEP faces :func:`qif_face_groups` finds for it by geometry.
-    * datums: each ``DatumDefinition`` on one plane, cylinder or sphere feature, as a plan datum
+    * datums: each ``DatumDefinition`` on one plane, cylinder, sphere or width feature, as a plan datum
       (tangent, the ASME / ISO default) on that feature's region.
     * datum reference frames: their simple datums, and a ``CompoundDatum`` as the common
       datum "A-B"; a datum at MMC / LMC makes the characteristics that use it not judged.
@@ -49,7 +50,8 @@ from .qif_characteristics import RFS, CharacteristicReader, ids_of, local_name, 
 from .qif_faces import MATCH_FRACTION, FaceMatcher, QifFace, face_of
 
 QIF3_NAMESPACE = "http://qifstandards.org/xsd/qif3"
-DATUM_FEATURES = {"Plane": "plane", "Cylinder": "cylinder", "Sphere": "sphere"}
+DATUM_FEATURES = {"Plane": "plane", "Cylinder": "cylinder", "Sphere": "sphere",
+                  "OppositeParallelPlanes": "width"}
 """QIF feature kinds a plan datum can be, and the plan's word for each."""
 KNOWN_UNITS = {"mm": 1.0, "millimeter": 1.0, "millimetre": 1.0, "cm": 10.0, "m": 1000.0,
                "meter": 1000.0, "metre": 1000.0, "um": 1e-3, "micrometer": 1e-3,
@@ -263,10 +265,10 @@ def _children(root, path: str) -> list:
 
 
 class _Units:
-    """The file's linear units (name -> mm), its primary one, the one of its characteristics'
-    values (``PMILinearUnit`` where it declares one, QIF 3's PrimaryUnitsType: it overrides
-    the primary unit in Characteristics), its angular units (name -> degrees) and the
-    geometry's scale."""
+    """The file's linear units (name -> mm), its primary one, the primary one of its PMI (the
+    Characteristics' values: ``PMILinearUnit``, which the QIF 3.0 schema says overrides the
+    primary unit there; the primary one where the file states none), its angular units (name
+    -> degrees) and the geometry's scale."""
 
     def __init__(self, root, path: str):
         self.path = path
@@ -276,7 +278,7 @@ class _Units:
             raise InputError("states no linear unit (FileUnits/PrimaryUnits/LinearUnit): its "
                              "lengths cannot be read as mm", path)
         pmi = root.find("{*}FileUnits/{*}PrimaryUnits/{*}PMILinearUnit")
-        for u in (primary, *([] if pmi is None else [pmi]),
+        for u in (primary, *(() if pmi is None else (pmi,)),
                   *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
             factor = u.findtext("{*}UnitConversion/{*}Factor")
             self.mm[(u.findtext("{*}UnitName") or "").strip()] = 1000.0 * _number(
@@ -306,8 +308,9 @@ class _Units:
                              path)
 
     def length(self, e, what: str, geometry: bool = False) -> float:
-        """The value of element ``e`` in mm (its own ``linearUnit`` where it names one; a
-        Product or Features value divided by the declared scale)."""
+        """The value of element ``e`` in mm (its own ``linearUnit`` where it names one, else the
+        PMI's primary unit: a characteristic's value; a Product or Features value,
+        ``geometry``, in the primary unit divided by the declared scale)."""
         unit = e.get("linearUnit")
         if unit is not None and unit not in self.mm and unit in KNOWN_UNITS:
             self.mm[unit] = KNOWN_UNITS[unit]
@@ -373,7 +376,7 @@ def _features(root, index: dict, units: _Units, path: str) -> dict[str, QifFeatu
 
 
 def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str, str]]:
-    """{DatumDefinition id: plan Datum} for those on one plane, cylinder or sphere with faces,
+    """{DatumDefinition id: plan Datum} for those on one plane, cylinder, sphere or width with faces,
     and {id: why not} for the others (with their label)."""
     datums, notes = {}, {}
     for e in _children(root, "DatumDefinitions"):
@@ -386,7 +389,7 @@ def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str
                 _article(words(kinds[0])) + " feature" + ("" if kinds[0] == "?" or
                                                      features[ids[0]].faces else " without faces"))
             notes[e.get("id")] = (f"datum {label} is {what}; a plan datum is one plane, "
-                                  "cylinder or sphere")
+                                  "cylinder, sphere or width")
             continue
         datums[e.get("id")] = Datum(label=label, region=f"qif:{ids[0]}",
                                     feature=DATUM_FEATURES[kinds[0]])
