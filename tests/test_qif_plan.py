@@ -338,8 +338,8 @@ def test_a_pmi_linear_unit_is_the_unit_of_the_characteristics_values(tmp_path):
     widths' targets and limits without a ``linearUnit``: read as mm, a perfect part's 12 in
     (304.8 mm) width was a confident REJECT against "12 ± 0.01 mm". Here CTC-01's file, its
     values' ``linearUnit="mm"`` removed and a PMI unit of inches declared: every length of
-    every characteristic reads 25.4 times the original, the geometry (and the faces matched
-    to it) as before."""
+    every characteristic reads 25.4 times the original (its angle, in degrees, as before), the
+    geometry (and the faces matched to it) as before."""
     from engine.io.qif_plan import qif_face_groups, read_qif_plan
     from engine.io.step import read_step
 
@@ -353,8 +353,12 @@ def test_a_pmi_linear_unit_is_the_unit_of_the_characteristics_values(tmp_path):
     inch = tmp_path / "ctc01_pmi_inch.qif"
     inch.write_text((head + pmi + tail).replace(' linearUnit="mm"', ""), encoding="utf-8")
     a, b = read_qif_plan(qif("CTC-01")), read_qif_plan(inch)
-    assert len(a.characteristics) == len(b.characteristics) == 13
+    assert len(a.characteristics) == len(b.characteristics) == 14
     for x, y in zip(a.characteristics, b.characteristics):
+        if x.type == "angle":  # 1491's 60° ±0.5°: degrees, no length (its PMIAngularUnit)
+            assert (y.nominal, y.lower, y.upper) == (x.nominal, x.lower, x.upper) == (
+                60.0, -0.5, 0.5)
+            continue
         assert (y.lower, y.upper) == pytest.approx((25.4 * x.lower, 25.4 * x.upper), rel=1e-12)
         if x.nominal is not None:
             assert y.nominal == pytest.approx(25.4 * x.nominal, rel=1e-12)
