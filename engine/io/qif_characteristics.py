@@ -29,6 +29,7 @@ from engine.gdt.plan import ORIENTATION, RUNOUT, Characteristic, NotJudged
 
 from .qif_dimensions import KINDS as DIMENSION_KINDS
 from .qif_dimensions import read_dimension
+from .qif_names import ids_of, local_name, words
 
 RFS = ("", "NONE", "RFS", "REGARDLESS")
 """Material-condition words that mean regardless of feature size."""
@@ -57,21 +58,6 @@ SIZES = {"Diameter": ("Cylinder", None), "Width": (WIDTHS, "width"),
 """A size characteristic's QIF feature kinds and the plan's ``feature`` for them."""
 SUPPORTED = ("the plan layer judges profile, form, orientation, location, runout, the "
              "size of a cylinder, width or sphere, a radius, an angle and a distance")
-
-
-def local_name(e) -> str:
-    """An element's name without its namespace."""
-    return e.tag.split("}", 1)[1] if e.tag.startswith("{") else e.tag
-
-
-def ids_of(e, tag: str) -> list[str]:
-    """The ``Id`` texts under ``e``'s child ``tag``."""
-    return [i.text.strip() for i in e.iterfind(f"{{*}}{tag}/{{*}}Id") if i.text]
-
-
-def words(camel: str) -> str:
-    """'DistanceBetween' -> 'distance between'."""
-    return re.sub(r"(?<!^)(?=[A-Z])", " ", camel).lower()
 
 
 def _kind_of(f) -> str:

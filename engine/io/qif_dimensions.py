@@ -27,6 +27,8 @@ import numpy as np
 from engine.errors import InputError
 from engine.gdt.plan import Characteristic
 
+from .qif_names import words
+
 KINDS = ("Radius", "SphericalRadius", "Angle", "DistanceBetween", "Length")
 """The QIF characteristic kinds this module reads."""
 ROUND = {"Cylinder": "cylinder", "CylindricalSegment": "cylinder", "Sphere": "sphere",
@@ -43,8 +45,6 @@ def read_dimension(reader, kind: str, cid: str, name: str, definition, e,
                    ids: list[str]) -> list[Characteristic] | str:
     """The plan characteristics of a dimension, or why it is not judged (``reader``: the
     engine.io.qif_characteristics.CharacteristicReader reading the file)."""
-    from .qif_characteristics import words
-
     what = f"characteristic {cid} ({name})"
     feats = [reader.features[i] for i in ids]
     if definition.find("{*}Tolerance") is None:
@@ -110,8 +110,6 @@ def _limits(reader, kind: str, what: str, definition, e, read) -> tuple[float, f
 
 def _angle(reader, cid: str, feats, nominal: float, low: float,
            high: float) -> list[Characteristic] | str:
-    from .qif_characteristics import words
-
     if len(feats) == 1 and feats[0].kind == "OppositeAngledPlanes" and len(feats[0].faces) == 2:
         regions: tuple[str, ...] = tuple(f"qif:{feats[0].id}/{face}" for face in feats[0].faces)
         kinds: tuple[str, ...] = ("plane", "plane")
@@ -131,8 +129,6 @@ def _angle(reader, cid: str, feats, nominal: float, low: float,
 
 def _distances(reader, cid: str, e, feats, nominal: float, low: float,
                high: float) -> list[Characteristic] | str:
-    from .qif_characteristics import words
-
     bad = sorted({words(f.kind) for f in feats if f.kind not in ELEMENTS})
     if bad:
         return (f"a distance between {', '.join(bad)} features is not judged: a distance is "

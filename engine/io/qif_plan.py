@@ -46,7 +46,8 @@ from engine.errors import InputError
 from engine.gdt.plan import Alignment, Datum, Part, Plan, Region
 
 from .points import read_bytes
-from .qif_characteristics import RFS, CharacteristicReader, ids_of, local_name, words
+from .qif_characteristics import RFS, CharacteristicReader
+from .qif_names import ids_of, local_name, words
 from .qif_faces import MATCH_FRACTION, FaceMatcher, QifFace, face_of
 
 QIF3_NAMESPACE = "http://qifstandards.org/xsd/qif3"
