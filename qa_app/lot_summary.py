@@ -55,7 +55,7 @@ def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
                 Tracked("n_out", "points out of tolerance", "points", None, 0.0,
                         "points outside the zone (the part document's deviations.n_out); "
                         "upper: 0", Kind.COUNT)]
-    from engine.gdt.plan import RESERVED_ID, Characteristic
+    from engine.gdt.plan import DIMENSIONS, RESERVED_ID, Characteristic
 
     chars = list(loaded.plan.characteristics)
     if settings.zone_in_verdict:
@@ -66,6 +66,11 @@ def tracked_characteristics(loaded: LoadedNominal) -> list[Tracked]:
         if c.type == "size":
             out.append(Tracked(c.id, name, "mm", c.nominal + c.lower, c.nominal + c.upper,
                                "least-squares diameter; limits: nominal + the zone's"))
+        elif c.type in DIMENSIONS:  # a radius, angle (degrees) or distance about its nominal
+            nominal = c.nominal or 0.0
+            out.append(Tracked(c.id, name, c.unit, nominal + c.lower, nominal + c.upper,
+                               f"{c.type} ({c.unit}, see the part's "
+                               "dimension_value_definition); limits: nominal + the zone's"))
         else:  # a width or a diameter about the true position: >= 0, an upper limit only
             out.append(Tracked(c.id, name, "mm", None, c.width,
                                f"{c.type} value (the width of the smallest zone holding the "

@@ -110,11 +110,12 @@ class PlanSource:
         else:
             self.heading.append("features not matched to faces: give --nominal PART.stp")
         for r in self.plan.regions:
-            ids = str(r.group)[4:].split("+")
+            parts = [p.partition("/") for p in str(r.group)[4:].split("+")]
             self.region_notes[r.name] = "QIF " + ", ".join(
                 f"feature {i} ({doc.features[i].kind}"
-                + (f" {doc.features[i].name}" if doc.features[i].name else "") + ")"
-                for i in ids if i in doc.features)
+                + (f" {doc.features[i].name}" if doc.features[i].name else "")
+                + (f", its face {face}" if face else "") + ")"
+                for i, _, face in parts if i in doc.features)
 
     def toml(self, source: str, nominal: str | None) -> str:
         from reports.plan_toml import plan_toml

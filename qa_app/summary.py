@@ -18,8 +18,10 @@ def _plan_summary(plan) -> list[str]:
     for r in plan.characteristics:
         c = r.characteristic
         ref = f" |{'|'.join(c.datums)}" if c.datums else ""
-        value = "—" if r.value is None else f"{r.value:.4f} mm"
-        lines.append(f"  [{c.id}] {c.type} {c.region}{ref}: {value}, {limits_text(c)}, "
+        value = "—" if r.value is None else f"{r.value:.4f}" + (
+            "°" if c.unit == "degree" else " mm")
+        where = " & ".join(c.regions) if c.features else c.region  # an angle's, a distance's
+        lines.append(f"  [{c.id}] {c.type} {where}{ref}: {value}, {limits_text(c)}, "
                      f"{r.indices.size} points: {r.verdict}")
     return lines
 

@@ -66,6 +66,11 @@ def limits_text(c) -> str:
     if c.type == "size":
         sign = {"width": "", "sphere": "S⌀"}.get(c.kind or "", "⌀")
         return f"{sign}{c.nominal:.4f} {c.lower:+.4f}/{c.upper:+.4f} mm"
+    if c.type == "angle":
+        return f"{c.nominal:.4f}° {c.lower:+.4f}/{c.upper:+.4f}°"
+    if c.type in ("radius", "distance"):
+        mark = {"radius": "SR" if c.kind == "sphere" else "R"}.get(c.type, "")
+        return f"{mark}{c.nominal:.4f} {c.lower:+.4f}/{c.upper:+.4f} mm"
     if c.type == "profile" and abs(c.lower + c.upper) > 1e-12:
         return f"zone {c.width:.4f} mm ({c.lower:+.4f} … {c.upper:+.4f})"
     return f"zone {c.width:.4f} mm"

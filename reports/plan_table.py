@@ -24,6 +24,11 @@ def tolerance_words(c: Characteristic) -> str:
     if c.type == "size":
         mark = {"width": "", "sphere": "S⌀"}.get(c.kind or "cylinder", "⌀")
         return f"{mark}{_g(c.nominal or 0.0)} {c.lower:+.6g}/{c.upper:+.6g}"
+    if c.type == "angle":  # degrees, whatever the column says
+        return f"{_g(c.nominal or 0.0)}° {c.lower:+.6g}°/{c.upper:+.6g}°"
+    if c.type in ("radius", "distance"):
+        mark = {"radius": "SR" if c.kind == "sphere" else "R"}.get(c.type, "")
+        return f"{mark}{_g(c.nominal or 0.0)} {c.lower:+.6g}/{c.upper:+.6g}"
     if c.type in ("profile", "line_profile"):
         return f"{_g(c.width)} ({c.lower:+.6g}/{c.upper:+.6g})"
     cylindrical = c.diametral or c.type in ("coaxiality", "concentricity") or (
@@ -37,13 +42,15 @@ def modifier_words(c: Characteristic) -> str:
     out = []
     if c.modifier != "RFS":
         out.append(c.modifier)
-    if c.regions:
+    if c.regions and not c.features:  # (an angle's, a distance's two: not a pattern)
         out.append(f"pattern of {len(c.regions)}")
     if c.type in ORIENTATION or c.type == "straightness":
         out.append("axis" if c.diametral else "plane")
     if c.angle is not None:
         out.append(f"angle {c.angle:g}°")
-    if c.type in LOCATION + ("size",) and c.kind not in (None, "cylinder"):
+    if c.features:
+        out.append(" and ".join(c.features))
+    if c.type in LOCATION + ("size", "radius") and c.kind not in (None, "cylinder"):
         out.append(c.kind)
     if c.type == "size" and c.method != "lsq":
         out.append(c.method)

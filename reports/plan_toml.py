@@ -23,8 +23,8 @@ import math
 import re
 from collections.abc import Sequence
 
-from engine.gdt.plan import (ORIENTATION, Characteristic, Measurement, Plan, Region,
-                             implied_feature)
+from engine.gdt.plan import (DIMENSIONS, ORIENTATION, Characteristic, Measurement, Plan,
+                             Region, implied_feature)
 
 _CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029]")
 
@@ -93,7 +93,7 @@ def characteristic_items(c: Characteristic) -> list[tuple[str, object]]:
     """The keys of one [[characteristic]] (engine.io.plan's contract), defaults left out."""
     items: list[tuple[str, object]] = [("id", c.id), ("type", c.type)]
     items += [("regions", list(c.regions))] if c.regions else [("region", c.region)]
-    if c.type == "size":
+    if c.type in ("size",) + DIMENSIONS:
         items += [("nominal", float(c.nominal or 0.0)), ("lower", float(c.lower)),
                   ("upper", float(c.upper))]
     elif c.type in ("profile", "line_profile"):
@@ -122,6 +122,8 @@ def characteristic_items(c: Characteristic) -> list[tuple[str, object]]:
         items.append(("spacing", float(c.spacing)))
     if c.all_around:
         items.append(("all_around", True))
+    if c.features and tuple(c.features) != ("plane", "plane"):
+        items.append(("features", list(c.features)))
     return items
 
 
@@ -196,6 +198,8 @@ def plan_toml(plan: Plan, faces: dict[str, tuple[int, ...]], header: list[str],
 
 def _feature_words(c: Characteristic) -> str:
     """What a characteristic is judged on, in words: "flatness of a plane"."""
+    if c.features:
+        return f"{c.type} between a {c.features[0]} and a {c.features[1]}"
     feature = implied_feature(c.type, c.direction is not None, c.diametral, c.kind)
     return (f"{c.type.replace('_', ' ')} of a {'surface' if feature == 'freeform' else feature}"
             + (f", a pattern of {len(c.regions)}" if c.regions else ""))

@@ -16,7 +16,7 @@ import json
 import numpy as np
 
 from engine.choices import DecisionRule, Fit
-from engine.gdt.plan import DEFAULT_SECTIONS, ORIENTATION, SYMBOLS
+from engine.gdt.plan import DEFAULT_SECTIONS, DIMENSIONS, ORIENTATION, SYMBOLS
 from engine.inspection import InspectionResult
 from engine.pipeline import InputRecord, Run
 
@@ -194,6 +194,8 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
                                 "over all points ('tol') when given, else only the zone of the "
                                 "per-point statistics (the plan's widest profile zone)",
         "characteristics": [_characteristic_json(r, labels) for r in planned.characteristics],
+        **({} if not any(r.characteristic.type in DIMENSIONS for r in planned.characteristics)
+           else {"dimension_value_definition": DIMENSION_DEFINITION}),
         "features": [_json_safe({"region": f.region, "feature": f.feature,
                                  "datums": [{"label": a, "fit": b} for a, b in f.datums],
                                  "nominal": f.nominal, "measured": f.measured})
@@ -239,6 +241,20 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
     }
 
 
+DIMENSION_DEFINITION = (
+    "radius, angle, distance: their 'unit' says the unit of value, zone, lower, upper and "
+    "nominal ('mm', or 'degree' for an angle); the limits are nominal + lower .. nominal + "
+    "upper; radius: half the least-squares diameter of a cylinder or sphere; angle: between "
+    "the least-squares planes (their normals) or axes of its two 'regions' ('features'), 90 "
+    "degrees less the angle between a plane's normal and an axis, on the branch (a or 180 - a) "
+    "the nominal model's features make with 'nominal'; distance: two planes: the smaller's "
+    "points' centroid from the larger's fitted plane (larger: the wider across its narrowest "
+    "way); a "
+    "plane and an axis or centre: from the axis' middle or the centre to the plane; two axes: "
+    "the shorter's middle from the longer's line; an axis and a centre, two centres: point to "
+    "line, point to point; model_value: the same on the nominal model")
+
+
 def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
     c = r.characteristic
     out = {"id": c.id, "type": c.type, "region": c.region, "datums": list(c.datums),
@@ -266,6 +282,12 @@ def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
         out["direction"] = [float(v) for v in c.direction]
     if c.type == "angularity":
         out["angle"] = _num(c.angle)
+    if c.type in DIMENSIONS:  # value, zone, lower, upper and nominal in ``unit``
+        out.update(nominal=_num(c.nominal), unit=c.unit)
+        if c.features:
+            out["features"] = list(c.features)
+        else:
+            out["feature"] = c.feature
     out["symbol"] = SYMBOLS.get(c.type, "")
     out.update(_json_safe({k: v for k, v in r.facts.items() if k != "T_nominal_measured"}))
     return out

@@ -79,4 +79,12 @@ def symbol_strokes(kind: str, feature: str | None = None) -> list:
                 ("line", (4.5, 2.5, 11.5, 9.5), False)]
     if kind == "size":  # the diameter sign
         return [("circle", 6, 6, 4), ("line", (1.5, 1.5, 10.5, 10.5), False)]
+    if kind == "radius":  # R, a sphere's SR (as a drawing writes them before the value)
+        return [("text", 0.5, 3, "SR", 7)] if feature == "sphere" else [("text", 3, 3, "R", 8)]
+    if kind == "angle":  # an angle with its arc (an angular dimension)
+        return [("line", (11, 1.5, 1, 1.5, 7, 11.5), False),
+                ("line", _arc(1, 1.5, 7, 0, 58), False)]
+    if kind == "distance":  # a two-headed arrow between two lines (a linear dimension)
+        return [("line", (0.5, 1, 0.5, 11), False), ("line", (11.5, 1, 11.5, 11), False),
+                *_arrow(6, 6, 11.2, 6), *_arrow(6, 6, 0.8, 6)]
     raise ValueError(f"no symbol is drawn for a {kind} characteristic")

@@ -219,13 +219,14 @@ def xml_characteristics(path: str) -> dict[str, str]:
     return {e.get("id"): e.tag[len(QIF3):-len("CharacteristicNominal")] for e in noms}
 
 
-HELD_BACK = {"CTC-01": set(), "FTC-08": {"4101", "4108", "4136", "4163"}}
+HELD_BACK = {"CTC-01": set(), "FTC-08": {"4101", "4108", "4136", "4163", "7515"}}
 """Characteristics of a kind the plan layer has a type for that stay not judged (a datum of
-two features, datums at MMC, an MMC perpendicularity: tests/test_qif_plan.py's HELD_BACK)."""
+two features, datums at MMC, an MMC perpendicularity, a reference dimension without
+tolerance: tests/test_qif_plan.py's HELD_BACK)."""
 SUPPORTED = {"SurfaceProfile", "Flatness", "Straightness", "Circularity", "Cylindricity",
              "Parallelism", "Perpendicularity", "Angularity", "Position", "Coaxiality",
              "Concentricity", "Symmetry", "CircularRunout", "TotalRunout", "Diameter", "Width",
-             "SphericalDiameter"}
+             "SphericalDiameter", "Angle", "DistanceBetween", "Radius", "SphericalRadius"}
 
 
 @pytest.mark.parametrize("part", sorted(PARTS))
@@ -241,7 +242,7 @@ def test_plan_lists_every_characteristic_of_the_qif_with_supported_yes_or_no(par
             rows.setdefault(m.group(1), []).append(line)
     assert set(rows) == set(kinds)
     expected_no = {i for i, k in kinds.items() if k not in SUPPORTED} | HELD_BACK[part]
-    assert expected_no
+    assert bool(expected_no) == (part == "FTC-08")  # CTC-01's every one is judged
     for cid, lines in rows.items():
         no = [line for line in lines if re.search(r"\s{2}no: \S", line)]
         yes = [line for line in lines if line.rstrip().endswith("  yes")]
@@ -293,7 +294,8 @@ def test_the_written_toml_plan_reads_back_as_the_qif_plan(part, tmp_path, capsys
     for r, s in zip(written.regions, source.regions):
         assert r.group == tuple(f"face:{i}" for i in groups[s.group])
     # Each characteristic left out is a [[not_judged]] table, read back as the source's.
-    assert written.not_judged == source.not_judged and source.not_judged
+    assert written.not_judged == source.not_judged
+    assert bool(source.not_judged) == (part == "FTC-08")  # CTC-01's every one is judged
     # (The total it names counts the TOML's characteristics: a QIF characteristic on several
     # features is one per feature there, "ID.1", "ID.2".)
     assert written.not_judged_summary.split(" of ")[0] == \
@@ -332,7 +334,7 @@ def test_the_toml_plan_judges_planted_points_as_the_qif_plan_does(tmp_path, caps
         docs.append(json.loads(out.read_text()))
     capsys.readouterr()
     a, b = ({c["id"]: c for c in d["characteristics"]} for d in docs)
-    assert set(a) == set(b) and len(a) == 13
+    assert set(a) == set(b) and len(a) == 14
     for cid in a:
         assert a[cid]["verdict"] == b[cid]["verdict"], cid
         assert a[cid]["type"] == b[cid]["type"]
@@ -340,9 +342,10 @@ def test_the_toml_plan_judges_planted_points_as_the_qif_plan_does(tmp_path, caps
             assert b[cid]["value"] is None, cid
         else:
             assert a[cid]["value"] == pytest.approx(b[cid]["value"], abs=1e-9), cid
-    # The angle the plan cannot judge keeps the part from ACCEPT with either plan.
-    assert docs[0]["verdict"] == docs[1]["verdict"]
-    assert docs[1]["reasons"][0].startswith("1 of 14 characteristics of ")
+    # The 60° angle (1491) is judged with either plan, in degrees; the hole rejects the part.
+    assert docs[0]["verdict"] == docs[1]["verdict"] == "REJECT"
+    assert a["1491"]["value"] == pytest.approx(60.0, abs=1e-3)
+    assert a["1491"]["verdict"] == "ACCEPT" and a["1491"]["unit"] == "degree"
     assert a["1479"]["verdict"] == "REJECT"
     assert a["1479"]["value"] == pytest.approx(20.2, abs=2e-3)
     assert sum(c["verdict"] == "ACCEPT" for c in a.values()) >= 9
@@ -425,6 +428,15 @@ group = "face:11"
 [[region]]
 name = "ax2"
 group = "face:12"
+[[region]]
+name = "r1"
+group = "face:13"
+[[region]]
+name = "r2"
+group = "face:14"
+[[region]]
+name = "ball"
+group = "face:15"
 [[datum]]
 label = "A"
 region = "A"
@@ -527,6 +539,29 @@ id = "11"
 type = "circularity"
 region = "h1"
 zone = 0.01
+[[characteristic]]
+id = "12"
+type = "radius"
+region = "ball"
+nominal = 4.0
+lower = -0.1
+upper = 0.05
+feature = "sphere"
+[[characteristic]]
+id = "13"
+type = "angle"
+regions = ["r1", "r2"]
+nominal = 60
+lower = -0.5
+upper = 0.25
+[[characteristic]]
+id = "14"
+type = "distance"
+regions = ["r1", "h2"]
+nominal = 25.4
+lower = -0.1
+upper = 0.1
+features = ["plane", "cylinder"]
 """
 """A plan using every table and most keys of the TOML contract (engine.io.plan), the regions'
 groups STEP faces."""
@@ -572,7 +607,7 @@ def test_every_key_of_a_toml_plan_survives_plan_toml(text, tmp_path, capsys):
     for name in ("characteristics", "regions", "datums", "alignment", "part", "measurement",
                  "rps"):
         assert getattr(a, name) == getattr(b, name), name
-    assert len(a.characteristics) == (12 if text is EVERY_KEY else 1)
+    assert len(a.characteristics) == (15 if text is EVERY_KEY else 1)
     if text is EVERY_KEY:
         row = next(line for line in stdout.splitlines() if line.startswith("4 "))
         assert "MMC, pattern of 2" in row and "h1 -> faces 5-6; h2 -> face 7" in row

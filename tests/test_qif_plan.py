@@ -88,19 +88,21 @@ def test_every_characteristic_is_read_and_each_mapped_one_has_faces(part, steps)
 SUPPORTED = {"SurfaceProfile", "Flatness", "Straightness", "Circularity", "Cylindricity",
              "Parallelism", "Perpendicularity", "Angularity", "Position", "Coaxiality",
              "Concentricity", "Symmetry", "CircularRunout", "TotalRunout", "Diameter", "Width",
-             "SphericalDiameter"}
+             "SphericalDiameter", "Angle", "DistanceBetween", "Radius", "SphericalRadius"}
 """QIF characteristic kinds the plan layer has a type for (written here, not imported)."""
 HELD_BACK = {
     "CTC-01": {},
     "FTC-08": {"4101": "datum G is 2 features", "4108": "datum K is at maximum material",
                "4136": "datum H is at maximum material",
-               "4163": "maximum material condition is not judged"},
+               "4163": "maximum material condition is not judged",
+               "7515": "informational: a distance between with no tolerance (measured)"},
 }
 """Characteristics of a supported kind that stay not judged, and why: a datum made of two
-features, a datum at MMC (datum shift), a perpendicularity at MMC."""
-COUNTS = {"CTC-01": (13, 1), "FTC-08": (32, 5)}
+features, a datum at MMC (datum shift), a perpendicularity at MMC, a reference dimension."""
+COUNTS = {"CTC-01": (14, 0), "FTC-08": (32, 5)}
 """(judged, not judged) per part; before the QIF reader mapped form, orientation, runout,
-widths, patterns and MMC: CTC-01 (10, 4), FTC-08 (18, 19)."""
+widths, patterns and MMC: CTC-01 (10, 4), FTC-08 (18, 19); before angles, distances and radii:
+CTC-01 (13, 1) (its 60° angle)."""
 
 
 @pytest.mark.parametrize("part", sorted(PARTS))
@@ -152,8 +154,8 @@ def test_mapped_faces_lie_on_their_qif_features_geometry(part, steps):
     features, definitions, mm = xml_geometry(qif(part))
     tol = 1e-4 * float(np.linalg.norm(np.ptp(step.bounds, axis=0)))
     checked = 0
-    for region in plan.regions:
-        ids = region.group[4:].split("+")
+    for region in plan.regions:  # (a face of a feature, "ID/FACE": not its whole geometry)
+        ids = [p.partition("/")[0] for p in region.group[4:].split("+")]
         if len(ids) != 1 or features[ids[0]].tag not in (QIF3 + "PlaneFeatureNominal",
                                                          QIF3 + "CylinderFeatureNominal"):
             continue
@@ -187,10 +189,11 @@ def write(path, M):
 
 
 def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(tmp_path, steps):
-    """Points on CTC-01's exact faces, a random pose, 0.1 µm noise: every characteristic the
-    QIF gives the plan is ACCEPT (its value near 0, each size at its nominal), the
-    perpendicularity and the two slots' positions among them; its angular size, which the
-    plan cannot judge, is listed and makes the part INCONCLUSIVE, not ACCEPT."""
+    """Points on CTC-01's exact faces, a random pose, 0.1 µm noise: every characteristic of
+    the QIF is judged and ACCEPT (its value near 0, each size at its nominal, the 60° angular
+    size between its two faces at 60°, in degrees), the perpendicularity and the two slots'
+    positions among them; nothing is left not judged, so the part is ACCEPT (REJECT only for
+    a size whose nominal is its limit, which the noise puts either side of it)."""
     from step_models import random_pose
     from sweep import on_part
 
@@ -204,8 +207,8 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
                  "--json", str(tmp_path / "r.json")])
     doc = json.loads((tmp_path / "r.json").read_text())
     chars = doc["characteristics"]
-    assert len(chars) == 13
-    assert {"1443", "1450", "1467"} <= {c["id"] for c in chars}
+    assert len(chars) == 14
+    assert {"1443", "1450", "1467", "1491"} <= {c["id"] for c in chars}
     on_limit_out = []
     for c in chars:
         if c["type"] == "size":
@@ -217,16 +220,19 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
             if c["verdict"] != "ACCEPT":
                 assert min(abs(c["lower"]), abs(c["upper"])) == 0.0, c
                 on_limit_out.append(c["id"])
+        elif c["type"] == "angle":  # 1491: between the two faces of QIF feature 2180
+            assert c["id"] == "1491" and c["unit"] == "degree" and c["verdict"] == "ACCEPT", c
+            assert c["value"] == pytest.approx(60.0, abs=1e-3)  # 0.1 µm noise, faces ~5 mm
+            assert (c["nominal"], c["lower"], c["upper"]) == (60.0, -0.5, 0.5)
+            assert c["regions"] == ["qif:2180/1296", "qif:2180/1314"]
         else:
             assert c["verdict"] == "ACCEPT", c
             assert c["value"] < 0.01
-    assert code != 0
-    assert doc["verdict"] == ("REJECT" if on_limit_out else "INCONCLUSIVE")
-    summary = ("1 of 14 characteristics of NISTmodels__nist_ctc_01_asme1_ap242.qif are not "
-               "judged yet: angle")
-    assert doc["reasons"][0] == summary
-    assert doc["plan_faces"]["not_judged_summary"] == summary
-    assert {c["id"] for c in doc["plan_faces"]["not_judged"]} == {"1491"}
+    assert doc["verdict"] == ("REJECT" if on_limit_out else "ACCEPT")
+    assert code == (1 if on_limit_out else 0)
+    assert doc["plan_faces"]["not_judged_summary"] == ""
+    assert doc["plan_faces"]["not_judged"] == []
+    assert not any("not judged" in r for r in doc["reasons"])
 
 
 def _refused(capsys, nominal, measured, plan) -> str:
@@ -332,8 +338,8 @@ def test_a_pmi_linear_unit_is_the_unit_of_the_characteristics_values(tmp_path):
     widths' targets and limits without a ``linearUnit``: read as mm, a perfect part's 12 in
     (304.8 mm) width was a confident REJECT against "12 ± 0.01 mm". Here CTC-01's file, its
     values' ``linearUnit="mm"`` removed and a PMI unit of inches declared: every length of
-    every characteristic reads 25.4 times the original, the geometry (and the faces matched
-    to it) as before."""
+    every characteristic reads 25.4 times the original (its angle, in degrees, as before), the
+    geometry (and the faces matched to it) as before."""
     from engine.io.qif_plan import qif_face_groups, read_qif_plan
     from engine.io.step import read_step
 
@@ -347,8 +353,12 @@ def test_a_pmi_linear_unit_is_the_unit_of_the_characteristics_values(tmp_path):
     inch = tmp_path / "ctc01_pmi_inch.qif"
     inch.write_text((head + pmi + tail).replace(' linearUnit="mm"', ""), encoding="utf-8")
     a, b = read_qif_plan(qif("CTC-01")), read_qif_plan(inch)
-    assert len(a.characteristics) == len(b.characteristics) == 13
+    assert len(a.characteristics) == len(b.characteristics) == 14
     for x, y in zip(a.characteristics, b.characteristics):
+        if x.type == "angle":  # 1491's 60° ±0.5°: degrees, no length (its PMIAngularUnit)
+            assert (y.nominal, y.lower, y.upper) == (x.nominal, x.lower, x.upper) == (
+                60.0, -0.5, 0.5)
+            continue
         assert (y.lower, y.upper) == pytest.approx((25.4 * x.lower, 25.4 * x.upper), rel=1e-12)
         if x.nominal is not None:
             assert y.nominal == pytest.approx(25.4 * x.nominal, rel=1e-12)

@@ -26,6 +26,8 @@ HOLE_20 = ("qif:2175", (53, 54))  # a ⌀20 -0.1/+0.05 hole: size 1479 only
 WALL = ("qif:2162", (25,))        # a side wall, normal +x: perpendicularity 1467 to A (1.5)
 DATUM_B = ("qif:2156", (90, 91))  # datum B, a ⌀35 hole: size 1473 (on its limit)
 DATUM_A = ("qif:2154", (98,))     # datum A, the plate's top: flatness 1470 (0.2)
+ANGLE = (("qif:2180/1296", (18,)), ("qif:2180/1314", (16,)))  # the two faces of the 60° angle
+# (QIF feature 2180, opposite angled planes): angle 1491, 60° ±0.5°
 
 
 @pytest.fixture(scope="module")
@@ -67,8 +69,7 @@ def rejected(doc) -> dict:
 
 
 def in_doubt(doc) -> dict:
-    """{id: reason} of the INCONCLUSIVE characteristics (the angle the plan cannot judge is
-    listed apart, not among them)."""
+    """{id: reason} of the INCONCLUSIVE characteristics."""
     return {c["id"]: c["reason"] for c in doc["characteristics"]
             if c["verdict"] == "INCONCLUSIVE"}
 
@@ -143,6 +144,32 @@ def test_a_wall_tilted_past_its_perpendicularity_rejects_that_and_puts_its_edge_
     assert re.search(r"near another face as their own \(faces? (\d+, )*25\b", doubt["1470"])
     assert "judged with them REJECT" in doubt["1470"]
     assert "without them ACCEPT" in doubt["1470"]
+    assert doc["verdict"] == "REJECT"
+
+
+def test_an_angle_face_turned_past_its_limit_rejects_that_angle_only(tmp_path, planted):
+    """One face of CTC-01's 60° ±0.5° angle turned by 1.0° (0.5° past its limit) about the
+    line the two faces' normals are both square to, through its centre: the angle 1491
+    REJECTs, its value the angle between the first face's normal and the second's turned
+    (computed here from the planted normals), and nothing else does."""
+    P, N, F, R, t = planted
+    a, b = (np.isin(F, faces) for _, faces in ANGLE)
+    na, nb = (N[m].mean(axis=0) / np.linalg.norm(N[m].mean(axis=0)) for m in (a, b))
+    assert np.degrees(np.arccos(abs(na @ nb))) == pytest.approx(60.0, abs=1e-6)
+    axis = np.cross(na, nb) / np.linalg.norm(np.cross(na, nb))
+    turn = Rotation.from_rotvec(np.radians(1.0) * axis).as_matrix()
+    c = P[b].mean(axis=0)
+    turned = P.copy()
+    turned[b] = (P[b] - c) @ turn.T + c
+    doc = inspect(tmp_path, turned, R, t)
+    for feature in ANGLE:
+        faces_mapped(doc, feature)
+    expected = float(np.degrees(np.arccos(abs(na @ (turn @ nb)))))
+    assert abs(expected - 60.0) == pytest.approx(1.0, abs=1e-9)
+    assert rejected(doc) == {"1491": pytest.approx(expected, abs=1e-3)}
+    angle = next(c for c in doc["characteristics"] if c["id"] == "1491")
+    assert angle["unit"] == "degree" and "°" in angle["reason"], angle
+    assert in_doubt(doc) == {}
     assert doc["verdict"] == "REJECT"
 
 

@@ -56,7 +56,9 @@ def statistics_zone(plan: Plan) -> Tolerance:
     if profiles:
         c = max(profiles, key=lambda c: c.width)
         return Tolerance(c.lower, c.upper)
-    return Tolerance.symmetric(0.5 * max(c.width for c in plan.characteristics))
+    # An angle's limits are degrees, not a zone of the deviation.
+    widths = [c.width for c in plan.characteristics if c.unit == "mm"]
+    return Tolerance.symmetric(0.5 * max(widths or [c.width for c in plan.characteristics]))
 
 
 def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,

@@ -44,30 +44,34 @@ nothing."""
 
 
 def by_value(c: Characteristic, idx, value: float, facts: dict, what: str,
-              guard: float | None = None):
+              guard: float | None = None, unit: str = "mm"):
     """The characteristic judged by its value against its limits; with ``guard`` (the value's
     uncertainty bound, :func:`value_guard`) by ISO 14253-1: ACCEPT inside the limits shrunk
     by it, REJECT outside them grown by it, else INCONCLUSIVE. The form and
-    orientation types and position have an upper limit only (their value cannot be below 0): no guard on the lower side."""
+    orientation types and position have an upper limit only (their value cannot be below 0): no guard on the lower side.
+    ``unit``: "mm", or "degree" (an angle: its value, limits and guard in degrees)."""
     lo, hi = (c.nominal or 0.0) + c.lower, (c.nominal or 0.0) + c.upper
     inside = lo <= value <= hi
-    reason = (f"{what} {value:.4f} mm {'within' if inside else 'outside'} "
-              f"[{lo:.4f}, {hi:.4f}] mm")
+    u = " mm" if unit == "mm" else "°"
+    reason = (f"{what} {value:.4f}{u} {'within' if inside else 'outside'} "
+              f"[{lo:.4f}, {hi:.4f}]{u}")
     verdict = ACCEPT if inside else REJECT
     edge = min((lo, hi), key=lambda limit: abs(value - limit))
     if abs(value - edge) < ON_THE_LIMIT and not (c.type in ZONE_ONLY and edge == lo):
-        reason += (f": on its {'lower' if edge == lo else 'upper'} limit ({value - edge:+.2g} "
-                   f"mm from it, less than the {2 * ON_THE_LIMIT:g} mm it is reported to)")
+        reason += (f": on its {'lower' if edge == lo else 'upper'} limit ({value - edge:+.2g}"
+                   f"{u} from it, less than the {2 * ON_THE_LIMIT:g}{u} it is reported to)")
     if guard is not None:
         g_lo = 0.0 if c.type in ZONE_ONLY else guard
         facts = {**facts, "uncertainty_bound": guard}
         if value > hi + guard or value < lo - g_lo:
             verdict = REJECT
-            reason += f", by more than its uncertainty ±{guard:.4f} mm"
+            reason += f", by more than its uncertainty ±{guard:.4f}{u}"
         elif not lo + g_lo <= value <= hi - guard:
             verdict = INCONCLUSIVE
-            reason += (f", within its uncertainty ±{guard:.4f} mm (twice the largest U of its "
-                       "points) of a limit: conformance is not proven either way (ISO 14253-1)")
+            basis = "twice the largest U of its points" if unit == "mm" else \
+                "the tilt the largest U of its points can give its features"
+            reason += (f", within its uncertainty ±{guard:.4f}{u} ({basis}) of a limit: "
+                       "conformance is not proven either way (ISO 14253-1)")
         else:
-            reason += f" by more than its uncertainty ±{guard:.4f} mm"
+            reason += f" by more than its uncertainty ±{guard:.4f}{u}"
     return CharacteristicResult(c, float(value), verdict, reason, idx, facts=facts)

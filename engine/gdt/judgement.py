@@ -19,7 +19,8 @@ from .decision import by_value, own, untrusted, value_guard
 from .form import judge_form
 from .location import judge_location
 from .orientation import judge_orientation
-from .plan import FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan, known_datum_parts
+from .plan import (DIMENSIONS, FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan,
+                   known_datum_parts)
 from .region_features import FACING, SPAN, datum_invariants
 from .results import WORST, CharacteristicResult, Geometry
 from .size import judge_size
@@ -136,6 +137,10 @@ def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_p
             return judge_orientation(c, idx, geo, shared, T_part)
         if c.type == "size":
             return judge_size(c, idx, geo, shared)
+        if c.type in DIMENSIONS:
+            from .dimensions import judge_dimension
+
+            return judge_dimension(c, idx, geo, shared)
         return judge_location(c, idx, geo, shared, T_part)
     except FeatureError as e:
         # The region's points do not determine its feature (all on a line, ...): say so.

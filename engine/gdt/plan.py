@@ -43,15 +43,20 @@ centre relative to datums."""
 RUNOUT = ("circular_runout", "total_runout")
 """The runout family (engine.gdt.runout): a surface of revolution (radial) or a face normal to
 the datum axis (axial), turned about a datum axis: the full indicator movement."""
+DIMENSIONS = ("radius", "angle", "distance")
+"""Dimensions with limits about a nominal (engine.gdt.dimensions): a cylinder's or sphere's
+radius (mm), the angle between two features (degrees) and the distance between two features
+(mm), each judged on least-squares fits, relative to no datum."""
 CHARACTERISTICS = ("profile", "flatness", "position", "size") + FORM[1:] + ORIENTATION \
-    + LOCATION[1:] + RUNOUT + ("line_profile",)
+    + LOCATION[1:] + RUNOUT + ("line_profile",) + DIMENSIONS
 ZONE_ONLY = LOCATION + FORM + ORIENTATION + RUNOUT
 """Types whose value is >= 0 by definition with an upper limit only (0 .. zone)."""
 SYMBOLS = {"profile": "⌓", "flatness": "⏥", "position": "⌖", "size": "⌀",
            "straightness": "⏤", "circularity": "○", "cylindricity": "⌭",
            "parallelism": "∥", "perpendicularity": "⟂", "angularity": "∠",
            "coaxiality": "◎", "concentricity": "◎", "symmetry": "⌯",
-           "circular_runout": "↗", "total_runout": "⌰", "line_profile": "⌒"}
+           "circular_runout": "↗", "total_runout": "⌰", "line_profile": "⌒",
+           "radius": "R", "angle": "∡", "distance": "↔"}
 """Each characteristic type's symbol on a drawing (ASME Y14.5 / ISO 1101), in one place."""
 SIZE_FEATURES = ("cylinder", "sphere", "width")
 """Features of size a ``feature`` key may name for size and location: a cylinder (a hole or a
@@ -67,6 +72,12 @@ SIZE_METHOD_WORDS = {"lsq": "least-squares", "two-point": "two-point",
 MODIFIERS = ("RFS", "MMC", "LMC")
 """Material condition of a toleranced feature of size: regardless of feature size (the
 default), maximum or least material condition (a bonus tolerance)."""
+DIMENSION_FEATURES = {"radius": ("cylinder", "sphere"), "angle": ("plane", "cylinder"),
+                      "distance": ("plane", "cylinder", "sphere")}
+"""The features each dimension is taken on (a cylinder in an angle or a distance: its axis; a
+sphere in a distance: its centre)."""
+UNITS = {"angle": "degree"}
+"""The unit of a characteristic's value and limits where it is not mm."""
 DEFAULT_SECTIONS = 8
 """Cross-sections a circularity (and a straightness) is judged on by default."""
 ORIENTATION_ANGLE = {"parallelism": 0.0, "perpendicularity": 90.0}
@@ -227,6 +238,9 @@ class Characteristic:
     all_around: bool = False
     """Profile: the drawing's all-around symbol (the region's faces as one; a region is
     already any set of faces, so it is recorded, not computed differently)."""
+    features: tuple[str, ...] = ()
+    """An angle or a distance: the feature each of its two ``regions`` is (plane, cylinder:
+    its axis, sphere: its centre); () for the other types."""
 
     @property
     def width(self) -> float:
@@ -243,6 +257,19 @@ class Characteristic:
         """The regions judged: a pattern's, else the one region."""
         return self.regions or (self.region,)
 
+    @property
+    def region_features(self) -> tuple[tuple[str, str], ...]:
+        """(region, the feature it is judged as) for each of its regions: an angle's and a
+        distance's own ``features``, else ``feature`` for all."""
+        if self.features:
+            return tuple(zip(self.all_regions, self.features))
+        return tuple((r, self.feature) for r in self.all_regions)
+
+    @property
+    def unit(self) -> str:
+        """The unit of its value and limits: "degree" for an angle, else "mm"."""
+        return UNITS.get(self.type, "mm")
+
 
 def implied_feature(kind: str, direction: bool = False, diametral: bool = False,
                     feature: str | None = None) -> str:
@@ -254,8 +281,10 @@ def implied_feature(kind: str, direction: bool = False, diametral: bool = False,
     its datum axis, which the datum axis tells apart)."""
     if kind == "symmetry":
         return "width"
-    if feature is not None and kind in ("size", "position"):
+    if feature is not None and kind in ("size", "position", "radius"):
         return feature
+    if kind in ("angle", "distance"):
+        return "freeform"  # two features: Characteristic.region_features
     if kind == "flatness" or (kind == "straightness" and direction) or (
             kind in ORIENTATION and not diametral):
         return "plane"

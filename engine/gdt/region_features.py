@@ -69,8 +69,8 @@ def _region_kinds(plan: Plan) -> dict[str, str]:
     for d in plan.datums:
         kinds.setdefault(d.region, d.feature)
     for c in plan.characteristics:
-        for region in c.all_regions:
-            kinds.setdefault(region, c.feature)
+        for region, feature in c.region_features:
+            kinds.setdefault(region, feature)
     return kinds
 
 

@@ -43,15 +43,16 @@ The format (units mm, coordinates in the nominal frame; issue 12 is its contract
                                      cylinder datum, or a common datum "A-B"); sections
                            line_profile: as profile; direction (the sections' normal) and
                                      spacing (mm); profile and line_profile: all_around = true
-
+                           radius, angle, distance: engine.io.plan_dimensions
 Everything decidable from the file alone is checked here: TOML syntax, unknown tables and keys,
 types, choices, names that must exist and be unique, zones. Each problem raises
 :class:`~engine.errors.InputError` naming the file, the table and the key::
 
     plan.toml: [[characteristic]] #3 (id "3"): 'zone' must be > 0, got -0.1
 
-Whether a region selects any nominal point (a ``group`` the nominal has), and whether a region has enough measured points for
-its feature, depend on the nominal and measured files and are checked by the inspection.
+Whether a region selects any nominal point (a ``group`` the nominal has), and whether a region
+has enough measured points for its feature, depend on the nominal and measured files and are
+checked by the inspection.
 """
 
 from __future__ import annotations
@@ -68,15 +69,17 @@ import tomllib
 from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
-from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, FEATURES_2D,
-                             FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS, MAX_DATUMS,
-                             ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts, known_datum_parts,
-                             RESERVED_ID, Alignment, Characteristic, Datum, Measurement, NotJudged,
-                             Part, Plan, Region, RpsPoint)
+from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, DIMENSIONS,
+                             FEATURES_2D, FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS,
+                             MAX_DATUMS, ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts,
+                             known_datum_parts, RESERVED_ID, Alignment, Characteristic, Datum,
+                             Measurement, NotJudged, Part, Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
 from . import formats
-from .plan_location import about_an_axis, datum_kind, material_sizes, size_options
+from .plan_dimensions import dimension
+from .plan_location import (about_an_axis, datum_kind, material_sizes,
+                            one_feature_per_region, size_options)
 from .plan_tables import KEYS, ORDER, TABLES, Table, did_you_mean, known, notation, show
 from .points import read_bytes
 
@@ -130,7 +133,7 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     not_judged = tuple(NotJudged(*(t.text(k, required=k != "name", default="") or ""
                                    for k in KEYS["not_judged"])) for t in tables["not_judged"])
     _unique(tables["characteristic"] + tables["not_judged"], "id")
-    _one_feature_per_region(tables["characteristic"], characteristics, datums)
+    one_feature_per_region(tables["characteristic"], characteristics, datums)
     material_sizes(tables["characteristic"], characteristics)
     part, measurement = tables["part"], tables["measurement"]
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(),
@@ -354,6 +357,8 @@ def _characteristic(t: Table, regions: list[str], datums: tuple[Datum, ...]) -> 
         raise t.fail("id", f"'{ident}' is reserved for the zone over all points that --tol "
                      "adds to a plan (characteristic 'tol'); choose another id")
     kind = t.text("type", required=True, choices=CHARACTERISTICS)
+    if kind in DIMENSIONS:
+        return dimension(t, ident, kind, regions)
     region, pattern = _regions(t, kind, regions)
     lower, upper, nominal = _limits(t, kind)
     refs = _datum_references(t, "datums", datums)
@@ -414,7 +419,7 @@ def _form_options(t: Table, kind: str) -> dict:
     takes = {"direction": ("straightness", "line_profile"),
              "sections": ("straightness", "circularity", "circular_runout"),
              "diametral": ("straightness",) + ORIENTATION, "angle": ("angularity",),
-             "spacing": ("line_profile",), "all_around": PROFILES}
+             "spacing": ("line_profile",), "all_around": PROFILES, "features": DIMENSIONS[1:]}
     for key, kinds in takes.items():
         if key in t and kind not in kinds:
             raise t.fail(key, f"applies to {' and '.join(kinds)} only, not {kind}")
@@ -476,23 +481,6 @@ def _line_profile_options(t: Table, kind: str) -> dict:
                          f"{show(t.data['all_around'])}")
         out["all_around"] = t.data["all_around"]
     return out
-
-
-def _one_feature_per_region(tables: list[Table], characteristics, datums) -> None:
-    """Refuse a characteristic that takes its region for another feature than its datum or an
-    earlier characteristic does (a circularity on a datum plane, a flatness on a hole)."""
-    as_3d = {"line": "plane", "circle": "cylinder"}
-    seen = {d.region: (as_3d.get(d.feature, d.feature), f"datum {show(d.label)} is a "
-                       f"{d.feature}") for d in datums}
-    for t, c in zip(tables, characteristics):
-        if c.feature == "freeform":
-            continue
-        for region in c.all_regions:
-            other, why = seen.setdefault(region, (c.feature, f"characteristic {show(c.id)} "
-                                                  f"({c.type}) takes it for a {c.feature}"))
-            if other != c.feature:
-                raise t.fail("type", f"{show(c.type)} is judged on a {c.feature} and region "
-                             f"{show(region)} is no {c.feature}: {why}")
 
 
 def _limits(t: Table, kind: str) -> tuple[float, float, float | None]:

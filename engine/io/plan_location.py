@@ -1,7 +1,7 @@
 """The size and location keys of a plan's [[characteristic]] (``feature``, ``method``,
 ``modifier``) and the checks that need the whole plan (a position at MMC needs a size on its
-region; a coaxiality's primary datum is an axis, a symmetry's a plane): engine.io.plan reads
-the rest."""
+region; a coaxiality's primary datum is an axis, a symmetry's a plane; a region is one feature
+for all that use it): engine.io.plan reads the rest."""
 
 from __future__ import annotations
 
@@ -80,3 +80,20 @@ def about_an_axis(t: Table, kind: str, refs: tuple[str, ...], datums: tuple[Datu
         if feature != "cylinder":
             raise t.fail("datums", f"names datum {show(part)}, a {feature}: a {kind} is about "
                          "a datum axis (a cylinder datum, or a common datum \"A-B\" of two)")
+
+
+def one_feature_per_region(tables: list[Table], characteristics, datums) -> None:
+    """Refuse a characteristic that takes its region for another feature than its datum or an
+    earlier characteristic does (a circularity on a datum plane, a flatness on a hole)."""
+    as_3d = {"line": "plane", "circle": "cylinder"}
+    seen = {d.region: (as_3d.get(d.feature, d.feature), f"datum {show(d.label)} is a "
+                       f"{d.feature}") for d in datums}
+    for t, c in zip(tables, characteristics):
+        for region, feature in c.region_features:
+            if feature == "freeform":
+                continue
+            other, why = seen.setdefault(region, (feature, f"characteristic {show(c.id)} "
+                                                  f"({c.type}) takes it for a {feature}"))
+            if other != feature:
+                raise t.fail("type", f"{show(c.type)} is judged on a {feature} and region "
+                             f"{show(region)} is no {feature}: {why}")

@@ -29,7 +29,7 @@ KEYS = {
     "rps": ("label", "nominal", "lock"),
     "characteristic": ("id", "type", "region", "zone", "lower", "upper", "nominal", "datums",
                        "fit", "direction", "sections", "diametral", "angle", "feature",
-                       "method", "modifier", "regions", "spacing", "all_around"),
+                       "method", "modifier", "regions", "spacing", "all_around", "features"),
     # A characteristic of the plan's source that the plan cannot judge (written by
     # ``qa-inspect plan --toml`` from a QIF): the part is then never ACCEPT.
     "not_judged": ("id", "type", "name", "reason"),

@@ -12,7 +12,9 @@ Mapping (QIF ``…CharacteristicNominal`` -> plan type, on the QIF feature kinds
       MMC / LMC when a size characteristic of the file gives each feature's limits;
     * Coaxiality, Concentricity of a cylinder (an axis datum first), Symmetry of a width (a
       plane datum first); CircularRunout, TotalRunout about one datum axis or a common "A-B";
-    * Diameter of a cylinder, Width of a width, SphericalDiameter of a sphere -> size.
+    * Diameter of a cylinder, Width of a width, SphericalDiameter of a sphere -> size;
+    * Radius, SphericalRadius, Angle and DistanceBetween -> radius, angle and distance
+      (engine.io.qif_dimensions, which also says why a Length is not judged).
 
 Every other characteristic, and one these cannot take (a datum at MMC, a zone per unit, an
 angularity whose angle is not stated …), stays in ``Plan.not_judged`` with its reason.
@@ -24,6 +26,10 @@ import re
 
 from engine.errors import InputError
 from engine.gdt.plan import ORIENTATION, RUNOUT, Characteristic, NotJudged
+
+from .qif_dimensions import KINDS as DIMENSION_KINDS
+from .qif_dimensions import read_dimension
+from .qif_names import ids_of, local_name, words
 
 RFS = ("", "NONE", "RFS", "REGARDLESS")
 """Material-condition words that mean regardless of feature size."""
@@ -50,34 +56,8 @@ FEATURES = {"flatness": ("Plane",), "straightness": ("Cylinder",),
 SIZES = {"Diameter": ("Cylinder", None), "Width": (WIDTHS, "width"),
          "SphericalDiameter": (("Sphere",), "sphere")}
 """A size characteristic's QIF feature kinds and the plan's ``feature`` for them."""
-UNSUPPORTED = {
-    "Angle": "an angular size (an angle between two features with limits in degrees) is no "
-             "characteristic type of the plan layer (an angularity is a zone in mm)",
-    "DistanceBetween": "a distance between two features is no characteristic type of the "
-                       "plan layer yet",
-    "Radius": "a radius is no characteristic type of the plan layer yet (a diameter is)",
-    "SphericalRadius": "a spherical radius is no characteristic type of the plan layer yet "
-                       "(a spherical diameter is)",
-    "Length": "a length is no characteristic type of the plan layer yet"}
-"""Why the QIF characteristic kinds the NIST files hold that the plan has no type for are
-not judged."""
-SUPPORTED = ("the plan layer judges profile, form, orientation, location, runout and the "
-             "size of a cylinder, width or sphere")
-
-
-def local_name(e) -> str:
-    """An element's name without its namespace."""
-    return e.tag.split("}", 1)[1] if e.tag.startswith("{") else e.tag
-
-
-def ids_of(e, tag: str) -> list[str]:
-    """The ``Id`` texts under ``e``'s child ``tag``."""
-    return [i.text.strip() for i in e.iterfind(f"{{*}}{tag}/{{*}}Id") if i.text]
-
-
-def words(camel: str) -> str:
-    """'DistanceBetween' -> 'distance between'."""
-    return re.sub(r"(?<!^)(?=[A-Z])", " ", camel).lower()
+SUPPORTED = ("the plan layer judges profile, form, orientation, location, runout, the "
+             "size of a cylinder, width or sphere, a radius, an angle and a distance")
 
 
 def _kind_of(f) -> str:
@@ -118,8 +98,11 @@ class CharacteristicReader:
                 raise InputError(f"characteristic {cid} ({name}): FeatureNominalId {i} is no "
                                  "feature nominal of the file", self.path)
         self.names[cid] = (words(kind), name)
-        why = self._why_not(kind, definition, e, ids)
-        made = why or self._make(kind, cid, name, definition, e, ids)
+        if kind in DIMENSION_KINDS:
+            made = read_dimension(self, kind, cid, name, definition, e, ids)
+        else:
+            made = self._why_not(kind, definition, e, ids) or self._make(
+                kind, cid, name, definition, e, ids)
         if isinstance(made, str):
             self.not_judged.append(NotJudged(cid, words(kind), name, made))
         else:
@@ -146,7 +129,7 @@ class CharacteristicReader:
         """Why the plan layer cannot judge this characteristic ("" when it can)."""
         feats = [self.features[i] for i in ids]
         if kind not in TYPES:
-            return UNSUPPORTED.get(kind, f"{words(kind)} is not judged yet ({SUPPORTED})")
+            return f"{words(kind)} is not judged yet ({SUPPORTED})"
         plan_type = TYPES[kind]
         if not feats or any(not f.faces for f in feats):
             return "it applies to no feature with faces of the model"

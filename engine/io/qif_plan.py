@@ -20,7 +20,8 @@ What is read
       DiametricalZone is ``diametral``), location (holes, pins, widths, spheres, patterns, at
       MMC / LMC with the feature's size), runout and size (one per feature when it applies to
       several: ``ID.1``, ``ID.2`` …). Every other one is kept in ``Plan.not_judged`` with its
-      reason (a datum at MMC, a distance between, a datum that is a width …): never dropped.
+      reason (a datum at MMC, a length, a datum that is a width …): never dropped. Dimensions
+      (radius, angle, distance) are read by engine.io.qif_dimensions.
 
 Refusals (engine.errors.InputError, exit 65, naming the file and the item): not well-formed XML
 or XML with a DOCTYPE (no entity is ever expanded, no network, no huge trees), a document that is
@@ -33,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -44,7 +46,8 @@ from engine.errors import InputError
 from engine.gdt.plan import Alignment, Datum, Part, Plan, Region
 
 from .points import read_bytes
-from .qif_characteristics import RFS, CharacteristicReader, ids_of, local_name, words
+from .qif_characteristics import RFS, CharacteristicReader
+from .qif_names import ids_of, local_name, words
 from .qif_faces import MATCH_FRACTION, FaceMatcher, QifFace, face_of
 
 QIF3_NAMESPACE = "http://qifstandards.org/xsd/qif3"
@@ -119,8 +122,10 @@ def qif_face_groups(path: str | os.PathLike, step) -> dict[str, tuple[int, ...]]
                                  f") matches no face of {os.path.basename(step.path)} within "
                                  f"{matcher.tol:.2g} mm", doc.plan.path)
             ids.update(hit)
+            found[f"{feature.id}/{face_id}"] = sorted(hit)
         found[feature.id] = sorted(ids)
-    # A QIF plan's regions are each one group "qif:<feature ids>" (parse_qif).
+    # A QIF plan's regions are each one group "qif:<feature ids>" (parse_qif), a feature's
+    # face "FEATURE/FACE" (an angle between the two faces of one feature).
     groups = [cast(str, r.group) for r in doc.plan.regions]
     return {g: tuple(sorted({f for fid in g[4:].split("+") for f in found[fid]})) for g in groups}
 
@@ -200,7 +205,7 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
     for e in nominals:
         reader.read(e)
     reader.finish()
-    used = {fid for r in reader.regions for fid in r[4:].split("+")}
+    used = {part.partition("/")[0] for r in reader.regions for part in r[4:].split("+")}
     used |= {d.region[4:] for d in datums.values()}
     plan = Plan(path=path, sha256=hashlib.sha256(raw).hexdigest(), part=_part(root),
                 regions=tuple(Region(name=g, group=g) for g in
@@ -263,8 +268,8 @@ def _children(root, path: str) -> list:
 class _Units:
     """The file's linear units (name -> mm), its primary one, the primary one of its PMI (the
     Characteristics' values: ``PMILinearUnit``, which the QIF 3.0 schema says overrides the
-    primary unit there; the primary one where the file states none), and the geometry's
-    scale."""
+    primary unit there; the primary one where the file states none), its angular units (name
+    -> degrees) and the geometry's scale."""
 
     def __init__(self, root, path: str):
         self.path = path
@@ -281,8 +286,22 @@ class _Units:
                 factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
                 path)
         self.unit = (primary.findtext("{*}UnitName") or "").strip()
-        self.mm_per_unit = self.mm[self.unit]
         self.pmi_unit = self.unit if pmi is None else (pmi.findtext("{*}UnitName") or "").strip()
+        self.mm_per_unit = self.mm[self.unit]
+        self.degrees: dict[str, float] = {}
+        for u in root.iterfind("{*}FileUnits/{*}*/{*}*"):
+            if local_name(u) in ("AngularUnit", "PMIAngularUnit"):
+                factor = u.findtext("{*}UnitConversion/{*}Factor")
+                deg = math.degrees(_number(factor if factor is not None else "1",
+                                           f"unit {u.findtext('{*}UnitName')}", path))
+                # A degree's factor written to 15 digits (NIST's 0.017453292519943) is one.
+                self.degrees[(u.findtext("{*}UnitName") or "").strip()] = \
+                    1.0 if abs(deg - 1.0) < 1e-9 else deg
+        angular = [root.find(f"{{*}}FileUnits/{{*}}PrimaryUnits/{{*}}{k}")
+                   for k in ("PMIAngularUnit", "AngularUnit")]
+        primary_angle = next((u for u in angular if u is not None), None)
+        self.angle_unit = None if primary_angle is None else (
+            primary_angle.findtext("{*}UnitName") or "").strip()
         scale = root.findtext("{*}Product/{*}Header/{*}ScaleCoefficient")
         self.scale = 1.0 if scale is None else _number(scale, "ScaleCoefficient", path)
         if not self.scale > 0:
@@ -302,6 +321,15 @@ class _Units:
         value = _number(e.text, what, self.path) * self.mm[
             unit or (self.unit if geometry else self.pmi_unit)]
         return value / self.scale if geometry else value
+
+    def angle(self, e, what: str) -> float:
+        """The angle element ``e`` states, in degrees (its own ``angularUnit``, else the
+        file's PMI or primary angular unit; a file that declares none: degrees)."""
+        unit = e.get("angularUnit") or self.angle_unit
+        if unit is not None and unit not in self.degrees:
+            raise InputError(f"{what}: angularUnit '{unit}' is not one of the file's units "
+                             f"({', '.join(self.degrees) or 'it declares none'})", self.path)
+        return _number(e.text, what, self.path) * (1.0 if unit is None else self.degrees[unit])
 
 
 def _number(text: str | None, what: str, path: str) -> float:

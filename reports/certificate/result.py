@@ -4,6 +4,7 @@ statistics."""
 
 from __future__ import annotations
 
+from engine.gdt.plan import DIMENSIONS
 from engine.verdict import ACCEPT, INCONCLUSIVE
 
 from .. import figures
@@ -56,7 +57,8 @@ TYPE_WORDS = {"profile": "surface profile", "flatness": "flatness", "position": 
                "angularity": "angularity", "circular_runout": "circular runout",
                "total_runout": "total runout", "line_profile": "line profile",
                "coaxiality": "coaxiality", "concentricity": "concentricity",
-               "symmetry": "symmetry"}
+               "symmetry": "symmetry", "radius": "radius", "angle": "angle (degrees)",
+               "distance": "distance"}
 """Every characteristic type of the plan layer (engine.gdt.plan.CHARACTERISTICS) in words."""
 
 
@@ -95,7 +97,12 @@ VALUE_WORDS = {
     **{k: f"{k}: the diameter of the smallest cylinder about the datum axis that holds the "
           "feature's fitted axis" for k in ("coaxiality", "concentricity")},
     "symmetry": "symmetry: the width of the smallest zone centred on the datum plane that holds "
-                "the width's fitted centre plane"}
+                "the width's fitted centre plane",
+    "radius": "radius: half the diameter of the least-squares cylinder or sphere",
+    "angle": "angle: between the least-squares planes or axes of its two regions, in degrees "
+             "(value and requirement in degrees, not mm)",
+    "distance": "distance: between the least-squares planes, axes or centres of its two "
+                "regions"}
 
 
 def _plan_table(c: Layout) -> list:
@@ -109,8 +116,9 @@ def _plan_table(c: Layout) -> list:
     if c.plan is None:
         return []
     S, W = c.styles, c.width
-    rows = [["No.", "", "Characteristic", "Requirement", "Datums", "Measured (mm)", "Points",
-             "Result"]]
+    degrees = any(r.characteristic.unit == "degree" for r in c.plan.characteristics)
+    rows = [["No.", "", "Characteristic", "Requirement", "Datums",
+             "Measured (mm, °)" if degrees else "Measured (mm)", "Points", "Result"]]
     cmds = []
     for k, r in enumerate(c.plan.characteristics, start=1):
         ch = r.characteristic
@@ -120,8 +128,10 @@ def _plan_table(c: Layout) -> list:
                        f"{esc(where)}</font>",
                        S["cell"]),
                      P(esc(limits_text(ch).replace("⌀", "Ø")), S["cell"]),
-                     "|".join(ch.datums) or ("—" if ch.type == "size" else "form"),
-                     "—" if r.value is None else f"{r.value:.4f}", f"{r.indices.size}",
+                     "|".join(ch.datums) or ("—" if ch.type in ("size",) + DIMENSIONS
+                                             else "form"),
+                     "—" if r.value is None else f"{r.value:.4f}" + (
+                         "°" if ch.unit == "degree" else ""), f"{r.indices.size}",
                      VERDICT_WORD[r.verdict]])
         cmds += [("BACKGROUND", (7, k), (7, k), colors.Color(*VERDICT_RGB[r.verdict])),
                  ("TEXTCOLOR", (7, k), (7, k), colors.white),

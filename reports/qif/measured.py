@@ -98,7 +98,8 @@ def _characteristic_measurements(w, q: Qif) -> None:
           "              <Status>\n                <CharacteristicStatusEnum>"
           f"{CHAR_STATUS[c.verdict]}</CharacteristicStatusEnum>\n              </Status>\n"
           f"              <CharacteristicItemId>{c.item}</CharacteristicItemId>\n")
-        w(id_list("FeatureMeasurementIds", [c.feature.measurement], 14))
+        w(id_list("FeatureMeasurementIds", [c.feature.measurement] + (
+            [] if c.other is None else [c.other.measurement]), 14))
         if ids.component:
             w(f"              <ActualComponentId>{ids.component}</ActualComponentId>\n")
         if ids.device:

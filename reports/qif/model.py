@@ -153,6 +153,8 @@ class Char:
     """Size and location: the feature of size (cylinder, sphere, width)."""
     vector: tuple[float, float, float] = (0.0, 0.0, 1.0)
     """A line profile: the normal of the plane its curve lies in (a 2D template's: z)."""
+    other: _Feature | None = None
+    """An angle or a distance: its second feature (``feature`` is its first)."""
 
 
 @dataclass(frozen=True)
@@ -300,6 +302,9 @@ _PLAN_CHAR = {"profile": "SurfaceProfile", "flatness": "Flatness", "position": "
               "total_runout": "TotalRunout", "line_profile": "LineProfile"}
 _SIZE_CHAR = {"width": "Width", "sphere": "SphericalDiameter"}
 """QIF's characteristic of a size by its feature (a cylinder's: Diameter)."""
+_DIMENSION_CHAR = {"radius": "Radius", "angle": "Angle", "distance": "DistanceBetween"}
+"""QIF's characteristic of a plan's dimension (a sphere's radius: SphericalRadius)."""
+DIMENSION_KINDS = ("Radius", "SphericalRadius", "Angle", "DistanceBetween")
 
 
 _FORM_AND_ORIENTATION = ("Straightness", "Circularity", "Cylindricity", "Parallelism",
@@ -322,10 +327,12 @@ def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
             datum_features[d["label"]] = (feat, _datum_algorithm(f, d.get("fit")))
     tol = doc.get("tolerance_in_verdict")
     for c in doc["characteristics"]:
-        if c["region"] not in regions and not (tol and c["id"] == "tol"):
-            regions[c["region"]] = _Feature(c["region"], freeform, ids.take(), ids.take(),
-                                            ids.take(), ids.take())
-            features.append(regions[c["region"]])
+        pair = c.get("regions", [])[1:] if c["type"] in _DIMENSION_CHAR else []
+        for region in (c["region"], *pair):
+            if region not in regions and not (tol and c["id"] == "tol"):
+                regions[region] = _Feature(region, freeform, ids.take(), ids.take(),
+                                           ids.take(), ids.take())
+                features.append(regions[region])
     alignment = doc.get("alignment") or {}
     reference = tuple(alignment.get("reference") or ())
     frame_labels = ([reference] if reference else []) + [
@@ -341,7 +348,8 @@ def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
         if t not in frames:
             frames[t] = _Frame(ids.take(), t, _alignment_state(alignment) if t == reference
                                else None)
-    chars = tuple(_plan_char(c, ids, regions.get(c["region"], whole), frames, app, freeform)
+    chars = tuple(_plan_char(c, ids, regions.get(c["region"], whole), frames, app, freeform,
+                             regions)
                   for c in doc["characteristics"])
     return tuple(features), chars, tuple(datums.values()), tuple(frames.values())
 
@@ -367,11 +375,16 @@ def _alignment_state(alignment: dict) -> str:
 
 
 def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
-               freeform: str) -> Char:
+               freeform: str, regions: dict) -> Char:
     """One characteristic of the plan (its JSON entry) on its region's feature."""
-    kind = _PLAN_CHAR.get(c["type"], "SurfaceProfile")
+    kind = _PLAN_CHAR.get(c["type"], _DIMENSION_CHAR.get(c["type"], "SurfaceProfile"))
     if kind == "Diameter":
         kind = _SIZE_CHAR.get(c.get("feature", ""), kind)
+    if kind == "Radius" and c.get("feature") == "sphere":
+        kind = "SphericalRadius"
+    pair = c.get("regions") or []
+    other = regions.get(pair[1]) if kind in ("Angle", "DistanceBetween") and len(pair) > 1 \
+        else None
     if kind == "SurfaceProfile" and freeform == "OtherCurve":
         kind = "LineProfile"
     datums = tuple(c.get("datums") or ())
@@ -392,6 +405,15 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
            for k in ("Coaxiality", "Concentricity")},
         "Symmetry": f"symmetry of the median surface of {where}: a zone of two planes "
                     f"{fixed(upper - lower)} mm apart about the true median plane",
+        **{k: f"least-squares radius of {where}: {fixed(target or 0.0)} mm {signed(lower)} / "
+           f"{signed(upper)} mm" for k in ("Radius", "SphericalRadius")},
+        "Angle": f"angle between the least-squares features of regions '{' and '.join(pair)}' "
+                 f"({' and '.join(c.get('features') or [])}): {fixed(target or 0.0)} degrees "
+                 f"{signed(lower)} / {signed(upper)} degrees",
+        "DistanceBetween": f"distance between the least-squares features of regions "
+                           f"'{' and '.join(pair)}' "
+                           f"({' and '.join(c.get('features') or [])}): "
+                           f"{fixed(target or 0.0)} mm {signed(lower)} / {signed(upper)} mm",
         **{k: f"{c['type']} of {where}" + (f" at {c['angle']:g}°" if c.get("angle") else "")
            + (" (diametral: the axis)" if c.get("diametral") else "") + ": minimum zone at "
            f"most {fixed(upper - lower)} mm" for k in _FORM_AND_ORIENTATION},
@@ -410,7 +432,7 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
                 f"{app} verdict {c['verdict']}: {c.get('reason', '')}",
                 diametral=bool(c.get("diametral")), modifier=c.get("modifier") or "RFS",
                 bonus=c.get("bonus"), feature_kind=c.get("feature") or "",
-                vector=tuple(c.get("direction") or (0.0, 0.0, 1.0)))
+                vector=tuple(c.get("direction") or (0.0, 0.0, 1.0)), other=other)
 
 
 def _xs_datetime(value) -> str:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from .model import QIF_NAMESPACE, QIF_VERSION, Char, QIFError, Qif
+from .model import DIMENSION_KINDS, QIF_NAMESPACE, QIF_VERSION, Char, QIFError, Qif
 from .text import (algorithm, attributes, exact, file_description, fixed, format_name,
                    geometry, id_list, nmtoken, xml_attr, xml_text)
 
@@ -36,14 +36,21 @@ def write_header(w, q: Qif) -> None:
 
 
 def write_definitions(w, q: Qif) -> None:
-    """StandardsDefinitions (ASME Y14.5) and FileUnits (mm)."""
+    """StandardsDefinitions (ASME Y14.5) and FileUnits (mm; and degrees, the primary angular
+    unit, when an angle is among the characteristics)."""
     # Characteristics must cite a formal standard; OuterDisposition is the ASME form of an
     # unequally disposed profile zone.
     w(f'  <StandardsDefinitions n="1">\n    <Standard id="{q.ids.standard}">\n'
       "      <Organization>\n        <StandardsOrganizationEnum>ASME</StandardsOrganizationEnum>\n"
       "      </Organization>\n      <Designator>Y14.5</Designator>\n      <Year>2018</Year>\n"
       "    </Standard>\n  </StandardsDefinitions>\n")
-    w("  <FileUnits>\n    <PrimaryUnits>\n      <LinearUnit>\n"
+    w("  <FileUnits>\n    <PrimaryUnits>\n")
+    if any(c.kind == "Angle" for c in q.chars):  # an angle's values are degrees
+        w("      <AngularUnit>\n        <SIUnitName>radian</SIUnitName>\n"
+          "        <UnitName>degree</UnitName>\n        <UnitConversion>\n"
+          f"          <Factor>{math.pi / 180.0!r}</Factor>\n        </UnitConversion>\n"
+          "      </AngularUnit>\n")
+    w("      <LinearUnit>\n"
       "        <SIUnitName>meter</SIUnitName>\n        <UnitName>mm</UnitName>\n"
       "        <UnitConversion>\n          <Factor>0.001</Factor>\n        </UnitConversion>\n"
       "      </LinearUnit>\n    </PrimaryUnits>\n  </FileUnits>\n")
@@ -190,12 +197,19 @@ def write_characteristics(w, q: Qif) -> None:
     for c in q.chars:
         w(f'      <{c.kind}CharacteristicNominal id="{c.nominal_id}">\n'
           f"        <CharacteristicDefinitionId>{c.definition}</CharacteristicDefinitionId>\n")
-        w(id_list("FeatureNominalIds", [c.feature.nominal_id], 8))
+        w(id_list("FeatureNominalIds", [f.nominal_id for f in _features(c)], 8))
         if c.kind == "LineProfile":
             vector = "0 0 1" if tuple(c.vector) == (0.0, 0.0, 1.0) else exact(c.vector)
             w(f"        <Vector>{vector}</Vector>\n")
         if c.target is not None:
             w(f"        <TargetValue>{fixed(c.target)}</TargetValue>\n")
+        if c.kind == "DistanceBetween":
+            first, second = _features(c)
+            w('        <FeatureNominalPairs n="1">\n          <FeaturePair>\n'
+              f"            <FirstFeature>{first.nominal_id}</FirstFeature>\n"
+              f"            <SecondFeature>{second.nominal_id}</SecondFeature>\n"
+              "          </FeaturePair>\n        </FeatureNominalPairs>\n"
+              "        <AnalysisMode>THREEDIMENSIONAL</AnalysisMode>\n")
         w(f"      </{c.kind}CharacteristicNominal>\n")
     w(f'    </CharacteristicNominals>\n    <CharacteristicItems n="{n}">\n')
     for c in q.chars:
@@ -205,7 +219,7 @@ def write_characteristics(w, q: Qif) -> None:
             w("        <CharacteristicDesignator>\n"
               f"          <Designator>{xml_text(c.designator)}</Designator>\n"
               "        </CharacteristicDesignator>\n")
-        w(id_list("FeatureItemIds", [c.feature.item], 8))
+        w(id_list("FeatureItemIds", [f.item for f in _features(c)], 8))
         if q.ids.device:
             w(id_list("MeasurementDeviceIds", [q.ids.device], 8))
         w(f"        <CharacteristicNominalId>{c.nominal_id}</CharacteristicNominalId>\n"
@@ -220,7 +234,7 @@ def _zone(c: Char) -> str:
     a diameter's limits about its target; the datum reference frame where it has one."""
     s = " " * 8
     frame = f"{s}<DatumReferenceFrameId>{c.frame}</DatumReferenceFrameId>\n" if c.frame else ""
-    if c.kind in ("Diameter", "Width", "SphericalDiameter"):
+    if c.kind in ("Diameter", "Width", "SphericalDiameter") + DIMENSION_KINDS:
         return (f"{s}<Tolerance>\n{s}  <MaxValue>{fixed(c.upper)}</MaxValue>\n"
                 f"{s}  <MinValue>{fixed(c.lower)}</MinValue>\n"
                 f"{s}  <DefinedAsLimit>false</DefinedAsLimit>\n{s}</Tolerance>\n")
@@ -247,3 +261,8 @@ def _zone(c: Char) -> str:
         return (out + frame + f"{s}<MaterialCondition>NONE</MaterialCondition>\n"
                 f"{s}<ZoneShape>\n{s}  <{shape}/>\n{s}</ZoneShape>\n")
     return out
+
+
+def _features(c: Char) -> list:
+    """The features a characteristic is on: its one, or an angle's and a distance's two."""
+    return [c.feature] if c.other is None else [c.feature, c.other]
