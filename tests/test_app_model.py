@@ -758,3 +758,22 @@ def test_a_plans_instrument_decides_in_the_app_as_on_the_command_line(tmp_path):
     simple = run_files(*files, inspection_settings(None, str(plan), decision_rule="simple"))
     assert s.run.result.decision_rule == "simple"
     assert s.run.result.verdict == simple.result.verdict
+
+
+def test_an_angle_is_shown_in_degrees_and_a_size_in_mm():
+    """The Characteristics tab's values carry their unit: an angle's degrees (it showed
+    "60.0002 mm"), a size's mm."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from engine.gdt.plan import Characteristic
+    from engine.gdt.results import CharacteristicResult
+    from qa_app.desktop.model import characteristic_rows
+
+    angle = Characteristic("1", "angle", "a", -0.5, 0.5, nominal=60.0, regions=("a", "b"))
+    size = Characteristic("2", "size", "h", -0.1, 0.1, nominal=8.0)
+    results = [CharacteristicResult(angle, 60.0002, "ACCEPT", "", np.arange(3)),
+               CharacteristicResult(size, 8.01, "ACCEPT", "", np.arange(3))]
+    run = SimpleNamespace(result=SimpleNamespace(plan=SimpleNamespace(characteristics=results)))
+    assert [r.value for r in characteristic_rows(run)] == ["60.0002°", "8.0100 mm"]

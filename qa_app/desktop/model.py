@@ -281,8 +281,8 @@ class CharacteristicRow:
     requirement: str
     """The zone as the drawing states it (reports.messages.limits_text)."""
     value: str
-    """The measured value in the drawing's convention, mm, or "—" when it could not be
-    measured."""
+    """The measured value in the drawing's convention, mm (an angle's in degrees), or "—"
+    when it could not be measured."""
     points: int
     verdict: str
     reason: str
@@ -305,6 +305,8 @@ def characteristic_rows(run) -> list[CharacteristicRow]:
         rows.append(CharacteristicRow(
             c.id, c.type, SYMBOL.get(c.type, ""), c.region,
             "|".join(c.datums) if c.datums else "—", limits_text(c),
-            "—" if r.value is None else f"{r.value:.4f} mm", int(r.indices.size), r.verdict,
+            "—" if r.value is None else
+            f"{r.value:.4f}" + ("°" if c.unit == "degree" else " mm"), int(r.indices.size),
+            r.verdict,
             r.reason, r.indices, c.kind))
     return rows
