@@ -148,7 +148,8 @@ def mesh_cut(points: np.ndarray, triangles: np.ndarray, plane: Plane
     """The plane's cut of every triangle it crosses, unchained.
 
     A vertex on the plane counts as above it (a symbolic perturbation: the cut stays a set of
-    closed or boundary-ending chains even through vertices and along edges on the plane).
+    closed or boundary-ending chains even through vertices and along edges on the plane);
+    where that leaves nothing cut, the plane touching the mesh's low side, as below it.
     Returns (ends (s, 2, 3) each segment's two points, keys (s, 2) int64 the mesh edge each end
     lies on (a * n + b for its vertices a < b), triangle (s,) the triangle cut). An end is
     ``P[a] + t (P[b] - P[a])`` with ``t = d_a / (d_a - d_b)`` from the edge's lower vertex a,
@@ -159,6 +160,11 @@ def mesh_cut(points: np.ndarray, triangles: np.ndarray, plane: Plane
     d = plane.distance(P)
     above = d >= 0
     n_above = above[T].sum(axis=1)
+    if not np.any((n_above == 1) | (n_above == 2)) and np.any(d[T] == 0):
+        # The plane touches the mesh from below (its lowest vertices lie on it): those count as
+        # below, as the highest do at the other end, so both ends are cut alike.
+        above = d > 0
+        n_above = above[T].sum(axis=1)
     tri = np.flatnonzero((n_above == 1) | (n_above == 2))
     T = _welded(P, T[tri])
     a_side = above[T]
@@ -395,7 +401,12 @@ def section_of(result, plane: Plane, name: str = "A-A", band: float | None = Non
     if band is None:
         from .scene import typical_spacing
 
-        spacing = (typical_spacing(X) if seed is None else typical_spacing(X, seed=seed))
+        # Over distinct points, in their order: a point measured twice is no spacing.
+        U = X[np.sort(np.unique(X, axis=0, return_index=True)[1])]
+        spacing = (typical_spacing(U) if seed is None else typical_spacing(U, seed=seed))
+        if not spacing > 0:
+            raise SettingsError("the measured points give no spacing to set a section's band "
+                                "by (fewer than two distinct points): give --section-band MM")
         band = 0.5 * DEFAULT_BAND_SPACINGS * spacing
     elif not (math.isfinite(band) and band > 0):
         raise SettingsError(f"a section's band must be a positive number of mm, got {band:g}")

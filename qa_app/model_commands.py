@@ -160,6 +160,6 @@ def cmd_plan(args) -> int:
                                 view.names, view.order))
     if args.toml is not None:
         print(printable(f"TOML plan written to {args.toml} ({len(view.plan.characteristics)} "
-                        f"characteristics, {len(view.plan.not_judged)} not judged as "
-                        "comments)"))
+                        f"characteristics, {len(view.plan.not_judged)} not judged: "
+                        "[[not_judged]] tables)"))
     return 0

@@ -83,7 +83,8 @@ def summary_lines(sections) -> list[str]:
     for s in sections:
         d, t = s.signed, s.tolerance
         spread = (f"deviations {float(d.min()):+.4f} … {float(d.max()):+.4f} mm, "
-                  f"{int(((d < t.lower) | (d > t.upper)).sum())} out of tolerance"
+                  f"{int(((d < t.lower) | (d > t.upper)).sum())} outside the zone "
+                  f"{t.lower:+.4g} … {t.upper:+.4g} mm"
                   if d.size else "no deviation to show")
         out.append(f"  section {s.name}, {s.plane.name}: curve {s.curve.length:.1f} mm; "
                    f"{d.size} points within ±{s.band:.3g} mm of the plane, {spread}")

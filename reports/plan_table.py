@@ -116,7 +116,9 @@ def _rows(plan: Plan, faces: dict, names: dict[str, str], order: list[str] | Non
         judged.setdefault(c.id if order is None else c.id.split(".")[0], []).append(c)
     missing = {n.id: n for n in plan.not_judged}
     rows = []
-    for cid in order if order is not None else list(judged):
+    # Without the source's order (a TOML plan), its characteristics, then those it does not judge.
+    for cid in order if order is not None else [*judged, *(n for n in missing
+                                                          if n not in judged)]:
         for c in judged.get(cid, []):
             rows.append((c.id, names.get(cid, ""), f"{SYMBOLS.get(c.type, '')} {c.type}",
                          tolerance_words(c), modifier_words(c),
@@ -138,7 +140,8 @@ def plan_table(plan: Plan, faces: dict[str, tuple[int, ...]], heading: list[str]
     source's characteristic ids in its order (a QIF's; judged ones split per feature,
     ``ID.1`` …, follow their id), None: the plan's own order."""
     names = names or {}
-    total = plan.n_source if plan.n_source is not None else len(plan.characteristics)
+    total = plan.n_source if plan.n_source is not None else (
+        len(plan.characteristics) + len(plan.not_judged))
     lines = [*heading,
              f"{total} characteristics in {os.path.basename(plan.path)}: "
              f"{total - len(plan.not_judged)} supported, {len(plan.not_judged)} not"

@@ -128,3 +128,19 @@ def test_a_certificate_with_location_types_is_written_and_names_them(tmp_path):
         assert words in flat, words
     width = next(c for c in doc["characteristics"] if c["type"] == "size")
     assert "40.0000 -0.1000/+0.1000 mm" in flat and "Ø40.0000" not in flat, width
+
+
+def test_a_plan_with_hundreds_of_kinds_not_judged_still_makes_its_certificate(tmp_path):
+    """The seat bracket's plan and 200 [[not_judged]] kinds: REJECT (exit 1) with its
+    certificate written (it was exit 70, a LayoutError: the verdict cell outgrew the page)."""
+    sample = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                          "samples", "seat_bracket")
+    with open(os.path.join(sample, "plan.toml"), encoding="utf-8") as f:
+        text = f.read()
+    text += "".join(f'\n[[not_judged]]\nid = "n{i}"\ntype = "unsupported kind {i}"\n'
+                    'reason = "not judged here"\n' for i in range(200))
+    (tmp_path / "plan.toml").write_text(text, encoding="utf-8")
+    code = main(["inspect", os.path.join(sample, "nominal.xyz"),
+                 os.path.join(sample, "measured.csv"), "--plan", str(tmp_path / "plan.toml"),
+                 "--report", str(tmp_path / "c.pdf"), "--quiet"])
+    assert code == 1 and (tmp_path / "c.pdf").stat().st_size > 10_000

@@ -632,3 +632,22 @@ def test_faces_gives_the_names_the_file_gives(tmp_path, capsys):
     assert len(named) == 2 and all(rows[i - 1]["type"] == "plane" for i in named)
     code, out, _ = run(capsys, ["faces", str(path)])
     assert sum("MOUNTING_FACE" in line for line in out.splitlines()) == 2
+
+
+def test_the_table_of_a_written_toml_plan_lists_what_it_does_not_judge(tmp_path, capsys):
+    """`plan` on the TOML that `plan --toml` wrote for FTC-08: its 5 characteristics not judged
+    are rows with their reasons, and counted (the table had none of them, and counted
+    43 characteristics, 38 supported)."""
+    from engine.io.plan import read_plan
+
+    path = _toml_of("FTC-08", tmp_path, capsys)
+    plan = read_plan(path)
+    code, out, _ = run(capsys, ["plan", path])
+    assert code == 0
+    n, k = len(plan.characteristics), len(plan.not_judged)
+    assert k == 5
+    assert f"{n + k} characteristics in FTC-08.toml: {n} supported, {k} not" in out
+    assert sum(" no: " in line for line in out.splitlines()) == k
+    for nj in plan.not_judged:
+        assert any(line.startswith(nj.id + " ") and nj.reason[:40] in line
+                   for line in out.splitlines()), nj.id

@@ -572,3 +572,17 @@ def test_a_run_with_a_plan_parses_it_once_and_an_edited_plan_anew(monkeypatch, t
     plan.write_text(plan.read_text() + "\n# edited\n")
     assert read_plan(plan).sha256 == hashlib.sha256(plan.read_bytes()).hexdigest()
     assert len(parsed) == 2
+
+
+def test_the_summary_of_many_kinds_not_judged_stays_short(tmp_path):
+    """200 kinds not judged (one of them 5,000 characters long): the summary the verdict carries
+    names 8 kinds, each at most 80 characters, and counts the rest (a certificate's verdict cell
+    taller than a page ended in an internal error)."""
+    long = "x" * 5000
+    tables = "".join(f'[[not_judged]]\nid = "n{i}"\ntype = "kind {i}{long if i == 0 else ""}"'
+                     f'\nreason = "r"\n' for i in range(200))
+    plan = read_plan(write(tmp_path, BASE + char("1", PROFILE + "zone = 0.1") + tables))
+    summary = plan.not_judged_summary
+    assert summary.startswith("200 of 201 characteristics of plan.toml are not judged yet: ")
+    assert summary.endswith(" and 192 more kinds") and len(summary) < 1000
+    assert "kind 7" in summary and "kind 8" not in summary

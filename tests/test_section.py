@@ -5,6 +5,7 @@ solids, and the inspection's own deviations."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -394,3 +395,36 @@ def test_a_step_nominal_is_cut_exactly_from_the_command_line(tmp_path, capsys):
     full = 2 * (sm.BOX[0] + sm.BOX[1]) + 2 * math.pi * sm.HOLE_RADIUS
     assert full - 2.1 * s["curve"]["chord_mm"] <= s["curve"]["length_mm"] <= full
     assert s["n_points"] > 10 and abs(s["deviation_min"]) < 0.05
+
+
+def test_a_mesh_is_cut_alike_at_its_low_and_high_ends():
+    """A plane through the cylinder's bottom cap (its lowest vertices on it) is cut as its top
+    cap is: one loop, the polygon's perimeter (it "missed the part", exit 64, at the low end
+    while the high end was cut)."""
+    cpts, ctris = cylinder(20.0, 50.0, 36)
+    want = 36 * 40.0 * math.sin(math.pi / 36)
+    for z in (0.0, 50.0):
+        curve = mesh_section(cpts, ctris, axis_plane("z", z))
+        assert curve.closed == (True,), z
+        assert curve.length == pytest.approx(want, abs=1e-9), z
+
+
+def test_the_default_band_ignores_points_measured_twice(inspected):
+    """Every measured point repeated (a program run twice): the default band is the one of the
+    distinct points (the typical spacing was 0: a band of 0 mm showed no point)."""
+    nominal, res = inspected
+    twice = dataclasses.replace(res, registered=np.vstack([res.registered, res.registered]),
+                                deviations=dataclasses.replace(
+                                    res.deviations,
+                                    **{f: np.concatenate([getattr(res.deviations, f)] * 2)
+                                       for f in ("signed", "foot", "normal", "curved")}))
+    once = section_of(res, axis_plane("x", 30.0), "A-A", None, nominal=nominal, seed=0)
+    s = section_of(twice, axis_plane("x", 30.0), "A-A", None, nominal=nominal, seed=0)
+    assert s.band == once.band > 0 and len(s.index) == 2 * len(once.index)
+
+
+def test_a_band_from_one_distinct_point_is_refused(inspected):
+    nominal, res = inspected
+    one = dataclasses.replace(res, registered=np.repeat(res.registered[:1], 5, axis=0))
+    with pytest.raises(SettingsError, match="give --section-band MM"):
+        section_of(one, axis_plane("x", 30.0), "A-A", None, nominal=nominal, seed=0)

@@ -97,6 +97,10 @@ MIN_POINTS = {"plane": 3, "cylinder": 5, "sphere": 4, "line": 2, "circle": 3, "w
 are INCONCLUSIVE, never guessed)."""
 
 
+SUMMARY_KINDS = 8
+"""The kinds of characteristics not judged a plan's summary names, at most (the rest counted)."""
+SUMMARY_WORDS = 80
+"""The characters of a kind's name in that summary, at most."""
 MAX_CHARACTERISTICS = 10_000
 """The most characteristics a plan may hold (engine.io.plan refuses more): a first-article
 inspection of a large assembly has a few thousand; each costs its own judgement, and ten
@@ -330,7 +334,12 @@ class Plan:
         counts: dict[str, int] = {}
         for c in self.not_judged:
             counts[c.type] = counts.get(c.type, 0) + 1
-        types = ", ".join(t if k == 1 else f"{t} ({k})" for t, k in counts.items())
+        # At most SUMMARY_KINDS kinds, each at most SUMMARY_WORDS characters: the verdict that
+        # carries it must fit a certificate's cell (200 kinds made a cell taller than a page).
+        shown = [(t if len(t) <= SUMMARY_WORDS else t[:SUMMARY_WORDS - 1] + "…")
+                 + ("" if k == 1 else f" ({k})") for t, k in list(counts.items())[:SUMMARY_KINDS]]
+        more = len(counts) - SUMMARY_KINDS
+        types = ", ".join(shown) + (f" and {more} more kinds" if more > 0 else "")
         total = self.n_source if self.n_source is not None else (
             len(self.characteristics) + len(self.not_judged))
         return (f"{len(self.not_judged)} of {total} characteristics of "

@@ -118,7 +118,7 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     # Counted before parsing too: tomllib takes about 30 s over 100,000 of them.
     _not_too_many(len(_CHARACTERISTIC_HEADER.findall(raw)), path)
     tables = _tables(_parse(raw, path), path)
-    _not_too_many(len(tables["characteristic"]), path)
+    _not_too_many(len(tables["characteristic"]) + len(tables["not_judged"]), path)
     regions = tuple(_region(t) for t in tables["region"])
     _unique(tables["region"], "name")
     region_names = [r.name for r in regions]

@@ -58,5 +58,6 @@ def _caption(s, factor: float) -> str:
             "of the plane at the registered pose; each is drawn at its foot on the nominal, "
             "projected into the plane, with its deviation (as measured by the inspection) as a "
             f"whisker magnified {factor:g} times along the nominal's outward normal, coloured on "
-            "the scale at the right; the dashed lines are the tolerance zone's limits, "
-            "magnified the same.")
+            "the scale at the right; the dashed lines are the limits of the zone of the "
+            "statistics (section 3), magnified the same: with an inspection plan the verdict is "
+            "its characteristics' (section 2), not this zone's.")
