@@ -466,3 +466,22 @@ def test_orientation_to_a_width_datum_is_to_its_median_plane(nominal):
                                                     C("2", "perpendicularity", "A", 0.05, "W")))
     assert by_id(res, "1").value == pytest.approx(0.0, abs=1e-6), by_id(res, "1").reason
     assert by_id(res, "2").value == pytest.approx(0.0, abs=1e-6), by_id(res, "2").reason
+
+
+def test_a_width_sampled_in_narrow_strips_keeps_its_normal():
+    """Two faces x = 0 and x = 10 probed along strips 40 mm long and 0.4 mm high, and two
+    stray points 1.5 mm off one face: the least-squares width stays along x (its normal the
+    principal direction nearest the nominal's), about 10 mm, not turned 90 degrees onto the
+    strips' height (the direction of least pooled spread, 0.66 mm "wide": it gave CTC-01's slot
+    a position of 86 mm on a part whose datum A was bowed)."""
+    from engine.gdt.features import width_lsq
+
+    rng = np.random.default_rng(1)
+    y, z = rng.uniform(0, 40, 40), rng.uniform(0, 0.4, 40)
+    P = np.column_stack([np.r_[np.zeros(20), np.full(20, 10.0)], y, z])
+    P[:2, 0] = 1.5  # stray points: another face's, moved
+    side = np.r_[-np.ones(20), np.ones(20)]
+    fit = width_lsq(P, side, np.array([1.0, 0.0, 0.0]))
+    # (The least spread is along z here: that normal measured a "width" of 0.66 mm.)
+    assert abs(fit.direction @ [1.0, 0.0, 0.0]) > 0.99
+    assert fit.size == pytest.approx(10.0, abs=0.25)

@@ -489,14 +489,18 @@ def width_sides(normals: np.ndarray, axis: np.ndarray | None = None) -> tuple[np
 
 def width_lsq(points: np.ndarray, side: np.ndarray, hint: np.ndarray) -> SizeFit:
     """The least-squares width of ``points`` (n, dim) on two faces (``side`` +-1): two parallel
-    planes of one normal, each through its face's centroid, the normal of least pooled spread
-    (on the side of ``hint``); size: their distance, point: midway between the centroids."""
+    planes of one normal, each through its face's centroid, the normal a principal direction of
+    the pooled spread, the one nearest ``hint`` (the nominal's normal; on its side); size: their
+    distance, point: midway between the centroids. (Nearest the hint, not of least spread: a
+    face sampled in a narrow strip spreads less across its strip than a few stray points do
+    along the normal, and the least spread then turned the width 90 degrees.)"""
     up, down = points[side > 0], points[side < 0]
     if len(up) < WIDTH_SIDE or len(down) < WIDTH_SIDE:
         raise FeatureError(f"a width needs {WIDTH_SIDE} points on each face; it has "
                            f"{len(up)} and {len(down)}")
     a, b = up.mean(axis=0), down.mean(axis=0)
     pooled = np.vstack([up - a, down - b])
-    n = np.linalg.eigh(pooled.T @ pooled)[1][:, 0]
+    vectors = np.linalg.eigh(pooled.T @ pooled)[1]
+    n = vectors[:, int(np.argmax(np.abs(vectors.T @ hint)))]
     n = n if n @ hint >= 0.0 else -n
     return SizeFit(float(abs((a - b) @ n)), 0.5 * (a + b), n)
