@@ -156,16 +156,19 @@ def summary_csv(tracked: list[Tracked], rows: list[dict]) -> str:
     import csv
     import io
 
+    from reports.messages import spreadsheet_text
+
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["serial", "file", "sha256", "verdict", "max_abs_mm", "n_out"]
                + [f"value_{t.id}" for t in tracked] + ["time_s", "skipped", "message"])
     for r in rows:
-        w.writerow([r["serial"], r["file"], r["sha256"] or "", r["verdict"],
+        w.writerow([spreadsheet_text(r["serial"]), spreadsheet_text(r["file"]),
+                    r["sha256"] or "", r["verdict"],
                     _cell(r["max_abs"]), "" if r["n_out"] is None else r["n_out"]]
                    + [_cell(r["values"][t.id]) for t in tracked]
                    + [f"{r['time_s']:.3f}", "true" if r["skipped"] else "false",
-                      r["message"] or ""])
+                      spreadsheet_text(r["message"] or "")])
     return buf.getvalue()
 
 

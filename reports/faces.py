@@ -26,7 +26,7 @@ import io
 import math
 import os
 
-from reports.messages import printable
+from reports.messages import printable, spreadsheet_text
 
 CSV_COLUMNS = ("id", "type", "name", "part", "area_mm2", "point_x", "point_y", "point_z",
                "dir_x", "dir_y", "dir_z", "diameter", "minor_diameter", "half_angle_deg", "hole")
@@ -98,7 +98,8 @@ def faces_csv(step, areas: list[float]) -> str:
         v = face_values(face)
         cells = [repr(v[c]) if isinstance(v.get(c), float) else "" for c in CSV_COLUMNS[5:-1]]
         hole = "" if "hole" not in v else ("true" if v["hole"] else "false")
-        w.writerow([face.id, face.surface, face.name or "", face.part or "", repr(area),
+        w.writerow([face.id, face.surface, spreadsheet_text(face.name or ""),
+                    spreadsheet_text(face.part or ""), repr(area),
                     *cells, hole])
     return buf.getvalue()
 

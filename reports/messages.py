@@ -36,6 +36,25 @@ def printable(text) -> str:
     return _UNPRINTABLE.sub(lambda m: repr(m.group())[1:-1], str(text))
 
 
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def spreadsheet_text(text) -> str:
+    """``text`` from an input (a point label, a face or product name, a file name, a message
+    quoting one) as a CSV cell: a cell a spreadsheet would take for a formula (it begins with
+    ``=``, ``+``, ``-``, ``@``, a tab or a carriage return, and is not a plain number) gets a
+    leading apostrophe, so that opening a results file cannot run ``=HYPERLINK(…)`` or
+    ``=cmd|…`` written into a STEP file's face name (OWASP's CSV-injection rule)."""
+    text = str(text)
+    if not text.startswith(_FORMULA_START):
+        return text
+    try:
+        float(text)
+    except ValueError:
+        return "'" + text
+    return text
+
+
 def user_message(e: BaseException) -> str:
     """The one-line message for ``e`` (the command line prefixes it with ``qa-inspect: error:``),
     with whatever it quotes from the inputs :func:`printable`."""

@@ -19,6 +19,7 @@ from engine.choices import DecisionRule, Fit
 from engine.gdt.plan import DEFAULT_SECTIONS, DIMENSIONS, ORIENTATION, SYMBOLS
 from engine.inspection import InspectionResult
 from engine.pipeline import InputRecord, Run
+from reports.messages import spreadsheet_text
 
 SOFTWARE_NAME = "qa-inspect"
 CSV_COLUMNS = ("point", "label", "x", "y", "z", "x_reg", "y_reg", "z_reg", "deviation",
@@ -476,7 +477,7 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
     inside = result.in_tolerance
     excluded = result.outlier
     for i in range(measured.shape[0]):
-        label = str(labels[i]) if labels is not None else ""
+        label = spreadsheet_text(labels[i]) if labels is not None else ""
         row = [i + 1, label, *(f"{v:.6f}" for v in measured[i]), *(f"{v:.6f}" for v in reg[i]),
                f"{d[i]:.6f}", "true" if inside[i] else "false",
                "true" if excluded[i] else "false"]
@@ -485,6 +486,6 @@ def points_csv(result: InspectionResult, measured: np.ndarray,
         if U is not None:
             row.append(f"{U[i]:.6f}")
         if regions is not None:
-            row.append(regions[i])
+            row.append(spreadsheet_text(regions[i]))
         w.writerow(row)
     return buf.getvalue()

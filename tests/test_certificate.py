@@ -753,9 +753,9 @@ def test_identity_files_and_folders(signed, tmp_path, monkeypatch, capsys):
                  str(tmp_path / "c.pdf"), "--sign", str(tmp_path), "--sign-pass-env",
                  PASS_VAR])
     err = capsys.readouterr().err
-    assert code == 65 and "is a folder" in err and "cannot write" not in err
+    assert code == 66 and "is a folder" in err and "cannot write" not in err
     code = main(["verify", str(tmp_path), "--trust", str(signed.ca)])
-    assert code == 65 and "is a folder" in capsys.readouterr().err
+    assert code == 66 and "is a folder" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------------------- 11. who signed

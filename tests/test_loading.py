@@ -75,7 +75,7 @@ def test_bad_mesh_files(tmp_path):
         load_point_set(junk)
     with pytest.raises(InputNotFoundError, match="no such file"):
         load_point_set(tmp_path / "missing.stl")
-    with pytest.raises(InputNotFoundError, match="is not a file"):
+    with pytest.raises(InputNotFoundError, match="is a folder, not a file"):
         load_point_set(tmp_path)
     other = tmp_path / "x.step"
     other.write_text("ISO-10303-21;")

@@ -212,6 +212,26 @@ def test_faces_refuses_what_is_no_step_model_and_an_output_onto_its_input(tmp_pa
 
 # ------------------------------------------------------------------------------------ plan
 
+def test_a_part_name_that_is_a_spreadsheet_formula_is_written_as_text(tmp_path, capsys):
+    """A STEP product named '=HYPERLINK(...)' (names are free text in the file) is written to
+    the faces CSV's part column with a leading apostrophe, so that a spreadsheet opening it
+    shows the text and runs nothing; the terminal table shows the name as it is."""
+    with open(CTC01, encoding="latin-1") as f:
+        text = f.read()
+    formula = '=HYPERLINK("http://x.invalid","open")'
+    text = text.replace("'NIST Complex Test Case 1'", f"'{formula}'")
+    model = tmp_path / "named.stp"
+    model.write_text(text, encoding="latin-1")
+    out = tmp_path / "faces.csv"
+    code, stdout, err = run(capsys, ["faces", str(model), "--csv", str(out)])
+    assert code == 0, err
+    with open(out, newline="") as f:
+        parts = {r["part"] for r in csv.DictReader(f)}
+    assert parts == {"'" + formula}
+    code, stdout, err = run(capsys, ["faces", str(model)])
+    assert code == 0 and f"part {formula}" in stdout, err
+
+
 def xml_characteristics(path: str) -> dict[str, str]:
     """{id: kind} of the QIF file's characteristic nominals (the standard library's parser)."""
     root = ET.parse(path).getroot()

@@ -487,6 +487,17 @@ def _fifo_measured(d: Path, base: Base):
     return ["inspect", base.nominal, d / "m.csv", "--tol", "0.1"]
 
 
+def _fifo_nominal(suffix: str):
+    """A named pipe as the nominal (or the plan): every reader waited for a writer for ever
+    before (sha256_of and the readers opened it; only the measured file was checked)."""
+    def make(d: Path, base: Base):
+        os.mkfifo(d / f"n{suffix}")
+        if suffix in (".toml", ".qif"):
+            return ["inspect", base.nominal, base.measured, "--plan", d / f"n{suffix}"]
+        return ["inspect", d / f"n{suffix}", base.measured, "--tol", "0.1"]
+    return make
+
+
 def _forging_file_name(d: Path, base: Base):
     bad = d / f"m\n{FORGED}\x1b[2J.csv"
     bad.write_text("x,y,z\n1,2,3\n4,five,6\n")
@@ -550,6 +561,9 @@ FILES = [
     # issue 22 item 2: a signed ACCEPT that verified VALID
     attack("nominal-copy-as-measured", _nominal_copy, 65, "the measured file is the nominal"),
     attack("fifo-as-measured", _fifo_measured, 66, "is not a file"),
+    *(attack(f"fifo-as-{suffix[1:]}", _fifo_nominal(suffix), 66,
+             f"n{suffix}: is not a file (a named pipe, socket or device)")
+      for suffix in (".stp", ".dxf", ".ply", ".csv", ".toml", ".qif")),
     attack("file-name-forging-a-verdict-line", _forging_file_name, 65,
            f"m\\n{FORGED}\\x1b[2J.csv:3:"),
     attack("binary-bytes-in-a-text-file", _as_nominal("junk.xyz", b"1 2 3\n\x00\x07\x00\x01b\n"),

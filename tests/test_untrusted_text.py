@@ -169,3 +169,28 @@ def test_the_spc_report_shows_names_literally():
 def test_printable_writes_out_what_would_act_on_a_line(text, shown):
     assert printable(text) == shown
     assert printable(shown) == shown  # once is enough
+
+
+def test_a_point_label_that_is_a_spreadsheet_formula_is_written_as_text(tmp_path):
+    """Point labels are free text in a CMM file: in the results CSV a label a spreadsheet would
+    run as a formula ('=...', '+...', '-...', '@...') gets a leading apostrophe; a label that is
+    a plain number ('-7', '+3.5') stays as it is, and every other column is untouched."""
+    with open(os.path.join(BRACKET, "measured.csv")) as f:
+        rows = [r for r in f.read().splitlines() if r and not r.startswith(("#", "id"))]
+    labels = ["=HYPERLINK(A1)", "+cmd|' /C calc'!A0", "-P7", "@SUM(A1:A9)",
+              "-7", "+3.5", "P1"]
+    rows = [f'"{labels[i % len(labels)].replace(chr(34), chr(34) * 2)}",{r.split(",", 1)[1]}'
+            for i, r in enumerate(rows)]
+    path = tmp_path / "m.csv"
+    path.write_text("id,x,y,z\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    out = tmp_path / "out.csv"
+    code = main(["inspect", os.path.join(BRACKET, "nominal.xyz"), str(path), "--tol", "0.05",
+                 "--csv", str(out), "--quiet"])
+    assert code in (0, 1)
+    import csv
+    with open(out, newline="") as f:
+        got = [r["label"] for r in csv.DictReader(f)]
+    want = {"=HYPERLINK(A1)": "'=HYPERLINK(A1)",
+            "+cmd|' /C calc'!A0": "'+cmd|' /C calc'!A0", "-P7": "'-P7",
+            "@SUM(A1:A9)": "'@SUM(A1:A9)", "-7": "-7", "+3.5": "+3.5", "P1": "P1"}
+    assert got == [want[labels[i % len(labels)]] for i in range(len(rows))]

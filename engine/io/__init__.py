@@ -40,10 +40,7 @@ from .formats import ALL_SUFFIXES, is_template  # noqa: F401  (the package's fro
 def load_point_set(path: str | os.PathLike) -> PointSet:
     """Read a point, mesh or grid file (units: millimetres unless the file says otherwise)."""
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise InputNotFoundError("no such file", path)
-    if not os.path.isfile(path):
-        raise InputNotFoundError("is not a file", path)
+    formats.check_file(path)
     suffix, kind = formats.suffix_of(path), formats.kind_of(path)
     if kind == formats.MESH:
         from .meshes import read_mesh
@@ -63,6 +60,7 @@ def load_point_set(path: str | os.PathLike) -> PointSet:
 
 def sha256_of(path: str | os.PathLike) -> str:
     """SHA-256 of a file's bytes, hex. InputError (naming the file) when it cannot be read."""
+    formats.check_file(os.fspath(path))
     h = hashlib.sha256()
     try:
         with open(path, "rb") as f:

@@ -18,6 +18,7 @@ import struct
 import numpy as np
 
 from engine.errors import InputError, InputNotFoundError
+from . import formats
 from engine.pointset import PointSet
 
 from .child import CHILD_INPUT_ERROR, arrays_from_child
@@ -75,6 +76,7 @@ def read_e57(path: str) -> PointSet:
 
 
 def _head(path: str) -> bytes:
+    formats.check_file(path)
     try:
         with open(path, "rb") as f:
             return f.read(HEADER.size)

@@ -10,6 +10,9 @@ template, or :func:`engine.io.plan.read_plan` for an inspection plan: TOML, or Q
 from __future__ import annotations
 
 import os
+import stat
+
+from engine.errors import InputError, InputNotFoundError
 
 POINT_TEXT = "point text"
 """Delimited text point files (``engine.io.points``)."""
@@ -90,3 +93,19 @@ def kind_of(path: str | os.PathLike) -> str | None:
 def is_template(path: str | os.PathLike) -> bool:
     """Whether ``path`` is a 2D contour template (DXF drawing or airfoil ordinates)."""
     return kind_of(path) in TEMPLATE_KINDS
+
+
+def check_file(path: str) -> None:
+    """Before any reader opens ``path``: InputNotFoundError naming it when it does not exist, is
+    a folder, or is not a regular file (a named pipe, socket or device: opening or reading one
+    can wait for ever); InputError when it cannot be examined."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise InputNotFoundError("no such file", path) from None
+    except OSError as e:
+        raise InputError(f"cannot be read ({e.strerror})", path) from e
+    if stat.S_ISDIR(mode):
+        raise InputNotFoundError("is a folder, not a file", path)
+    if not stat.S_ISREG(mode):
+        raise InputNotFoundError("is not a file (a named pipe, socket or device)", path)

@@ -59,8 +59,7 @@ def read_points(path: str | os.PathLike) -> PointSet:
     """Read a text or ``.npy`` point file (see the module docstring for the layouts)."""
     path = os.fspath(path)
     suffix = os.path.splitext(path)[1].lower()
-    if not os.path.isfile(path):
-        raise InputNotFoundError("no such file", path)
+    formats.check_file(path)
     if formats.KIND.get(suffix) == formats.NPY:
         return _read_npy(path)
     if suffix in TEXT_SUFFIXES:
@@ -342,6 +341,7 @@ def _lines(raw: bytes, encoding: str, block: int = 1 << 22) -> list[str]:
 def read_bytes(path: str) -> bytes:
     """A file's bytes; InputNotFoundError / InputError naming the file (never a bare OSError)
     when it cannot be read. Every reader of the product reads its input through this."""
+    formats.check_file(path)
     try:
         with open(path, "rb") as f:
             return f.read()

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from engine.contour import Template2D, arc, build_template, segment
-from engine.errors import InputError, InputNotFoundError
+from engine.errors import InputError
 from . import formats
 from .points import COORD_LIMIT_MM, UNIT_SCALE_TO_MM, read_bytes, text_lines
 
@@ -90,8 +90,7 @@ def read_dxf_template(path: str | os.PathLike, layers: Sequence[str] | None = No
         header is wrong (exporters often write metres for millimetre drawings).
     """
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise InputNotFoundError("no such file", path)
+    formats.check_file(path)
     doc, recovered = _open_dxf(path)
     scale, unit_name, unitless = _drawing_units(doc, units, path)
     wanted = _wanted_layers(doc, layers, path)
@@ -430,8 +429,7 @@ def read_airfoil_template(path: str | os.PathLike, chord_mm: float) -> TemplateF
     template through its ordinates, scaled to ``chord_mm``. A blunt trailing edge is closed by
     a straight segment."""
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise InputNotFoundError("no such file", path)
+    formats.check_file(path)
     if not (chord_mm > 0 and math.isfinite(chord_mm)):
         raise InputError(f"--scale (chord length, mm) must be positive, got {chord_mm:g}", path)
     if chord_mm > COORD_LIMIT_MM:

@@ -44,7 +44,8 @@ import re
 
 import numpy as np
 
-from engine.errors import InputError, InputNotFoundError
+from engine.errors import InputError
+from .. import formats
 from engine.pointset import PointSet
 
 from ..points import COORD_LIMIT_MM
@@ -103,10 +104,7 @@ def check_step_file(path: str) -> str:
     InputError naming the file: missing, a folder, empty, over ``MAX_BYTES``, binary, not
     beginning with ``ISO-10303-21;``, without a HEADER or DATA section, or not ending with
     ``END-ISO-10303-21;`` (truncated)."""
-    if not os.path.exists(path):
-        raise InputNotFoundError("no such file", path)
-    if not os.path.isfile(path):
-        raise InputError("is a folder, not a file", path)
+    formats.check_file(path)
     size = os.path.getsize(path)
     if size == 0:
         raise InputError("the STEP file is empty", path)
