@@ -20,7 +20,7 @@ from .deviation import Deviations
 from .errors import SettingsError
 from .choices import DecisionRule, Fit, Verdict
 from .fits import FITS, minimax
-from .pose import apply_transform, apply_update, pose_jacobian
+from .pose import apply_transform, apply_update, lower_along, pose_jacobian
 from .nominal import Nominal
 from .registration import distinct_poses, pose_score, register
 from .registration_types import RegistrationResult, RegistrationSettings
@@ -324,12 +324,12 @@ def _lower_along(measure, T: np.ndarray, step: np.ndarray, c: np.ndarray, cost: 
     """The first of the Gauss-Newton ``step`` (about c) and its halves (``EXACT_HALVINGS``)
     from pose T whose sum of squared ``residuals(dev)`` is below ``cost``: (T', X', dev') with
     measure(T') = (X', dev'); None when none is."""
-    for k in range(EXACT_HALVINGS + 1):
-        T_new = apply_update(T, step / 2 ** k, c)
+    def evaluate(T_new):
         X_new, dev_new = measure(T_new)
-        if float(np.sum(residuals(dev_new) ** 2)) < cost:
-            return T_new, X_new, dev_new
-    return None
+        return float(np.sum(residuals(dev_new) ** 2)), (X_new, dev_new)
+
+    lower = lower_along(T, step, c, cost, evaluate, 2.0, EXACT_HALVINGS)
+    return None if lower is None else (lower[0], *lower[1])
 
 
 @dataclass(frozen=True)

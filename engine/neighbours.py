@@ -1,5 +1,6 @@
-"""Nearest-neighbour queries: how many threads a scipy cKDTree query is worth, and the constant-time
-nearest-sample lookup of the global search's coarse level (:class:`SampleLookup`)."""
+"""Nearest-neighbour queries: how many threads a scipy cKDTree query is worth, the points that
+coincide exactly (:func:`coincident_pairs`), and the constant-time nearest-sample lookup of the
+global search's coarse level (:class:`SampleLookup`)."""
 
 from __future__ import annotations
 
@@ -19,6 +20,32 @@ def query_workers(n_queries: int) -> int:
     """The ``workers`` argument of cKDTree.query for ``n_queries`` points: all cores (-1) for
     large queries, one thread below PARALLEL_QUERIES. The answer does not depend on it."""
     return -1 if n_queries >= PARALLEL_QUERIES else 1
+
+
+def coincident_pairs(points: np.ndarray, candidates: np.ndarray | None = None) -> np.ndarray:
+    """(k, 2) int64 pairs (representative, copy) of the points (n, 3) with exactly the same
+    coordinates, among ``candidates`` (indices; None: all): a mesh written face by face (a STEP
+    tessellation, an STL) or a closed grid's seam repeats its shared vertices. The
+    representative is the lowest-numbered point of its coordinates. Equal means the same bits:
+    -0.0 is not 0.0 (welding those too turned a grid's pole row, written with both, into one
+    that no longer registered). One sort of the coordinates' bits.
+
+    >>> coincident_pairs(np.array([[1., 2, 3], [0, 0, 0], [1, 2, 3], [-0., 0, 0]])).tolist()
+    [[0, 2]]
+    """
+    cand = np.arange(points.shape[0]) if candidates is None else np.asarray(candidates)
+    bits = np.ascontiguousarray(points[cand]).view(np.uint64).reshape(-1, 3)
+    # Equal points end up in runs (a stable sort keeps each run in index order, so its first
+    # point, the representative, has the lowest).
+    order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+    b = bits[order]
+    new_run = np.ones(len(b), dtype=bool)
+    new_run[1:] = np.any(b[1:] != b[:-1], axis=1)
+    if new_run.all():
+        return np.zeros((0, 2), np.int64)
+    rep = cand[order[np.flatnonzero(new_run)[np.cumsum(new_run) - 1]]]
+    copy = cand[order]
+    return np.column_stack([rep, copy])[rep != copy].astype(np.int64)
 
 
 LOOKUP_CELLS = 32768

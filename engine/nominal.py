@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from . import icp_kernels, kernels
 from .errors import InputError
-from .neighbours import SampleLookup, query_workers
+from .neighbours import SampleLookup, coincident_pairs, query_workers
 from .pointset import PointSet
 from .seeds import DEFAULT_SEED, rng
 
@@ -362,26 +362,15 @@ class Nominal:
         """(k, 2) pairs (representative, copy) of points with exactly the same coordinates: a
         closed grid's seam (a revolved surface whose last
         column repeats its first), a pole row, a mesh written without welding its vertices. Only
-        a grid's border can hold them; a mesh is searched whole (one sort of the coordinates'
-        bits)."""
+        a grid's border can hold them; a mesh is searched whole
+        (engine.neighbours.coincident_pairs)."""
         if self.kind == "grid" and self.grid_shape is not None:
             nu, nv = self.grid_shape
             ids = np.arange(self.n).reshape(nv, nu)
             cand = np.unique(np.concatenate([ids[0], ids[-1], ids[:, 0], ids[:, -1]]))
         else:
-            cand = np.arange(self.n)
-        bits = np.ascontiguousarray(self.points[cand]).view(np.uint64).reshape(-1, 3)
-        # One sort of the coordinates' bits: equal points end up in runs (a stable sort keeps
-        # each run in index order, so its first point, the representative, has the lowest).
-        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
-        b = bits[order]
-        new_run = np.ones(len(b), dtype=bool)
-        new_run[1:] = np.any(b[1:] != b[:-1], axis=1)
-        if new_run.all():
-            return np.zeros((0, 2), np.int64)
-        rep = cand[order[np.flatnonzero(new_run)[np.cumsum(new_run) - 1]]]
-        copy = cand[order]
-        return np.column_stack([rep, copy])[rep != copy].astype(np.int64)
+            cand = None
+        return coincident_pairs(self.points, cand)
 
     @property
     def sample_tree(self) -> cKDTree:

@@ -131,6 +131,20 @@ def apply_update(T: np.ndarray, p: np.ndarray, c: np.ndarray) -> np.ndarray:
     return compose_updates(T[None], np.asarray(p)[None], np.asarray(c)[None])[0]
 
 
+def lower_along(T: np.ndarray, step: np.ndarray, c: np.ndarray, cost: float, evaluate,
+                shorten: float, shortenings: int):
+    """Backtracking along a Gauss-Newton ``step`` (about ``c``) from pose T: the first of the
+    step and its shortenings (``step / shorten**k``, k = 1 … ``shortenings``) whose cost is
+    below ``cost``, as (T', what ``evaluate`` said there); None when none is. ``evaluate(T')``
+    returns (cost at T', anything the caller keeps)."""
+    for k in range(shortenings + 1):
+        T_new = apply_update(T, step / shorten ** k, c)
+        value, kept = evaluate(T_new)
+        if value < cost:
+            return T_new, kept
+    return None
+
+
 def pose_jacobian(X: np.ndarray, normals: np.ndarray, c: np.ndarray) -> np.ndarray:
     """d(deviation)/d[rotation, translation] of the update about the centre c
     (:func:`compose_updates`) at points X with unit surface (or contour) normals ``normals``.

@@ -33,6 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .errors import SettingsError
+from .neighbours import coincident_pairs
 from .tolerance import Tolerance
 
 AXES = ("x", "y", "z")
@@ -181,11 +182,12 @@ def _welded(P: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Triangles ``T`` (m, 3) with every vertex replaced by the lowest-numbered vertex of
     exactly the same coordinates: a mesh written face by face (a STEP tessellation, an STL)
     repeats its shared vertices, and its cut must join across them."""
-    used, inverse = np.unique(T.ravel(), return_inverse=True)
-    if not len(used):
+    pairs = coincident_pairs(P, np.unique(T))
+    if not len(pairs):
         return T
-    _, first, groups = np.unique(P[used], axis=0, return_index=True, return_inverse=True)
-    return used[first[groups.ravel()]][inverse].reshape(T.shape)
+    to = np.arange(P.shape[0])
+    to[pairs[:, 1]] = pairs[:, 0]
+    return to[T]
 
 
 def mesh_section(points: np.ndarray, triangles: np.ndarray, plane: Plane) -> SectionCurve:

@@ -16,7 +16,7 @@ from .neighbours import spread_subset
 from .nominal import Nominal
 from .outliers import (INCLUDED_FIT_ITERATIONS, fit_without_gross, gross_outliers, gross_rule,
                        robust_centre_sigma)
-from .pose import apply_transform, apply_update, gauss_newton_step
+from .pose import apply_transform, apply_update, gauss_newton_step, lower_along
 from .progress import report
 from .registration_types import PoseFit, RegistrationSettings, RobustFit
 
@@ -312,15 +312,14 @@ def _lower_along(nominal, pts, T, delta, c, mask, d):
     """The first of the step ``delta`` (about c) and its shortenings (``SHORTENINGS``) from pose T
     whose sum of squared deviations over ``mask`` is below that of ``d`` (the deviations at T):
     (T', Deviations at T', seconds their evaluation took); None when none is."""
-    cost = float(np.sum(d[mask] ** 2))
-    for k in range(SHORTENINGS + 1):
-        T_new = apply_update(T, delta / SHORTEN ** k, c)
+    def evaluate(T_new):
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, apply_transform(T_new, pts))
-        seconds = time.perf_counter() - t0
-        if float(np.sum(dev.signed[mask] ** 2)) < cost:
-            return T_new, dev, seconds
-    return None
+        return float(np.sum(dev.signed[mask] ** 2)), (dev, time.perf_counter() - t0)
+
+    lower = lower_along(T, delta, c, float(np.sum(d[mask] ** 2)), evaluate, SHORTEN,
+                        SHORTENINGS)
+    return None if lower is None else (lower[0], *lower[1])
 
 
 def robust_cut(d: np.ndarray, sigmas: float, floor: float) -> float:

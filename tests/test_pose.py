@@ -105,3 +105,25 @@ def test_a_gauss_newton_step_puts_a_shifted_sphere_back():
     assert np.linalg.norm(apply_transform(U, t0[None])) < 1e-5
     assert np.linalg.norm(step[:3]) < 1e-3
     assert np.allclose(c, xs.mean(axis=0))
+
+
+def test_lower_along_takes_the_first_shortening_that_lowers_the_cost():
+    """The backtracking both fits share (engine.pose.lower_along): a translation step of 8 mm
+    towards a target 1 mm away lowers |t - target|^2 first at 8 / 2^3 = 1 mm; with only two
+    halvings allowed no step lowers it; evaluate is called once per try, in order."""
+    from engine.pose import lower_along
+
+    target = np.array([1.0, 0.0, 0.0])
+    step = np.array([0, 0, 0, 8.0, 0, 0])
+    tried = []
+
+    def evaluate(T):
+        tried.append(T[0, 3])
+        return float(np.sum((T[:3, 3] - target) ** 2)), "kept"
+
+    T, kept = lower_along(np.eye(4), step, np.zeros(3), 1.0, evaluate, 2.0, 4)
+    assert np.allclose(T[:3, 3], target) and np.allclose(T[:3, :3], np.eye(3))
+    assert kept == "kept" and tried == [8.0, 4.0, 2.0, 1.0]
+    tried.clear()
+    assert lower_along(np.eye(4), step, np.zeros(3), 1.0, evaluate, 2.0, 2) is None
+    assert tried == [8.0, 4.0, 2.0]

@@ -428,3 +428,28 @@ def test_a_band_from_one_distinct_point_is_refused(inspected):
     one = dataclasses.replace(res, registered=np.repeat(res.registered[:1], 5, axis=0))
     with pytest.raises(SettingsError, match="give --section-band MM"):
         section_of(one, axis_plane("x", 30.0), "A-A", None, nominal=nominal, seed=0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_coincident_points_are_found_as_a_naive_comparison_finds_them(seed):
+    """engine.neighbours.coincident_pairs (the nominal's welding of a mesh written face by face
+    and the section's, one function) against the naive all-pairs comparison: every copy of a
+    point paired with the lowest-numbered point of the same coordinates (the same bits: -0.0 is
+    not 0.0), and a mesh's cut welded across its repeated vertices."""
+    from engine.neighbours import coincident_pairs
+    from engine.section import _welded
+
+    rng = np.random.default_rng(seed)
+    base = rng.integers(-2, 3, size=(40, 3)).astype(float)  # small grid: many repeats
+    base[rng.random(base.shape) < 0.2] *= -1.0  # some 0.0 become -0.0
+    cand = np.sort(rng.choice(40, 30, replace=False))
+    want = []
+    for j in cand:
+        same = [i for i in cand if base[i].tobytes() == base[j].tobytes()]
+        if same[0] != j:
+            want.append((same[0], j))
+    got = coincident_pairs(base, cand)
+    assert sorted(map(tuple, got.tolist())) == sorted(want)
+    tris = rng.choice(cand, size=(25, 3))
+    rep = {c: r for r, c in want}
+    assert _welded(base, tris).tolist() == [[rep.get(v, v) for v in t] for t in tris.tolist()]
