@@ -124,6 +124,7 @@ def characteristic_items(c: Characteristic) -> list[tuple[str, object]]:
         items.append(("all_around", True))
     if c.features and tuple(c.features) != ("plane", "plane"):
         items.append(("features", list(c.features)))
+    items += [(k, getattr(c, k)) for k in ("name", "designator", "source") if getattr(c, k)]
     return items
 
 

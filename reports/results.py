@@ -12,11 +12,12 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
 
 import numpy as np
 
 from engine.choices import DecisionRule, Fit
-from engine.gdt.plan import DEFAULT_SECTIONS, DIMENSIONS, ORIENTATION, SYMBOLS
+from engine.gdt.plan import DEFAULT_SECTIONS, DIMENSIONS, ORIENTATION, RESERVED_ID, SYMBOLS
 from engine.inspection import InspectionResult
 from engine.pipeline import InputRecord, Run
 from reports.messages import spreadsheet_text
@@ -194,7 +195,7 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
                                 "are at the plan's alignment; the tolerance is a characteristic "
                                 "over all points ('tol') when given, else only the zone of the "
                                 "per-point statistics (the plan's widest profile zone)",
-        "characteristics": [_characteristic_json(r, labels) for r in planned.characteristics],
+        "characteristics": [_characteristic_json(r, labels, rec) for r in planned.characteristics],
         **({} if not any(r.characteristic.type in DIMENSIONS for r in planned.characteristics)
            else {"dimension_value_definition": DIMENSION_DEFINITION}),
         "features": [_json_safe({"region": f.region, "feature": f.feature,
@@ -256,9 +257,13 @@ DIMENSION_DEFINITION = (
     "line, point to point; model_value: the same on the nominal model")
 
 
-def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
+def _characteristic_json(r, labels: np.ndarray | None = None,
+                         plan: InputRecord | None = None) -> dict:
     c = r.characteristic
-    out = {"id": c.id, "type": c.type, "region": c.region, "datums": list(c.datums),
+    out = {"id": c.id, **({"name": c.name} if c.name else {}),
+           **({"designator": c.designator} if c.designator else {}),
+           "source": _source(c, plan),
+           "type": c.type, "region": c.region, "datums": list(c.datums),
            "zone": _num(c.width), "lower": _num(c.lower), "upper": _num(c.upper),
            "value": None if r.value is None else _num(r.value),
            "n_points": int(r.indices.size), "verdict": r.verdict, "reason": r.reason,
@@ -292,6 +297,15 @@ def _characteristic_json(r, labels: np.ndarray | None = None) -> dict:
     out["symbol"] = SYMBOLS.get(c.type, "")
     out.update(_json_safe({k: v for k, v in r.facts.items() if k != "T_nominal_measured"}))
     return out
+
+
+def _source(c, plan: InputRecord | None) -> dict:
+    """Where a characteristic comes from: the plan file's name and the item in it (a QIF
+    element and its id; a TOML plan's table), or the --tol zone added to the plan."""
+    if c.id == RESERVED_ID and c.region == "(all points)":
+        return {"file": None, "item": "--tol: the zone over all points"}
+    return {"file": None if plan is None else os.path.basename(plan.path),
+            "item": c.source or f"[[characteristic]] id = \"{c.id}\""}
 
 
 def uncertainty_json(b, rule: str) -> dict:

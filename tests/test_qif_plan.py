@@ -230,6 +230,20 @@ def test_ctc01_measured_on_its_exact_faces_accepts_every_judged_characteristic(t
             assert c["value"] < 0.01
     assert doc["verdict"] == ("REJECT" if on_limit_out else "ACCEPT")
     assert code == (1 if on_limit_out else 0)
+    # Ids follow the source (issue 25): each carries the QIF's Name, its Designator (the
+    # drawing's balloon) and the element it was read from, as the standard library reads them.
+    xml = {e.get("id"): e for e in xml_characteristics(qif("CTC-01"))}
+    for c in chars:
+        e = xml[c["id"]]
+        assert c["name"] == e.findtext(QIF3 + "Name").strip()
+        assert c["designator"] == e.find(QIF3 + "CharacteristicDesignator").findtext(
+            QIF3 + "Designator").strip()
+        assert c["source"] == {"file": os.path.basename(qif("CTC-01")),
+                               "item": f"{e.tag[len(QIF3):]} {c['id']}"}
+    for out in on_limit_out:  # the reason names it by its balloon, its name and its id
+        c = next(c for c in chars if c["id"] == out)
+        assert any(r.startswith(f"characteristic {c['designator']} (size; {c['name']}, id "
+                                f"{out}) is out of tolerance") for r in doc["reasons"])
     assert doc["plan_faces"]["not_judged_summary"] == ""
     assert doc["plan_faces"]["not_judged"] == []
     assert not any("not judged" in r for r in doc["reasons"])
@@ -365,3 +379,23 @@ def test_a_pmi_linear_unit_is_the_unit_of_the_characteristics_values(tmp_path):
     step = read_step(stp("CTC-01"))
     assert {k: list(v) for k, v in qif_face_groups(str(inch), step).items()} == \
         {k: list(v) for k, v in qif_face_groups(qif("CTC-01"), step).items()}
+
+
+def test_a_characteristic_is_called_by_its_balloon_name_and_id():
+    """Messages and the certificate name a characteristic by the drawing's balloon (the QIF
+    Designator; the k-th part of a characteristic split per feature keeps its ".k"), with its
+    name and id; one without a designator by its id, as before."""
+    from engine.gdt.plan import Characteristic
+
+    c = Characteristic("1479", "size", "qif:2175", -0.1, 0.05, nominal=20.0,
+                       name="Linear Size.3", designator="3",
+                       source="DiameterCharacteristicNominal 1479")
+    assert c.balloon == "3"
+    assert c.called == "characteristic 3 (size; Linear Size.3, id 1479)"
+    split = Characteristic("1443.2", "position", "qif:2159", 0.0, 0.75, ("A",),
+                           designator="14", source="PositionCharacteristicNominal 1443")
+    assert split.balloon == "14.2" and split.called == "characteristic 14.2 (position; id 1443.2)"
+    plain = Characteristic("p1", "flatness", "top", 0.0, 0.1)
+    assert plain.balloon == "p1" and plain.called == "characteristic p1 (flatness)"
+    named = Characteristic("p2", "flatness", "top", 0.0, 0.1, name="Flatness of the top")
+    assert named.called == "characteristic p2 (flatness; Flatness of the top)"

@@ -102,11 +102,10 @@ def part_verdict(results) -> tuple[str, tuple[str, ...]]:
     out = [r for r in results if r.verdict == REJECT]
     unsure = [r for r in results if r.verdict == INCONCLUSIVE]
     if out:
-        return REJECT, tuple(f"characteristic {r.characteristic.id} ({r.characteristic.type}) "
-                             f"is out of tolerance: {r.reason}" for r in out)
+        return REJECT, tuple(f"{r.characteristic.called} is out of tolerance: {r.reason}"
+                             for r in out)
     if unsure:
-        return INCONCLUSIVE, tuple(f"characteristic {r.characteristic.id} "
-                                   f"({r.characteristic.type}) cannot be decided: {r.reason}"
+        return INCONCLUSIVE, tuple(f"{r.characteristic.called} cannot be decided: {r.reason}"
                                    for r in unsure)
     return ACCEPT, (f"all {len(results)} characteristics are within tolerance",)
 

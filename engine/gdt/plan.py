@@ -245,10 +245,36 @@ class Characteristic:
     features: tuple[str, ...] = ()
     """An angle or a distance: the feature each of its two ``regions`` is (plane, cylinder:
     its axis, sphere: its centre); () for the other types."""
+    name: str = ""
+    """Its name in the plan's source (a QIF characteristic's Name, e.g. "Position.1"), or ""."""
+    designator: str = ""
+    """Its balloon number on the drawing (a QIF characteristic's Designator, e.g. "14"), or "":
+    the certificate's balloon then shows ``id``."""
+    source: str = ""
+    """The item of a source other than the plan's own table it was read from: a QIF
+    characteristic nominal's element and id ("PositionCharacteristicNominal 1443"); ""."""
 
     @property
     def width(self) -> float:
         return self.upper - self.lower
+
+    @property
+    def balloon(self) -> str:
+        """Its number as the drawing's balloon shows it: the designator (the k-th of the
+        characteristics a source's one was split into keeps its ".k"), else the id."""
+        if not self.designator:
+            return self.id
+        item = self.source.rsplit(" ", 1)[-1]
+        split = self.id[len(item):] if item and self.id.startswith(item + ".") else ""
+        return self.designator + split
+
+    @property
+    def called(self) -> str:
+        """How a message names it: "characteristic p1 (size)"; from a QIF, by its balloon with
+        its name and id: "characteristic 3 (size; Linear Size.3, id 1479)"."""
+        more = ", ".join(x for x in (self.name, f"id {self.id}" if self.designator else "")
+                         if x)
+        return f"characteristic {self.balloon} ({self.type}{'; ' + more if more else ''})"
 
     @property
     def feature(self) -> str:

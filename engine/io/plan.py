@@ -57,6 +57,7 @@ checked by the inspection.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import functools
 import hashlib
@@ -128,8 +129,10 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     rps = tuple(_rps_point(t) for t in tables["rps"])
     _unique(tables["rps"], "label")
     alignment = _alignment(tables["alignment"][0], datums, region_names, bool(rps))
-    characteristics = tuple(_characteristic(t, region_names, datums)
-                            for t in tables["characteristic"])
+    characteristics = tuple(dataclasses.replace(
+        _characteristic(t, region_names, datums),
+        **{k: t.text(k, default="") or "" for k in ("name", "designator", "source")})
+        for t in tables["characteristic"])
     not_judged = tuple(NotJudged(*(t.text(k, required=k != "name", default="") or ""
                                    for k in KEYS["not_judged"])) for t in tables["not_judged"])
     _unique(tables["characteristic"] + tables["not_judged"], "id")

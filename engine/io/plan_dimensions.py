@@ -20,9 +20,12 @@ from engine.tolerance import ZONE_LIMIT_MM
 from .plan_tables import Table, known, show
 
 UNIT_WORDS = {"radius": "mm", "angle": "degrees", "distance": "mm"}
-KEYS_OF_DIMENSIONS = {"radius": ("id", "type", "region", "nominal", "lower", "upper", "feature"),
-                      **{k: ("id", "type", "regions", "nominal", "lower", "upper", "features")
-                         for k in ("angle", "distance")}}
+NAMES = ("name", "designator", "source")
+"""Keys every characteristic may hold: where it comes from and its balloon."""
+KEYS_OF_DIMENSIONS = {"radius": ("id", "type", "region", "nominal", "lower", "upper", "feature",
+                                 *NAMES),
+                      **{k: ("id", "type", "regions", "nominal", "lower", "upper", "features",
+                             *NAMES) for k in ("angle", "distance")}}
 """The keys of each dimension's [[characteristic]]."""
 
 

@@ -29,7 +29,8 @@ KEYS = {
     "rps": ("label", "nominal", "lock"),
     "characteristic": ("id", "type", "region", "zone", "lower", "upper", "nominal", "datums",
                        "fit", "direction", "sections", "diametral", "angle", "feature",
-                       "method", "modifier", "regions", "spacing", "all_around", "features"),
+                       "method", "modifier", "regions", "spacing", "all_around", "features",
+                       "name", "designator", "source"),
     # A characteristic of the plan's source that the plan cannot judge (written by
     # ``qa-inspect plan --toml`` from a QIF): the part is then never ACCEPT.
     "not_judged": ("id", "type", "name", "reason"),

@@ -22,6 +22,7 @@ angularity whose angle is not stated …), stays in ``Plan.not_judged`` with its
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 from engine.errors import InputError
@@ -106,7 +107,12 @@ class CharacteristicReader:
         if isinstance(made, str):
             self.not_judged.append(NotJudged(cid, words(kind), name, made))
         else:
-            self.judged.extend(made)
+            # Its name, balloon and element travel with it (the JSON's name, designator and
+            # source; the certificate's balloon).
+            designator = (e.findtext("{*}CharacteristicDesignator/{*}Designator") or "").strip()
+            self.judged.extend(dataclasses.replace(c, name=name, designator=designator,
+                                                   source=f"{local_name(e)} {cid}")
+                               for c in made)
 
     def finish(self) -> None:
         """A position at MMC or LMC needs its features' size limits: without a size

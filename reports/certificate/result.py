@@ -123,9 +123,11 @@ def _plan_table(c: Layout) -> list:
     for k, r in enumerate(c.plan.characteristics, start=1):
         ch = r.characteristic
         where = "all points" if ch.region == "(all points)" else f"region {ch.region}"
-        rows.append([_balloon(ch.id), symbol_drawing(ch.type, ch.kind),
+        named = f"{ch.name} (id {ch.id})" if ch.name else (
+            f"id {ch.id}" if ch.designator else "")
+        rows.append([_balloon(ch.balloon), symbol_drawing(ch.type, ch.kind),
                      P(f"{esc(type_word(c, ch.type, ch.kind))}<br/><font size=6.5>"
-                       f"{esc(where)}</font>",
+                       f"{esc(where)}" + (f"<br/>{esc(named)}" if named else "") + "</font>",
                        S["cell"]),
                      P(esc(limits_text(ch).replace("⌀", "Ø")), S["cell"]),
                      "|".join(ch.datums) or ("—" if ch.type in ("size",) + DIMENSIONS
@@ -137,7 +139,7 @@ def _plan_table(c: Layout) -> list:
                  ("TEXTCOLOR", (7, k), (7, k), colors.white),
                  ("FONT", (7, k), (7, k), "Vera-Bold", 7.5)]
     # Why each one is not accepted, unless the verdict's reasons above already say it.
-    notes = [f"Characteristic {r.characteristic.id}: {r.reason}."
+    notes = [f"{r.characteristic.called[0].upper()}{r.characteristic.called[1:]}: {r.reason}."
              for r in c.plan.characteristics if r.verdict != ACCEPT and r.reason not in c.reasons]
     types = dict.fromkeys(r.characteristic.type for r in c.plan.characteristics)
     words = dict(VALUE_WORDS, **({"position": VALUE_WORDS["position"].replace(
