@@ -130,9 +130,9 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     _unique(tables["rps"], "label")
     alignment = _alignment(tables["alignment"][0], datums, region_names, bool(rps))
     characteristics = tuple(dataclasses.replace(
-        _characteristic(t, region_names, datums),
-        **{k: t.text(k, default="") or "" for k in ("name", "designator", "source")})
-        for t in tables["characteristic"])
+        _characteristic(t, region_names, datums), name=t.text("name", default="") or "",
+        designator=t.text("designator", default="") or "",
+        source=t.text("source", default="") or "") for t in tables["characteristic"])
     not_judged = tuple(NotJudged(*(t.text(k, required=k != "name", default="") or ""
                                    for k in KEYS["not_judged"])) for t in tables["not_judged"])
     _unique(tables["characteristic"] + tables["not_judged"], "id")
