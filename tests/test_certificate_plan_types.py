@@ -56,6 +56,26 @@ group = "face:25"
 [[region]]
 name = "slot"
 group = ["face:38", "face:42"]
+[[region]]
+name = "h1"
+group = ["face:72", "face:73"]
+[[region]]
+name = "h2"
+group = ["face:74", "face:75"]
+[[region]]
+name = "hD"
+group = ["face:90", "face:91"]
+[[region]]
+name = "hE"
+group = ["face:76", "face:77"]
+[[datum]]
+label = "D"
+region = "hD"
+feature = "cylinder"
+[[datum]]
+label = "E"
+region = "hE"
+feature = "cylinder"
 [[datum]]
 label = "A"
 region = "top"
@@ -95,13 +115,20 @@ feature = "width"
 nominal = 40.0
 lower = -0.1
 upper = 0.1
+[[characteristic]]
+id = "5"
+type = "position"
+regions = ["h1", "h2"]
+zone = 0.75
+datums = ["A", "D", "E"]
 """
 
 
 def test_a_certificate_with_location_types_is_written_and_names_them(tmp_path):
-    """Points on CTC-01's exact faces judged by a plan of coaxiality, concentricity, symmetry
-    and a width's size: the certificate is written (it was an internal error), with each type
-    in its words and a width's size without the diameter sign."""
+    """Points on CTC-01's exact faces judged by a plan of coaxiality, concentricity, symmetry,
+    a width's size and a pattern's position: the certificate is written (each was an internal
+    error: the QIF it embeds joined a pattern's facts as an angle's two features), with each
+    type in its words and a width's size without the diameter sign."""
     from engine.io.step import read_step
     from step_models import random_pose
     from sweep import on_part
@@ -117,7 +144,7 @@ def test_a_certificate_with_location_types_is_written_and_names_them(tmp_path):
     assert code in (0, 1, 2)
     doc = json.loads((tmp_path / "r.json").read_text())
     assert {c["type"] for c in doc["characteristics"]} == {"coaxiality", "concentricity",
-                                                           "symmetry", "size"}
+                                                           "symmetry", "size", "position"}
     text = subprocess.run([shutil.which("pdftotext") or "pdftotext", "-raw",
                            str(tmp_path / "c.pdf"), "-"], capture_output=True, text=True,
                           check=True).stdout
@@ -126,6 +153,8 @@ def test_a_certificate_with_location_types_is_written_and_names_them(tmp_path):
                   "coaxiality: the diameter of the smallest cylinder about the datum axis",
                   "symmetry: the width of the smallest zone centred on the datum plane"):
         assert words in flat, words
+    pattern = next(c for c in doc["characteristics"] if c["type"] == "position")
+    assert pattern["verdict"] == "ACCEPT" and pattern["value"] < 0.01, pattern
     width = next(c for c in doc["characteristics"] if c["type"] == "size")
     assert "40.0000 -0.1000/+0.1000 mm" in flat and "Ø40.0000" not in flat, width
 

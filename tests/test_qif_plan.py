@@ -6,6 +6,7 @@ of points sampled on the exact faces in a random pose, and the refusals (exit 65
 
 import json
 import os
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -399,3 +400,99 @@ def test_a_characteristic_is_called_by_its_balloon_name_and_id():
     assert plain.balloon == "p1" and plain.called == "characteristic p1 (flatness)"
     named = Characteristic("p2", "flatness", "top", 0.0, 0.1, name="Flatness of the top")
     assert named.called == "characteristic p2 (flatness; Flatness of the top)"
+
+
+def _mutated(tmp_path, *swaps, name="m.qif") -> str:
+    """CTC-01's QIF with each (old, new) of ``swaps`` replaced (the first occurrence, or all
+    when the third item is True)."""
+    text = Path(qif("CTC-01")).read_text(encoding="utf-8")
+    for old, new, *every in swaps:
+        assert old in text, old
+        text = text.replace(old, new) if every and every[0] else text.replace(old, new, 1)
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return str(path)
+
+
+@pytest.mark.parametrize("swaps, says", [
+    ([('<FlatnessCharacteristicNominal id="1470">', "<FlatnessCharacteristicNominal>")],
+     "a FlatnessCharacteristicNominal (Flatness.1) has no id"),
+    ([('<DiameterCharacteristicNominal id="1473">', '<DiameterCharacteristicNominal id="1470">')],
+     "two characteristic nominals have the id 1470 (Flatness.1 and Linear Size.1)"),
+    ([("<DatumLabel>B</DatumLabel>", "<DatumLabel>A</DatumLabel>")],
+     "datum definitions 1432 and 1435 are both labelled A"),
+    ([("<DatumLabel>B</DatumLabel>", "<DatumLabel></DatumLabel>")],
+     "datum definition 1435 has no DatumLabel"),
+])
+def test_a_qif_plan_whose_ids_or_labels_do_not_name_one_item_is_refused(tmp_path, swaps, says):
+    """A characteristic nominal without an id (its results could not name it: the certificate
+    and `plan` ended in an internal error), two with one id, two datums with one label (the
+    frames' A|A|C were judged), a datum without a label: refused, naming the file and the
+    items."""
+    from engine.errors import InputError
+    from engine.io.qif_plan import read_qif_plan
+
+    path = _mutated(tmp_path, *swaps)
+    with pytest.raises(InputError, match=re.escape(f"{path}: {says}")):
+        read_qif_plan(path)
+
+
+def test_a_qif_plan_of_more_characteristics_than_a_plan_may_hold_is_refused(tmp_path):
+    """The TOML plan's limit (engine.gdt.plan.MAX_CHARACTERISTICS) holds for a QIF's
+    characteristic nominals too: 12,000 flatness nominals judged one by one for 17 s before."""
+    from engine.errors import InputError
+    from engine.gdt.plan import MAX_CHARACTERISTICS
+    from engine.io.qif_plan import read_qif_plan
+
+    e = xml_characteristics(qif("CTC-01"))[5]
+    assert e.get("id") == "1470"
+    text = Path(qif("CTC-01")).read_text(encoding="utf-8")
+    start = text.index('<FlatnessCharacteristicNominal id="1470">')
+    end = text.index("</FlatnessCharacteristicNominal>", start) + len(
+        "</FlatnessCharacteristicNominal>")
+    copies = "".join(text[start:end].replace('id="1470"', f'id="9{k:06d}"')
+                     for k in range(MAX_CHARACTERISTICS))
+    path = tmp_path / "many.qif"
+    path.write_text(text[:end] + copies + text[end:], encoding="utf-8")
+    with pytest.raises(InputError, match="holds 10,014 characteristics; a plan may hold at "
+                                         "most 10,000"):
+        read_qif_plan(str(path))
+
+
+def test_a_hyphen_in_a_qif_datum_label_is_part_of_the_label(tmp_path):
+    """"B-1" names datum B-1, not a common datum of B and 1 (the frames' checks split it and
+    ended in an internal error): the plan reads, its frames name B-1."""
+    from engine.io.qif_plan import read_qif_plan
+
+    plan = read_qif_plan(_mutated(tmp_path, ("<DatumLabel>B</DatumLabel>",
+                                             "<DatumLabel>B-1</DatumLabel>")))
+    assert "B-1" in {d.label for d in plan.datums}
+    frames = {c.datums for c in plan.characteristics if c.datums}
+    assert ("A", "B-1", "C") in frames and not any("B" in f for f in frames)
+
+
+@pytest.mark.parametrize("angle, unit, degrees", [("1.5707963267948966", "radian", 90.0),
+                                                   ("90", "degree", 90.0),
+                                                   ("0.25", "revolution", 90.0)])
+def test_an_angularity_takes_its_angle_in_its_angular_unit(tmp_path, angle, unit, degrees):
+    """CTC-01's perpendicularity 1467 written as an angularity at 90° in each unit the file
+    declares: the angle is read in degrees (a radian was taken for degrees: 1.57°)."""
+    from engine.io.qif_plan import read_qif_plan
+
+    path = _mutated(tmp_path, ("PerpendicularityCharacteristic", "AngularityCharacteristic", True),
+                    ("<Name>Perpendicularity.1</Name>",
+                     f'<Name>Angularity.1</Name><Angle angularUnit="{unit}">{angle}</Angle>'))
+    c = next(c for c in read_qif_plan(path).characteristics if c.id == "1467")
+    assert c.type == "angularity" and c.angle == pytest.approx(degrees, abs=1e-9)
+
+
+def test_an_angularity_in_a_unit_the_file_does_not_declare_is_refused(tmp_path):
+    from engine.errors import InputError
+    from engine.io.qif_plan import read_qif_plan
+
+    path = _mutated(tmp_path, ("PerpendicularityCharacteristic", "AngularityCharacteristic", True),
+                    ("<Name>Perpendicularity.1</Name>",
+                     '<Name>Angularity.1</Name><Angle angularUnit="grad">100</Angle>'))
+    with pytest.raises(InputError, match="characteristic 1467's Angle: angularUnit 'grad' is "
+                                         "not one of the file's units"):
+        read_qif_plan(path)

@@ -391,6 +391,14 @@ def datum_parts(label: str, labels) -> tuple[str, ...] | None:
     return parts if len(parts) > 1 and all(p in labels for p in parts) else None
 
 
+def not_too_many(count: int, path: str) -> None:
+    """Refuse a plan (a TOML's, a QIF's) of more than MAX_CHARACTERISTICS characteristics."""
+    if count > MAX_CHARACTERISTICS:
+        raise InputError(f"holds {count:,} characteristics; a plan may hold at most "
+                         f"{MAX_CHARACTERISTICS:,} (split it into plans of parts of the "
+                         "drawing)", path)
+
+
 def known_datum_parts(label: str, labels) -> tuple[str, ...]:
     """:func:`datum_parts` of a reference the plan must resolve (a characteristic's datum): an
     InputError when it names no datum of ``labels``, nor a common datum of two of them."""

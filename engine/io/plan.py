@@ -71,9 +71,9 @@ from engine.errors import InputError
 from engine.errors import SettingsError
 from engine.tolerance import ZONE_LIMIT_MM, check_zone
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, DIMENSIONS,
-                             FEATURES_2D, FEATURES_3D, FORM, LOCATION, MAX_CHARACTERISTICS,
-                             MAX_DATUMS, ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts,
-                             known_datum_parts, RESERVED_ID, Alignment, Characteristic, Datum,
+                             FEATURES_2D, FEATURES_3D, FORM, LOCATION, MAX_DATUMS,
+                             ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts, known_datum_parts,
+                             not_too_many, RESERVED_ID, Alignment, Characteristic, Datum,
                              Measurement, NotJudged, Part, Plan, Region, RpsPoint)
 from engine.uncertainty import Instrument
 
@@ -117,9 +117,9 @@ def _plan_of(raw: bytes, path: str) -> Plan:
     bytes always give the same (frozen) Plan, so they are parsed once (10,000 characteristics
     take seconds); a file changed in between is read anew."""
     # Counted before parsing too: tomllib takes about 30 s over 100,000 of them.
-    _not_too_many(len(_CHARACTERISTIC_HEADER.findall(raw)), path)
+    not_too_many(len(_CHARACTERISTIC_HEADER.findall(raw)), path)
     tables = _tables(_parse(raw, path), path)
-    _not_too_many(len(tables["characteristic"]) + len(tables["not_judged"]), path)
+    not_too_many(len(tables["characteristic"]) + len(tables["not_judged"]), path)
     regions = tuple(_region(t) for t in tables["region"])
     _unique(tables["region"], "name")
     region_names = [r.name for r in regions]
@@ -162,14 +162,6 @@ def check_zones(plan: Plan, size: float | None = None) -> None:
 
 _CHARACTERISTIC_HEADER = re.compile(rb'^[ \t]*\[\[[ \t]*"?characteristic"?[ \t]*\]\]', re.M)
 """A line opening a [[characteristic]] table."""
-
-
-def _not_too_many(count: int, path: str) -> None:
-    """Refuse a plan of more than MAX_CHARACTERISTICS characteristics."""
-    if count > MAX_CHARACTERISTICS:
-        raise InputError(f"holds {count:,} characteristics; a plan may hold at most "
-                         f"{MAX_CHARACTERISTICS:,} (split it into plans of parts of the "
-                         "drawing)", path)
 
 
 def _parse(raw: bytes, path: str) -> dict:

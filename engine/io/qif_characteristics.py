@@ -26,7 +26,7 @@ import dataclasses
 import re
 
 from engine.errors import InputError
-from engine.gdt.plan import ORIENTATION, RUNOUT, Characteristic, NotJudged
+from engine.gdt.plan import ORIENTATION, RUNOUT, Characteristic, NotJudged, datum_parts
 
 from .qif_dimensions import KINDS as DIMENSION_KINDS
 from .qif_dimensions import read_dimension
@@ -87,8 +87,15 @@ class CharacteristicReader:
 
     def read(self, e) -> None:
         kind = re.sub(r"CharacteristicNominal$", "", local_name(e))
-        cid = e.get("id")
+        cid = (e.get("id") or "").strip()
         name = (e.findtext("{*}Name") or "").strip()
+        if not cid:
+            raise InputError(f"a {local_name(e)}{f' ({name})' if name else ''} has no id",
+                             self.path)
+        if cid in self.names:
+            raise InputError(f"two characteristic nominals have the id {cid} ("
+                             f"{self.names[cid][1] or self.names[cid][0]} and "
+                             f"{name or words(kind)}): an id names one item", self.path)
         definition = self.index.get((e.findtext("{*}CharacteristicDefinitionId") or "").strip())
         if definition is None:
             raise InputError(f"characteristic {cid} ({name}): its CharacteristicDefinitionId "
@@ -187,12 +194,12 @@ class CharacteristicReader:
                     f"{len(labels)} datums")
         axis = {"coaxiality": "cylinder", "concentricity": "cylinder", "symmetry": "plane",
                 **{k: "cylinder" for k in RUNOUT}}.get(plan_type)
-        if axis and any(self._datum(p).feature != axis for p in labels[0].split("-")):
+        if axis and any(self._datum(p).feature != axis for p in self._parts(labels[0])):
             return (f"its datum {labels[0]} is no {axis}: a {plan_type.replace('_', ' ')} is "
                     f"relative to a datum {'axis' if axis == 'cylinder' else 'plane'}")
         regions = {"qif:" + i for i in ids} | {self._region(ids)}
         for label in labels:
-            for part in label.split("-"):
+            for part in self._parts(label):
                 if self._datum(part).region in regions:
                     return f"its datum {part} is its own feature"
         return ""
@@ -200,12 +207,18 @@ class CharacteristicReader:
     def _datum(self, label: str):
         return next(d for d in self.datums.values() if d.label == label)
 
+    def _parts(self, label: str) -> tuple[str, ...]:
+        """The datum labels a reference of a frame names: itself, or a common datum's parts
+        (a label may hold a hyphen itself: "B-1")."""
+        return datum_parts(label, [d.label for d in self.datums.values()]) or (label,)
+
     def _angle(self, e) -> float | None:
-        text = e.findtext("{*}Angle")
-        try:
-            return None if text is None else float(text)
-        except ValueError:
+        """An angularity's basic angle, degrees (in its angularUnit, as the file's units say;
+        InputError for no number or an unknown unit); None when it states none."""
+        element = e.find("{*}Angle")
+        if element is None:
             return None
+        return self.units.angle(element, f"characteristic {e.get('id')}'s Angle")
 
     @staticmethod
     def _region(ids: list[str]) -> str:

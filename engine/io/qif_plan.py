@@ -43,7 +43,7 @@ from typing import cast
 import numpy as np
 
 from engine.errors import InputError
-from engine.gdt.plan import Alignment, Datum, Part, Plan, Region
+from engine.gdt.plan import Alignment, Datum, Part, Plan, Region, not_too_many
 
 from .points import read_bytes
 from .qif_characteristics import RFS, CharacteristicReader
@@ -202,6 +202,7 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
     frames = _frames(root, datums, datum_notes, path)
     reader = CharacteristicReader(path, index, units, features, datums, frames)
     nominals = [e for e in _children(root, "Characteristics/{*}CharacteristicNominals")]
+    not_too_many(len(nominals), path)
     for e in nominals:
         reader.read(e)
     reader.finish()
@@ -380,8 +381,15 @@ def _datums(root, features: dict, path: str) -> tuple[dict[str, Datum], dict[str
     """{DatumDefinition id: plan Datum} for those on one plane, cylinder, sphere or width with faces,
     and {id: why not} for the others (with their label)."""
     datums, notes = {}, {}
+    seen: dict[str, str] = {}  # label -> the DatumDefinition's id
     for e in _children(root, "DatumDefinitions"):
         label = (e.findtext("{*}DatumLabel") or "").strip()
+        if not label:
+            raise InputError(f"datum definition {e.get('id')} has no DatumLabel", path)
+        if label in seen:
+            raise InputError(f"datum definitions {seen[label]} and {e.get('id')} are both "
+                             f"labelled {label}: a datum label names one datum", path)
+        seen[label] = e.get("id") or "?"
         ids = ids_of(e, "FeatureNominalIds")
         kinds = [features[i].kind if i in features else "?" for i in ids]
         if len(ids) != 1 or kinds[0] not in DATUM_FEATURES or not features[ids[0]].faces:

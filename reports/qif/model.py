@@ -392,6 +392,9 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
     lower, upper = float(c["lower"]), float(c["upper"])
     target = None if c.get("nominal") is None else float(c["nominal"])
     where = f"region '{c['region']}'" + (f" relative to {'|'.join(datums)}" if datums else "")
+    # An angle's or a distance's two features (a pattern's "features" are its fits' facts).
+    pair_features = " and ".join(c.get("features") or []) \
+        if kind in ("Angle", "DistanceBetween") else ""
     text = {
         "Flatness": f"flatness of {where}: minimum-zone width at most {fixed(upper - lower)} mm",
         "Position": f"position of the axis of {where}: a cylindrical zone of diameter "
@@ -408,11 +411,11 @@ def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
         **{k: f"least-squares radius of {where}: {fixed(target or 0.0)} mm {signed(lower)} / "
            f"{signed(upper)} mm" for k in ("Radius", "SphericalRadius")},
         "Angle": f"angle between the least-squares features of regions '{' and '.join(pair)}' "
-                 f"({' and '.join(c.get('features') or [])}): {fixed(target or 0.0)} degrees "
+                 f"({pair_features}): {fixed(target or 0.0)} degrees "
                  f"{signed(lower)} / {signed(upper)} degrees",
         "DistanceBetween": f"distance between the least-squares features of regions "
                            f"'{' and '.join(pair)}' "
-                           f"({' and '.join(c.get('features') or [])}): "
+                           f"({pair_features}): "
                            f"{fixed(target or 0.0)} mm {signed(lower)} / {signed(upper)} mm",
         **{k: f"{c['type']} of {where}" + (f" at {c['angle']:g}°" if c.get("angle") else "")
            + (" (diametral: the axis)" if c.get("diametral") else "") + ": minimum zone at "
