@@ -292,7 +292,7 @@ BAD = [
      "leaves no radius: nominal 5 + lower -5 must be > 0"),
     ("a radius with a method", _char('type = "radius"\nregion = "hole"\nnominal = 5\n'
                                      'lower = -1\nupper = 1\nmethod = "two-point"\n'), "method",
-     "does not apply to radius (its keys are id, type, region, nominal, lower, upper, feature)"),
+     "does not apply to radius (its keys are id, type, region, nominal, lower, upper, feature, name, designator, source)"),
     ("features on a profile", _char('type = "profile"\nregion = "top"\nzone = 0.1\n'
                                     'features = ["plane", "plane"]\n'), "features",
      "applies to angle and distance only, not profile"),

@@ -107,7 +107,8 @@ def part_verdict(results) -> tuple[str, tuple[str, ...]]:
     if unsure:
         return INCONCLUSIVE, tuple(f"{r.characteristic.called} cannot be decided: {r.reason}"
                                    for r in unsure)
-    return ACCEPT, (f"all {len(results)} characteristics are within tolerance",)
+    return ACCEPT, ((f"all {len(results)} characteristics are within tolerance"
+                     if len(results) != 1 else "its one characteristic is within tolerance"),)
 
 
 def judge(c: Characteristic, idx: np.ndarray, geo: Geometry, shared: Shared, T_part):

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import InputError
 from .datums import Alignment, align_rps
+from .features import WIDTH_SIDE
 from .plan import MIN_POINTS, Characteristic, Plan
 from ..verdict import INCONCLUSIVE
 from .results import CharacteristicResult, Geometry, RegionFeature
@@ -81,6 +82,7 @@ def feature_masks(plan: Plan, geo: Geometry) -> dict[str, np.ndarray]:
     points must not join a datum or tilt its nominal."""
     out = dict(geo.nominal_masks)
     planar = geo.nominal_points.shape[1] == 2
+    datum_regions = {d.region for d in plan.datums}
     for name, kind in _region_kinds(plan).items():
         if kind not in ("plane", "line", "cylinder", "width") or (planar and kind == "cylinder"):
             continue
@@ -99,6 +101,13 @@ def feature_masks(plan: Plan, geo: Geometry) -> dict[str, np.ndarray]:
             raise InputError(f"[[region]] '{name}': its nominal points do not form a {kind} "
                              f"(only {int(keep.sum())} of {idx.size} face as one does)",
                              plan.path)
+        if kind == "width" and name in datum_regions:  # (a characteristic's: size.py says)
+            facing = n[keep] @ axis
+            ways = (int(np.sum(facing > 0.0)), int(np.sum(facing < 0.0)))
+            if min(ways) < WIDTH_SIDE:
+                raise InputError(f"[[region]] '{name}': its nominal points do not form a width "
+                                 f"(two opposed faces): {ways[0]} and {ways[1]} of them face "
+                                 "either way", plan.path)
         mask = np.zeros_like(out[name])
         mask[idx[keep]] = True
         out[name] = mask

@@ -184,10 +184,14 @@ def measured_feature(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, 
     X, _, n = geo.evaluate(T, idx)
     kind = c.feature
     if kind == "width":
-        width, _ = shared.once(("width", region), lambda: nominal_width(
+        width, nominal_fit = shared.once(("width", region), lambda: nominal_width(
             c, geo.nominal_points[geo.nominal_masks[region]],
             geo.nominal_normals(np.flatnonzero(geo.nominal_masks[region]))))
-        side = width_sides(n, width.normal)[0] * (-1.0 if width.internal else 1.0)
+        # Each point's face by the side of the nominal median plane it lies on, not by the
+        # normal of the face its foot fell on: a point whose foot falls on a neighbouring face
+        # (an edge, a chamfer) was put on the wrong face and turned the fit (NIST CTC-01's
+        # slot 85/89 relative to a width datum: tilted 10 degrees, position 13 mm for 0.5).
+        side = np.where((X - nominal_fit.point) @ width.normal >= 0.0, 1.0, -1.0)
         try:
             fit = width_lsq(X, side, width.normal)
         except FeatureError as e:
