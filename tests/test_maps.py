@@ -264,3 +264,61 @@ def test_display_mesh_lies_on_a_sampled_box():
     off = np.where(outside > 0, outside, np.abs(inside))
     assert off.max() < h and np.median(off) < 0.01 * h  # on the faces, rounded at the edges
     assert cKDTree(v).query(pts)[0].max() < 1.5 * h
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_surface_takes_the_colour_of_its_nearest_measured_point_within_reach(seed):
+    """reports.figures.surface_field against the naive twin (every vertex against every
+    point): the deviation of the nearest point when it lies within reach, NaN beyond; its
+    colours the band's, grey where NaN."""
+    from reports.figures import surface_field, surface_rgb
+    from reports.figures.colours import UNCOVERED_RGB, Zone
+
+    rng = np.random.default_rng(seed)
+    feet = rng.uniform(0, 10, (60, 3))
+    d = rng.normal(0, 0.1, 60)
+    vertices = rng.uniform(-2, 12, (400, 3))
+    reach = 1.5
+    got = surface_field(vertices, feet, d, reach)
+    dist = np.linalg.norm(vertices[:, None] - feet[None], axis=2)
+    nearest = dist.argmin(axis=1)
+    want = np.where(dist.min(axis=1) < reach, d[nearest], np.nan)
+    assert np.array_equal(np.isnan(got), np.isnan(want)) and np.isnan(got).any()
+    assert np.array_equal(got[~np.isnan(got)], want[~np.isnan(want)])
+    zone = Zone(-0.1, 0.1)
+    rgb = surface_rgb(got, zone)
+    assert (rgb[np.isnan(got)] == np.round(np.array(UNCOVERED_RGB) * 255)).all()
+    covered = ~np.isnan(got)
+    assert np.array_equal(rgb[covered], figures.band_rgb(got[covered], zone))
+
+
+def test_a_coloured_surface_keeps_every_face_whatever_its_budget():
+    """reports.figures.coloured_surface cuts a plate's two large triangles to its points'
+    reach but never drops area (VTK's subdivision stops at its budget and loses the rest): at
+    a small budget the cut is coarser, the area and each cell's face the same; a point's patch
+    takes its colour, the plate beyond the points stays grey."""
+    import pyvista as pv
+
+    from reports.figures import coloured_surface
+    from reports.figures.colours import UNCOVERED_RGB, Zone
+
+    plate = pv.PolyData.from_regular_faces(
+        np.array([[0, 0, 0], [100, 0, 0], [100, 50, 0], [0, 50, 0]], float),
+        np.array([[0, 1, 2], [0, 2, 3]]))
+    g = np.stack(np.meshgrid(np.arange(5, 45, 2.0), np.arange(5, 45, 2.0)), -1).reshape(-1, 2)
+    feet = np.column_stack([g, np.zeros(len(g))])  # the left part measured, 2 mm apart
+    d = np.where(feet[:, 0] < 20, 0.5, 0.0)  # out of tolerance left of x = 20
+    zone = Zone(-0.1, 0.1)
+    for budget in (600_000, 2_000):
+        surf, faces = coloured_surface(plate, feet, d, zone, 0.1, max_triangles=budget,
+                                       cell_faces=np.array([7, 8]))
+        assert surf.n_cells > 100 and surf.n_cells <= budget
+        assert surf.area == pytest.approx(5000.0, rel=1e-9)
+        centres = surf.cell_centers().points
+        assert np.array_equal(faces, np.where(centres[:, 1] < centres[:, 0] / 2, 7, 8))
+        rgb, P = np.asarray(surf.point_data["rgb"]), np.asarray(surf.points)
+        grey = (rgb == np.round(np.array(UNCOVERED_RGB) * 255)).all(axis=1)
+        assert grey[P[:, 0] > 60].all() and not grey[(P[:, 0] < 40) & (P[:, 1] < 40)
+                                                     & (P[:, 0] > 8) & (P[:, 1] > 8)].any()
+        left = (P[:, 0] < 15) & (P[:, 0] > 6) & (P[:, 1] > 6) & (P[:, 1] < 40)
+        assert (rgb[left] == figures.band_rgb(np.array([0.5]), zone)[0]).all()

@@ -15,6 +15,7 @@ from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QPushButton, QVBox
 
 from reports import figures
 from reports.callouts import callout_points
+from reports.figures.colours import UNCOVERED_RGB
 from reports.messages import VERDICT_WORD
 
 from . import part_overlay
@@ -86,6 +87,19 @@ class Viewport3D(QWidget):
         self.regions_box.setVisible(False)
         self.regions_box.toggled.connect(self._colouring)
         bar.addWidget(self.regions_box)
+        self.surface_box = QCheckBox("Surface")
+        self.surface_box.setToolTip("Colour the nominal surface by the deviations where the "
+                                    "points cover it (each spot the colour of its nearest "
+                                    "measured point); grey where nothing was measured")
+        self.surface_box.setChecked(True)
+        self.surface_box.setVisible(False)
+        self.surface_box.toggled.connect(self._surface_colouring)
+        bar.addWidget(self.surface_box)
+        self.points_box = QCheckBox("Points")
+        self.points_box.setToolTip("Show the measured points")
+        self.points_box.setChecked(True)
+        self.points_box.toggled.connect(self._colouring)
+        bar.addWidget(self.points_box)
         self.readout = QLabel(self.READOUT_HINT)
         # Wrapped, so that a long label does not set the window's minimum width.
         self.readout.setWordWrap(True)
@@ -129,6 +143,7 @@ class Viewport3D(QWidget):
         planned = getattr(res, "plan", None)
         out = {"rgb": figures.band_rgb(d, res.tolerance), "surface": None, "contours": None,
                "regions": None if planned is None else figures.region_colours(planned.regions)}
+        lift = 0.0
         if run.template is not None:
             out["shown"] = res.registered.copy()
             out["contours"] = [np.column_stack([p, np.zeros(len(p))])
@@ -151,6 +166,10 @@ class Viewport3D(QWidget):
         out["cell_faces"] = (faces.triangle_faces if faces is not None and out["surface"]
                              is not None and out["surface"].n_cells == len(faces.triangles)
                              else None)
+        # The surface coloured by the deviations over the measured coverage (issue 26).
+        out["coloured"], out["coloured_faces"] = (None, None) if out["surface"] is None else \
+            figures.coloured_surface(out["surface"], res.deviations.foot, d, res.tolerance,
+                                     lift, cell_faces=out["cell_faces"])
         out["tree"] = cKDTree(out["shown"])
         out["flags"] = np.array(callout_points(out["shown"], d, res.tolerance.lower,
                                                res.tolerance.upper, max_callouts=FLAGS), int)
@@ -175,6 +194,7 @@ class Viewport3D(QWidget):
         self._shown, self._tree, self._home = disp["shown"], disp["tree"], disp["home"]
         self._colours = disp
         self.regions_box.setVisible(disp["regions"] is not None)
+        self.surface_box.setVisible(disp.get("coloured") is not None)
         self.colouring_changed.emit(self.regions_legend())
         if self.plotter is None:
             return
@@ -186,9 +206,8 @@ class Viewport3D(QWidget):
                 pl.add_mesh(pv.lines_from_points(pts), color=(0.25, 0.25, 0.28), line_width=2,
                             name=f"qa-contour-{k}", pickable=False, render=False)
         elif disp["surface"] is not None:
-            pl.add_mesh(disp["surface"], color=(0.80, 0.81, 0.83), smooth_shading=True,
-                        specular=0.2, ambient=0.25, pickable=False, name="qa-nominal",
-                        render=False)
+            self._add_nominal()
+            self._draw_nominal()
         else:
             step = max(1, run.nominal.points.shape[0] // 500_000)
             pl.add_points(run.nominal.points[::step], color=(0.72, 0.73, 0.75), point_size=2,
@@ -242,8 +261,47 @@ class Viewport3D(QWidget):
         regions = None if self._colours is None else self._colours["regions"]
         return regions[0] if regions is not None and self.regions_box.isChecked() else None
 
+    def surface_coloured(self) -> bool:
+        """Whether the nominal is drawn coloured by the deviations (else grey: also while a
+        characteristic is shown on the part, its faces over the faded rest, and while the
+        points show their regions)."""
+        return bool(self._colours is not None and self._colours.get("coloured") is not None
+                    and self.surface_box.isChecked() and self.highlight is None
+                    and not self.regions_box.isChecked())
+
+    def _add_nominal(self) -> None:
+        """Add the nominal's display surface: the one coloured over the coverage when there is
+        one (:meth:`_draw_nominal` shows or hides its colours), else the grey one."""
+        disp, pl = self._colours, self.plotter
+        look = dict(color=UNCOVERED_RGB, smooth_shading=True, specular=0.2, ambient=0.25,
+                    pickable=False, name="qa-nominal", render=False)
+        if disp.get("coloured") is not None:
+            actor = pl.add_mesh(disp["coloured"], scalars="rgb", rgb=True, **look)
+            # Grey when its colours are hidden (pyvista gives a mesh with scalars its own).
+            actor.GetProperty().SetColor(*UNCOVERED_RGB)
+        else:
+            pl.add_mesh(disp["surface"], **look)
+
+    def _draw_nominal(self) -> None:
+        """Show the nominal coloured over the coverage, or grey (the same actor: its colours
+        shown or not), and the characteristic shown on it (part_overlay)."""
+        pl = self.plotter
+        if pl is None:
+            return
+        actor = pl.renderer.actors.get("qa-nominal")
+        if actor is not None and self._colours is not None and \
+                self._colours.get("coloured") is not None:
+            actor.GetMapper().SetScalarVisibility(self.surface_coloured())
+        part_overlay.draw(pl, None if self.part_view is None else self.part_view.faces,
+                          self.highlight)
+
+    def _surface_colouring(self) -> None:
+        self._draw_nominal()
+        self._redraw()
+
     def _colouring(self) -> None:
         self.colouring_changed.emit(self.regions_legend())
+        self._draw_nominal()
         if self._draw_points():
             self._redraw()
 
@@ -256,6 +314,8 @@ class Viewport3D(QWidget):
         pl = self.plotter
         for name in ("qa-in", "qa-out", "qa-faded"):
             pl.remove_actor(name, render=False)
+        if not self.points_box.isChecked():
+            return True
         res = run.result
         n = res.deviations.signed.size
         legend = self.regions_legend()
@@ -380,8 +440,7 @@ class Viewport3D(QWidget):
         before, self.highlight = self.highlight, h
         if self.plotter is None or self._shown is None:
             return
-        faces = None if self.part_view is None else self.part_view.faces
-        part_overlay.draw(self.plotter, faces, h)
+        self._draw_nominal()  # grey under a characteristic; and the overlay (part_overlay)
         cam = self.plotter.camera
         if h is not None:
             if before is None:
@@ -422,7 +481,8 @@ class Viewport3D(QWidget):
         ``face_hovered``; returns the text ("" for none)."""
         if self.plotter is None or self.part_view is None or self._colours is None:
             return ""
-        face = part_overlay.face_at(self.plotter, x, y, self._colours.get("cell_faces"),
+        face = part_overlay.face_at(self.plotter, x, y, self._colours.get(
+            "coloured_faces" if self._colours.get("coloured") is not None else "cell_faces"),
                                     self.part_view.faces)
         text = self.part_view.face_text(face)
         self.face_hovered.emit(text)

@@ -176,6 +176,40 @@ def band_rgb(d: np.ndarray, tol: "Tolerance | Zone") -> np.ndarray:
     return table[band_index(d, tol)]
 
 
+UNCOVERED_RGB = (0.80, 0.81, 0.83)
+"""The nominal surface where no measured point lies (the grey the surface is drawn in)."""
+COVERAGE_SPACINGS = 2.0
+"""A surface point takes the colour of its nearest measured point when that lies within this
+many typical spacings of the measured points (their coverage); farther, it stays grey."""
+
+
+def surface_field(vertices: np.ndarray, feet: np.ndarray, d: np.ndarray,
+                  reach: float) -> np.ndarray:
+    """(m,) the deviation shown at each surface point ``vertices`` (m, 3): that of its nearest
+    measured point (``feet`` (n, 3), their foot points on the nominal, deviations ``d`` (n,)),
+    NaN where none lies within ``reach`` mm. The nearest point's own value, never a mean: a
+    point out of tolerance among good ones keeps its colour on the patch around it."""
+    from scipy.spatial import cKDTree
+
+    out = np.full(vertices.shape[0], np.nan)
+    if not len(feet) or not vertices.shape[0]:
+        return out
+    dist, idx = cKDTree(feet).query(vertices, distance_upper_bound=reach)
+    near = np.isfinite(dist)
+    out[near] = d[idx[near]]
+    return out
+
+
+def surface_rgb(values: np.ndarray, tol: "Tolerance | Zone") -> np.ndarray:
+    """(m, 3) uint8 colours of :func:`surface_field`'s values: the band of each, grey where
+    NaN (not covered)."""
+    rgb = np.empty((values.size, 3), np.uint8)
+    covered = np.isfinite(values)
+    rgb[covered] = band_rgb(values[covered], tol)
+    rgb[~covered] = (np.array(UNCOVERED_RGB) * 255).round().astype(np.uint8)
+    return rgb
+
+
 REGION_RGB = ((0.90, 0.62, 0.0), (0.34, 0.71, 0.91), (0.0, 0.62, 0.45), (0.80, 0.47, 0.65),
               (0.0, 0.45, 0.70), (0.84, 0.37, 0.0), (0.94, 0.89, 0.26), (0.35, 0.35, 0.40))
 """The regions' colours (Okabe and Ito's palette, told apart with colour-blindness), in the

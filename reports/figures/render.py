@@ -5,6 +5,7 @@ coloured by band, rendered off-screen with pyvista from the views of reports.map
 from __future__ import annotations
 
 import io
+import math
 import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -186,6 +187,49 @@ def display_surface(nominal_points: np.ndarray, triangles: np.ndarray | None,
         surf = _simplified(surf)
         lift = max(lift, 0.5 * diagonal / CLUSTER_DIVISIONS)
     return surf, lift
+
+
+COLOURED_TRIANGLES = 600_000
+"""A surface coloured by the deviations is subdivided to at most this many triangles."""
+
+
+def coloured_surface(surf, feet: np.ndarray, d: np.ndarray, tol: "Tolerance | Zone",
+                     lift: float, max_triangles: int = COLOURED_TRIANGLES,
+                     cell_faces: np.ndarray | None = None):
+    """The display surface ``surf`` (from :func:`display_surface`, whose ``lift`` it gave)
+    coloured by the deviation field over the measured coverage: each vertex the band colour of
+    its nearest measured point within reach (colours.surface_field: COVERAGE_SPACINGS typical
+    spacings of the points, at least twice the display's distance from the nominal), grey
+    beyond. Its triangles are first cut to edges of half that reach (at most
+    ``max_triangles``), so that a large flat facet shows where its points are. Returns the
+    surface (point data "rgb", uint8) and each of its cells' entry of ``cell_faces`` (the
+    face of each cell of ``surf``), or None without them. (Within the budget it is cut to
+    coarser edges; a cut that would lose area is not made.)"""
+    from ..callouts import point_spacing
+    from .colours import COVERAGE_SPACINGS, surface_field, surface_rgb
+
+    reach = max(COVERAGE_SPACINGS * point_spacing(feet), 2.0 * lift)
+    out = surf.copy()
+    if cell_faces is not None:
+        out.cell_data["qa_face"] = np.asarray(cell_faces)
+    if out.n_cells < max_triangles and out.is_all_triangles:
+        # Edges of half the reach, longer where that would pass the budget (VTK's filter stops
+        # at its budget and drops the triangles it has not reached: a check of the area).
+        # Halving edges down to e leaves triangles of about 0.15 e^2 each. (VTK's own area
+        # limit, 1 by default whatever the unit, is set to the edge's.)
+        area = float(out.area)
+        edge = max(0.5 * reach, math.sqrt(area / (0.12 * max_triangles)))
+        for _ in range(4):
+            finer = out.subdivide_adaptive(max_edge_len=edge, max_tri_area=0.5 * edge * edge,
+                                           max_n_tris=max_triangles)
+            if abs(float(finer.area) - area) <= 1e-6 * area:
+                out = finer
+                break
+            edge *= 1.6
+    out.point_data["rgb"] = surface_rgb(surface_field(np.asarray(out.points), feet, d, reach),
+                                        tol)
+    faces = (np.asarray(out.cell_data["qa_face"]) if "qa_face" in out.cell_data else None)
+    return out, faces
 
 
 def _simplified(surf):

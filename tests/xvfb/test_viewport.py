@@ -64,20 +64,41 @@ def test_viewport_shows_the_deviation_colours(window, qtbot):
     d = w.session.run.result.deviations.signed
     assert (d < -0.05).sum() == 20 and (d > 0.045).sum() == 1
     qtbot.wait(100)
-    img = w.viewport.plotter.screenshot(return_img=True).astype(int)
-    r, g, b = img[..., 0], img[..., 1], img[..., 2]
-    green = (g > r + 40) & (g > b + 40)
-    blue = (b > r + 60) & (b > g + 20)
-    grey = (abs(r - g) < 8) & (abs(g - b) < 12) & (r > 90) & (r < 235)
+
+    def colours():
+        img = w.viewport.plotter.screenshot(return_img=True).astype(int)
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        return {"green": (g > r + 40) & (g > b + 40), "blue": (b > r + 60) & (b > g + 20),
+                "grey": (abs(r - g) < 8) & (abs(g - b) < 12) & (r > 90) & (r < 235),
+                # the dark red of the band above the zone (the zone's own reds end at its limit)
+                "above": (r > 60) & (r < 150) & (g < 0.12 * r) & (b < 0.3 * r)}
+
+    vp = w.viewport
+    assert vp.surface_box.isVisible() and vp.surface_box.isChecked() and vp.surface_coloured()
+    vp.surface_box.setChecked(False)  # the grey surface, the points coloured
+    qtbot.wait(100)
+    c = {k: int(v.sum()) for k, v in colours().items()}
     # In-tolerance points (greens) dominate; the 20 points below the zone show blue; the nominal
     # surface shows grey between the points.
-    assert green.sum() > 20 * blue.sum() > 0
-    assert blue.sum() > 200
-    assert grey.sum() > 2000
+    assert c["green"] > 20 * c["blue"] > 0
+    assert c["blue"] > 200
+    assert c["grey"] > 2000
     # No out-of-tolerance colour where there is no such point: the dark red of the band above
-    # the zone (the zone's own reds end at its limit) appears only at the one point above it.
-    above = (r > 60) & (r < 150) & (g < 0.12 * r) & (b < 0.3 * r)
-    assert 0 < above.sum() < blue.sum()
+    # the zone appears only at the one point above it.
+    assert 0 < c["above"] < c["blue"]
+    # The surface coloured by the deviations (issue 26), the points hidden: the colours are
+    # the surface's own. Every part of it the points cover takes a band colour (no grey left
+    # but its border), the dent below the zone a blue patch wider than its points were.
+    vp.surface_box.setChecked(True)
+    vp.points_box.setChecked(False)
+    qtbot.wait(100)
+    assert not any(a in w.viewport.plotter.renderer.actors for a in ("qa-in", "qa-out"))
+    s = {k: int(v.sum()) for k, v in colours().items()}
+    assert s["grey"] < 0.05 * c["grey"]
+    assert s["blue"] > c["blue"] and s["green"] > c["green"]
+    assert 0 < s["above"] < s["blue"]
+    vp.points_box.setChecked(True)
+    assert {"qa-in", "qa-out"} <= set(w.viewport.plotter.renderer.actors)
 
 
 def test_pick_a_point_in_the_view(window, qtbot):
