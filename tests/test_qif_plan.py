@@ -423,12 +423,16 @@ def _mutated(tmp_path, *swaps, name="m.qif") -> str:
      "datum definitions 1432 and 1435 are both labelled A"),
     ([("<DatumLabel>B</DatumLabel>", "<DatumLabel></DatumLabel>")],
      "datum definition 1435 has no DatumLabel"),
+    ([('<ToleranceValue linearUnit="mm">1.25</ToleranceValue>',
+       '<ToleranceValue linearUnit="mm">1.25</ToleranceValue>'
+       '<OuterDisposition linearUnit="mm">1e7</OuterDisposition>')],
+     "characteristic 1457 (Position surfacic profile.3): tolerance zone 1e+07"),
 ])
 def test_a_qif_plan_whose_ids_or_labels_do_not_name_one_item_is_refused(tmp_path, swaps, says):
     """A characteristic nominal without an id (its results could not name it: the certificate
     and `plan` ended in an internal error), two with one id, two datums with one label (the
-    frames' A|A|C were judged), a datum without a label: refused, naming the file and the
-    items."""
+    frames' A|A|C were judged), a datum without a label, a profile's limits 10 km off (exit 64
+    before, the usage text, the file not named): refused, naming the file and the items."""
     from engine.errors import InputError
     from engine.io.qif_plan import read_qif_plan
 
