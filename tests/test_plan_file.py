@@ -214,11 +214,11 @@ def test_a_plan_holds_at_most_the_stated_number_of_characteristics(tmp_path, mon
     """Issue 22: 100,000 characteristics ran for minutes with nothing on the terminal. A plan
     holds at most MAX_CHARACTERISTICS (10,000, README); more is bad input that names the plan,
     the count and the limit. (The limit is lowered here to keep the test quick.)"""
-    import engine.io.plan
+    import engine.gdt.plan
     from engine.gdt.plan import MAX_CHARACTERISTICS
 
     assert MAX_CHARACTERISTICS == 10_000
-    monkeypatch.setattr(engine.io.plan, "MAX_CHARACTERISTICS", 40)
+    monkeypatch.setattr(engine.gdt.plan, "MAX_CHARACTERISTICS", 40)
     assert len(read_plan(write(tmp_path, _characteristics(40, inline))).characteristics) == 40
     e = refused(tmp_path, _characteristics(41, inline))
     assert "holds 41 characteristics; a plan may hold at most 40" in str(e)

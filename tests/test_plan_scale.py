@@ -114,10 +114,10 @@ def test_the_work_of_a_region_is_done_once(bracket, monkeypatch):
 def test_a_plan_over_the_limit_is_bad_input_naming_it(tmp_path, monkeypatch, capsys):
     """More characteristics than MAX_CHARACTERISTICS (lowered to 5 here): exit 65, the message
     names the plan, the count and the limit, before any work."""
-    import engine.io.plan
+    import engine.gdt.plan
     from qa_app.cli import EX_DATAERR, main
 
-    monkeypatch.setattr(engine.io.plan, "MAX_CHARACTERISTICS", 5)
+    monkeypatch.setattr(engine.gdt.plan, "MAX_CHARACTERISTICS", 5)
     with open(os.path.join(HERE, "plan.toml")) as f:
         text = f.read()
     plan = tmp_path / "six.toml"
