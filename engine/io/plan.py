@@ -150,13 +150,19 @@ def _plan_of(raw: bytes, path: str) -> Plan:
 
 def check_zones(plan: Plan, size: float | None = None) -> None:
     """Raise InputError naming the plan and the characteristic whose zone no drawing gives, by
-    the rule every zone obeys (engine.tolerance.check_zone): :func:`read_plan` checks what needs
-    no nominal (a limit beyond 1e6 mm), engine.pipeline.load_nominal the part's ``size`` (its
-    nominal's bounding-box diagonal, mm) once the nominal is read."""
+    the rule every zone obeys (engine.tolerance.check_zone): :func:`read_plan` and
+    engine.io.qif_plan check what needs no nominal (a limit beyond 1e6 mm, a QIF disposition of
+    1e7 mm), engine.pipeline.load_nominal the part's ``size`` (its nominal's bounding-box
+    diagonal, mm) once the nominal is read. A characteristic read from another source (a QIF's)
+    is named as there, a TOML's by its table."""
     for i, c in enumerate(plan.characteristics, start=1):
         try:
             check_zone(c.lower, c.upper, size)
         except SettingsError as e:
+            if c.source:
+                raise InputError(f"characteristic {c.source.rsplit(' ', 1)[-1]}"
+                                 f"{f' ({c.name})' if c.name else ''}: {e}",
+                                 plan.path) from None
             raise Table(plan.path, "characteristic", {"id": c.id}, i).refuse(str(e)) from None
 
 

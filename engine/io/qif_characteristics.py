@@ -25,8 +25,7 @@ from __future__ import annotations
 import dataclasses
 import re
 
-from engine.errors import InputError, SettingsError
-from engine.tolerance import check_zone
+from engine.errors import InputError
 from engine.gdt.plan import ORIENTATION, RUNOUT, Characteristic, NotJudged, datum_parts
 
 from .qif_dimensions import KINDS as DIMENSION_KINDS
@@ -118,11 +117,6 @@ class CharacteristicReader:
             # Its name, balloon and element travel with it (the JSON's name, designator and
             # source; the certificate's balloon).
             designator = (e.findtext("{*}CharacteristicDesignator/{*}Designator") or "").strip()
-            for c in made:  # limits no drawing gives (a disposition of 1e7 mm ...): refused here,
-                try:        # naming the file and the item, before any zone is taken from them
-                    check_zone(c.lower, c.upper)
-                except SettingsError as why:
-                    raise InputError(f"characteristic {cid} ({name}): {why}", self.path) from None
             self.judged.extend(dataclasses.replace(c, name=name, designator=designator,
                                                    source=f"{local_name(e)} {cid}")
                                for c in made)

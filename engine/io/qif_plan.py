@@ -215,6 +215,9 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
                 datums=tuple(datums.values()), alignment=Alignment(),
                 characteristics=tuple(reader.judged), not_judged=tuple(reader.not_judged),
                 n_source=len(nominals))
+    from .plan import check_zones  # (engine.io.plan reads a QIF plan through this module)
+
+    check_zones(plan)  # before any zone is taken from it
     faces = {}
     for fid in used:
         for face_id in features[fid].faces:
