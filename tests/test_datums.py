@@ -290,3 +290,55 @@ def test_invariant_motions_leave_the_ideal_feature_in_place(feature):
     J[:, :dof // 2 if dim == 3 else 1] /= length
     assert np.max(np.abs(J @ inv)) < 1e-9
     assert np.linalg.matrix_rank(inv) == inv.shape[1]
+
+
+@pytest.mark.parametrize("kind", ["plane", "slot", "tab", "hole", "pin", "ball", "circle"])
+def test_ideal_deviations_against_analytic_offsets(kind):
+    """engine.gdt.region_features.ideal_deviations: points planted at known offsets (+ excess
+    material) from an ideal feature, beyond the nominal samples' extent, come back with those
+    offsets and the outward normals, whichever side they lie on."""
+    from engine.gdt.region_features import ideal_deviations
+
+    rng = np.random.default_rng(3)
+    off = rng.uniform(-0.5, 0.5, 40)
+    if kind == "plane":
+        n = np.array([0.0, 0.6, 0.8])
+        P = rng.uniform(-10, 10, (30, 3))
+        P -= np.outer(P @ n, n)
+        X = rng.uniform(-500, 500, (40, 3))
+        X += np.outer(off - X @ n, n)  # off along n from the plane through 0
+        got = ideal_deviations("plane", {"point": np.zeros(3), "normal": -n}, P,
+                               np.tile(n, (30, 1)))
+        want_n = np.tile(n, (40, 1))
+    elif kind in ("slot", "tab"):
+        # Faces x = +-5; a slot's outward normals face x = 0, a tab's face away from it.
+        side = rng.choice([-1.0, 1.0], 40)
+        face = np.where(np.arange(30) % 2 == 0, -1.0, 1.0)
+        P = np.column_stack([5 * face, rng.uniform(-9, 9, (30, 2))])
+        N = np.column_stack([(face if kind == "tab" else -face), np.zeros((30, 2))])
+        out = side if kind == "tab" else -side
+        X = np.column_stack([side * 5 + out * off, rng.uniform(-90, 90, (40, 2))])
+        got = ideal_deviations("width", {"point": np.zeros(3), "normal": np.array(
+            [1.0, 0, 0]), "width": 10.0}, P, N)
+        want_n = np.column_stack([out, np.zeros((40, 2))])
+    else:
+        dim = 2 if kind == "circle" else 3
+        u = rng.normal(size=(40, dim))
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        if kind in ("hole", "pin"):
+            u[:, 2] = 0.0
+            u /= np.linalg.norm(u, axis=1)[:, None]
+        out = -1.0 if kind == "hole" else 1.0
+        o = np.arange(dim) + 1.0
+        along = np.zeros((40, dim))
+        if kind in ("hole", "pin"):
+            along[:, 2] = rng.uniform(-300, 300, 40)  # past the nominal's ends
+        X = o + u * (7.0 + out * off)[:, None] + along
+        P = o + 7.0 * u[:30]
+        nominal = {"centre": o, "diameter": 14.0} if kind != "hole" and kind != "pin" else \
+            {"point": o, "direction": np.array([0.0, 0, 1]), "diameter": 14.0}
+        got = ideal_deviations("sphere" if kind == "ball" else "circle" if kind == "circle"
+                               else "cylinder", nominal, P, out * u[:30])
+        want_n = out * u
+    d, normals = got(X)
+    assert np.allclose(d, off, atol=1e-9) and np.allclose(normals, want_n, atol=1e-9)

@@ -574,3 +574,35 @@ def test_a_width_datum_whose_faces_face_one_way_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 65 and "[[region]] 'C': its nominal points do not form a width (two " \
         "opposed faces)" in err and "face either way" in err, err
+
+
+def test_a_datum_frame_does_not_depend_on_the_pose_its_fit_starts_from(tmp_path):
+    """NIST CTC-01 located A|B|C (A its top face, B a width of 15 mm long walls, C a hole), 20
+    um of noise. The plan's alignment is fitted from the registration's pose; a position's
+    frame from the plan's alignment, turned 0.001 rad about A's normal by B's noisy walls.
+    Fitted against the nominal surface, A's points near its pockets' edges then measured to
+    the faces they slid over, and A came out tilted 3.8 mm over the plate: the slot's
+    position read 2.38 mm. A datum is now fitted to its ideal feature (an unbounded plane,
+    as its simulator), so the frame, and the position, are the same whichever alignment the
+    plan asks for (here: the datums, or a best fit that leaves the position's frame to start
+    from the registration's pose)."""
+    import json as _json
+
+    from engine.io.step import read_step
+    from sweep import on_part
+
+    stp = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "step",
+                       "nist_ctc_01_asme1_ap242-e1.stp")
+    P, N, _ = on_part(read_step(stp), np.random.default_rng(0), 6000)
+    P = P + np.random.default_rng(110).normal(0.0, 0.02, len(P))[:, None] * N
+    np.savetxt(tmp_path / "m.csv", P, delimiter=",", header="x,y,z", comments="", fmt="%.9f")
+    values = []
+    for alignment in ('method = "datums"\nreference = ["A", "B", "C"]', 'method = "best-fit"'):
+        plan = WIDTH_DATUM_PLAN.replace('method = "datums"\nreference = ["A", "B", "C"]',
+                                        alignment)
+        (tmp_path / "plan.toml").write_text(plan, encoding="utf-8")
+        main(["inspect", stp, str(tmp_path / "m.csv"), "--plan", str(tmp_path / "plan.toml"),
+              "--json", str(tmp_path / "r.json"), "--quiet"])
+        values.append(_json.loads((tmp_path / "r.json").read_text())["characteristics"][0]
+                      ["value"])
+    assert values[0] == pytest.approx(values[1], abs=1e-6), values

@@ -150,7 +150,7 @@ def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels,
-                   exact_feature)
+                   exact_feature, measured)
     planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
                       zone_in_verdict, by_foot=exact is not None, rivals=rivals)
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
@@ -200,7 +200,7 @@ def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
                            ("pose",) if form_only else ())
 
     geo = Geometry(evaluate, np.eye(3), margin, samples, normals, masks,
-                   *_centre_and_length(P2), labels)
+                   *_centre_and_length(P2), labels, points=P2)
     planned = _judged(result, plan, geo, lambda f: index.tree.query(f)[1], zone_in_verdict)
     T2 = planned.T_nominal_measured
     planned = replace(planned, T_nominal_measured=in_plane(T2)

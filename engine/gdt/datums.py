@@ -7,8 +7,10 @@ translation along its normal and its two tilts), the secondary takes what it can
 (a plane at right angles: one rotation and one translation), the tertiary the rest; what the
 datums leave free is best-fitted on named regions, or stays where the registration put it.
 
-The pose is found as one lexicographic fit. Each datum fits its measured points to the nominal
-surface of its region by moving the *part* within the directions the higher datums left free,
+The pose is found as one lexicographic fit. Each datum fits its measured points to its region's
+ideal nominal feature (the unbounded plane, width, cylinder or sphere its simulator is, where the
+region's nominal is one; else to the region's nominal surface) by moving the *part* within the
+directions the higher datums left free,
 and only along the directions its own feature can constrain there: those that do not leave the
 ideal nominal feature in place (a plane is left in place by the translations along it and the
 rotation about its normal, a cylinder by the slide along and the turn about its axis, a sphere
@@ -132,7 +134,7 @@ points, exactly."""
 
 def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centre: np.ndarray,
           length: float, best_fit: np.ndarray | None = None,
-          invariants: list | None = None) -> Alignment:
+          invariants: list | None = None, surfaces: list | None = None) -> Alignment:
     """Place the part by ``datums`` (engine.gdt.plan.Datum, primary first) from the pose T0.
 
     members[k] : indices of the measured points of datum k's region. centre (3,) or (2,), length
@@ -141,6 +143,9 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
     best_fit : indices of the points that best-fit the freedom the datums leave (None: it stays
     at T0). invariants[k] : (dof, k) the motions that leave datum k's ideal nominal feature in
     place (:func:`invariant_motions`); None for a datum whose nominal is not its feature.
+    surfaces[k] : an Evaluate of datum k's points against its ideal nominal feature
+    (engine.gdt.region_features.datum_surface), what its simulator is; None: ``evaluate``, the
+    nominal surface.
     """
     dof = 6 if T0.shape[0] == 4 else 3
     nrot = 3 if dof == 6 else 1
@@ -149,7 +154,9 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
     fits = []
     complete, message = True, ""
     invariants = invariants if invariants is not None else [None] * len(datums)
-    for datum, idx, inv in zip(datums, members, invariants):
+    surfaces = surfaces if surfaces is not None else [None] * len(datums)
+    for datum, idx, inv, surface in zip(datums, members, invariants, surfaces):
+        on = surface or evaluate
         idx = np.asarray(idx, dtype=np.int64)
         problem = None
         if idx.size < MIN_POINTS[datum.feature]:
@@ -164,7 +171,7 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
                                  0.0, float("nan")))
             continue
         taken = _complement(free, _within(free, inv))
-        if not _determined(evaluate, T, idx, taken, centre, length, nrot,
+        if not _determined(on, T, idx, taken, centre, length, nrot,
                            datum.feature in SIZE_FEATURES):
             complete = False
             message = (f"datum {datum.label}: its {idx.size} points do not determine its "
@@ -173,7 +180,7 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
             fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
                                  0.0, float("nan")))
             continue
-        T, offset, gap = _fit_datum(evaluate, T, datum, idx, taken, centre, length, nrot)
+        T, offset, gap = _fit_datum(on, T, datum, idx, taken, centre, length, nrot)
         fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
                              taken.shape[1], offset, gap))
         free = _complement(free, taken)

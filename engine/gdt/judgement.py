@@ -21,7 +21,7 @@ from .location import judge_location
 from .orientation import judge_orientation
 from .plan import (DIMENSIONS, FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan,
                    known_datum_parts)
-from .region_features import FACING, SPAN, datum_invariants
+from .region_features import FACING, SPAN, datum_invariants, datum_surface
 from .results import WORST, CharacteristicResult, Geometry
 from .size import judge_size
 
@@ -85,8 +85,12 @@ class Shared:
         ds = [self.datum(x) for x in labels]
         fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
             if best_fit else None
+        # A common datum "A-B" is fitted to the nominal surface: its parts' features differ.
+        surfaces = [datum_surface(d, geo) if x in self.datums else None
+                    for x, d in zip(labels, ds)]
         return align(geo.evaluate, T_start, ds, [self.datum_members(x) for x in labels],
-                     geo.centre, geo.length, fit_idx, [datum_invariants(d, geo) for d in ds])
+                     geo.centre, geo.length, fit_idx, [datum_invariants(d, geo) for d in ds],
+                     surfaces)
 
 
 def plan_verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:

@@ -31,6 +31,9 @@ HOLE_SPREAD = 0.05
 [radial direction, 1] per point (over the square root of their number) is at least this: about
 a 75-degree arc; a 45-degree arc has 0.018, which turns 1 um of probing noise into 50 um of
 size."""
+IDEAL_MM = 1e-3
+"""A datum is fitted to its ideal nominal feature (:func:`datum_surface`) when its region's
+nominal samples lie within this of it, mm: a CAD face of that kind, a mesh's vertices on it."""
 HOLE_FORM = 0.02
 """A region is a hole when its nominal points lie within this fraction of its radius of their
 least-squares cylinder (circle); a tessellated hole of 32 facets is within 0.5%."""
@@ -155,6 +158,76 @@ def datum_invariants(datum, geo: Geometry) -> np.ndarray | None:
     if nominal is None:
         return None
     return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
+
+
+def datum_surface(datum, geo: Geometry):
+    """evaluate(T, idx) -> (X, d, normals) of the measured points ``idx`` at pose T against the
+    datum's ideal nominal feature (its region's plane, width, cylinder, sphere, line or circle,
+    as :func:`datum_invariants` takes it), the one its simulator is (ASME Y14.5 §7, ISO 5459):
+    unbounded, so that a point near an edge of the datum's face measures to the feature
+    wherever the fit moves the part, never to the next face it slides over (CTC-01's top face
+    as datum A, fitted from a pose turned 0.001 rad about its normal, tilted 3.8 mm over the
+    plate by points near its pockets' edges). None where the region's nominal samples do not
+    lie on one such feature (within IDEAL_MM), or no measured points are known: the datum is
+    then fitted to the nominal surface."""
+    from ..pose import apply_transform
+
+    mask = geo.nominal_masks[datum.region]
+    nominal = region_nominal(datum.feature, geo, mask)
+    if nominal is None or geo.points is None:
+        return None
+    idx = np.flatnonzero(mask)
+    deviate = ideal_deviations(datum.feature, nominal, geo.nominal_points[idx],
+                               geo.nominal_normals(idx))
+    if deviate is None or np.max(np.abs(deviate(geo.nominal_points[idx])[0])) > IDEAL_MM:
+        return None
+    points = geo.points
+
+    def evaluate(T, sel):
+        X = apply_transform(T, points[sel])
+        return (X, *deviate(X))
+
+    return evaluate
+
+
+def ideal_deviations(kind: str, nominal: dict, P: np.ndarray, N: np.ndarray):
+    """deviate(X) -> (signed deviations (m,), outward normals (m, dim)) of points X from the
+    ideal ``kind`` described by ``nominal`` (:func:`region_nominal`), + along the outward
+    normal (excess material); its sides (a width's slot or tab, a hole or a shaft) from the
+    region's nominal samples P and their outward normals N. None for a kind it does not
+    know."""
+    if kind in ("plane", "line"):
+        n = np.asarray(nominal["normal"], float)
+        n = -n if float(np.sum(N @ n)) < 0.0 else n
+        p = np.asarray(nominal["point"], float)
+        return lambda X: ((X - p) @ n, np.broadcast_to(n, X.shape))
+    if kind == "width":
+        n, p = np.asarray(nominal["normal"], float), np.asarray(nominal["point"], float)
+        half = 0.5 * float(nominal["width"])
+        # A slot's walls face its median plane; a tab's face away from it.
+        out = 1.0 if float(np.sum(np.sign((P - p) @ n) * (N @ n))) > 0.0 else -1.0
+
+        def width(X):
+            s = (X - p) @ n
+            side = np.where(s < 0.0, -1.0, 1.0)
+            return out * (np.abs(s) - half), (out * side)[:, None] * n
+
+        return width
+    if kind in ("cylinder", "sphere", "circle"):
+        o = np.asarray(nominal.get("centre", nominal.get("point")), float)
+        a = np.asarray(nominal["direction"], float) if kind == "cylinder" else None
+        radius = 0.5 * float(nominal["diameter"])
+        radial = P - o if a is None else (P - o) - np.outer((P - o) @ a, a)
+        out = -1.0 if float(np.sum(radial * N)) < 0.0 else 1.0  # a hole's walls face its axis
+
+        def round_(X):
+            r = X - o if a is None else (X - o) - np.outer((X - o) @ a, a)
+            length = np.linalg.norm(r, axis=1)
+            u = r / np.maximum(length, 1e-300)[:, None]
+            return out * (length - radius), out * u
+
+        return round_
+    return None
 
 
 def _fit_feature(kind: str, X: np.ndarray, normals: np.ndarray) -> dict | None:

@@ -119,3 +119,6 @@ class Geometry:
     """exact_feature(kind, mask) -> a region's nominal feature (as :func:`_nominal_feature`)
     from the model's exact surface when its samples ``mask`` all lie on one surface of that
     kind (a STEP model's plane, cylinder or sphere faces), else None; None: always fitted."""
+    points: np.ndarray | None = None
+    """(n, dim) the measured points in their own frame (``evaluate``'s X is T applied to
+    them); None: datums are fitted to the nominal surface only."""
