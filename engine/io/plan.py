@@ -69,7 +69,7 @@ import tomllib
 
 from engine.errors import InputError
 from engine.errors import SettingsError
-from engine.tolerance import ZONE_LIMIT_MM, check_zone
+from engine.tolerance import ZONE_LIMIT_MM
 from engine.gdt.plan import (ALIGNMENTS, AXES, CHARACTERISTICS, DATUM_FITS, DIMENSIONS,
                              FEATURES_2D, FEATURES_3D, FORM, LOCATION, MAX_DATUMS,
                              ORIENTATION, PROFILE_FITS, RUNOUT, datum_parts, known_datum_parts,
@@ -81,7 +81,8 @@ from . import formats
 from .plan_dimensions import dimension
 from .plan_location import (about_an_axis, datum_kind, material_sizes,
                             one_feature_per_region, size_options)
-from .plan_tables import KEYS, ORDER, TABLES, Table, did_you_mean, known, notation, show
+from .plan_tables import (KEYS, ORDER, TABLES, Table, check_zones, did_you_mean, known,
+                          notation, show)
 from .points import read_bytes
 
 SELECTORS = ("box", "labels", "group")
@@ -146,24 +147,6 @@ def _plan_of(raw: bytes, path: str) -> Plan:
                 not_judged=not_judged)
     check_zones(plan)
     return plan
-
-
-def check_zones(plan: Plan, size: float | None = None) -> None:
-    """Raise InputError naming the plan and the characteristic whose zone no drawing gives, by
-    the rule every zone obeys (engine.tolerance.check_zone): :func:`read_plan` and
-    engine.io.qif_plan check what needs no nominal (a limit beyond 1e6 mm, a QIF disposition of
-    1e7 mm), engine.pipeline.load_nominal the part's ``size`` (its nominal's bounding-box
-    diagonal, mm) once the nominal is read. A characteristic read from another source (a QIF's)
-    is named as there, a TOML's by its table."""
-    for i, c in enumerate(plan.characteristics, start=1):
-        try:
-            check_zone(c.lower, c.upper, size)
-        except SettingsError as e:
-            if c.source:
-                raise InputError(f"characteristic {c.source.rsplit(' ', 1)[-1]}"
-                                 f"{f' ({c.name})' if c.name else ''}: {e}",
-                                 plan.path) from None
-            raise Table(plan.path, "characteristic", {"id": c.id}, i).refuse(str(e)) from None
 
 
 _CHARACTERISTIC_HEADER = re.compile(rb'^[ \t]*\[\[[ \t]*"?characteristic"?[ \t]*\]\]', re.M)

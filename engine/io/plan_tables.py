@@ -7,9 +7,13 @@ import difflib
 import json
 import math
 import re
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
-from engine.errors import InputError
+from engine.errors import InputError, SettingsError
+from engine.tolerance import check_zone
+
+if TYPE_CHECKING:
+    from engine.gdt.plan import Plan
 
 ARRAY_TABLES = {"region": "name", "datum": "label", "characteristic": "id", "rps": "label",
                 "not_judged": "id"}
@@ -189,3 +193,21 @@ def show(value: object) -> str:
     else:
         text = str(value)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def check_zones(plan: Plan, size: float | None = None) -> None:
+    """Raise InputError naming the plan and the characteristic whose zone no drawing gives, by
+    the rule every zone obeys (engine.tolerance.check_zone): engine.io.plan.read_plan and
+    engine.io.qif_plan check what needs no nominal (a limit beyond 1e6 mm, a QIF disposition of
+    1e7 mm), engine.pipeline.load_nominal the part's ``size`` (its nominal's bounding-box
+    diagonal, mm) once the nominal is read. A characteristic read from another source (a QIF's)
+    is named as there, a TOML's by its table."""
+    for i, c in enumerate(plan.characteristics, start=1):
+        try:
+            check_zone(c.lower, c.upper, size)
+        except SettingsError as e:
+            if c.source:
+                raise InputError(f"characteristic {c.source.rsplit(' ', 1)[-1]}"
+                                 f"{f' ({c.name})' if c.name else ''}: {e}",
+                                 plan.path) from None
+            raise Table(plan.path, "characteristic", {"id": c.id}, i).refuse(str(e)) from None

@@ -45,6 +45,7 @@ import numpy as np
 from engine.errors import InputError
 from engine.gdt.plan import Alignment, Datum, Part, Plan, Region, not_too_many
 
+from .plan_tables import check_zones
 from .points import read_bytes
 from .qif_characteristics import RFS, CharacteristicReader
 from .qif_names import ids_of, local_name, words
@@ -215,7 +216,6 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
                 datums=tuple(datums.values()), alignment=Alignment(),
                 characteristics=tuple(reader.judged), not_judged=tuple(reader.not_judged),
                 n_source=len(nominals))
-    from .plan import check_zones  # (engine.io.plan reads a QIF plan through this module)
 
     check_zones(plan)  # before any zone is taken from it
     faces = {}
