@@ -439,7 +439,10 @@ datums = ["A", "B"]
 def test_the_fuselage_frame_sample_plan():
     """samples/fuselage_frame/plan.toml: edge datum A (a line) and hole B (a circle) place the
     2D template; both holes are drawn 50 mm and made so (noise 3 um), the other hole sits
-    within its zone, the outer arc's +0.03 mm rise lies within its profile zone."""
+    within its zone, the outer arc's +0.03 mm rise lies within its profile zone. That profile
+    (0.0565 of 0.1 mm) is decided by where the 23 points of the line datum put the frame:
+    within 3 sigma of their scatter it reaches past 0.1 mm, so it is INCONCLUSIVE and says
+    so; the other three are ACCEPT."""
     import json
 
     from qa_app.cli import main
@@ -456,7 +459,11 @@ def test_the_fuselage_frame_sample_plan():
                      os.path.join(here, "plan.toml"), "--json", "-"])
     doc = json.loads(out.getvalue())
     c = {x["id"]: x for x in doc["characteristics"]}
-    assert code == 0 and doc["verdict"] == "ACCEPT"
+    assert code == 2 and doc["verdict"] == "INCONCLUSIVE"
+    assert [c[k]["verdict"] for k in "1234"] == ["ACCEPT"] * 3 + ["INCONCLUSIVE"]
+    lo, hi = c["4"]["frame_scatter_values"]
+    assert lo < c["4"]["value"] < 0.1 < hi and "scatter of its datums' points" in \
+        c["4"]["reason"]
     assert c["2"]["value"] == pytest.approx(50.0, abs=0.003)
     assert c["3"]["value"] == pytest.approx(50.0, abs=0.003)
     assert c["1"]["value"] < 0.05

@@ -40,6 +40,7 @@ from ..pose import apply_transform, in_plane
 from ..progress import report, within
 from ..tolerance import Tolerance
 from ..verdict import INCONCLUSIVE, REJECT, Statistics
+from .frame_probe import probed
 from .judgement import PROGRESS_REPORTS, Shared, judge, plan_verdict
 from .plan import FEATURES_2D, FEATURES_3D, RESERVED_ID, Characteristic, Plan, datum_parts
 from .region_features import feature_masks, region_features, rps_alignment
@@ -96,6 +97,7 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             # inspector: this characteristic cannot be judged, the others still are.
             results.append(CharacteristicResult(c, None, INCONCLUSIVE, "it cannot be judged "
                                                 f"as the model states it: {e.message}", idx))
+    results = probed(results, plan, geo, shared, members, T_part)
     everything = np.arange(n)
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = plan_verdict(results, alignment)

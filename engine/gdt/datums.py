@@ -37,12 +37,15 @@ units mm.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..pose import apply_update, pose_jacobian
+from ..seeds import DEFAULT_SEED
+from ..seeds import rng as stream_rng
 from .plan import MIN_POINTS
 
 SIZE_FEATURES = ("cylinder", "sphere", "circle", "width")
@@ -62,6 +65,15 @@ and a datum must not take a direction from that noise."""
 STEP_TOLERANCE = 1e-9
 """The fit has settled when no point moves by more than this fraction of the points' extent."""
 MAX_STEPS = 30
+BOOTSTRAP_DRAWS = 48
+"""Fresh draws of the datums' scatter whose fits give the frame's (frame_scatter): its sigmas
+to about 10%."""
+BOOTSTRAP_STREAM = 5459
+"""The bootstrap's random stream (engine.seeds; under the default seed: the plan layer is not
+given the inspection's): the same points give the same frame scatter."""
+CONTACT = 1e-7
+"""A tangent simulator's contact points lie within this fraction of the lever of it (its linear
+programs settle to STEP_TOLERANCE)."""
 
 
 @dataclass(frozen=True)
@@ -124,6 +136,17 @@ class Alignment:
     free_basis: np.ndarray | None = None
     """(dof, f) the free directions in the fits' coordinates (rotation x length, translation,
     about the fits' centre), orthonormal: what ``free`` names."""
+    scatter: np.ndarray | None = None
+    """(dof, q) how the scatter of the datums' points moves the frame: the principal 1-sigma
+    motions of the pose in the fits' coordinates, to first order (:func:`frame_scatter`),
+    largest first; None when not computed (an RPS; datums that did not place the part)."""
+    scatter_sigma: tuple[float, ...] = ()
+    """Per datum that took directions (primary first), the scatter of its points about their
+    least-squares feature that ``scatter`` comes from, mm (nan: too few points to tell)."""
+    bootstrapped: Callable[[], np.ndarray] | None = None
+    """() -> the frame's scatter as ``scatter`` by a parametric bootstrap (BOOTSTRAP_DRAWS
+    draws; computed on the first call): what is probed; ``scatter``, cheaper and larger,
+    screens."""
 
 
 Evaluate = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -153,6 +176,7 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
     T = np.array(T0, float)
     fits = []
     complete, message = True, ""
+    took = []  # per datum that took directions: what frame_scatter needs of it
     invariants = invariants if invariants is not None else [None] * len(datums)
     surfaces = surfaces if surfaces is not None else [None] * len(datums)
     for datum, idx, inv, surface in zip(datums, members, invariants, surfaces):
@@ -183,14 +207,121 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
         T, offset, gap = _fit_datum(on, T, datum, idx, taken, centre, length, nrot)
         fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
                              taken.shape[1], offset, gap))
+        if taken.shape[1]:
+            own = _complement(np.eye(dof), _within(np.eye(dof), inv))
+            took.append((on, idx, taken, own, datum.feature in SIZE_FEATURES,
+                         datum.fit != "lsq"))
         free = _complement(free, taken)
     fitted = False
     if best_fit is not None and len(best_fit) and free.shape[1]:
-        T = _least_squares(evaluate, T, np.asarray(best_fit, dtype=np.int64), free, centre,
-                           length, nrot, size=False)[0]
+        best_fit = np.asarray(best_fit, dtype=np.int64)
+        T = _least_squares(evaluate, T, best_fit, free, centre, length, nrot, size=False)[0]
         fitted = True
+    scatter, sigmas, bootstrapped = None, (), None
+    if complete and took:
+        args = (evaluate, T, took, centre, length, nrot, best_fit if fitted else None, free)
+        scatter, sigmas = frame_scatter(*args)
+        bootstrapped = functools.cache(
+            lambda: frame_scatter(*args, draws=BOOTSTRAP_DRAWS)[0])
     return Alignment(T, tuple(fits), _describe_free(free, centre, length, nrot), fitted,
-                     complete, message, free)
+                     complete, message, free, scatter, sigmas, bootstrapped)
+
+
+def frame_scatter(evaluate: Evaluate, T, took, centre, length, nrot, best_fit, free,
+                  draws: int = 0):
+    """(scatter (dof, q), sigmas): how the scatter of the datums' points about their features
+    moves the frame they establish.
+
+    Each datum's points scatter independently with the sigma of their residuals about the
+    datum's own least-squares feature (the probe's noise, and the form its sampling sees).
+    Each datum's fit is linearised at the final pose T along the directions B it took; what
+    the higher datums' motion dp does to its points is J dp. The freedom the datums leave,
+    best-fitted on ``best_fit``'s points, follows their motion (the scatter of those points
+    is the characteristic's own, not the frame's). The principal axes of the frame motion's
+    covariance, each scaled to its 1 sigma, are ``scatter``.
+
+    draws = 0: to first order, each datum's step eta = -P (e + J dp) with P the least-squares
+    solve of its points (with a size feature's offset), a tangent simulator's of its contact
+    points alone (:func:`_contacts`): cheap, and larger than the truth (1.8 times a Monte
+    Carlo's on a 10-point tangent width: a simulator rests on other points as the noise
+    changes). draws > 0: a parametric bootstrap: ``draws`` fresh draws of that scatter
+    (BOOTSTRAP_STREAM) on each datum's least-squares feature (its deviations less their
+    residuals: drawn on the measured ones instead, a tangent fit's spread came out 1.6 times
+    a Monte Carlo's), its linearised fit solved again (a tangent datum by its linear
+    program), the covariance of the motions about their mean. took : per datum that
+    took directions, (its Evaluate, point indices, directions taken (dof, r), the directions
+    its feature constrains at all (dof, k), size feature, tangent fit)."""
+    dof = 6 if T.shape[0] == 4 else 3
+    M = np.zeros((dof, 0))
+    dps = np.zeros((draws, dof))
+    rng = stream_rng(DEFAULT_SEED, BOOTSTRAP_STREAM)
+    sigmas = []
+    for on, idx, B, own, size, tangent in took:
+        X, d, n = on(T, idx)
+        J = _jacobian(X, n, centre, length, nrot)
+        A = J @ B
+        # The residuals about the datum's own least-squares feature, in every direction its
+        # feature has (not only those the higher datums left it: what it could not take is
+        # the frame's, not scatter), with an offset (a tangent simulator lies off the points
+        # by their form).
+        full = np.column_stack([J @ own, np.ones(d.size)])
+        left = d.size - np.linalg.matrix_rank(full)
+        res = d - full @ np.linalg.lstsq(full, d, rcond=None)[0]
+        sigma = float(np.sqrt(res @ res / left)) if left > 0 else float("nan")
+        sigmas.append(sigma)
+        sigma = sigma if np.isfinite(sigma) else 0.0
+        r = B.shape[1]
+        if draws:
+            E = rng.normal(0.0, sigma, (draws, d.size))
+            P = np.linalg.pinv(np.column_stack([A, -np.ones(d.size)]) if size else A)[:r]
+            for k in range(draws):
+                # The datum's feature without its residuals, a fresh draw of them, and what
+                # the higher datums' motion does.
+                seen = d - res + E[k] + J @ dps[k]
+                if tangent:
+                    x = _tangent_solve(A, seen, size, length, STEP_TOLERANCE * length)
+                    eta = np.zeros(r) if x is None else x[:r]
+                else:
+                    eta = -P @ seen
+                dps[k] += B @ eta
+            continue
+        rows = _contacts(d, r + size, size, length) if tangent else np.arange(d.size)
+        Ar = np.column_stack([A[rows], -np.ones(rows.size)]) if size else A[rows]
+        P = np.zeros((r, d.size))
+        P[:, rows] = np.linalg.pinv(Ar)[:r]
+        M = np.column_stack([M - B @ (P @ (J @ M)), -(B @ P) * sigma])
+    follow = np.eye(dof)
+    if best_fit is not None and free.shape[1]:
+        X, _, n = evaluate(T, best_fit)
+        J = _jacobian(X, n, centre, length, nrot)
+        follow = follow - free @ (np.linalg.pinv(J @ free) @ J)
+    if draws:
+        dps = (dps - dps.mean(axis=0)) @ follow.T  # about the draws' mean motion
+        w, V = np.linalg.eigh(dps.T @ dps / (draws - 1))
+        order = np.argsort(-w)
+        w, V = w[order], V[:, order]
+        keep = w > 1e-24 * max(float(w[0]), 1e-300)
+        return V[:, keep] * np.sqrt(w[keep]), tuple(sigmas)
+    u, sv, _ = np.linalg.svd(follow @ M, full_matrices=False)
+    keep = sv > 1e-12 * max(float(sv[0]) if sv.size else 0.0, 1e-300)
+    return u[:, keep] * sv[keep], tuple(sigmas)
+
+
+def _contacts(d: np.ndarray, k: int, size: bool, length: float) -> np.ndarray:
+    """The contact points of a tangent simulator with ``k`` unknowns: the points at its
+    surface (deviation within CONTACT x length of the largest: a plane's simulator at 0, a
+    size feature's at its offset), and at least the k highest."""
+    top = float(np.max(d)) if size else 0.0
+    at = np.flatnonzero(d >= top - CONTACT * length)
+    return at if at.size >= k else np.argsort(-d, kind="stable")[:k]
+
+
+def moved_along(T: np.ndarray, motion: np.ndarray, centre: np.ndarray,
+                length: float) -> np.ndarray:
+    """Pose T moved by ``motion`` (dof,) in the fits' coordinates (rotation x length,
+    translation, about ``centre``): a multiple of a column of ``Alignment.scatter``."""
+    nrot = 3 if T.shape[0] == 4 else 1
+    return _step(T, np.eye(motion.size), np.asarray(motion, float), centre, length, nrot)[0]
 
 
 def _determined(evaluate, T, idx, taken, centre, length, nrot, size) -> bool:
@@ -329,35 +460,15 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
     simulators reach that optimum (a plane rocking on a high spot), the one with the smallest
     sum of gaps is taken, so that the datum does not depend on the solver's path or on the
     part's pose. (T, offset s, largest gap g)."""
-    from scipy.optimize import linprog
-
     r = B.shape[1]
     radius = length
     settle = STEP_TOLERANCE * length
     for _ in range(MAX_STEPS):
         X, d, n = evaluate(T, idx)
         A = _jacobian(X, n, centre, length, nrot) @ B
-        m = d.size
-        # In units of the largest deviation, so that the solver's feasibility tolerance (1e-7)
-        # is relative to the deviations, however small they have become.
-        unit = max(float(np.max(np.abs(d))), settle)
-        ds = d / unit
-        # Variables [eta (r), s, g]; d + A eta - s <= 0 and s - d - A eta - g <= 0.
-        ones = np.ones((m, 1))
-        A_ub = np.block([[A, -ones, np.zeros((m, 1))], [-A, ones, -ones]])
-        b_ub = np.concatenate([-ds, ds])
-        primary = np.zeros(r + 2)
-        primary[r if size else r + 1] = 1.0
-        bounds = [(-radius / unit, radius / unit)] * r + \
-            [(None, None) if size else (0.0, 0.0), (0.0, None)]
-        sol = linprog(primary, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
-        if sol.status != 0:
+        x = _tangent_solve(A, d, size, radius, settle)
+        if x is None:
             break
-        # Among the optima: the smallest sum of gaps sum(s - d - A eta).
-        gaps = np.concatenate([-A.sum(axis=0), [m, 0.0]])
-        tie = linprog(gaps, A_ub=np.vstack([A_ub, primary]),
-                      b_ub=np.append(b_ub, sol.fun + 1e-9), bounds=bounds, method="highs")
-        x = (tie.x if tie.status == 0 else sol.x) * unit
         T, moved = _step(T, B, x[:r], centre, length, nrot)
         if moved <= settle:
             break
@@ -365,6 +476,36 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
     X, d, n = evaluate(T, idx)
     s = float(np.max(d)) if size else 0.0
     return T, s, float(s - np.min(d)) if size else float(np.max(d) - np.min(d))
+
+
+def _tangent_solve(A: np.ndarray, d: np.ndarray, size: bool, radius: float,
+                   settle: float) -> np.ndarray | None:
+    """One linear program of :func:`_tangent`: [eta (r), s, g] (mm) for deviations d (m,) and
+    their motion A (m, r) within +-radius, the ties broken by the smallest sum of gaps; None
+    when the program fails."""
+    from scipy.optimize import linprog
+
+    m, r = A.shape
+    # In units of the largest deviation, so that the solver's feasibility tolerance (1e-7)
+    # is relative to the deviations, however small they have become.
+    unit = max(float(np.max(np.abs(d))), settle)
+    ds = d / unit
+    # Variables [eta (r), s, g]; d + A eta - s <= 0 and s - d - A eta - g <= 0.
+    ones = np.ones((m, 1))
+    A_ub = np.block([[A, -ones, np.zeros((m, 1))], [-A, ones, -ones]])
+    b_ub = np.concatenate([-ds, ds])
+    primary = np.zeros(r + 2)
+    primary[r if size else r + 1] = 1.0
+    bounds = [(-radius / unit, radius / unit)] * r + \
+        [(None, None) if size else (0.0, 0.0), (0.0, None)]
+    sol = linprog(primary, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+    if sol.status != 0:
+        return None
+    # Among the optima: the smallest sum of gaps sum(s - d - A eta).
+    gaps = np.concatenate([-A.sum(axis=0), [m, 0.0]])
+    tie = linprog(gaps, A_ub=np.vstack([A_ub, primary]),
+                  b_ub=np.append(b_ub, sol.fun + 1e-9), bounds=bounds, method="highs")
+    return (tie.x if tie.status == 0 else sol.x) * unit
 
 
 def _complement(free: np.ndarray, taken: np.ndarray) -> np.ndarray:
