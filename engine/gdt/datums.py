@@ -65,9 +65,9 @@ and a datum must not take a direction from that noise."""
 STEP_TOLERANCE = 1e-9
 """The fit has settled when no point moves by more than this fraction of the points' extent."""
 MAX_STEPS = 30
-BOOTSTRAP_DRAWS = 48
+BOOTSTRAP_DRAWS = 32
 """Fresh draws of the datums' scatter whose fits give the frame's (frame_scatter): its sigmas
-to about 10%."""
+to about 12%."""
 BOOTSTRAP_STREAM = 5459
 """The bootstrap's random stream (engine.seeds; under the default seed: the plan layer is not
 given the inspection's): the same points give the same frame scatter."""
@@ -279,7 +279,8 @@ def frame_scatter(evaluate: Evaluate, T, took, centre, length, nrot, best_fit, f
                 # the higher datums' motion does.
                 seen = d - res + E[k] + J @ dps[k]
                 if tangent:
-                    x = _tangent_solve(A, seen, size, length, STEP_TOLERANCE * length)
+                    x = _tangent_solve(A, seen, size, length, STEP_TOLERANCE * length,
+                                       ties=False)
                     eta = np.zeros(r) if x is None else x[:r]
                 else:
                     eta = -P @ seen
@@ -479,10 +480,10 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
 
 
 def _tangent_solve(A: np.ndarray, d: np.ndarray, size: bool, radius: float,
-                   settle: float) -> np.ndarray | None:
+                   settle: float, ties: bool = True) -> np.ndarray | None:
     """One linear program of :func:`_tangent`: [eta (r), s, g] (mm) for deviations d (m,) and
-    their motion A (m, r) within +-radius, the ties broken by the smallest sum of gaps; None
-    when the program fails."""
+    their motion A (m, r) within +-radius, the ties broken by the smallest sum of gaps (unless
+    not ``ties``: noisy points leave none); None when the program fails."""
     from scipy.optimize import linprog
 
     m, r = A.shape
@@ -501,6 +502,8 @@ def _tangent_solve(A: np.ndarray, d: np.ndarray, size: bool, radius: float,
     sol = linprog(primary, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
     if sol.status != 0:
         return None
+    if not ties:
+        return sol.x * unit
     # Among the optima: the smallest sum of gaps sum(s - d - A eta).
     gaps = np.concatenate([-A.sum(axis=0), [m, 0.0]])
     tie = linprog(gaps, A_ub=np.vstack([A_ub, primary]),
