@@ -204,6 +204,19 @@ def in_plane(T2: np.ndarray) -> np.ndarray:
     return E
 
 
+def largest_speed(twist, X: np.ndarray, centre, length: float) -> float:
+    """The largest speed (mm per unit of amplitude) of points ``X`` (m, 3) or (m, 2) under
+    ``twist`` (rotations first, in mm at ``length`` from ``centre``, then translations: the
+    fits' small-motion coordinates): a screw motion moves each point at a constant speed."""
+    v = np.asarray(twist, float)
+    r = X - np.asarray(centre, float)
+    if X.shape[1] == 3:
+        vel = np.cross(v[:3] / length, r) + v[3:]
+    else:
+        vel = v[0] / length * np.column_stack([-r[:, 1], r[:, 0]]) + v[1:]
+    return float(np.linalg.norm(vel, axis=1).max())
+
+
 def screw_motion(twist, amplitude: float, centre, length: float) -> np.ndarray:
     """The exact rigid motion (4x4, or 3x3 in 2D) of ``amplitude`` along a unit ``twist``
     (engine.trust.WeakDirection.twist: rotations first, in mm at ``length`` from ``centre``,

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .choices import Verdict
-from .pose import screw_motion
+from .pose import largest_speed, screw_motion
 from .seeds import DEFAULT_SEED, rng
 from .trust import Conditioning, WeakDirection
 
@@ -373,7 +373,7 @@ def _scan_free(judge: _PoseJudge, w: WeakDirection, cond: Conditioning,
     d, idx, X, width = judge.d, judge.idx, judge.points, judge.width
     rec = []  # (amplitude, verdict, plausible, largest change, every point)
     ends: list[bool] = []
-    h_min = FREE_RESOLUTION * width / (1.0 if X is None else _speed(w.twist, X[idx], cond))
+    h_min = FREE_RESOLUTION * width / (1.0 if X is None else max(largest_speed(w.twist, X[idx], cond.centre, cond.length), 1e-12))
     for sgn in (-1.0, 1.0):
         a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
         end, checked, last = False, False, None
@@ -432,18 +432,6 @@ def _uncertainty_probe(judge: _PoseJudge, region) -> PoseProbe:
     return PoseProbe("uncertainty", None, False, (), ch, tuple(j[0] for j in judged),
                      ch <= INVARIANT_FRACTION * judge.width, (True,) * len(judged), None,
                      None, (), (True,) * len(judged))
-
-
-def _speed(twist, X: np.ndarray, cond: Conditioning) -> float:
-    """Largest speed (mm per mm of amplitude) of points ``X`` under the unit ``twist``: a screw
-    motion moves each point at a constant speed."""
-    v = np.asarray(twist, float)
-    r = X - np.asarray(cond.centre, float)
-    if X.shape[1] == 3:
-        vel = np.cross(v[:3] / cond.length, r) + v[3:]
-    else:
-        vel = v[0] / cond.length * np.column_stack([-r[:, 1], r[:, 0]]) + v[1:]
-    return max(float(np.linalg.norm(vel, axis=1).max()), 1e-12)
 
 
 def _vec(a) -> str:

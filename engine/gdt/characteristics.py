@@ -97,7 +97,7 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             # inspector: this characteristic cannot be judged, the others still are.
             results.append(CharacteristicResult(c, None, INCONCLUSIVE, "it cannot be judged "
                                                 f"as the model states it: {e.message}", idx))
-    results = probed(results, plan, geo, shared, members, T_part)
+    results = probed(results, geo, shared, T_part)
     everything = np.arange(n)
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = plan_verdict(results, alignment)

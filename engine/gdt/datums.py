@@ -136,18 +136,28 @@ class Alignment:
     free_basis: np.ndarray | None = None
     """(dof, f) the free directions in the fits' coordinates (rotation x length, translation,
     about the fits' centre), orthonormal: what ``free`` names."""
-    scatter: np.ndarray | None = None
-    """(dof, q) how the scatter of the datums' points moves the frame: the principal 1-sigma
-    motions of the pose in the fits' coordinates, to first order (:func:`frame_scatter`),
-    largest first; None when not computed (an RPS; datums that did not place the part)."""
-    scatter_sigma: tuple[float, ...] = ()
-    """Per datum that took directions (primary first), the scatter of its points about their
-    least-squares feature that ``scatter`` comes from, mm (nan: too few points to tell)."""
+    first_order: Callable[[], tuple[np.ndarray, tuple[float, ...]]] | None = None
+    """() -> (:attr:`scatter`, :attr:`scatter_sigma`) (:func:`frame_scatter` to first order;
+    computed on the first call); None when not computed (an RPS; datums that did not place the
+    part)."""
     bootstrapped: Callable[[], np.ndarray] | None = None
     """() -> the frame's scatter as ``scatter`` by a parametric bootstrap (BOOTSTRAP_DRAWS
     draws; computed on the first call): what is probed; ``scatter``, cheaper and larger,
     screens."""
 
+    @property
+    def scatter(self) -> np.ndarray | None:
+        """(dof, q) how the scatter of the datums' points moves the frame: the principal
+        1-sigma motions of the pose in the fits' coordinates, to first order, largest first;
+        None when not computed."""
+        return None if self.first_order is None else self.first_order()[0]
+
+    @property
+    def scatter_sigma(self) -> tuple[float, ...]:
+        """Per datum that took directions (primary first), the scatter of its points about
+        their least-squares feature that ``scatter`` comes from, mm (nan: too few points to
+        tell)."""
+        return () if self.first_order is None else self.first_order()[1]
 
 Evaluate = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
 """evaluate(T, idx) -> (X, d, normals): measured points ``idx`` at pose T in the nominal frame,
@@ -217,14 +227,14 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
         best_fit = np.asarray(best_fit, dtype=np.int64)
         T = _least_squares(evaluate, T, best_fit, free, centre, length, nrot, size=False)[0]
         fitted = True
-    scatter, sigmas, bootstrapped = None, (), None
+    first_order, bootstrapped = None, None
     if complete and took:
         args = (evaluate, T, took, centre, length, nrot, best_fit if fitted else None, free)
-        scatter, sigmas = frame_scatter(*args)
+        first_order = functools.cache(lambda: frame_scatter(*args))
         bootstrapped = functools.cache(
             lambda: frame_scatter(*args, draws=BOOTSTRAP_DRAWS)[0])
     return Alignment(T, tuple(fits), _describe_free(free, centre, length, nrot), fitted,
-                     complete, message, free, scatter, sigmas, bootstrapped)
+                     complete, message, free, first_order, bootstrapped)
 
 
 def frame_scatter(evaluate: Evaluate, T, took, centre, length, nrot, best_fit, free,

@@ -18,11 +18,11 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import InputError
-from ..pose import apply_transform
+from ..pose import apply_transform, largest_speed
 from ..pose_sensitivity import PROBE_SIGMAS
 from ..verdict import INCONCLUSIVE, REJECT
 from .datums import Alignment, moved_along
-from .plan import LOCATION, ORIENTATION, ZONE_ONLY, Plan
+from .plan import LOCATION, ORIENTATION, ZONE_ONLY
 from .results import CharacteristicResult, Geometry
 
 PROBE = PROBE_SIGMAS[-1]
@@ -46,8 +46,8 @@ def frame_of(c, geo: Geometry, T_part) -> tuple | None:
     return None
 
 
-def probed(results: list[CharacteristicResult], plan: Plan, geo: Geometry, shared,
-           members: dict[str, np.ndarray], T_part) -> list[CharacteristicResult]:
+def probed(results: list[CharacteristicResult], geo: Geometry, shared,
+           T_part) -> list[CharacteristicResult]:
     """``results`` with each characteristic whose verdict changes within PROBE sigmas of its
     frame's scatter INCONCLUSIVE (module docstring); ``shared``: the plan evaluation's
     engine.gdt.judgement.Shared, whose frames are the ones judged."""
@@ -61,8 +61,8 @@ def probed(results: list[CharacteristicResult], plan: Plan, geo: Geometry, share
         al = shared.placed(*frame)
         # The same characteristic under other names (a plan's copies) is probed once.
         same = replace(c, id="", name="", designator="", source="")
-        seen = shared.once(("frame probe", frame[0], frame[1], id(frame[2]), same),
-                           lambda: _probe(r, al, frame, plan, geo, members, T_part))
+        seen = shared.once(("frame probe", shared.placed_key(*frame), same),
+                           lambda: _probe(r, al, frame, shared, geo, T_part))
         other = next((g.verdict for g in seen if g.verdict != r.verdict), None)
         if other is None:
             out.append(r)
@@ -78,12 +78,12 @@ def probed(results: list[CharacteristicResult], plan: Plan, geo: Geometry, share
     return out
 
 
-def _probe(r: CharacteristicResult, al: Alignment, frame: tuple, plan: Plan, geo: Geometry,
-           members: dict, T_part) -> list[CharacteristicResult]:
+def _probe(r: CharacteristicResult, al: Alignment, frame: tuple, shared, geo: Geometry,
+           T_part) -> list[CharacteristicResult]:
     """The characteristic of ``r`` judged with its frame ``al`` (placed by ``frame``, the
     arguments of Shared.placed) moved within PROBE sigmas of its scatter (:func:`_extremes`);
     [] when no such motion can move its value across a limit."""
-    from .judgement import Shared, judge
+    from .judgement import judge
 
     S = _reaching(al, r, geo)
     if S is None or r.value is None:
@@ -91,10 +91,8 @@ def _probe(r: CharacteristicResult, al: Alignment, frame: tuple, plan: Plan, geo
 
     def at(u):
         """The characteristic judged with its frame moved by S u (u in sigmas), or None."""
-        again = Shared(plan, geo, members)
-        again.memo[("placed", frame[0], frame[1], id(frame[2]))] = replace(
-            al, T_nominal_measured=moved_along(al.T_nominal_measured, S @ u, geo.centre,
-                                               geo.length))
+        again = shared.with_frame(frame, replace(al, T_nominal_measured=moved_along(
+            al.T_nominal_measured, S @ u, geo.centre, geo.length)))
         try:
             got = judge(r.characteristic, r.indices, geo, again, T_part)
         except InputError:
@@ -110,14 +108,16 @@ def _reaching(al: Alignment, r: CharacteristicResult, geo: Geometry) -> np.ndarr
     cheaper first-order scatter, which is larger): every such motion moves its
     points by less than half the value's distance to its nearest limit (a zone's width, a
     profile's and a position's value move by at most twice their points' displacement)."""
+    if al.bootstrapped is None or geo.points is None or r.indices.size == 0:
+        return None
     S = al.scatter
-    if S is None or S.shape[1] == 0 or geo.points is None or r.indices.size == 0:
+    if S is None or S.shape[1] == 0:
         return None
     X = apply_transform(al.T_nominal_measured, geo.points[r.indices])
     # A motion S u, |u| <= PROBE, moves a point by at most PROBE * sqrt(sum_j |S_j at x|^2).
-    reach = PROBE * float(np.sqrt(sum(_largest_motion(S[:, j], X, geo) ** 2
+    reach = PROBE * float(np.sqrt(sum(largest_speed(S[:, j], X, geo.centre, geo.length) ** 2
                                       for j in range(S.shape[1]))))
-    if 2.0 * reach < _room(r) or al.bootstrapped is None:
+    if 2.0 * reach < _room(r):
         return None
     return al.bootstrapped()
 
@@ -190,17 +190,6 @@ def _room(r: CharacteristicResult) -> float:
     limits = [hi] if c.type in ZONE_ONLY else [hi, (c.nominal or 0.0) + c.lower]
     guard = float(r.facts.get("uncertainty_bound") or 0.0)
     return max(0.0, min(abs(r.value - x) for x in limits) - guard)
-
-
-def _largest_motion(step: np.ndarray, X: np.ndarray, geo: Geometry) -> float:
-    """The largest displacement (mm) of points X (nominal frame) under the small motion
-    ``step`` (fits' coordinates: rotation x length, translation, about geo.centre)."""
-    r = X - geo.centre
-    if X.shape[1] == 3:
-        v = np.cross(step[:3] / geo.length, r) + step[3:]
-    else:
-        v = step[0] / geo.length * np.column_stack([-r[:, 1], r[:, 0]]) + step[1:]
-    return float(np.linalg.norm(v, axis=1).max())
 
 
 def _scatters(al: Alignment) -> str:

@@ -6,6 +6,7 @@ theirs."""
 
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 
 import numpy as np
@@ -21,7 +22,8 @@ from .location import judge_location
 from .orientation import judge_orientation
 from .plan import (DIMENSIONS, FORM, MIN_POINTS, ORIENTATION, RUNOUT, Characteristic, Plan,
                    known_datum_parts)
-from .region_features import FACING, SPAN, datum_invariants, datum_surface
+from .region_features import (FACING, SPAN, datum_invariants, datum_nominal,
+                              datum_surface)
 from .results import WORST, CharacteristicResult, Geometry
 from .size import judge_size
 
@@ -77,8 +79,19 @@ class Shared:
     def placed(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
         """The part placed by the datums ``labels`` (primary first), the freedom they leave
         best-fitted on the regions ``best_fit``, from ``T_start`` (engine.gdt.datums.align)."""
-        return self.once(("placed", labels, best_fit, id(T_start)),
+        return self.once(self.placed_key(labels, best_fit, T_start),
                          lambda: self._align(labels, best_fit, T_start))
+
+    @staticmethod
+    def placed_key(labels: tuple, best_fit: tuple, T_start: np.ndarray) -> tuple:
+        """The memo key of :meth:`placed` with these arguments."""
+        return ("placed", labels, best_fit, id(T_start))
+
+    def with_frame(self, frame: tuple, al: Alignment) -> "Shared":
+        """A fresh evaluation of the same plan in which ``placed(*frame)`` is ``al``."""
+        again = copy.copy(self)
+        again.memo = {self.placed_key(*frame): al}
+        return again
 
     def _align(self, labels: tuple, best_fit: tuple, T_start: np.ndarray) -> Alignment:
         geo, members = self.geo, self.members
@@ -86,11 +99,13 @@ class Shared:
         fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
             if best_fit else None
         # A common datum "A-B" is fitted to the nominal surface: its parts' features differ.
-        surfaces = [datum_surface(d, geo) if x in self.datums else None
+        nominals = [self.once(("datum nominal", x), lambda d=d: datum_nominal(d, geo))
                     for x, d in zip(labels, ds)]
+        surfaces = [datum_surface(d, geo, n) if x in self.datums else None
+                    for x, d, n in zip(labels, ds, nominals)]
+        invariants = [datum_invariants(d, geo, n) for d, n in zip(ds, nominals)]
         return align(geo.evaluate, T_start, ds, [self.datum_members(x) for x in labels],
-                     geo.centre, geo.length, fit_idx, [datum_invariants(d, geo) for d in ds],
-                     surfaces)
+                     geo.centre, geo.length, fit_idx, invariants, surfaces)
 
 
 def plan_verdict(results, alignment: Alignment | None) -> tuple[str, tuple[str, ...]]:

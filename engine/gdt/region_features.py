@@ -149,18 +149,22 @@ def region_nominal(kind: str, geo: Geometry, mask: np.ndarray) -> dict | None:
                             geo.nominal_normals(np.flatnonzero(mask)))
 
 
-def datum_invariants(datum, geo: Geometry) -> np.ndarray | None:
-    """The motions that leave datum's ideal nominal feature in place (engine.gdt.datums), from the
-    least-squares feature of its region's nominal points; None when they do not form it."""
+def datum_nominal(datum, geo: Geometry) -> dict | None:
+    """The datum's nominal feature: its region's (:func:`region_nominal`)."""
+    return region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
+
+
+def datum_invariants(datum, geo: Geometry, nominal: dict | None) -> np.ndarray | None:
+    """The motions that leave datum's ideal nominal feature in place (engine.gdt.datums), from
+    its ``nominal`` (:func:`datum_nominal`); None when there is none."""
     from .datums import invariant_motions
 
-    nominal = region_nominal(datum.feature, geo, geo.nominal_masks[datum.region])
     if nominal is None:
         return None
     return invariant_motions(datum.feature, nominal, geo.centre, geo.length)
 
 
-def datum_surface(datum, geo: Geometry):
+def datum_surface(datum, geo: Geometry, nominal: dict | None):
     """evaluate(T, idx) -> (X, d, normals) of the measured points ``idx`` at pose T against the
     datum's ideal nominal feature (its region's plane, width, cylinder, sphere, line or circle,
     as :func:`datum_invariants` takes it), the one its simulator is (ASME Y14.5 §7, ISO 5459):
@@ -169,11 +173,10 @@ def datum_surface(datum, geo: Geometry):
     as datum A, fitted from a pose turned 0.001 rad about its normal, tilted 3.8 mm over the
     plate by points near its pockets' edges). None where the region's nominal samples do not
     lie on one such feature (within IDEAL_MM), or no measured points are known: the datum is
-    then fitted to the nominal surface."""
+    then fitted to the nominal surface. ``nominal``: its :func:`datum_nominal`."""
     from ..pose import apply_transform
 
     mask = geo.nominal_masks[datum.region]
-    nominal = region_nominal(datum.feature, geo, mask)
     if nominal is None or geo.points is None:
         return None
     idx = np.flatnonzero(mask)
