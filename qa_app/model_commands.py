@@ -41,6 +41,7 @@ def _read_step(path: str, role: str):
     from engine.io import formats
     from engine.io.step import read_step
 
+    formats.check_file(path)
     if formats.kind_of(path) != formats.STEP:
         raise InputError(f"{role} must be a STEP model ({', '.join(formats.STEP_SUFFIXES)}), "
                          f"not '{formats.suffix_of(path) or '(no suffix)'}'", path)

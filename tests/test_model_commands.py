@@ -206,6 +206,11 @@ def test_faces_refuses_what_is_no_step_model_and_an_output_onto_its_input(tmp_pa
     assert code == 65 and "broken.stp" in err and "Traceback" not in err
     code, _, err = run(capsys, ["faces", str(tmp_path / "none.stp")])
     assert code == 66 and "none.stp" in err
+    # A folder is no input file (66, as `inspect` says it), whatever its name.
+    for folder in (tmp_path, tmp_path / "models.stp"):
+        folder.mkdir(exist_ok=True)
+        code, _, err = run(capsys, ["faces", str(folder)])
+        assert code == 66 and "is a folder" in err and "Traceback" not in err
     code, _, err = run(capsys, ["faces", CTC01, "--csv", CTC01])
     assert code == 64 and "never replaces an input" in err
 
