@@ -90,7 +90,8 @@ def axis_plane(axis: str, offset: float) -> Plane:
     u, v = {0: (e[1], e[2]), 1: (e[0], e[2]), 2: (e[0], e[1])}[k]
     origin = np.zeros(3)
     origin[k] = float(offset)
-    return Plane(origin, np.cross(u, v), u, v, f"{axis} = {float(offset):g} mm", axis,
+    # Ten digits: the offset as given (z = -100.00001, not "-100" beside a part from -100).
+    return Plane(origin, np.cross(u, v), u, v, f"{axis} = {float(offset):.10g} mm", axis,
                  float(offset))
 
 

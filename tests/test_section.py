@@ -236,6 +236,9 @@ def test_a_nist_part_is_cut_as_opencascade_cuts_it(ctc01, plane):
 def test_a_plane_that_misses_the_part_is_named(ctc01):
     with pytest.raises(SettingsError, match=r"z = 500 mm misses the part.*z runs from -100"):
         nominal_curve(axis_plane("z", 500.0), step=ctc01)
+    # Just below the part: the offset as given, not rounded onto the part's own bound.
+    with pytest.raises(SettingsError, match=r"z = -100\.00001 mm misses the part"):
+        nominal_curve(axis_plane("z", -100.00001), step=ctc01)
     with pytest.raises(SettingsError, match="bare points"):
         nominal_curve(axis_plane("z", 0.0), nominal=Nominal(np.random.default_rng(0).normal(
             size=(50, 3)), None, "estimated"))
