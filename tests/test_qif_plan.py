@@ -490,6 +490,20 @@ def test_an_angularity_takes_its_angle_in_its_angular_unit(tmp_path, angle, unit
     assert c.type == "angularity" and c.angle == pytest.approx(degrees, abs=1e-9)
 
 
+@pytest.mark.parametrize("factor, unit", [("0.001", "0"), ("0.001", "-0.001"),
+                                          ("0.017453292519943", "0")])
+def test_a_unit_whose_factor_is_not_positive_is_refused_naming_the_unit(tmp_path, factor, unit):
+    """A linear unit of factor 0 was refused later for "feature 2154 (plane z=0) matches no
+    face", one of -0.001 for a negative ToleranceValue, and an angle unit of 0 was read."""
+    from engine.errors import InputError
+    from engine.io.qif_plan import read_qif_plan
+
+    path = _mutated(tmp_path, (f"<Factor>{factor}</Factor>", f"<Factor>{unit}</Factor>"))
+    with pytest.raises(InputError, match=re.escape(
+            f"its UnitConversion Factor is '{unit}'; a unit's factor must be > 0")):
+        read_qif_plan(path)
+
+
 def test_an_angularity_in_a_unit_the_file_does_not_declare_is_refused(tmp_path):
     from engine.errors import InputError
     from engine.io.qif_plan import read_qif_plan

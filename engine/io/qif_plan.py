@@ -285,19 +285,14 @@ class _Units:
         pmi = root.find("{*}FileUnits/{*}PrimaryUnits/{*}PMILinearUnit")
         for u in (primary, *(() if pmi is None else (pmi,)),
                   *root.iterfind("{*}FileUnits/{*}OtherUnits/{*}LinearUnit")):
-            factor = u.findtext("{*}UnitConversion/{*}Factor")
-            self.mm[(u.findtext("{*}UnitName") or "").strip()] = 1000.0 * _number(
-                factor if factor is not None else "1", f"unit {u.findtext('{*}UnitName')}",
-                path)
+            self.mm[(u.findtext("{*}UnitName") or "").strip()] = 1000.0 * _factor(u, path)
         self.unit = (primary.findtext("{*}UnitName") or "").strip()
         self.pmi_unit = self.unit if pmi is None else (pmi.findtext("{*}UnitName") or "").strip()
         self.mm_per_unit = self.mm[self.unit]
         self.degrees: dict[str, float] = {}
         for u in root.iterfind("{*}FileUnits/{*}*/{*}*"):
             if local_name(u) in ("AngularUnit", "PMIAngularUnit"):
-                factor = u.findtext("{*}UnitConversion/{*}Factor")
-                deg = math.degrees(_number(factor if factor is not None else "1",
-                                           f"unit {u.findtext('{*}UnitName')}", path))
+                deg = math.degrees(_factor(u, path))
                 # A degree's factor written to 15 digits (NIST's 0.017453292519943) is one.
                 self.degrees[(u.findtext("{*}UnitName") or "").strip()] = \
                     1.0 if abs(deg - 1.0) < 1e-9 else deg
@@ -334,6 +329,19 @@ class _Units:
             raise InputError(f"{what}: angularUnit '{unit}' is not one of the file's units "
                              f"({', '.join(self.degrees) or 'it declares none'})", self.path)
         return _number(e.text, what, self.path) * (1.0 if unit is None else self.degrees[unit])
+
+
+def _factor(unit, path: str) -> float:
+    """A unit's UnitConversion Factor (to the SI unit; 1 where it states none), which must be
+    > 0: a factor of 0 made every length 0, and the file was refused later for a feature
+    that matched no face."""
+    name = (unit.findtext("{*}UnitName") or "").strip()
+    text = unit.findtext("{*}UnitConversion/{*}Factor")
+    factor = _number(text if text is not None else "1", f"unit {name!r}", path)
+    if not factor > 0:
+        raise InputError(f"unit {name!r}: its UnitConversion Factor is {text.strip()!r}; a "
+                         "unit's factor must be > 0", path)
+    return factor
 
 
 def _number(text: str | None, what: str, path: str) -> float:
