@@ -140,8 +140,7 @@ def plan_table(plan: Plan, faces: dict[str, tuple[int, ...]], heading: list[str]
     source's characteristic ids in its order (a QIF's; judged ones split per feature,
     ``ID.1`` …, follow their id), None: the plan's own order."""
     names = names or {}
-    total = plan.n_source if plan.n_source is not None else (
-        len(plan.characteristics) + len(plan.not_judged))
+    total = plan.n_stated
     lines = [*heading,
              f"{total} characteristics in {os.path.basename(plan.path)}: "
              f"{total - len(plan.not_judged)} supported, {len(plan.not_judged)} not"

@@ -353,6 +353,18 @@ class Plan:
     plan's own ``characteristics`` are all of them."""
 
     @property
+    def n_stated(self) -> int:
+        """How many characteristics the plan's source states: a QIF's ``n_source``; else the
+        characteristics counted once per ``source`` they name (a TOML plan written from a QIF
+        names the QIF characteristic each came from, and one may be judged as several: its
+        "14 of 47" reads "14 of 47" again, not "14 of 70"), each without one by itself, and
+        the ones not judged."""
+        if self.n_source is not None:
+            return self.n_source
+        return len({c.source or ("id", c.id) for c in self.characteristics}) + \
+            len(self.not_judged)
+
+    @property
     def not_judged_summary(self) -> str:
         """"N of M characteristics of FILE are not judged yet: TYPES" ("" when all are)."""
         if not self.not_judged:
@@ -366,9 +378,7 @@ class Plan:
                  + ("" if k == 1 else f" ({k})") for t, k in list(counts.items())[:SUMMARY_KINDS]]
         more = len(counts) - SUMMARY_KINDS
         types = ", ".join(shown) + (f" and {more} more kinds" if more > 0 else "")
-        total = self.n_source if self.n_source is not None else (
-            len(self.characteristics) + len(self.not_judged))
-        return (f"{len(self.not_judged)} of {total} characteristics of "
+        return (f"{len(self.not_judged)} of {self.n_stated} characteristics of "
                 f"{os.path.basename(self.path)} are not judged yet: {types}")
 
     def region(self, name: str) -> Region:
