@@ -119,15 +119,29 @@ def inspection_settings(tol: Tolerance | None, plan: str | None = None,
         stated = instrument_of(options.get("instrument"), read)
         options["decision_rule"] = (DecisionRule.GUARDED if stated is not None
                                     and stated.states_anything else DecisionRule.SIMPLE)
-    if tol is None:
-        if read is None:  # (read above whenever a plan is given without a zone)
-            raise SettingsError("a tolerance zone or an inspection plan is required")
-        from .gdt.characteristics import statistics_zone
-
-        tol = statistics_zone(read)
-        return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=False,
-                                  **options)
+    if tol is None:  # (the plan was read above whenever it is given without a zone)
+        return zone_of(InspectionSettings(None, None, plan=plan, **options), read)
     return InspectionSettings(tol.lower, tol.upper, plan=plan, zone_in_verdict=True, **options)
+
+
+def zone_of(settings: InspectionSettings, plan: Plan | None) -> InspectionSettings:
+    """``settings`` with a zone: as they are when they give one; when they leave it to the
+    plan (tol_lower and tol_upper None, as ``--plan`` without ``--tol``), the plan's statistics
+    zone (engine.gdt.characteristics.statistics_zone), outside the verdict. SettingsError
+    for one limit without the other, or no zone and no plan."""
+    lower, upper = settings.tol_lower, settings.tol_upper
+    if lower is not None and upper is not None:
+        return settings
+    if lower is not None or upper is not None:
+        raise SettingsError("a tolerance zone needs both its limits (tol_lower and tol_upper, "
+                            "mm), or neither when a plan gives the requirement")
+    if plan is None:
+        raise SettingsError("a tolerance zone or an inspection plan is required")
+    from .gdt.characteristics import statistics_zone
+
+    zone = statistics_zone(plan)
+    return dataclasses.replace(settings, tol_lower=zone.lower, tol_upper=zone.upper,
+                               zone_in_verdict=False)
 
 
 def instrument_of(given, plan: Plan | None):
@@ -240,6 +254,7 @@ def load_nominal(nominal_path: str, settings: InspectionSettings) -> LoadedNomin
 
         plan = read_plan(settings.plan)
         record = InputRecord("plan", settings.plan, plan.sha256, None)
+    settings = zone_of(settings, plan)
     check_zones(settings, plan, part_size(source, nominal))
     return LoadedNominal(source, nominal, plan, record, settings, time.perf_counter() - t0)
 
@@ -274,7 +289,8 @@ def check_zones(settings: InspectionSettings, plan: Plan | None, size: float) ->
         from .io.plan import check_zones as check_plan_zones
 
         check_plan_zones(plan, size)
-    check_zone(settings.tol_lower, settings.tol_upper, size)
+    zone = settings.tolerance
+    check_zone(zone.lower, zone.upper, size)
 
 
 def inspect_measured(loaded: LoadedNominal, measured_path: str,

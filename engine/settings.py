@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from .choices import DecisionRule, Fit
+from .errors import SettingsError
 from .scene import check_box
 from .seeds import DEFAULT_SEED
 from .tolerance import Tolerance
@@ -19,10 +20,12 @@ class InspectionSettings:
     Stored in the results document (``settings``) so that a certificate can be re-checked.
     """
 
-    tol_lower: float
-    """Lower limit of the tolerance zone, mm."""
-    tol_upper: float
-    """Upper limit of the tolerance zone, mm."""
+    tol_lower: float | None
+    """Lower limit of the tolerance zone, mm. None with ``tol_upper`` None and a ``plan``: the
+    plan's characteristics are the requirement, and the zone is the plan's
+    (engine.pipeline.zone_of, when the nominal is loaded; as ``--plan`` without ``--tol``)."""
+    tol_upper: float | None
+    """Upper limit of the tolerance zone, mm (None: as ``tol_lower``)."""
     layers: tuple[str, ...] | None = None
     """DXF template: the layers taken (None: every layer)."""
     units: str | None = None
@@ -74,6 +77,10 @@ class InspectionSettings:
 
     @property
     def tolerance(self) -> Tolerance:
+        """The zone; SettingsError while it is left to the plan (engine.pipeline.zone_of)."""
+        if self.tol_lower is None or self.tol_upper is None:
+            raise SettingsError("the tolerance zone is left to the plan: it is known once the "
+                                "plan is read (engine.pipeline.zone_of)")
         return Tolerance(self.tol_lower, self.tol_upper)
 
     def to_json(self) -> dict:

@@ -64,3 +64,27 @@ def test_a_zone_knows_its_width_and_centre():
     z = engine.Tolerance(-0.1, 0.3)
     assert z.width == 0.3 - (-0.1) and z.centre == 0.5 * (-0.1 + 0.3)
     assert engine.Tolerance.symmetric(0.05).centre == 0.0
+
+
+def test_settings_that_leave_the_zone_to_their_plan_inspect_as_the_plan_alone_does():
+    """InspectionSettings(None, None, plan=P) (the fields' own way of saying "no --tol") ended
+    in a TypeError from numpy deep in the pipeline; it now inspects as inspect_files(plan=P)
+    does, the plan's zone recorded outside the verdict. A zone half given, or neither a zone
+    nor a plan: a SettingsError saying so."""
+    import pytest
+
+    from engine.pipeline import run_files
+
+    nominal, measured, plan = (os.path.join(ROOT, "samples", "seat_bracket", f)
+                               for f in ("nominal.xyz", "measured.csv", "plan.toml"))
+    by_plan = engine.inspect_files(nominal, measured, plan=plan)
+    run = run_files(nominal, measured, engine.InspectionSettings(None, None, plan=plan))
+    assert run.settings == by_plan.settings and not run.settings.zone_in_verdict
+    assert run.result.verdict == by_plan.result.verdict
+    assert [(c.characteristic.id, c.value, c.verdict) for c in run.result.plan.characteristics] == \
+        [(c.characteristic.id, c.value, c.verdict) for c in by_plan.result.plan.characteristics]
+    for half in ((None, 0.1), (-0.1, None)):
+        with pytest.raises(engine.SettingsError, match="needs both its limits"):
+            run_files(nominal, measured, engine.InspectionSettings(*half, plan=plan))
+    with pytest.raises(engine.SettingsError, match="a tolerance zone or an inspection plan"):
+        run_files(nominal, measured, engine.InspectionSettings(None, None))
