@@ -63,8 +63,11 @@ def statistics_zone(plan: Plan) -> Tolerance:
 
 
 def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,
-               regions: np.ndarray) -> PlanResult:
-    """Evaluate ``plan`` on the registered part (module docstring)."""
+               regions: np.ndarray, doubt=None, probe: bool = True) -> PlanResult:
+    """Evaluate ``plan`` on the registered part (module docstring). doubt : the points that
+    may have been measured on another face (:func:`_in_doubt`), None: none. probe : whether
+    a verdict the scatter of its datums' points decides is made INCONCLUSIVE
+    (engine.gdt.frame_probe), after the points in doubt have had their say."""
     shared = Shared(plan, geo, members)
     a = plan.alignment
     alignment = None
@@ -97,7 +100,10 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             # inspector: this characteristic cannot be judged, the others still are.
             results.append(CharacteristicResult(c, None, INCONCLUSIVE, "it cannot be judged "
                                                 f"as the model states it: {e.message}", idx))
-    results = probed(results, geo, shared, T_part)
+    if doubt is not None:
+        results = _in_doubt(results, plan, geo, members, n, doubt)
+    if probe:
+        results = probed(results, geo, shared, T_part)
     everything = np.arange(n)
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = plan_verdict(results, alignment)
@@ -249,11 +255,10 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool,
     samples = sample_of(foot)
     members = measured_members(plan, geo.nominal_masks, samples, geo.labels,
                                foot if by_foot else None)
-    planned = check_plan(plan, geo, members, n, region_column(plan, members, n))
+    doubt = None if rivals is None else rivals(
+        result.registered, result.deviations.signed, samples, geo.nominal_masks, members)
+    planned = check_plan(plan, geo, members, n, region_column(plan, members, n), doubt)
     results = list(planned.characteristics)
-    if rivals is not None:
-        results = _in_doubt(results, plan, geo, members, n, rivals(
-            result.registered, result.deviations.signed, samples, geo.nominal_masks, members))
     if zone_in_verdict:
         tol = result.tolerance
         d = result.deviations.signed
@@ -277,6 +282,8 @@ def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
               members: dict[str, np.ndarray], n: int, doubt) -> list[CharacteristicResult]:
     """``results`` where the points in doubt decide: each characteristic judged again without
     them, INCONCLUSIVE where its verdict changes (saying both), the same result where not.
+    Both judged without the frame probe (engine.gdt.frame_probe, which follows): the question
+    is what those points alone change.
 
     doubt : ({region: indices of its members that may have been measured on a face outside
     it}, (n,) each point's rival face id, 0 for none), engine.step_model.face_rivals. A region
@@ -290,7 +297,8 @@ def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
     kept = {r: np.setdiff1d(m, drop[r]) if r in drop else m for r, m in members.items()}
     labels = [d.label for d in plan.datums]
     try:
-        again = check_plan(plan, geo, kept, n, region_column(plan, kept, n)).characteristics
+        again = check_plan(plan, geo, kept, n, region_column(plan, kept, n),
+                           probe=False).characteristics
     except InputError as e:  # without them a feature cannot be fitted: its verdict is open
         again = tuple(replace(r, verdict=INCONCLUSIVE, value=None, reason=e.message)
                       for r in results)
