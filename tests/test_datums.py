@@ -342,3 +342,49 @@ def test_ideal_deviations_against_analytic_offsets(kind):
         want_n = out * u
     d, normals = got(X)
     assert np.allclose(d, off, atol=1e-9) and np.allclose(normals, want_n, atol=1e-9)
+
+
+def _full_program(A, d, size, radius):
+    """The tangent simulator's program over every point at once (its definition, solved
+    directly): [eta, s, g] at the optimum, ties by the smallest sum of gaps, or None."""
+    from scipy.optimize import linprog
+
+    m, r = A.shape
+    ones = np.ones((m, 1))
+    A_ub = np.block([[A, -ones, np.zeros((m, 1))], [-A, ones, -ones]])
+    b_ub = np.concatenate([-d, d])
+    primary = np.zeros(r + 2)
+    primary[r if size else r + 1] = 1.0
+    bounds = [(-radius, radius)] * r + [(None, None) if size else (0.0, 0.0), (0.0, None)]
+    sol = linprog(primary, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+    if sol.status != 0:
+        return None
+    gaps = np.concatenate([-A.sum(axis=0), [m, 0.0]])
+    tie = linprog(gaps, A_ub=np.vstack([A_ub, primary]), b_ub=np.append(b_ub, sol.fun + 1e-12),
+                  bounds=bounds, method="highs")
+    return tie.x if tie.status == 0 else sol.x
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_tangent_program_over_the_binding_points_is_the_full_programs(seed):
+    """engine.gdt.tangent_lp solves the simulator's program over the points that bind it
+    (constraint generation): its optimum, gap and motion are the program's over every point,
+    for planes and size features, noisy and with ties (deviations rounded to 1 µm)."""
+    from engine.gdt.tangent_lp import tangent_solve
+
+    rng = np.random.default_rng(seed)
+    for trial in range(25):
+        m, r, size = int(rng.integers(5, 2500)), int(rng.integers(1, 6)), bool(trial % 2)
+        A = rng.normal(size=(m, r)) * rng.uniform(0.1, 2.0, r)
+        d = rng.normal(0.0, 0.01, m) + (rng.uniform(-0.05, 0.05, m) if trial % 3 else 0.0)
+        if trial % 4 == 0:
+            d = np.round(d, 3)
+        got, want = tangent_solve(A, d, size, 1.0, 1e-9), _full_program(A, d / 1.0, size, 1.0)
+        assert (got is None) == (want is None)
+        if want is None:
+            continue
+        unit = float(np.max(np.abs(d)))
+        k = r if size else r + 1
+        assert got[k] == pytest.approx(want[k], abs=1e-9 * unit)  # the optimum
+        assert np.max(d + A @ got[:r] - got[r]) <= 1e-7 * unit  # no point beyond it
+        assert np.abs(got - want).max() <= 1e-6 * unit, (trial, m, r, size)

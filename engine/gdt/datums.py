@@ -47,6 +47,7 @@ from ..pose import apply_update, pose_jacobian
 from ..seeds import DEFAULT_SEED
 from ..seeds import rng as stream_rng
 from .plan import MIN_POINTS
+from .tangent_lp import tangent_solve
 
 SIZE_FEATURES = ("cylinder", "sphere", "circle", "width")
 RANK_TOLERANCE = 1e-6
@@ -289,7 +290,7 @@ def frame_scatter(evaluate: Evaluate, T, took, centre, length, nrot, best_fit, f
                 # the higher datums' motion does.
                 seen = d - res + E[k] + J @ dps[k]
                 if tangent:
-                    x = _tangent_solve(A, seen, size, length, STEP_TOLERANCE * length,
+                    x = tangent_solve(A, seen, size, length, STEP_TOLERANCE * length,
                                        ties=False)
                     eta = np.zeros(r) if x is None else x[:r]
                 else:
@@ -477,7 +478,7 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
     for _ in range(MAX_STEPS):
         X, d, n = evaluate(T, idx)
         A = _jacobian(X, n, centre, length, nrot) @ B
-        x = _tangent_solve(A, d, size, radius, settle)
+        x = tangent_solve(A, d, size, radius, settle)
         if x is None:
             break
         T, moved = _step(T, B, x[:r], centre, length, nrot)
@@ -487,38 +488,6 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
     X, d, n = evaluate(T, idx)
     s = float(np.max(d)) if size else 0.0
     return T, s, float(s - np.min(d)) if size else float(np.max(d) - np.min(d))
-
-
-def _tangent_solve(A: np.ndarray, d: np.ndarray, size: bool, radius: float,
-                   settle: float, ties: bool = True) -> np.ndarray | None:
-    """One linear program of :func:`_tangent`: [eta (r), s, g] (mm) for deviations d (m,) and
-    their motion A (m, r) within +-radius, the ties broken by the smallest sum of gaps (unless
-    not ``ties``: noisy points leave none); None when the program fails."""
-    from scipy.optimize import linprog
-
-    m, r = A.shape
-    # In units of the largest deviation, so that the solver's feasibility tolerance (1e-7)
-    # is relative to the deviations, however small they have become.
-    unit = max(float(np.max(np.abs(d))), settle)
-    ds = d / unit
-    # Variables [eta (r), s, g]; d + A eta - s <= 0 and s - d - A eta - g <= 0.
-    ones = np.ones((m, 1))
-    A_ub = np.block([[A, -ones, np.zeros((m, 1))], [-A, ones, -ones]])
-    b_ub = np.concatenate([-ds, ds])
-    primary = np.zeros(r + 2)
-    primary[r if size else r + 1] = 1.0
-    bounds = [(-radius / unit, radius / unit)] * r + \
-        [(None, None) if size else (0.0, 0.0), (0.0, None)]
-    sol = linprog(primary, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
-    if sol.status != 0:
-        return None
-    if not ties:
-        return sol.x * unit
-    # Among the optima: the smallest sum of gaps sum(s - d - A eta).
-    gaps = np.concatenate([-A.sum(axis=0), [m, 0.0]])
-    tie = linprog(gaps, A_ub=np.vstack([A_ub, primary]),
-                  b_ub=np.append(b_ub, sol.fun + 1e-9), bounds=bounds, method="highs")
-    return (tie.x if tie.status == 0 else sol.x) * unit
 
 
 def _complement(free: np.ndarray, taken: np.ndarray) -> np.ndarray:
