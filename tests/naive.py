@@ -315,3 +315,42 @@ def plane_cut_segments(points, triangles, origin, normal):
         if len(ends) == 2:
             out.append((ends[0], ends[1]))
     return out
+
+
+def radial_extremes(X, kind: str, starts) -> float:
+    """The minimum-zone radial separation ("zone": two coaxial cylinders, or circles for 2D
+    points), the smallest circumscribed ("outer") or largest inscribed ("inner") diameter of
+    points X about an axis near z: the epigraph program (zone or radius bounding every point's
+    exact distance from the axis) solved by SLSQP from each of ``starts`` (x, y at the points'
+    mean height, and in 3D the axis's tilts dx, dz / dy, dz), the best kept. An optimiser of
+    smooth constraints on the exact distances: independent of the engine's linear programs."""
+    from scipy.optimize import minimize
+
+    X = np.asarray(X, float)
+    z0 = X[:, 2].mean() if X.shape[1] == 3 else 0.0
+
+    def rho(p):
+        if X.shape[1] == 2:
+            return np.linalg.norm(X - p[:2], axis=1)
+        d = np.array([p[2], p[3], 1.0]) / math.sqrt(p[2] ** 2 + p[3] ** 2 + 1.0)
+        w = X - np.array([p[0], p[1], z0])
+        return np.linalg.norm(w - np.outer(w @ d, d), axis=1)
+
+    k = 2 if X.shape[1] == 2 else 4
+    best = math.inf
+    for s in starts:
+        s = np.asarray(s, float)[:k]
+        r = rho(s)
+        # Variables: the axis (k), then the two radii (lo, hi); "outer" minimises hi, "inner"
+        # maximises lo, "zone" minimises hi - lo.
+        x0 = np.concatenate([s, [r.min(), r.max()]])
+        goal = {"zone": lambda x: x[k + 1] - x[k], "outer": lambda x: x[k + 1],
+                "inner": lambda x: -x[k]}[kind]
+        cons = [{"type": "ineq", "fun": lambda x: rho(x[:k]) - x[k]},
+                {"type": "ineq", "fun": lambda x: x[k + 1] - rho(x[:k])}]
+        got = minimize(goal, x0, method="SLSQP", constraints=cons,
+                       options={"ftol": 1e-16, "maxiter": 1000})
+        r = rho(got.x[:k])  # the program's answer, read off the exact distances
+        value = {"zone": r.max() - r.min(), "outer": 2 * r.max(), "inner": -2 * r.min()}[kind]
+        best = min(best, float(value))
+    return abs(best)

@@ -14,6 +14,7 @@ from engine.nominal import Nominal
 from engine.pointset import PointSet
 from engine.pose import make_transform, rotation_from_rotvec
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
+from naive import radial_extremes
 from plan_runs import by_id, run
 
 # A block [0, 100] x [0, 60] x [0, 20]: base A (z = 0), sides B (x = 0) and C (y = 0), a top
@@ -244,31 +245,19 @@ def _round_zone_brute(q):
     return min(best[0], float(twin.fun))
 
 
-def _cylinder_zone_brute(X):
-    """The minimum-zone radial separation of points X about an axis near z: Nelder-Mead over
-    the axis (x, y at the mean height, tilts) from a grid of positions."""
-    from scipy.optimize import minimize
-
-    z0 = X[:, 2].mean()
-
-    def width(p):
-        d = np.array([p[2], p[3], 1.0]) / np.linalg.norm([p[2], p[3], 1.0])
-        w = X - np.array([p[0], p[1], z0])
-        return float(np.ptp(np.linalg.norm(w - np.outer(w @ d, d), axis=1)))
-
+def _axis_starts(X):
+    """Starting axes for naive.radial_extremes: parallel to z through a 3 x 3 grid of points
+    within 5 µm of the points' mean."""
     g = X[:, :2].mean(axis=0)
-    offsets = np.linspace(-0.005, 0.005, 11)
-    starts = sorted(((width([g[0] + u, g[1] + v, 0, 0]), [g[0] + u, g[1] + v, 0, 0])
-                     for u in offsets for v in offsets), key=lambda t: t[0])[:3]
-    return min(minimize(width, s, method="Nelder-Mead",
-                        options={"xatol": 1e-13, "fatol": 1e-16, "maxiter": 40000}).fun
-               for _, s in starts)
+    return [[g[0] + u, g[1] + v, 0.0, 0.0] for u in (-0.005, 0.0, 0.005)
+            for v in (-0.005, 0.0, 0.005)]
 
 
 def test_cylindricity_and_circularity_of_a_three_lobed_pin(nominal):
     """A pin with a 3-lobe form of amplitude a (rings of 36 points, evenly spaced at a random
     phase each): cylindricity and circularity equal the minimum zones searched here by brute
-    force with a Nelder-Mead twin (2a up to the sampling), within 1e-6 mm."""
+    force by an independent optimiser (naive.radial_extremes: SLSQP on the exact distances;
+    2a up to the sampling), within 1e-6 mm."""
     rng = np.random.default_rng(6)
     a = 0.004
     M, labels, faces, P = measured(rng, lobes=a)
@@ -277,8 +266,8 @@ def test_cylindricity_and_circularity_of_a_three_lobed_pin(nominal):
                                           C("3", "circularity", "pin", 0.007)))
     X = P[faces == "pin"]
     rings = [X[k * 36:(k + 1) * 36, :2] for k in range(RINGS)]
-    circ = max(_round_zone_brute(q) for q in rings)
-    cyl = _cylinder_zone_brute(X)
+    circ = max(radial_extremes(q, "zone", [s[:2] for s in _axis_starts(q)]) for q in rings)
+    cyl = radial_extremes(X, "zone", _axis_starts(X))
     assert circ == pytest.approx(2 * a, abs=2e-5) and cyl == pytest.approx(2 * a, abs=2e-5)
     assert by_id(res, "1").value == pytest.approx(cyl, abs=1e-6)
     assert by_id(res, "2").value == pytest.approx(circ, abs=1e-6)

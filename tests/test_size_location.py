@@ -14,6 +14,7 @@ from engine.nominal import Nominal
 from engine.pointset import PointSet
 from engine.pose import make_transform, rotation_from_rotvec
 from engine.verdict import ACCEPT, REJECT
+from naive import radial_extremes
 from plan_runs import by_id, run
 from qa_app.cli import main
 
@@ -168,35 +169,12 @@ def test_coaxiality_of_a_shaft_whose_second_diameter_is_offset_by_e(nominal, see
     assert [by_id(res, i).verdict for i in "12"] == [ACCEPT, REJECT]
 
 
-def _envelope_brute(X, inscribed):
-    """The smallest circumscribed (largest inscribed) cylinder's diameter of points X about an
-    axis near z: Nelder-Mead over the axis (x, y at the mean height, tilts) from a grid of
-    positions, the largest (smallest) distance from it made smallest (largest)."""
-    from scipy.optimize import minimize
-
-    z0 = X[:, 2].mean()
-
-    def radius(p):
-        d = np.array([p[2], p[3], 1.0]) / np.linalg.norm([p[2], p[3], 1.0])
-        w = X - np.array([p[0], p[1], z0])
-        rho = np.linalg.norm(w - np.outer(w @ d, d), axis=1)
-        return -rho.min() if inscribed else rho.max()
-
-    g = X[:, :2].mean(axis=0)
-    offsets = np.linspace(-0.005, 0.005, 11)
-    starts = sorted(((radius([g[0] + u, g[1] + v, 0, 0]), [g[0] + u, g[1] + v, 0, 0])
-                     for u in offsets for v in offsets), key=lambda t: t[0])[:3]
-    best = min(minimize(radius, s, method="Nelder-Mead",
-                        options={"xatol": 1e-13, "fatol": 1e-16, "maxiter": 40000}).fun
-               for _, s in starts)
-    return 2 * abs(best)
-
-
 def test_a_three_lobed_pins_sizes(nominal):
     """A pin with a 3-lobe form of amplitude a, probed in rings of 36 evenly spaced points:
     its two-point sizes are all 2R (opposite radii of an odd-lobed form sum to 2R); its
-    minimum circumscribed and maximum inscribed diameters equal those searched here by brute
-    force; the least-squares diameter lies between."""
+    minimum circumscribed and maximum inscribed diameters equal those an independent optimiser
+    finds (naive.radial_extremes: SLSQP on the exact distances); the least-squares diameter
+    lies between."""
     rng = np.random.default_rng(6)
     a = 0.004
     M, labels, faces, P = measured(rng, lobes=a)
@@ -204,7 +182,10 @@ def test_a_three_lobed_pins_sizes(nominal):
                      for m in ("lsq", "two-point", "min-circumscribed", "max-inscribed")))
     res = run(nominal, M, labels, plan)
     X = P[faces == "shaft2"]
-    gn, gx = _envelope_brute(X, False), _envelope_brute(X, True)
+    g = X[:, :2].mean(axis=0)
+    starts = [[g[0] + u, g[1] + v, 0.0, 0.0] for u in (-0.005, 0.0, 0.005)
+              for v in (-0.005, 0.0, 0.005)]
+    gn, gx = radial_extremes(X, "outer", starts), radial_extremes(X, "inner", starts)
     assert gn == pytest.approx(2 * (R2 + a), abs=2e-4) and gx == pytest.approx(
         2 * (R2 - a), abs=2e-4)
     assert by_id(res, "min-circumscribed").value == pytest.approx(gn, abs=1e-6)
