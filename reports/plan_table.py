@@ -45,7 +45,8 @@ def modifier_words(c: Characteristic) -> str:
     if c.regions and not c.features:  # (an angle's, a distance's two: not a pattern)
         out.append(f"pattern of {len(c.regions)}")
     if c.type in ORIENTATION or c.type == "straightness":
-        out.append("axis" if c.diametral else "plane")
+        out.append("axis" if c.diametral else "median plane of a width"
+                   if c.kind == "width" else "plane")
     if c.angle is not None:
         out.append(f"angle {c.angle:g}°")
     if c.features:

@@ -230,7 +230,9 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
             "parallelism, perpendicularity, angularity: at the pose the datums give, the width "
             "of the smallest zone of two planes at the basic angle to the primary datum, or "
             "(diametral) the diameter of the smallest cylinder at that angle holding the "
-            "least-squares axis between the planes bounding the feature along it; a rotation "
+            "least-squares axis between the planes bounding the feature along it, or (feature "
+            "width) the width of the smallest zone of two planes at that angle holding the "
+            "least-squares median plane over the feet there of the width's points; a rotation "
             "the datums leave free turns the zone to its smallest; circular_runout: the "
             "largest full indicator movement (max - min of the distance from the datum axis, "
             "or on a face normal to it of the coordinate along it) over 'sections' slabs along "
@@ -270,8 +272,8 @@ def _characteristic_json(r, labels: np.ndarray | None = None,
            "worst": [point_ref(i, labels) for i in r.worst]}
     if c.type == "size":
         out.update(nominal=_num(c.nominal), method=c.method)
-    if c.type in ("size", "position", "coaxiality", "concentricity", "symmetry"):
-        out["feature"] = c.feature
+    if c.type in ("size", "position", "coaxiality", "concentricity", "symmetry") + ORIENTATION:
+        out["feature"] = c.feature  # (an orientation's: plane, cylinder (its axis) or width)
     if c.type == "position":
         out.update(modifier=c.modifier, bonus=None, allowed=None, actual_mating_size=None)
     if c.regions:

@@ -589,6 +589,13 @@ nominal = 25.4
 lower = -0.1
 upper = 0.1
 features = ["plane", "cylinder"]
+[[characteristic]]
+id = "15"
+type = "perpendicularity"
+region = "slot"
+zone = 0.05
+datums = ["A"]
+feature = "width"
 """
 """A plan using every table and most keys of the TOML contract (engine.io.plan), the regions'
 groups STEP faces."""
@@ -634,10 +641,12 @@ def test_every_key_of_a_toml_plan_survives_plan_toml(text, tmp_path, capsys):
     for name in ("characteristics", "regions", "datums", "alignment", "part", "measurement",
                  "rps"):
         assert getattr(a, name) == getattr(b, name), name
-    assert len(a.characteristics) == (15 if text is EVERY_KEY else 1)
+    assert len(a.characteristics) == (16 if text is EVERY_KEY else 1)
     if text is EVERY_KEY:
         row = next(line for line in stdout.splitlines() if line.startswith("4 "))
         assert "MMC, pattern of 2" in row and "h1 -> faces 5-6; h2 -> face 7" in row
+        row = next(line for line in stdout.splitlines() if line.startswith("15 "))
+        assert "median plane of a width" in row
 
 
 def test_faces_gives_the_names_the_file_gives(tmp_path, capsys):

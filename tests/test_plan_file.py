@@ -508,6 +508,19 @@ BAD = [
     ("feature relative to itself", BASE + char("3", 'type = "position"\nregion = "C"\n'
                                                'zone = 0.1\ndatums = ["A", "C"]'),
      '[[characteristic]] #1 (id "3")', "datums", "cannot be related to itself"),
+    # An orientation's feature: a plane (its default) or a width's median plane, nothing else.
+    ("orientation of a cylinder feature", BASE + char("5", 'type = "perpendicularity"\n'
+                                                      'region = "hole1"\nzone = 0.1\n'
+                                                      'datums = ["A"]\nfeature = "cylinder"'),
+     '[[characteristic]] #1 (id "5")', "feature", "must be one of"),
+    ("a width's orientation as an axis", BASE + char("5", 'type = "parallelism"\n'
+                                                     'region = "hole1"\nzone = 0.1\n'
+                                                     'datums = ["A"]\nfeature = "width"\n'
+                                                     'diametral = true'),
+     '[[characteristic]] #1 (id "5")', "feature", "'diametral' (an axis) does not go with it"),
+    ("feature on flatness", BASE + char("2", FLAT + 'zone = 0.1\nfeature = "width"'),
+     '[[characteristic]] #1 (id "2")', "feature",
+     "applies to size, location and orientation only, not flatness"),
     # A characteristic of the plan's source the plan cannot judge (qa-inspect plan --toml).
     ("not_judged without reason", BASE + char("1", PROFILE + "zone = 0.1")
      + '[[not_judged]]\nid = "9"\ntype = "angle"\n', '[[not_judged]] #1 (id "9")', "reason",

@@ -71,6 +71,20 @@ def test_its_radii_and_4x_distances_map_to_their_features():
     assert "informational" in not_judged["2464"] and "edges" in not_judged["3740"]
 
 
+def test_its_perpendicularity_of_a_width_is_judged_on_the_widths_median_plane():
+    """Perpendicularity.1 (id 2476) of the 12" width (OppositeParallelPlanes 3568) to A was
+    left out ("perpendicularity of opposite parallel planes features is not judged yet"): it
+    is a perpendicularity of the width's median plane, in a zone between two planes."""
+    from engine.io.qif_plan import read_qif_plan
+
+    plan = read_qif_plan(QIF)
+    (c,) = [c for c in plan.characteristics if c.id == "2476"]
+    assert (c.type, c.region, c.kind, c.diametral, c.datums) == (
+        "perpendicularity", "qif:3568", "width", False, ("A",))
+    assert c.feature == "width" and c.upper == pytest.approx(0.012 * INCH)
+    assert "2476" not in {n.id for n in plan.not_judged}
+
+
 def _sample(step, rng, n, faces):
     """n points on the B-rep, those of ``faces`` 40 times as dense (they are small)."""
     from sweep import face_areas

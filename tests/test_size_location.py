@@ -23,6 +23,7 @@ from qa_app.cli import main
 # (20, 30); a shaft of radius 6 at (70, 30), z 20 .. 40, then radius 4, z 40 .. 60; a ball of
 # radius 4 on the top at (88, 50, 20) (its upper half).
 SLOT, SLOT_W, HOLE, HOLE_R = 40.0, 10.0, np.array([20.0, 30.0]), 5.0
+SLOT_MID = 12.5
 SHAFT, R1, R2, BALL, BALL_R = np.array([70.0, 30.0]), 6.0, 4.0, np.array([88.0, 50.0, 20.0]), 4.0
 
 
@@ -36,9 +37,10 @@ def _keep_top(p, gap):
 
 
 def _faces(rng, k, slot_shift=0.0, slot_widen=0.0, hole_shift=0.0, hole_grow=0.0,
-           shaft_offset=0.0, lobes=0.0, ball_shift=0.0, probed=False):
+           shaft_offset=0.0, lobes=0.0, ball_shift=0.0, probed=False, slot_tilt=0.0):
     """{face: (points, outward normals)}: the nominal (all zero) or a part with planted errors,
-    ``k`` points a face (rings for round faces when ``probed``)."""
+    ``k`` points a face (rings for round faces when ``probed``; the slot's walls turned by
+    ``slot_tilt`` rad about the y axis through its middle at z = SLOT_MID)."""
     u, v = rng.uniform(0.05, 0.95, (2, 4 * k)) if probed else rng.uniform(0, 1, (2, 4 * k))
     out = {"A": (np.column_stack([100 * u, 60 * v, 0 * u]), [0, 0, -1.0]),
            "B": (np.column_stack([0 * u, 60 * v, 20 * u]), [-1.0, 0, 0]),
@@ -53,6 +55,12 @@ def _faces(rng, k, slot_shift=0.0, slot_widen=0.0, hole_shift=0.0, hole_grow=0.0
     out["slot_hi"] = (np.column_stack([SLOT + slot_shift + half + 0 * y, y, z]), [-1.0, 0, 0])
     out = {f: (p[:k], np.broadcast_to(np.asarray(n, float), p[:k].shape))
            for f, (p, n) in out.items()}
+    if slot_tilt:
+        turn = rotation_from_rotvec(np.array([[0.0, slot_tilt, 0.0]]))[0]
+        mid = np.array([SLOT + slot_shift, 0.0, SLOT_MID])
+        for f in ("slot_lo", "slot_hi"):
+            p, n = out[f]
+            out[f] = ((p - mid) @ turn.T + mid, n @ turn.T)
     rings = 8 if probed else 4 * k // 36
     a = (np.tile(np.arange(36) * 2 * np.pi / 36, rings)
          + np.repeat(rng.uniform(0, 2 * np.pi, rings), 36))
@@ -167,6 +175,45 @@ def test_coaxiality_of_a_shaft_whose_second_diameter_is_offset_by_e(nominal, see
     assert by_id(res, "1").value == pytest.approx(2 * e, abs=2e-4)
     assert by_id(res, "2").value == by_id(res, "1").value
     assert [by_id(res, i).verdict for i in "12"] == [ACCEPT, REJECT]
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.002])
+def test_a_slots_median_plane_tilted_by_theta_is_its_perpendicularity_and_parallelism(
+        nominal, tilt):
+    """The slot's walls turned by theta about y (its median plane with them): the
+    perpendicularity of the width to A and its parallelism to B are the zone of two planes
+    normal to x holding the true median plane over the feet there of its points: the extent of
+    those feet across it times tan theta (0.028 mm for 2 mrad over 14 mm of depth), from a
+    random pose, within 1e-6 mm (to A, the zone turned about A's normal to its smallest);
+    ACCEPT in 0.05, REJECT in 0.02 (0 for a slot square to A)."""
+    from engine.pose import rotation_from_rotvec as turn_by
+
+    rng = np.random.default_rng(8)
+    M, labels, faces, P = measured(rng, slot_tilt=tilt)
+    plan = plan_of(*(C(f"{t}{z}", t, "slot", z, d, kind="width")
+                     for t, d in (("perpendicularity", "A"), ("parallelism", "B"))
+                     for z in (0.05, 0.02)))
+    res = run(nominal, M, labels, plan)
+    # The true median plane: midway between the turned walls, normal the turned x.
+    normal = turn_by(np.array([[0.0, tilt, 0.0]]))[0] @ [1.0, 0.0, 0.0]
+    X = P[np.isin(faces, ["slot_lo", "slot_hi"])]
+    feet = X - np.outer((X - [SLOT, 0.0, SLOT_MID]) @ normal, normal)
+    parallel = float(np.ptp(feet[:, 0]))  # B fixes the zone's normal: x
+    assert parallel == pytest.approx(np.ptp(feet[:, 2]) * np.tan(tilt), rel=1e-6)
+    # A alone leaves the zone free to turn about z: the smallest over the turn, by grids.
+    best, span = 0.0, 0.2
+    for _ in range(4):
+        phi = best + np.linspace(-span, span, 2001)
+        widths = np.ptp(np.outer(feet[:, 0], np.cos(phi)) + np.outer(feet[:, 1], np.sin(phi)),
+                        axis=0)
+        best, span = float(phi[np.argmin(widths)]), span / 500
+    square = float(widths.min())
+    for t, truth in (("perpendicularity", square), ("parallelism", parallel)):
+        wide, narrow = by_id(res, f"{t}0.05"), by_id(res, f"{t}0.02")
+        assert wide.value == pytest.approx(truth, abs=1e-6), (t, wide.reason)
+        assert narrow.value == wide.value and wide.verdict == ACCEPT
+        assert narrow.verdict == (REJECT if truth > 0.02 else ACCEPT)
+        assert "median plane" in wide.reason
 
 
 def test_a_three_lobed_pins_sizes(nominal):

@@ -311,8 +311,8 @@ def implied_feature(kind: str, direction: bool = False, diametral: bool = False,
     its datum axis, which the datum axis tells apart)."""
     if kind == "symmetry":
         return "width"
-    if feature is not None and kind in ("size", "position", "radius"):
-        return feature
+    if feature is not None and kind in ("size", "position", "radius") + ORIENTATION:
+        return feature  # (an orientation's: a width's median plane)
     if kind in ("angle", "distance"):
         return "freeform"  # two features: Characteristic.region_features
     if kind == "flatness" or (kind == "straightness" and direction) or (

@@ -184,9 +184,7 @@ def measured_feature(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, 
     X, _, n = geo.evaluate(T, idx)
     kind = c.feature
     if kind == "width":
-        width, nominal_fit = shared.once(("width", region), lambda: nominal_width(
-            c, geo.nominal_points[geo.nominal_masks[region]],
-            geo.nominal_normals(np.flatnonzero(geo.nominal_masks[region]))))
+        width, nominal_fit = region_width(c, geo, shared)
         # Each point's face by the side of the nominal median plane it lies on, not by the
         # normal of the face its foot fell on: a point whose foot falls on a neighbouring face
         # (an edge, a chamfer) was put on the wrong face and turned the fit (NIST CTC-01's
@@ -215,6 +213,13 @@ def measured_feature(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, 
                         got.form_error)
     return Measured("cylinder", X, SizeFit(2.0 * got.radius, got.point, got.direction),
                     None, internal, got.form_error)
+
+
+def region_width(c: Characteristic, geo: Geometry, shared) -> tuple[Width, SizeFit]:
+    """:func:`nominal_width` of ``c``'s region, once per plan evaluation."""
+    mask = geo.nominal_masks[c.region]
+    return shared.once(("width", c.region), lambda: nominal_width(
+        c, geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))))
 
 
 def _inward(geo: Geometry, region: str, nom) -> bool:

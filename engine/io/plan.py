@@ -38,7 +38,8 @@ The format (units mm, coordinates in the nominal frame; issue 12 is its contract
                                      or none (a cylinder's median line, diametral); sections
                            circularity: zone; sections (default 8); cylindricity: zone
                            parallelism, perpendicularity, angularity: zone; datums (at least
-                                     one); diametral = true (an axis); angularity: angle (deg)
+                                     one); diametral = true (an axis) or feature = "width"
+                                     (its median plane); angularity: angle (deg)
                            circular_runout, total_runout: zone; datums = one axis (a
                                      cylinder datum, or a common datum "A-B"); sections
                            line_profile: as profile; direction (the sections' normal) and

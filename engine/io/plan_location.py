@@ -1,12 +1,13 @@
-"""The size and location keys of a plan's [[characteristic]] (``feature``, ``method``,
+"""The size and location keys of a plan's [[characteristic]] (``feature``, also an
+orientation's: a width's median plane; ``method``,
 ``modifier``) and the checks that need the whole plan (a position at MMC needs a size on its
 region; a coaxiality's primary datum is an axis, a symmetry's a plane; a region is one feature
 for all that use it): engine.io.plan reads the rest."""
 
 from __future__ import annotations
 
-from engine.gdt.plan import (MODIFIERS, SIZE_FEATURES, SIZE_METHODS, Characteristic, Datum,
-                             implied_feature, known_datum_parts)
+from engine.gdt.plan import (MODIFIERS, ORIENTATION, SIZE_FEATURES, SIZE_METHODS,
+                             Characteristic, Datum, implied_feature, known_datum_parts)
 
 from .plan_tables import Table, show
 
@@ -15,9 +16,17 @@ def size_options(t: Table, kind: str) -> dict:
     """``feature``, ``method`` and ``modifier``, each where its type takes it
     (engine.gdt.plan.Characteristic)."""
     out: dict = {}
-    if "feature" in t:
+    if "feature" in t and kind in ORIENTATION:  # a plane (the default), a width's median plane
+        out["kind"] = t.text("feature", choices=("plane", "width"))
+        if out["kind"] == "width" and t.data.get("diametral"):
+            raise t.fail("feature", f"a width's {kind} is of its median plane: 'diametral' "
+                         "(an axis) does not go with it")
+        if out["kind"] == "plane":
+            out["kind"] = None
+    elif "feature" in t:
         if kind not in ("size", "position", "symmetry", "coaxiality", "concentricity"):
-            raise t.fail("feature", f"applies to size and location only, not {kind}")
+            raise t.fail("feature", f"applies to size, location and orientation only, not "
+                         f"{kind}")
         out["kind"] = t.text("feature", choices=SIZE_FEATURES)
         needs = {"symmetry": "width", "coaxiality": "cylinder", "concentricity": "cylinder"}
         if kind in needs and out["kind"] != needs[kind]:

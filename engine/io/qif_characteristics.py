@@ -52,7 +52,7 @@ FEATURES = {"flatness": ("Plane",), "straightness": ("Cylinder",),
             "coaxiality": ("Cylinder",), "concentricity": ("Cylinder",), "symmetry": WIDTHS,
             "circular_runout": ("Cylinder", "Plane"), "total_runout": ("Cylinder", "Plane"),
             "position": ("Cylinder", "Sphere") + WIDTHS,
-            **{k: ("Plane", "Cylinder") for k in ORIENTATION}}
+            **{k: ("Plane", "Cylinder", *WIDTHS) for k in ORIENTATION}}
 """The QIF feature kinds each plan type is judged on (a profile: any)."""
 SIZES = {"Diameter": ("Cylinder", None), "Width": (WIDTHS, "width"),
          "SphericalDiameter": (("Sphere",), "sphere")}
@@ -179,6 +179,9 @@ class CharacteristicReader:
         if plan_type in ORIENTATION and feats[0].kind == "Cylinder" and not diametral:
             return (f"{plan_type} of a cylinder's axis in a zone between two planes is not "
                     "judged yet: the plan judges an axis in a cylindrical (diametral) zone")
+        if plan_type in ORIENTATION and feats[0].kind in WIDTHS and diametral:
+            return (f"{plan_type} of a width in a cylindrical (diametral) zone: a width's "
+                    "median plane is held between two planes")
         if plan_type == "angularity":
             angle = self._angle(e)
             if angle is None or not 0.0 < angle < 180.0:
@@ -256,6 +259,8 @@ class CharacteristicReader:
         extra: dict = {}
         if plan_type in ORIENTATION:
             extra["diametral"] = feats[0].kind == "Cylinder"
+            if feats[0].kind in WIDTHS:  # its median plane
+                extra["kind"] = "width"
         if plan_type == "angularity":
             extra["angle"] = self._angle(e)
         if plan_type == "straightness":
