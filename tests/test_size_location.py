@@ -709,3 +709,39 @@ def test_the_frames_scatter_matches_a_monte_carlo_of_its_points_noise(nominal):
     spread = float(np.std(turns))
     print("MCRATIO", np.median(predicted) / spread)
     assert 0.67 * spread < np.median(predicted) < 1.5 * spread, (spread, np.median(predicted))
+
+
+def test_points_in_doubt_whose_absence_leaves_the_frame_uncertain_make_it_inconclusive(
+        nominal):
+    """Half of datum B's points may have been measured on another face (a fake rival face 99,
+    as engine.step_model.face_rivals says of a STEP model's points near an edge), and the
+    hole's position to A|B|C is ACCEPT with them (0.0438 of 0.058 mm, their frame certain
+    enough), but INCONCLUSIVE without them (their frame's scatter reaches the limit). Which
+    face they were measured on decides: INCONCLUSIVE. (Judging the plan without them but
+    without the frame probe gave a confident ACCEPT: found by a red-team pass.)"""
+    from engine.gdt.characteristics import inspect_plan
+    from engine.inspection import Tolerance, inspect
+
+    rng = np.random.default_rng(21)
+    f = _faces(rng, 40, probed=True, hole_shift=0.01)
+    P, N = np.vstack([p for p, _ in f.values()]), np.vstack([n for _, n in f.values()])
+    P = P + N * rng.normal(0.0, 0.005, len(P))[:, None]
+    T = make_transform(rotation_from_rotvec(rng.uniform(-np.pi, np.pi, (1, 3)))[0],
+                       rng.uniform(-300, 300, 3))
+    M = P @ T[:3, :3].T + T[:3, 3]
+    plan = plan_of(C("h", "position", "hole", 0.058, "ABC"))
+
+    def rivals(registered, signed, samples, masks, members):
+        drop = members["B"][: len(members["B"]) // 2]
+        rival = np.zeros(len(registered), int)
+        rival[drop] = 99
+        return {"B": drop}, rival
+
+    result = inspect(nominal, M, Tolerance.symmetric(0.5))
+    labels = np.array([f"p{i}" for i in range(len(M))])
+    alone = by_id(inspect_plan(result, plan, nominal, None, M, labels, False), "h")
+    assert alone.verdict == ACCEPT and alone.value == pytest.approx(0.04376, abs=1e-4)
+    got = by_id(inspect_plan(result, plan, nominal, None, M, labels, False, rivals=rivals), "h")
+    assert got.verdict == "INCONCLUSIVE", got.reason
+    assert "near another face as their own (face 99)" in got.reason
+    assert "without them INCONCLUSIVE" in got.reason

@@ -63,11 +63,12 @@ def statistics_zone(plan: Plan) -> Tolerance:
 
 
 def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int,
-               regions: np.ndarray, doubt=None, probe: bool = True) -> PlanResult:
-    """Evaluate ``plan`` on the registered part (module docstring). doubt : the points that
-    may have been measured on another face (:func:`_in_doubt`), None: none. probe : whether
-    a verdict the scatter of its datums' points decides is made INCONCLUSIVE
-    (engine.gdt.frame_probe), after the points in doubt have had their say."""
+               regions: np.ndarray, doubt=None, probe=None) -> PlanResult:
+    """Evaluate ``plan`` on the registered part (module docstring). A verdict the scatter of
+    its datums' points decides is made INCONCLUSIVE (engine.gdt.frame_probe), then the points
+    in doubt have their say. doubt : the points that may have been measured on another face
+    (:func:`_in_doubt`), None: none. probe : the ids of the characteristics probed (None:
+    every one)."""
     shared = Shared(plan, geo, members)
     a = plan.alignment
     alignment = None
@@ -100,10 +101,9 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             # inspector: this characteristic cannot be judged, the others still are.
             results.append(CharacteristicResult(c, None, INCONCLUSIVE, "it cannot be judged "
                                                 f"as the model states it: {e.message}", idx))
+    results = probed(results, geo, shared, T_part, probe)
     if doubt is not None:
         results = _in_doubt(results, plan, geo, members, n, doubt)
-    if probe:
-        results = probed(results, geo, shared, T_part)
     everything = np.arange(n)
     d_part = geo.evaluate(T_part, everything)[1]
     verdict, reasons = plan_verdict(results, alignment)
@@ -282,8 +282,10 @@ def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
               members: dict[str, np.ndarray], n: int, doubt) -> list[CharacteristicResult]:
     """``results`` where the points in doubt decide: each characteristic judged again without
     them, INCONCLUSIVE where its verdict changes (saying both), the same result where not.
-    Both judged without the frame probe (engine.gdt.frame_probe, which follows): the question
-    is what those points alone change.
+    Both verdicts are the frame probe's (engine.gdt.frame_probe): without those points a
+    datum's frame may be uncertain where it was not with them (an ACCEPT both ways, but
+    INCONCLUSIVE without them, is INCONCLUSIVE). The probe runs again only on the
+    characteristics those points touch.
 
     doubt : ({region: indices of its members that may have been measured on a face outside
     it}, (n,) each point's rival face id, 0 for none), engine.step_model.face_rivals. A region
@@ -296,17 +298,22 @@ def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
         return results
     kept = {r: np.setdiff1d(m, drop[r]) if r in drop else m for r, m in members.items()}
     labels = [d.label for d in plan.datums]
+
+    def touched_by(c) -> list[str]:
+        """The regions in doubt that ``c`` is judged on or relative to."""
+        near = [plan.datum(x).region for ref in c.datums for x in datum_parts(ref, labels) or ()]
+        return [r for r in dict.fromkeys([*(c.regions or (c.region,)), *near]) if r in drop]
+
+    probe = {r.characteristic.id for r in results if touched_by(r.characteristic)}
     try:
         again = check_plan(plan, geo, kept, n, region_column(plan, kept, n),
-                           probe=False).characteristics
+                           probe=probe).characteristics
     except InputError as e:  # without them a feature cannot be fitted: its verdict is open
         again = tuple(replace(r, verdict=INCONCLUSIVE, value=None, reason=e.message)
                       for r in results)
     out = []
     for a, b in zip(results, again):
-        c = a.characteristic
-        near = [plan.datum(x).region for ref in c.datums for x in datum_parts(ref, labels) or ()]
-        touched = [r for r in dict.fromkeys([*(c.regions or (c.region,)), *near]) if r in drop]
+        touched = touched_by(a.characteristic)
         if a.verdict == b.verdict or not touched:
             out.append(a)
             continue

@@ -46,16 +46,18 @@ def frame_of(c, geo: Geometry, T_part) -> tuple | None:
     return None
 
 
-def probed(results: list[CharacteristicResult], geo: Geometry, shared,
-           T_part) -> list[CharacteristicResult]:
+def probed(results: list[CharacteristicResult], geo: Geometry, shared, T_part,
+           only: set | None = None) -> list[CharacteristicResult]:
     """``results`` with each characteristic whose verdict changes within PROBE sigmas of its
     frame's scatter INCONCLUSIVE (module docstring); ``shared``: the plan evaluation's
-    engine.gdt.judgement.Shared, whose frames are the ones judged."""
+    engine.gdt.judgement.Shared, whose frames are the ones judged; ``only``: the ids of the
+    characteristics probed (None: every one)."""
     out = []
     for r in results:
         c = r.characteristic
         frame = frame_of(c, geo, T_part)
-        if frame is None or r.value is None or r.verdict == INCONCLUSIVE:
+        if frame is None or r.value is None or r.verdict == INCONCLUSIVE or (
+                only is not None and c.id not in only):
             out.append(r)
             continue
         al = shared.placed(*frame)
