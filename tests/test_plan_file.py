@@ -518,6 +518,11 @@ BAD = [
                                                      'datums = ["A"]\nfeature = "width"\n'
                                                      'diametral = true'),
      '[[characteristic]] #1 (id "5")', "feature", "'diametral' (an axis) does not go with it"),
+    ("a plane's orientation as an axis", BASE + char("5", 'type = "parallelism"\n'
+                                                     'region = "hole1"\nzone = 0.1\n'
+                                                     'datums = ["A"]\nfeature = "plane"\n'
+                                                     'diametral = true'),
+     '[[characteristic]] #1 (id "5")', "feature", "a plane's parallelism is held between two"),
     ("feature on flatness", BASE + char("2", FLAT + 'zone = 0.1\nfeature = "width"'),
      '[[characteristic]] #1 (id "2")', "feature",
      "applies to size, location and orientation only, not flatness"),

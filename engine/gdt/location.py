@@ -47,7 +47,7 @@ from .features import position_value
 from .plan import Characteristic
 from .region_features import nominal_cylinder, region_nominal
 from .results import CharacteristicResult, Geometry
-from .size import measured_feature, mating_size, nominal_width, two_point
+from .size import measured_feature, mating_size, median_points, region_nominal_width
 
 if TYPE_CHECKING:
     from .datums import FreeDirection
@@ -173,8 +173,7 @@ def _true_position(c: Characteristic, geo: Geometry, shared) -> dict:
     {point, normal}, a sphere's or circle's {centre}, a cylinder's axis {point, direction}."""
     mask = geo.nominal_masks[c.region]
     if c.feature == "width":
-        width, fit = shared.once(("width", c.region), lambda: nominal_width(
-            c, geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))))
+        fit = region_nominal_width(c, geo, shared)[1]
         return {"point": fit.point, "normal": fit.direction}
     if c.feature == "sphere" and geo.nominal_points.shape[1] == 3:
         sphere = region_nominal("sphere", geo, mask)
@@ -222,18 +221,14 @@ def _symmetry(c: Characteristic, m, geo: Geometry, shared) -> tuple[float, dict]
     """(the symmetry value, facts): the derived median points about the true median plane,
     in planes parallel to the datum plane."""
     plane = _datum_nominal(c, geo, shared, "plane")
-    mask = geo.nominal_masks[c.region]
-    _, fit = shared.once(("width", c.region), lambda: nominal_width(
-        c, geo.nominal_points[mask], geo.nominal_normals(np.flatnonzero(mask))))
+    fit = region_nominal_width(c, geo, shared)[1]
     n = plane["normal"]
     turn = np.degrees(np.arccos(np.clip(abs(fit.direction @ n), 0.0, 1.0)))
     if turn > AGREES:
         raise InputError(f"[[characteristic]] '{c.id}': the median plane of region "
                          f"'{c.region}' stands {turn:.2f}° from datum plane {c.datums[0]} on "
                          "the nominal; a symmetry's zone is parallel to its datum plane")
-    j = two_point(m.kind, m.X, m.lsq, m.side)[1]
-    median = 0.5 * (m.X + m.X[j])
-    return _plane_zone(median, fit.point, n), {"datum_normal": n,
+    return _plane_zone(median_points(m), fit.point, n), {"datum_normal": n,
                                                "nominal_point": fit.point}
 
 

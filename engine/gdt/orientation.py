@@ -15,14 +15,12 @@ Values, the drawing's convention (ASME and ISO agree here):
 
 * a plane (:func:`plane_orientation`): the distance between the two parallel planes at the
   required orientation closest together that hold every point;
-* a width's median plane (``feature = "width"``, :func:`median_plane_orientation`): the
-  distance between the two parallel planes at the required orientation closest together that
-  hold the width's derived median plane, taken as the median plane of its least-squares fit
-  (two parallel planes, engine.gdt.features.width_lsq) between the feet there of the width's
-  points: L tan(theta) for a median plane tilted by theta over its extent L across the zone
-  (ASME Y14.5: an orientation tolerance on a feature of size applies to its
-  derived median plane; the least-squares one is it for a feature of perfect form, as for an
-  axis below);
+* a width's median plane (``feature = "width"``: a slot or tab): the distance between the two
+  parallel planes at the required orientation closest together that hold the width's derived
+  median plane: the bisector of its walls' least-squares planes over the feet there of all its
+  points, and the midpoints of its two-point pairs (engine.gdt.size.bisector_feet,
+  median_points): a median plane tilted by theta over its extent L across the zone gives
+  L tan(theta), one wall turned by theta half of it, walls bowed alike their bow too;
 * an axis (``diametral``, :func:`axis_orientation`): the diameter of the smallest cylinder at the
   required orientation that holds the feature's least-squares axis between the two planes,
   normal to the zone's axis, that bound the feature's points: L tan(theta) for an axis tilted
@@ -91,17 +89,6 @@ def plane_orientation(points: np.ndarray, normal: np.ndarray,
     return _smallest(lambda n: float(np.ptp(q @ n)), normal, axis)
 
 
-def median_plane_orientation(points: np.ndarray, point: np.ndarray, normal: np.ndarray,
-                             zone_normal: np.ndarray, axis: np.ndarray | None = None
-                             ) -> tuple[float, np.ndarray]:
-    """(the width of the smallest zone of two planes normal to ``zone_normal`` (turned about
-    ``axis`` where the datums leave that free) holding a width's median plane, the plane
-    through ``point`` of unit ``normal``, over the feet on it of the width's ``points`` (n, 3),
-    mm; the zone's normal)."""
-    feet = points - np.outer((points - point) @ normal, normal)
-    return plane_orientation(feet, zone_normal, axis)
-
-
 def axis_orientation(points: np.ndarray, direction: np.ndarray, zone_axis: np.ndarray,
                      axis: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """(the diameter of the smallest cylinder along ``zone_axis`` (turned about ``axis`` where
@@ -127,7 +114,7 @@ def judge_orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared,
     if not al.complete:
         return untrusted(c, idx, al)
     got = shared.once(("orientation", c.type, c.region, tuple(c.datums), c.diametral,
-                       c.angle), lambda: _orientation(c, idx, geo, shared, al))
+                       c.kind, c.angle), lambda: _orientation(c, idx, geo, shared, al))
     if isinstance(got, CharacteristicResult):
         return own(got, c)
     value, facts, what, guard = got
@@ -147,6 +134,9 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
         raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} do "
                          f"not orient the feature")
     a = datum["direction" if primary.feature == "cylinder" else "normal"]
+    if c.diametral and c.kind == "width":
+        raise InputError(f"[[characteristic]] '{c.id}': a width's {c.type} is of its median "
+                         "plane, in a zone of two planes: it is not diametral")
     X = geo.evaluate(al.T_nominal_measured, idx)[0]
     if c.diametral:
         nom, normals = nominal_cylinder(c, geo, shared)
@@ -154,13 +144,13 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
         if isinstance(fit, CharacteristicResult):
             return fit
         feature = nom.direction
-    elif c.kind == "width":  # its median plane, by the least-squares width
-        from .size import measured_feature, region_width
+    elif c.kind == "width":  # its derived median surface
+        from .size import bisector_feet, measured_feature, median_points, region_nominal_width
 
         width = measured_feature(c, idx, geo, shared, al.T_nominal_measured)
         if isinstance(width, CharacteristicResult):
             return width
-        feature = region_width(c, geo, shared)[0].normal
+        feature = region_nominal_width(c, geo, shared)[0].normal
     else:
         plane = region_nominal("plane", geo, geo.nominal_masks[c.region])
         if plane is None:
@@ -184,10 +174,10 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
         value, zone = axis_orientation(X, fit.direction, n, free)
         what = "diameter of the smallest cylinder at the required orientation holding the axis"
     elif c.kind == "width":
-        value, zone = median_plane_orientation(X, width.lsq.point, width.lsq.direction, n,
-                                               free)
+        value, zone = plane_orientation(np.vstack([bisector_feet(width), median_points(width)]),
+                                        n, free)
         what = ("width of the smallest zone of two planes at the required orientation holding "
-                "the median plane")
+                "the derived median plane")
     else:
         value, zone = plane_orientation(X, n, free)
         what = "width of the smallest zone of two planes at the required orientation"

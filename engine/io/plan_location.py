@@ -18,9 +18,9 @@ def size_options(t: Table, kind: str) -> dict:
     out: dict = {}
     if "feature" in t and kind in ORIENTATION:  # a plane (the default), a width's median plane
         out["kind"] = t.text("feature", choices=("plane", "width"))
-        if out["kind"] == "width" and t.data.get("diametral"):
-            raise t.fail("feature", f"a width's {kind} is of its median plane: 'diametral' "
-                         "(an axis) does not go with it")
+        if t.data.get("diametral"):  # an axis: a cylinder's
+            raise t.fail("feature", f"a {out['kind']}'s {kind} is held between two planes: "
+                         "'diametral' (an axis) does not go with it")
         if out["kind"] == "plane":
             out["kind"] = None
     elif "feature" in t:
