@@ -247,6 +247,8 @@ def bisector_feet(m: Measured) -> np.ndarray:
         offsets.append(float(n @ c))
     total = normals[0] + normals[1]
     size = float(np.linalg.norm(total))
+    if size < 1e-6:  # walls standing square to the width's normal: no bisector to take
+        return m.X - np.outer((m.X - m.lsq.point) @ common, common)
     normal, offset = total / size, (offsets[0] + offsets[1]) / size
     return m.X - np.outer(m.X @ normal - offset, normal)
 
