@@ -232,7 +232,7 @@ def plan_json(planned, inputs: list[InputRecord], labels: np.ndarray | None = No
             "(diametral) the diameter of the smallest cylinder at that angle holding the "
             "least-squares axis between the planes bounding the feature along it, or (feature "
             "width) the width of the smallest zone of two planes at that angle holding the "
-            "least-squares median plane over the feet there of the width's points; a rotation "
+            "derived median plane (the midpoints of the width's two-point pairs); a rotation "
             "the datums leave free turns the zone to its smallest; circular_runout: the "
             "largest full indicator movement (max - min of the distance from the datum axis, "
             "or on a face normal to it of the coordinate along it) over 'sections' slabs along "

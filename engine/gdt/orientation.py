@@ -17,10 +17,13 @@ Values, the drawing's convention (ASME and ISO agree here):
   required orientation closest together that hold every point;
 * a width's median plane (``feature = "width"``: a slot or tab): the distance between the two
   parallel planes at the required orientation closest together that hold the width's derived
-  median plane: the bisector of its walls' least-squares planes over the feet there of all its
-  points, and the midpoints of its two-point pairs (engine.gdt.size.bisector_feet,
-  median_points): a median plane tilted by theta over its extent L across the zone gives
-  L tan(theta), one wall turned by theta half of it, walls bowed alike their bow too;
+  median plane, the midpoints of its two-point pairs (engine.gdt.size.median_points, as a
+  symmetry's): the centres of the segments across the feature where its walls were probed. A
+  median plane tilted by theta over the extent L of those midpoints gives L tan(theta); one
+  wall turned by theta, about half of it; walls bowed alike, their bow. (The bisector of the
+  walls' own planes over all the points' feet was tried: a wall probed in a narrow band tilts
+  its plane by its noise, 8 mm on a perfect slot probed along one line. The least-squares
+  width's common normal is pulled toward the wall with more points.)
 * an axis (``diametral``, :func:`axis_orientation`): the diameter of the smallest cylinder at the
   required orientation that holds the feature's least-squares axis between the two planes,
   normal to the zone's axis, that bound the feature's points: L tan(theta) for an axis tilted
@@ -145,7 +148,7 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
             return fit
         feature = nom.direction
     elif c.kind == "width":  # its derived median surface
-        from .size import bisector_feet, measured_feature, median_points, region_nominal_width
+        from .size import measured_feature, median_points, region_nominal_width
 
         width = measured_feature(c, idx, geo, shared, al.T_nominal_measured)
         if isinstance(width, CharacteristicResult):
@@ -174,8 +177,7 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
         value, zone = axis_orientation(X, fit.direction, n, free)
         what = "diameter of the smallest cylinder at the required orientation holding the axis"
     elif c.kind == "width":
-        value, zone = plane_orientation(np.vstack([bisector_feet(width), median_points(width)]),
-                                        n, free)
+        value, zone = plane_orientation(median_points(width), n, free)
         what = ("width of the smallest zone of two planes at the required orientation holding "
                 "the derived median plane")
     else:

@@ -224,33 +224,10 @@ def region_nominal_width(c: Characteristic, geo: Geometry, shared) -> tuple[Widt
 
 
 def median_points(m: Measured) -> np.ndarray:
-    """A measured width's derived median surface (ASME Y14.5, ISO 14405-1's median points):
-    the midpoint of each point and its two-point partner (:func:`two_point`)."""
+    """A measured width's derived median surface (ASME Y14.5's derived median plane: the
+    centres of the segments across the feature; ISO 14405-1's median points) where its walls
+    were probed: the midpoint of each point and its two-point partner (:func:`two_point`)."""
     return 0.5 * (m.X + m.X[two_point(m.kind, m.X, m.lsq, m.side)[1]])
-
-
-def bisector_feet(m: Measured) -> np.ndarray:
-    """The feet of a measured width's points on the bisector of its two walls' own
-    least-squares planes: its median plane where the walls are not parallel, over the
-    width's whole extent (not only where both walls were probed, as :func:`median_points`;
-    nor pulled toward the wall with more points, as the least-squares width's common normal
-    is). A wall whose points lie on a line keeps the common normal."""
-    common = np.asarray(m.lsq.direction)  # (a width's fit has one)
-    normals, offsets = [], []
-    for s in (1.0, -1.0):
-        q = m.X[m.side == s]
-        c = q.mean(axis=0)
-        w, v = np.linalg.eigh((q - c).T @ (q - c))
-        n = v[:, 0] if w[1] > 1e-12 * max(float(w[-1]), 1e-300) else common
-        n = n if n @ common >= 0.0 else -n
-        normals.append(n)
-        offsets.append(float(n @ c))
-    total = normals[0] + normals[1]
-    size = float(np.linalg.norm(total))
-    if size < 1e-6:  # walls standing square to the width's normal: no bisector to take
-        return m.X - np.outer((m.X - m.lsq.point) @ common, common)
-    normal, offset = total / size, (offsets[0] + offsets[1]) / size
-    return m.X - np.outer(m.X @ normal - offset, normal)
 
 
 def _inward(geo: Geometry, region: str, nom) -> bool:
