@@ -373,7 +373,9 @@ def _scan_free(judge: _PoseJudge, w: WeakDirection, cond: Conditioning,
     d, idx, X, width = judge.d, judge.idx, judge.points, judge.width
     rec = []  # (amplitude, verdict, plausible, largest change, every point)
     ends: list[bool] = []
-    h_min = FREE_RESOLUTION * width / (1.0 if X is None else max(largest_speed(w.twist, X[idx], cond.centre, cond.length), 1e-12))
+    speed = 1.0 if X is None else max(
+        largest_speed(w.twist, X[idx], cond.centre, cond.length), 1e-12)
+    h_min = FREE_RESOLUTION * width / speed
     for sgn in (-1.0, 1.0):
         a, prev, rate, bad, h = 0.0, d[idx], 0.0, np.inf, FREE_FIRST * reach
         end, checked, last = False, False, None
