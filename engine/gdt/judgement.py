@@ -82,6 +82,12 @@ class Shared:
         return self.once(self.placed_key(labels, best_fit, T_start),
                          lambda: self._align(labels, best_fit, T_start))
 
+    def datum_nominal(self, label: str) -> dict | None:
+        """The nominal feature of the datum ``label`` (engine.gdt.region_features
+        .datum_nominal; a common datum's: its first part's), once per plan evaluation."""
+        return self.once(("datum nominal", label),
+                         lambda: datum_nominal(self.datum(label), self.geo))
+
     @staticmethod
     def placed_key(labels: tuple, best_fit: tuple, T_start: np.ndarray) -> tuple:
         """The memo key of :meth:`placed` with these arguments."""
@@ -99,8 +105,7 @@ class Shared:
         fit_idx = np.unique(np.concatenate([members[r] for r in best_fit])) \
             if best_fit else None
         # A common datum "A-B" is fitted to the nominal surface: its parts' features differ.
-        nominals = [self.once(("datum nominal", x), lambda d=d: datum_nominal(d, geo))
-                    for x, d in zip(labels, ds)]
+        nominals = [self.datum_nominal(x) for x in labels]
         surfaces = [datum_surface(d, geo, n) if x in self.datums else None
                     for x, d, n in zip(labels, ds, nominals)]
         invariants = [datum_invariants(d, geo, n) for d, n in zip(ds, nominals)]

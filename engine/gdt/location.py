@@ -190,7 +190,7 @@ def _datum_nominal(c: Characteristic, geo: Geometry, shared, kind: str) -> dict:
     primary = shared.datums[c.datums[0]]
     # A width's datum is its median plane.
     feature = "plane" if primary.feature == "width" else primary.feature
-    got = region_nominal(primary.feature, geo, geo.nominal_masks[primary.region])
+    got = shared.datum_nominal(primary.label)
     if feature != kind or got is None:
         raise InputError(f"[[characteristic]] '{c.id}': a {c.type} is relative to a datum "
                          f"{'axis' if kind == 'cylinder' else 'plane'}; datum "

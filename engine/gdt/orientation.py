@@ -131,7 +131,7 @@ def _orientation(c: Characteristic, idx: np.ndarray, geo: Geometry, shared, al):
     if primary.feature not in ("plane", "cylinder", "width"):  # a width: its median plane
         raise InputError(f"[[characteristic]] '{c.id}': a {c.type} is relative to a plane or "
                          f"an axis; its primary datum {primary.label} is a {primary.feature}")
-    datum = region_nominal(primary.feature, geo, geo.nominal_masks[primary.region])
+    datum = shared.datum_nominal(c.datums[0])
     turns = [np.asarray(f.along) for f in al.free if f.type == "rotation"]
     if datum is None or len(turns) > 1:
         raise InputError(f"[[characteristic]] '{c.id}': its datums {'|'.join(c.datums)} do "
