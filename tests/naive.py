@@ -354,3 +354,14 @@ def radial_extremes(X, kind: str, starts) -> float:
         value = {"zone": r.max() - r.min(), "outer": 2 * r.max(), "inner": -2 * r.min()}[kind]
         best = min(best, float(value))
     return abs(best)
+
+
+def rigid_motion(X, M) -> np.ndarray:
+    """The 4x4 rigid motion taking the points X (n, 3) onto M (Kabsch: the least-squares
+    rotation by SVD, no reflection)."""
+    cm, cx = M.mean(axis=0), X.mean(axis=0)
+    U, _, Vt = np.linalg.svd((M - cm).T @ (X - cx))
+    R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, cm - R @ cx
+    return T

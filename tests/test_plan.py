@@ -14,6 +14,7 @@ from engine.nominal import Nominal
 from engine.gdt.plan import (Alignment, Characteristic, Datum, Part, Plan, Region, RpsPoint)
 from engine.pointset import PointSet
 from engine.verdict import ACCEPT, INCONCLUSIVE, REJECT
+from naive import rigid_motion
 from plan_runs import by_id
 
 # A block [0, 100] x [0, 60] x [0, top(x)] with a sloped top ("skin") z = 20 + 0.1 x and a
@@ -171,10 +172,7 @@ def test_flatness_matches_an_independent_linear_program(nominal):
 def _pose_of(M, P, faces):
     """The rigid transform taking true points P to measured M (from the unplanted faces)."""
     k = faces != "A"
-    cp, cm = P[k].mean(0), M[k].mean(0)
-    U, _, Vt = np.linalg.svd((M[k] - cm).T @ (P[k] - cp))
-    R = U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
-    return make_transform(R, cm - R @ cp)
+    return rigid_motion(P[k], M[k])
 
 
 @pytest.mark.parametrize("seed", [3, 4])

@@ -14,7 +14,7 @@ from engine.nominal import Nominal
 from engine.pointset import PointSet
 from engine.pose import make_transform, rotation_from_rotvec
 from engine.verdict import ACCEPT, REJECT
-from naive import radial_extremes
+from naive import radial_extremes, rigid_motion
 from plan_runs import by_id, run
 from qa_app.cli import main
 
@@ -229,13 +229,11 @@ def test_a_slots_derived_median_plane_is_its_perpendicularity_and_parallelism(
     rng = np.random.default_rng(8)
     M, labels, faces, P = measured(rng, slot_tilt=tilt, wall_tilt=wall)
     if line:  # the wall x > SLOT probed along z = SLOT_MID only, with 2 um of noise
-        p0, m0 = P.mean(axis=0), M.mean(axis=0)  # the part's pose (Kabsch), M = P R^T + t
-        U, _, Vt = np.linalg.svd((M - m0).T @ (P - p0))
-        R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+        T = rigid_motion(P, M)  # the part's pose
         hi = np.flatnonzero(faces == "slot_hi")
         P[hi, 2] = SLOT_MID
         P[hi, 0] += rng.normal(0.0, 0.002, hi.size)
-        M = (P - p0) @ R.T + m0
+        M = P @ T[:3, :3].T + T[:3, 3]
     drop = np.concatenate([np.flatnonzero(faces == f)[k:]
                            for f, k in zip(("slot_lo", "slot_hi"), keep)])
     M, labels, faces, P = (np.delete(x, drop, axis=0) for x in (M, labels, faces, P))

@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+from naive import rigid_motion
 from test_step_inspection import STEP, measured_on, plane_minimum_zone, write
 
 
@@ -37,12 +38,7 @@ def test_triangles_in_box_equals_its_linear_programming_twin():
 
 def _pose_of(M, X):
     """The rigid motion taking the points X (n, 3) onto M (Kabsch)."""
-    cm, cx = M.mean(axis=0), X.mean(axis=0)
-    U, _, Vt = np.linalg.svd((M - cm).T @ (X - cx))
-    R = U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, cm - R @ cx
-    return T
+    return rigid_motion(X, M)
 
 
 @pytest.fixture(scope="module")
