@@ -40,6 +40,7 @@ from ..pose import apply_transform, in_plane
 from ..progress import report, within
 from ..tolerance import Tolerance
 from ..verdict import INCONCLUSIVE, REJECT, Statistics
+from .datums import Alignment
 from .frame_probe import probed
 from .judgement import PROGRESS_REPORTS, Shared, judge, plan_verdict
 from .plan import FEATURES_2D, FEATURES_3D, RESERVED_ID, Characteristic, Plan, datum_parts
@@ -69,6 +70,22 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
     in doubt have their say. doubt : the points that may have been measured on another face
     (:func:`_in_doubt`), None: none. probe : the ids of the characteristics probed (None:
     every one)."""
+    results, alignment, T_part = _judged_characteristics(plan, geo, members, probe)
+    if doubt is not None:
+        results = _in_doubt(results, plan, geo, members, doubt)
+    everything = np.arange(n)
+    d_part = geo.evaluate(T_part, everything)[1]
+    verdict, reasons = plan_verdict(results, alignment)
+    return PlanResult(verdict, reasons, plan.alignment.method, alignment, T_part, d_part,
+                      regions, members, tuple(results),
+                      features=region_features(plan, geo, members, T_part))
+
+
+def _judged_characteristics(plan: Plan, geo: Geometry, members: dict[str, np.ndarray],
+                            probe=None) -> tuple[list[CharacteristicResult], Alignment | None,
+                                           np.ndarray]:
+    """(every characteristic's result, probed as :func:`check_plan` says, the plan's
+    alignment (None for a best fit), the part's pose T_part)."""
     shared = Shared(plan, geo, members)
     a = plan.alignment
     alignment = None
@@ -101,15 +118,7 @@ def check_plan(plan: Plan, geo: Geometry, members: dict[str, np.ndarray], n: int
             # inspector: this characteristic cannot be judged, the others still are.
             results.append(CharacteristicResult(c, None, INCONCLUSIVE, "it cannot be judged "
                                                 f"as the model states it: {e.message}", idx))
-    results = probed(results, geo, shared, T_part, probe)
-    if doubt is not None:
-        results = _in_doubt(results, plan, geo, members, n, doubt)
-    everything = np.arange(n)
-    d_part = geo.evaluate(T_part, everything)[1]
-    verdict, reasons = plan_verdict(results, alignment)
-    return PlanResult(verdict, reasons, a.method, alignment, T_part, d_part, regions, members,
-                      tuple(results),
-                      features=region_features(plan, geo, members, T_part))
+    return probed(results, geo, shared, T_part, probe), alignment, T_part
 
 
 def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
@@ -279,7 +288,7 @@ def _judged(result, plan: Plan, geo: Geometry, sample_of, zone_in_verdict: bool,
 
 
 def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
-              members: dict[str, np.ndarray], n: int, doubt) -> list[CharacteristicResult]:
+              members: dict[str, np.ndarray], doubt) -> list[CharacteristicResult]:
     """``results`` where the points in doubt decide: each characteristic judged again without
     them, INCONCLUSIVE where its verdict changes (saying both), the same result where not.
     Both verdicts are the frame probe's (engine.gdt.frame_probe): without those points a
@@ -290,8 +299,6 @@ def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
     doubt : ({region: indices of its members that may have been measured on a face outside
     it}, (n,) each point's rival face id, 0 for none), engine.step_model.face_rivals. A region
     most of whose points are in doubt keeps them all (it is judged as it is)."""
-    from .regions import region_column
-
     drop, rival = doubt
     drop = {r: i for r, i in drop.items() if 0 < len(i) <= len(members[r]) // 2}
     if not drop:
@@ -306,11 +313,10 @@ def _in_doubt(results: list[CharacteristicResult], plan: Plan, geo: Geometry,
 
     probe = {r.characteristic.id for r in results if touched_by(r.characteristic)}
     try:
-        again = check_plan(plan, geo, kept, n, region_column(plan, kept, n),
-                           probe=probe).characteristics
+        again = _judged_characteristics(plan, geo, kept, probe)[0]
     except InputError as e:  # without them a feature cannot be fitted: its verdict is open
-        again = tuple(replace(r, verdict=INCONCLUSIVE, value=None, reason=e.message)
-                      for r in results)
+        again = [replace(r, verdict=INCONCLUSIVE, value=None, reason=e.message)
+                 for r in results]
     out = []
     for a, b in zip(results, again):
         touched = touched_by(a.characteristic)
