@@ -35,7 +35,7 @@ def ctc01() -> None:
     from engine.io.step import read_step
     from engine.nominal import Nominal
     from engine.section import axis_plane, nominal_curve, point_plane, section_of
-    from engine.step_model import exact_deviations
+    from engine.step_model import ExactDistances
     from test_step_inspection import measured_on
 
     part, t = timed(read_step, os.path.join(ROOT, "tests", "data", "step",
@@ -44,7 +44,7 @@ def ctc01() -> None:
     nominal = Nominal.from_point_set(part.point_set)
     M, _, _ = measured_on(part, np.random.default_rng(7), n=2000)
     res, t = timed(inspect, nominal, M, Tolerance.symmetric(0.05),
-                   exact=exact_deviations(part))
+                   surface=ExactDistances(part, nominal))
     print(f"  inspection of {len(M)} points: {t:.2f} s")
     for plane in (axis_plane("z", -25.0), axis_plane("x", 101.5),
                   point_plane([10.0, 5.0, -30.0], [0.2, 0.3, 1.0])):

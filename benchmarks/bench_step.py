@@ -33,7 +33,7 @@ def case(path: str, n: int) -> dict:
     from engine.inspection import Tolerance, inspect
     from engine.nominal import Nominal
     from engine.io.step import read_step
-    from engine.step_model import exact_deviations
+    from engine.step_model import ExactDistances
     from test_step_inspection import measured_on
 
     t0 = time.perf_counter()
@@ -42,7 +42,7 @@ def case(path: str, n: int) -> dict:
     M, planted, _ = measured_on(part, np.random.default_rng(7), n=n)
     t2 = time.perf_counter()
     nominal = Nominal.from_point_set(part.point_set)
-    res = inspect(nominal, M, Tolerance.symmetric(0.05), exact=exact_deviations(part))
+    res = inspect(nominal, M, Tolerance.symmetric(0.05), surface=ExactDistances(part, nominal))
     t3 = time.perf_counter()
     return {"faces": part.n_faces, "tess": part.point_set.n, "load": t1 - t0,
             "engine": t3 - t2, "points": len(M), "verdict": res.verdict,

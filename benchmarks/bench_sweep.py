@@ -47,7 +47,7 @@ def main() -> None:
     from engine.inspection import Tolerance, inspect
     from engine.io.step import read_step
     from engine.nominal import Nominal
-    from engine.step_model import exact_deviations
+    from engine.step_model import ExactDistances
     from sweep import DEFECTS, judge, make_case, truth
 
     args.defects = list(DEFECTS) if args.defects is None else args.defects
@@ -74,7 +74,6 @@ def main() -> None:
             continue
         print(f"{name:34s} read in {load:.2f} s, {part.n_faces} faces, "
               f"{part.point_set.n} tessellation points")
-        exact = exact_deviations(part)
         for defect in args.defects:
             for k in range(args.poses):
                 seed = args.seed + 1000 * k + DEFECTS.index(defect) if defect in DEFECTS \
@@ -84,7 +83,7 @@ def main() -> None:
                 t0 = time.perf_counter()
                 nominal = Nominal.from_point_set(part.point_set)
                 res = inspect(nominal, case["measured"], Tolerance.symmetric(args.tol),
-                              exact=exact)
+                              surface=ExactDistances(part, nominal))
                 dt = time.perf_counter() - t0
                 times.append(dt)
                 outcome, err = judge(res, d_true, args.tol)

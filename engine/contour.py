@@ -316,6 +316,27 @@ def deviations_2d(index: ContourIndex, pts: np.ndarray) -> Deviations2D:
     return Deviations2D(signed, foot, unit, prim)
 
 
+@dataclass(frozen=True)
+class ContourSurface:
+    """A 2D template as the inspection measures against it (engine.surface.Surface): its lines
+    and arcs are exact (flattened splines within 0.1 um), so no sampling margin; points in
+    its plane have no border to lie past."""
+
+    index: ContourIndex
+    exact = True
+    bordered = False
+    normals_source = "contour"
+
+    def deviations(self, X: np.ndarray) -> Deviations2D:
+        return deviations_2d(self.index, X)
+
+    def margins(self, dev: Deviations2D) -> np.ndarray:
+        return np.zeros(dev.signed.size)
+
+    def beyond(self, X: np.ndarray) -> np.ndarray:
+        return np.zeros(len(X), bool)
+
+
 def contour_centroid(t: Template2D) -> np.ndarray:
     """(2,) centroid of the contours as curves (mm, template frame): every unit of length weighs
     alike, exactly for segments and arcs. A sampling of the contours is no substitute: a

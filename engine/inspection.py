@@ -10,7 +10,6 @@ objective but judged.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, TypeVar
 
@@ -25,11 +24,13 @@ from .nominal import Nominal
 from .registration import distinct_poses, pose_score, register
 from .registration_types import RegistrationResult, RegistrationSettings
 from .seeds import DEFAULT_SEED, rng
+from .surface import Posed, SampledSurface
 from .tolerance import Tolerance
 from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
-                      margins_3d, plausible_runner_up, pointwise_verdict, pose_trusted)
+                      plausible_runner_up, pointwise_verdict, pose_trusted)
 
 if TYPE_CHECKING:
+    from .surface import Surface
     from .contour import ContourIndex, Deviations2D, Template2D
     from .gdt.results import PlanResult
     from .pose_sensitivity import PoseSensitivity
@@ -104,26 +105,26 @@ def _check_options(fit: str, decision_rule: str) -> None:
 def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
             settings: RegistrationSettings = RegistrationSettings(), fit: Fit = Fit.LSQ,
             decision_rule: DecisionRule = DecisionRule.SIMPLE,
-            exact: "Callable[[np.ndarray], Deviations] | None" = None,
+            surface: "Surface | None" = None,
             instrument: "Instrument | None" = None,
             guard: str = "uncertainty") -> InspectionResult:
     """Register ``measured`` (n, 3) to ``nominal`` from any pose and judge it against ``tolerance``
     with the given ``fit`` and ``decision_rule`` (engine.choices; their words are taken too).
 
-    exact(X) -> Deviations of points X (n, 3) in the nominal frame from the true surface the
-    nominal samples (a STEP model's faces, engine.io.step): given, the registration runs on the
-    nominal's sample, its pose is then refined by least squares on the exact deviations, and
-    every deviation judged is exact (no nominal-sampling margin).
+    surface : what the deviations are measured on (engine.surface.Surface); None: the nominal's
+    own sample (engine.surface.SampledSurface). An exact one (a STEP model's faces,
+    engine.step_model.ExactDistances) is the true surface the nominal samples: the
+    registration runs on the nominal's sample, its pose is then refined by least squares on the
+    exact deviations, and every deviation judged is exact (no nominal-sampling margin).
 
     instrument : what the user states about the measuring instrument (engine.uncertainty);
     with the guarded rule each point is judged with its expanded uncertainty U (``guard``
     "uncertainty") or, as before uncertainty budgets, its nominal-sampling margin alone
     ("sampling": older certificates re-run)."""
-    from .deviation import point_to_surface
-
     _check_options(fit, decision_rule)
     fit, decision_rule = Fit(fit), DecisionRule(decision_rule)
-    if exact is not None:
+    surface = surface or SampledSurface(nominal)
+    if surface.exact:
         # The exact least squares finishes the pose: the sample's final fit need only get near
         # it (a CAD tessellation's long facets make it creep, not converge, at its last digits).
         settings = replace(settings, max_final_iterations=min(settings.max_final_iterations,
@@ -132,26 +133,17 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     t0 = time.perf_counter()
     reg = register(nominal, measured, settings, zone_width=tolerance.width)
     t1 = time.perf_counter()
-    surface = exact or (lambda X: point_to_surface(nominal, X))
-
-    def measure(Tc, idx=None):
-        X = apply_transform(Tc, measured if idx is None else measured[idx])
-        return X, surface(X)
-
-    deviations_at, beyond_at = _deviations_and_border(nominal, measured, surface)
+    posed = Posed(surface, measured)
     extra: dict = {}
     # The flow starts from the registration's last evaluation: every point at its final pose.
-    if exact is not None:
-        reg = _exact_fit(reg, measure, tolerance.width, settings.seed)
-        reg = _exact_runner_up(reg, measure, measured, nominal.diagonal, settings.outlier_floor,
+    if surface.exact:
+        reg = _exact_fit(reg, posed, tolerance.width, settings.seed)
+        reg = _exact_runner_up(reg, posed, measured, nominal.diagonal, settings.outlier_floor,
                                tolerance.width, settings.seed)
     T = reg.T_nominal_measured
     dev = reg.deviations
-    j = _judge_pose(reg, T, apply_transform(T, measured), dev,
-                    _Measure(measure, deviations_at, beyond_at,
-                             (lambda dv: np.zeros(dv.signed.size)) if exact is not None else
-                             (lambda dv: margins_3d(nominal, dv.foot))),
-                    tolerance, fit, decision_rule, extra, instrument, guard, settings.seed)
+    j = _judge_pose(reg, T, apply_transform(T, measured), dev, posed, tolerance, fit,
+                    decision_rule, extra, instrument, guard, settings.seed)
     t2 = time.perf_counter()
     # The all-point deviations are the registration's last evaluation; they are counted as
     # deviation time, not registration time.
@@ -163,8 +155,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         reg = _with_pose(reg, j.T, dev)
     return InspectionResult(tolerance=tolerance, registration=reg, registered=j.points,
                             deviations=dev,
-                            normals_source="B-rep" if exact is not None else
-                            nominal.normals_source,
+                            normals_source=surface.normals_source,
                             timings_s=timings, extra=extra, **j.verdict_fields)
 
 
@@ -192,7 +183,7 @@ EXACT_STALL_OF_ZONE = 0.01
 this fraction of the zone's width."""
 
 
-def _exact_fit(reg, measure, zone_width: float, seed: int):
+def _exact_fit(reg, posed: Posed, zone_width: float, seed: int):
     """The registration finished on the exact surface: least squares of the exact deviations
     from the pose found on the nominal's sample (within its chordal error of the answer), over
     the points the gross-outlier rule (engine.outliers) keeps at the pose reached.
@@ -211,8 +202,8 @@ def _exact_fit(reg, measure, zone_width: float, seed: int):
     floor = reg.gross_rule.floor_mm
     rule = gross_rule(reg.deviations.signed, zone_width, floor)
     use = ~gross_outliers(reg.deviations.signed, reg.deviations.foot, rule)
-    T = _subset_fit(measure, reg.T_nominal_measured, use, seed)
-    X, dev = measure(T)
+    T = _subset_fit(posed, reg.T_nominal_measured, use, seed)
+    X, dev = posed.at(T)
     extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
     converged = False
     for _ in range(EXACT_MAX_STEPS):
@@ -220,18 +211,18 @@ def _exact_fit(reg, measure, zone_width: float, seed: int):
         use = ~gross_outliers(dev.signed, dev.foot, rule)
         if np.count_nonzero(use) < 6:
             break
-        step, c, moved = _gn_step_exact(X[use], dev.normal[use], dev.signed[use])
-        if moved <= 1e-9 * extent:
+        gn = _gn_step_exact(X[use], dev.normal[use], dev.signed[use])
+        if gn.moved <= 1e-9 * extent:
             converged = True
             break
-        lower = _lower_along(measure, T, step, c, float(np.sum(dev.signed[use] ** 2)),
-                             lambda dv: dv.signed[use])
+        cost = float(np.sum(dev.signed[use] ** 2))
+        lower = _lower_along(posed.at, T, gn.step, gn.c, cost, lambda dv: dv.signed[use])
         if lower is None:
             # No fraction of the step lowers the sum of squares: a point's foot flips between
             # two faces at an edge, and full steps would cycle between two poses (NIST FTC-06
             # with its largest face bowed 1 mm: 0.38 um steps, back and forth, for ever). The
             # pose is the optimum to within that step.
-            converged = moved <= EXACT_STALL_OF_ZONE * zone_width
+            converged = gn.moved <= EXACT_STALL_OF_ZONE * zone_width
             break
         T, X, dev = lower
     d_in = dev.signed[use]
@@ -251,7 +242,14 @@ RUNNER_UP_FIT_ITERATIONS = 20
 """Gauss-Newton iterations at most of the runner-up's exact least squares."""
 
 
-def _exact_runner_up(reg, measure, measured: np.ndarray, diagonal: float, floor: float,
+def _score_points(n: int, seed: int) -> np.ndarray:
+    """The seeded points (indices, sorted) of ``n`` that the exact scores are taken over."""
+    if n <= EXACT_SCORE_POINTS:
+        return np.arange(n)
+    return np.sort(rng(seed, EXACT_SCORE_SEED).choice(n, EXACT_SCORE_POINTS, replace=False))
+
+
+def _exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, floor: float,
                      zone_width: float, seed: int):
     """A plausible runner-up (engine.verdict.plausible_runner_up) judged on the exact surface,
     as the chosen pose was: its pose finished by least squares of the exact deviations of the
@@ -266,33 +264,43 @@ def _exact_runner_up(reg, measure, measured: np.ndarray, diagonal: float, floor:
     if not plausible_runner_up(reg):
         return reg
     n = reg.deviations.signed.size
-    idx = np.arange(n)
-    if n > EXACT_SCORE_POINTS:
-        idx = np.sort(rng(seed, EXACT_SCORE_SEED).choice(n, EXACT_SCORE_POINTS, replace=False))
-    _, dev = measure(reg.runner_up_T, idx)
+    idx = _score_points(n, seed)
+    _, dev = posed.at(reg.runner_up_T, idx)
     rule = gross_rule(dev.signed, zone_width, reg.gross_rule.floor_mm)
     use = np.zeros(n, bool)
     use[idx[~gross_outliers(dev.signed, dev.foot, rule)]] = True
-    Tr = _subset_fit(measure, reg.runner_up_T, use, seed, RUNNER_UP_FIT_ITERATIONS)
+    Tr = _subset_fit(posed, reg.runner_up_T, use, seed, RUNNER_UP_FIT_ITERATIONS)
     score = pose_score(reg.deviations.signed[idx], floor * diagonal)
     if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
         return replace(reg, score=score, runner_up_score=None, runner_up_T=None)
-    _, dev_r = measure(Tr, idx)
+    _, dev_r = posed.at(Tr, idx)
     return replace(reg, score=score, runner_up_score=pose_score(dev_r.signed, floor * diagonal),
                    runner_up_T=Tr)
 
 
-def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray):
+@dataclass(frozen=True)
+class _Step:
+    """A Gauss-Newton step of the exact fit: step (6,), rotation vector then translation, about
+    c (3,), the points' centroid; moved, the largest displacement it gives a point (mm);
+    promised, the decrease of the sum of squares the linearised model promises (mm^2)."""
+
+    step: np.ndarray
+    c: np.ndarray
+    moved: float
+    promised: float
+
+
+def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray) -> _Step:
     """One Gauss-Newton step of the signed deviations ``signed`` (m,) of points X (m, 3) with
-    the surface normals at their feet: (step (6,): rotation vector then translation, about c;
-    c (3,) the points' centroid; moved: the largest displacement the step gives a point, mm)."""
+    the surface normals at their feet."""
     c = X.mean(axis=0)
-    step = np.linalg.lstsq(pose_jacobian(X, normal, c), -signed, rcond=None)[0]
+    J = pose_jacobian(X, normal, c)
+    step = np.linalg.lstsq(J, -signed, rcond=None)[0]
     moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
-    return step, c, moved
+    return _Step(step, c, moved, float(np.sum((J @ step) ** 2)))
 
 
-def _subset_fit(measure, T: np.ndarray, use: np.ndarray, seed: int,
+def _subset_fit(posed: Posed, T: np.ndarray, use: np.ndarray, seed: int,
                 max_iterations: int = 50) -> np.ndarray:
     """The pose from T by Gauss-Newton least squares of the exact deviations of a seeded random
     choice of at most EXACT_FIT_POINTS of the points ``use``, until no point moves by more
@@ -305,13 +313,13 @@ def _subset_fit(measure, T: np.ndarray, use: np.ndarray, seed: int,
         idx = np.sort(rng(seed, EXACT_FIT_SEED).choice(idx, EXACT_FIT_POINTS, replace=False))
     if idx.size < 6:
         return T
-    X, dev = measure(T, idx)
+    X, dev = posed.at(T, idx)
     extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
     for _ in range(max_iterations):
-        step, c, moved = _gn_step_exact(X, dev.normal, dev.signed)
-        if moved <= 1e-9 * extent:
-            return apply_update(T, step, c)
-        lower = _lower_along(lambda Tc: measure(Tc, idx), T, step, c,
+        gn = _gn_step_exact(X, dev.normal, dev.signed)
+        if gn.moved <= 1e-9 * extent:
+            return apply_update(T, gn.step, gn.c)
+        lower = _lower_along(lambda Tc: posed.at(Tc, idx), T, gn.step, gn.c,
                              float(np.sum(dev.signed ** 2)), lambda dv: dv.signed)
         if lower is None:
             break
@@ -330,23 +338,6 @@ def _lower_along(measure, T: np.ndarray, step: np.ndarray, c: np.ndarray, cost: 
 
     lower = lower_along(T, step, c, cost, evaluate, 2.0, EXACT_HALVINGS)
     return None if lower is None else (lower[0], *lower[1])
-
-
-@dataclass(frozen=True)
-class _Measure:
-    """How the points are measured at a pose: what differs between 3D and 2D.
-
-    at(T) -> (X, dev): the measured points at pose T (the nominal's frame: (n, 3), or (n, 2) in
-        the template plane) and their deviations there (``signed``, ``normal``, ``foot``).
-    deviations_at(T, idx) -> (len(idx),) signed deviations (mm) of the points ``idx`` at T.
-    beyond_at(T, idx) -> (len(idx),) bool: past the nominal's border (None: closed contours).
-    margin(dev) -> (n,) nominal-sampling margin, mm, for the guarded decision rule.
-    """
-
-    at: Callable
-    deviations_at: Callable
-    beyond_at: Callable | None
-    margin: Callable
 
 
 @dataclass(frozen=True)
@@ -373,7 +364,7 @@ def _of_kind(dev: object, kind: type[D]) -> D:
     return dev
 
 
-def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: Tolerance,
+def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, posed: Posed, tol: Tolerance,
                 fit: str, decision_rule: str, extra: dict, instrument=None,
                 guard_by: str = "uncertainty", seed: int = DEFAULT_SEED) -> _Judged:
     """The flow both kinds share from the registration's pose T (points X and deviations
@@ -387,27 +378,29 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
                         RESOLUTION_OF_ZONE * tol.width, seed)
 
     def evaluate(Tc):
-        Xc, dv = measure.at(Tc)
+        Xc, dv = posed.at(Tc)
         return Xc, dv.signed, dv.normal
 
-    ambiguous, spread = ambiguity(reg, dev.signed, tol, measure.deviations_at, seed)
+    ambiguous, spread = ambiguity(reg, dev.signed, tol, posed.deviations_at, seed)
     if fit == Fit.MINIMAX:
         T = minimax(evaluate, T, reg.inlier, tol, extra)
-        X, dev = measure.at(T)
+        X, dev = posed.at(T)
     fitted_at = time.perf_counter()
     margin = unc = guard = None
     if guard_by == "sampling" and decision_rule == DecisionRule.GUARDED:
-        margin = guard = measure.margin(dev)
+        margin = guard = posed.surface.margins(dev)
     elif decision_rule == DecisionRule.GUARDED or (instrument is not None and instrument.states_anything):
         from .uncertainty import budget
 
-        margin = measure.margin(dev)
+        margin = posed.surface.margins(dev)
         unc = budget(X, dev.normal, reg.inlier, robust_rms(dev.signed[reg.inlier], reg.rms),
                      cond, margin, instrument)
         guard = unc.expanded if decision_rule == DecisionRule.GUARDED else None
     ts = time.perf_counter()
-    sens, statements = _sensitivity(measure.deviations_at, evaluate, T, dev.signed, cond, reg,
-                                    tol, guard, fit, X, measure.beyond_at, dev.normal,
+    sens, statements = _sensitivity(posed.deviations_at, evaluate, T, dev.signed, cond, reg,
+                                    tol, guard, fit, X,
+                                    posed.beyond_at if posed.surface.bordered else None,
+                                    dev.normal,
                                     pose_in_guard=unc is not None and guard is not None,
                                     seed=seed)
     ts = time.perf_counter() - ts
@@ -420,35 +413,6 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, measure: _Measure, tol: 
               "pose_sensitivity": sens,
               "trust_statements": statements}
     return _Judged(T, X, dev, fields, fitted_at, ts)
-
-
-def _deviations_and_border(nominal: Nominal, measured: np.ndarray, surface=None):
-    """(deviations_at, beyond_at)(T, idx) for engine.pose_sensitivity.pose_sensitivity: the signed
-    deviations (mm) of measured points ``idx`` at pose T, and which of them lie past the
-    nominal's border: the direction from its closest point to the point more than
-    acos(BORDER_COSINE) from the nominal's normal at the sample nearest that closest point
-    (past a mesh's or grid's border the distance is to its edge; past bare points' last facet,
-    the facet continued ends too). surface(X) -> Deviations: how deviations are measured (None:
-    on the nominal's sample, engine.deviation.point_to_surface); the border is the sample's."""
-    from .deviation import point_to_surface
-    from .pose_sensitivity import BORDER_COSINE, BORDER_MIN_MM
-
-    surface = surface or (lambda X: point_to_surface(nominal, X))
-
-    def deviations_at(Tc, idx):
-        return surface(apply_transform(Tc, measured[idx])).signed
-
-    def beyond_at(Tc, idx):
-        X = apply_transform(Tc, measured[idx])
-        dv = point_to_surface(nominal, X)
-        _, near = nominal.tree.query(dv.foot)
-        off = X - dv.foot
-        size = np.linalg.norm(off, axis=1)
-        along = np.abs(np.einsum("ij,ij->i", nominal.normals(np.atleast_1d(near)), off))
-        # A point on the surface (no offset to speak of) is over it.
-        return (size > BORDER_MIN_MM) & (along < BORDER_COSINE * size)
-
-    return deviations_at, beyond_at
 
 
 def _with_pose(reg, T, dev):
@@ -532,7 +496,7 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
     in its XY plane); ``registered[:, 2]`` is 0 or the out-of-plane coordinate.
     seed : the inspection's, of every seeded subset of the points (engine.seeds).
     """
-    from .contour import ContourIndex, Deviations2D, deviations_2d
+    from .contour import ContourIndex, ContourSurface, Deviations2D
     from .registration2d import fit_plane, register_2d
 
     _check_options(fit, decision_rule)
@@ -559,18 +523,10 @@ def inspect_2d(template: "Template2D", measured: np.ndarray, dim: int, tolerance
                  key=lambda frame: frame[1].score)
     q2 = (measured @ F[:3, :3].T + F[:3, 3])[:, :2]
 
-    def measure(Tc):
-        X = apply_transform(Tc, q2)
-        return X, deviations_2d(index, X)
-
-    def deviations_at(Tc, idx):
-        return deviations_2d(index, apply_transform(Tc, q2[idx])).signed
-
     T2 = reg.T_nominal_measured
-    # Lines and arcs are exact: no sampling margin (flattened splines are within 0.1 um).
     j = _judge_pose(reg, T2, apply_transform(T2, q2), reg.deviations,
-                    _Measure(measure, deviations_at, None, lambda dv: np.zeros(dv.signed.size)),
-                    tolerance, fit, decision_rule, extra, instrument, guard, seed)
+                    Posed(ContourSurface(index), q2), tolerance, fit, decision_rule, extra,
+                    instrument, guard, seed)
     t1 = j.fitted_at
     reg3 = reg.lifted(F, j.T, _of_kind(j.deviations, Deviations2D))
     T = reg3.T_nominal_measured

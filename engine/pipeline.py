@@ -32,7 +32,7 @@ from .scene import Selection, check_box, check_plane_distance, extent_warning, s
 from .scene_part import on_the_table, the_part
 from .settings import InspectionSettings
 from .hints import not_planar_hint, swap_hint
-from .step_model import (ExactDistances, StepFaces, exact_deviations, exact_features,
+from .step_model import (ExactDistances, StepFaces, exact_features,
                          face_groups, face_rivals, face_sample, step_facts)
 from .tolerance import Tolerance, check_zone
 from .verdict import ACCEPT, INCONCLUSIVE
@@ -537,15 +537,12 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
     """A 3D inspection (exact to a STEP model's faces when the nominal is one), and its plan's
     characteristics; ``noise``: the measurement's noise, mm, when the scene shows it (the
     spread of its table about its plane: engine.registration_types.RegistrationSettings)."""
-    exact = distances = None
-    if source.step is not None:
-        distances = ExactDistances(source.step, nominal)
-        exact = exact_deviations(distances)
+    distances = None if source.step is None else ExactDistances(source.step, nominal)
     share = plan_share(plan)
     with within(0.0, 1.0 - share):
         result = inspect(nominal, measured_ps.points, settings.tolerance,
                          RegistrationSettings(noise_mm=noise, seed=settings.seed),
-                         fit=settings.fit, decision_rule=settings.decision_rule, exact=exact,
+                         fit=settings.fit, decision_rule=settings.decision_rule, surface=distances,
                          instrument=instrument_of(settings.instrument, plan),
                          guard=settings.guard)
     if source.step is not None:
@@ -560,7 +557,8 @@ def _inspect_3d(nominal: Nominal, source: _Nominal, measured_ps: PointSet,
             report("judging the plan's characteristics", 0.0)
             result = inspect_plan(result, plan, nominal, ps.labels, measured_ps.points,
                                   measured_ps.labels, settings.zone_in_verdict, ps.groups,
-                                  exact, None if distances is None else face_sample(distances),
+                                  distances,
+                                  None if distances is None else face_sample(distances),
                                   None if source.step is None else exact_features(source.step),
                                   None if distances is None else face_rivals(distances))
     if distances is not None and distances.missed:

@@ -60,13 +60,6 @@ engine.inspection) of the chosen pose's, plus INVARIANT_FRACTION of the zone wid
 point that lay over the nominal carried past its border. Slid past the end of a cylinder, or
 rotated into a sphere's unsampled pole, they do not: such a pose is not a place the part could
 be (the points were measured on the nominal), and its verdict does not count."""
-BORDER_COSINE = 0.5
-"""A point lies past the nominal's border when the direction to it from its closest point
-makes more than 60 degrees with the nominal's normal at the sample nearest that closest point
-(over the surface the two agree within its curvature between samples): its closest point is on
-the border (engine.inspection)."""
-BORDER_MIN_MM = 1e-4
-"""… and lies farther than this from it (closer, the direction is rounding)."""
 SENSITIVITY_POINTS = 16384
 """Points evaluated at every probed pose at most (a seeded subset beyond), for the RMS and the
 scan's steps. The verdict at a probed pose is completed exactly for every other point that

@@ -1,7 +1,7 @@
 """A STEP model's exact faces as the inspection measures them: deviations exact to the B-rep
-(:class:`ExactDistances`, the registration's tessellation as its fallback), the faces as regions
-of a plan (their samples and groups), the analytic features the plan layer matches its regions
-to, and the model's facts for the results. Numbers in, numbers out: the model itself comes from
+(:class:`ExactDistances`, an engine.surface.Surface, the registration's tessellation as its
+fallback), the faces as regions of a plan (their samples and groups), the analytic features
+the plan layer matches its regions to, and the model's facts for the results. Numbers in, numbers out: the model itself comes from
 engine.io.step."""
 
 from __future__ import annotations
@@ -11,9 +11,11 @@ import dataclasses
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .deviation import Deviations
 from .errors import NoDistanceError
 from .inspection import InspectionResult
 from .nominal import Nominal
+from .surface import SampledSurface
 from .verdict import INCONCLUSIVE
 
 def face_sample(distances: "ExactDistances", k: int = 32):
@@ -132,7 +134,10 @@ def face_groups(step) -> dict[str, np.ndarray]:
 
 
 class ExactDistances:
-    """A STEP model's exact distances (engine.io.step.StepNominal.deviations: ``(signed, foot,
+    """A STEP model's exact faces as the inspection measures against them (engine.surface.Surface:
+    deviations exact to the B-rep, so no sampling margin; the border is the tessellation's).
+
+    Calling it gives the exact distances (engine.io.step.StepNominal.deviations: ``(signed, foot,
     normal, face)`` of points X (n, 3), nominal frame), with the tessellation's distance
     standing in for a point to which OpenCascade finds none (engine.errors.NoDistanceError):
     the others are measured exactly again, and every point stood in for is kept in
@@ -143,6 +148,10 @@ class ExactDistances:
     ``step.point_set``'s, in order, so a sample's face is ``step.face_ids`` of it); None: built
     from it when a point first needs it.
     """
+
+    exact = True
+    bordered = True
+    normals_source = "B-rep"
 
     def __init__(self, step, nominal: Nominal | None = None):
         self.step, self._nominal = step, nominal
@@ -173,11 +182,19 @@ class ExactDistances:
             break
         return out
 
-    def _stand_in(self, P: np.ndarray, rows: np.ndarray, out) -> None:
-        from .deviation import point_to_surface
+    def deviations(self, X: np.ndarray) -> Deviations:
+        signed, foot, normal, _ = self(X)
+        return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
 
+    def margins(self, dev: Deviations) -> np.ndarray:
+        return np.zeros(dev.signed.size)
+
+    def beyond(self, X: np.ndarray) -> np.ndarray:
+        return SampledSurface(self.nominal).beyond(X)
+
+    def _stand_in(self, P: np.ndarray, rows: np.ndarray, out) -> None:
         self.missed.append(P)
-        dv = point_to_surface(self.nominal, P)
+        dv = SampledSurface(self.nominal).deviations(P)
         out[0][rows], out[1][rows], out[2][rows] = dv.signed, dv.foot, dv.normal
         out[3][rows] = np.asarray(self.step.face_ids)[self.nominal.tree.query(dv.foot)[1]]
 
@@ -264,21 +281,6 @@ def _same_sphere(g: dict, h: dict, scale: float) -> bool:
 
 
 _EXACT_KINDS = {"plane": _same_plane, "cylinder": _same_cylinder, "sphere": _same_sphere}
-
-
-def exact_deviations(distances):
-    """Deviations from a STEP model's faces (an :class:`ExactDistances`, or a StepNominal
-    measured by one) as the engine's Deviations."""
-    from .deviation import Deviations
-
-    if not isinstance(distances, ExactDistances):
-        distances = ExactDistances(distances)
-
-    def exact(X: np.ndarray) -> Deviations:
-        signed, foot, normal, _ = distances(X)
-        return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
-
-    return exact
 
 
 def step_facts(step) -> dict:

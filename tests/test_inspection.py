@@ -123,6 +123,28 @@ def _paraboloid_exact(P):
     return Deviations(np.einsum("ij,ij->i", P - foot, n), foot, n, np.zeros(len(P), bool))
 
 
+class _Paraboloid:
+    """The paraboloid itself as the surface the inspection measures on (engine.surface.Surface,
+    as a STEP model's faces are one): exact deviations, no sampling margin, its border the grid
+    nominal's."""
+
+    exact, bordered, normals_source = True, True, "analytic"
+
+    def __init__(self, nominal):
+        from engine.surface import SampledSurface
+
+        self.sampled = SampledSurface(nominal)
+
+    def deviations(self, X):
+        return _paraboloid_exact(X)
+
+    def margins(self, dev):
+        return np.zeros(dev.signed.size)
+
+    def beyond(self, X):
+        return self.sampled.beyond(X)
+
+
 def _paraboloid_part(rng):
     """A coarse 25 x 25 grid nominal of the paraboloid, and 300 points measured on it in a
     random pose with planted deviations free of any rigid motion's share: (nominal, measured
@@ -157,9 +179,9 @@ def test_exact_surface_gives_exact_deviations_where_the_sample_cannot():
     with an exact surface given (as a STEP model's faces are): the planted deviations come back
     to 1e-6 mm, the registration's pose refined on them; without it the sample's error shows."""
     nominal, measured, planted = _paraboloid_part(np.random.default_rng(21))
-    res = inspect(nominal, measured, Tolerance.symmetric(0.05), exact=_paraboloid_exact)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.05), surface=_Paraboloid(nominal))
     assert np.max(np.abs(res.deviations.signed - planted)) < 1e-6
-    assert res.normals_source == "B-rep"
+    assert res.normals_source == "analytic"
     sampled = inspect(nominal, measured, Tolerance.symmetric(0.05))
     assert np.max(np.abs(sampled.deviations.signed - planted)) > 1e-4
 
@@ -193,7 +215,7 @@ def test_the_near_fraction_is_that_of_the_pose_reported(monkeypatch):
                if f.name not in derived})
 
     monkeypatch.setattr(ins, "register", off)
-    res = inspect(nominal, measured, Tolerance.symmetric(0.05), exact=_paraboloid_exact)
+    res = inspect(nominal, measured, Tolerance.symmetric(0.05), surface=_Paraboloid(nominal))
     assert np.max(np.abs(res.deviations.signed - planted)) < 1e-6
     reg = res.registration
     assert 5.0 > reg.near_distance > np.max(np.abs(planted))

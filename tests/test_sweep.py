@@ -19,7 +19,7 @@ import pytest
 from engine.inspection import Tolerance, inspect
 from engine.io.step import read_step
 from engine.nominal import Nominal
-from engine.step_model import exact_deviations
+from engine.step_model import ExactDistances
 from sweep import judge, make_case, truth
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "step")
@@ -32,14 +32,14 @@ TOL = 0.05
 @pytest.mark.parametrize("name", PARTS)
 def test_sweep_over_a_real_part(name):
     part = read_step(os.path.join(DATA, name))
-    exact = exact_deviations(part)
     rows = []
     for k, defect in enumerate(DEFECTS):
         for pose in range(2):
             case = make_case(part, defect, seed=100 * pose + k)
             d_true = truth(part, case)
-            res = inspect(Nominal.from_point_set(part.point_set), case["measured"],
-                          Tolerance.symmetric(TOL), exact=exact)
+            nominal = Nominal.from_point_set(part.point_set)
+            res = inspect(nominal, case["measured"], Tolerance.symmetric(TOL),
+                          surface=ExactDistances(part, nominal))
             outcome, err = judge(res, d_true, TOL)
             rows.append((defect, pose, res.verdict, outcome, round(err, 4)))
     wrong = [r for r in rows if r[3] == "wrong"]
@@ -71,8 +71,9 @@ def test_a_plain_block_with_a_hole_a_boss_and_a_slot_is_accepted_from_any_pose(t
     if seed is not None:
         R, t = random_pose(seed)
         measured = P @ R.T + t
-    res = inspect(Nominal.from_point_set(part.point_set), measured, Tolerance.symmetric(TOL),
-                  exact=exact_deviations(part))
+    nominal = Nominal.from_point_set(part.point_set)
+    res = inspect(nominal, measured, Tolerance.symmetric(TOL),
+                  surface=ExactDistances(part, nominal))
     assert res.verdict == "ACCEPT", res.reasons
     assert res.registration.converged
     assert np.max(np.abs(res.deviations.signed)) < 1e-4
@@ -90,8 +91,9 @@ def test_the_truth_is_the_known_pose_for_a_perfect_part():
 def _inspect_case(name, defect, seed, judged=True):
     part = read_step(os.path.join(DATA, name))
     case = make_case(part, defect, seed=seed)
-    res = inspect(Nominal.from_point_set(part.point_set), case["measured"],
-                  Tolerance.symmetric(TOL), exact=exact_deviations(part))
+    nominal = Nominal.from_point_set(part.point_set)
+    res = inspect(nominal, case["measured"], Tolerance.symmetric(TOL),
+                  surface=ExactDistances(part, nominal))
     return res, judge(res, truth(part, case), TOL) if judged else None
 
 
@@ -116,3 +118,4 @@ def test_an_exact_fit_cycling_between_two_poses_settles():
     res, _ = _inspect_case("nist_ftc_06_asme1_ap242-e1.stp", "bow1.0", 3, judged=False)
     assert res.registration.converged, res.registration.message
     assert res.verdict == "REJECT", res.reasons
+

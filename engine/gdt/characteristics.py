@@ -123,61 +123,54 @@ def _judged_characteristics(plan: Plan, geo: Geometry, members: dict[str, np.nda
 
 def inspect_plan(result, plan: Plan, nominal, nominal_labels: np.ndarray | None,
                  measured: np.ndarray, labels: np.ndarray | None, zone_in_verdict: bool,
-                 nominal_groups: dict[str, np.ndarray] | None = None, exact=None,
+                 nominal_groups: dict[str, np.ndarray] | None = None, surface=None,
                  sample_of=None, exact_feature=None, rivals=None):
     """The InspectionResult ``result`` of a 3D inspection judged by ``plan``: its verdict and
     reasons become the plan's (with the zone of ``result`` as one more profile characteristic
     over all points when ``zone_in_verdict``), ``plan`` holds the PlanResult, and the per-point
     outputs are at the plan's alignment. nominal_labels, nominal_groups : the nominal file's
-    point labels and groups (engine.pointset.PointSet), which regions may select. exact(X) ->
-    Deviations from the true surface (a STEP model's faces; engine.inspection.inspect), None:
-    deviations on the nominal's sample, with its sampling margins. sample_of(feet) -> the
+    point labels and groups (engine.pointset.PointSet), which regions may select. surface : what
+    the deviations are measured on (engine.surface.Surface, as engine.inspection.inspect
+    measured them: an exact one is a STEP model's faces); None: the nominal's sample, with its
+    sampling margins. sample_of(feet) -> the
     nominal sample whose regions each foot (closest surface point) takes (None: the nearest;
     a STEP model: the nearest of the foot's own face, whose samples its edges share with the
     next face's). exact_feature : see Geometry.exact_feature (a STEP model's faces). rivals :
     a STEP model's points in doubt between faces (engine.step_model.face_rivals), or None."""
-    from ..deviation import point_to_surface
     from .regions import nominal_members
+    from ..surface import Posed, SampledSurface
     from ..uncertainty import expanded_at
-    from ..verdict import margins_3d
 
+    posed = Posed(surface or SampledSurface(nominal), measured)
+    exact = posed.surface.exact
     # A STEP model's box regions take the faces crossing them (its samples lie on edges).
     masks = nominal_members(plan, nominal.points, nominal_labels, nominal_groups,
-                            triangles=nominal.triangles if exact is not None else None)
-    surface = exact or (lambda X: point_to_surface(nominal, X))
+                            triangles=nominal.triangles if exact else None)
 
     def evaluate(T, idx):
-        X = apply_transform(T, measured[idx])
-        dv = surface(X)
+        X, dv = posed.at(T, idx)
         return X, dv.signed, dv.normal
-
-    def sampling(idx, T):
-        if exact is not None:
-            return np.zeros(len(idx))
-        X = apply_transform(T, measured[idx])
-        return margins_3d(nominal, point_to_surface(nominal, X).foot)
 
     def margin(idx, T, form_only=False):
         if result.decision_rule != DecisionRule.GUARDED:
             return None
         if result.uncertainty is None:  # guarded by the sampling margin alone (older runs)
-            return sampling(idx, T)
-        return expanded_at(result.uncertainty, idx, sampling(idx, T),
+            return posed.margins_at(T, idx)
+        return expanded_at(result.uncertainty, idx, posed.margins_at(T, idx),
                            ("pose",) if form_only else ())
 
     geo = Geometry(evaluate, result.registration.T_nominal_measured, margin, nominal.points,
                    nominal.normals, masks, *_centre_and_length(result.registered), labels,
                    exact_feature, measured)
     planned = _judged(result, plan, geo, sample_of or (lambda f: nominal.tree.query(f)[1]),
-                      zone_in_verdict, by_foot=exact is not None, rivals=rivals)
+                      zone_in_verdict, by_foot=exact, rivals=rivals)
     result = replace(result, verdict=planned.verdict, reasons=planned.reasons, plan=planned)
     if planned.alignment is None:
         return result
     # The per-point outputs at the plan's alignment: where the drawing places the part.
-    X = apply_transform(planned.T_nominal_measured, measured)
-    dv = surface(X)
-    return _at_plan_pose(result, X, dv, None if result.margin is None else sampling(
-        np.arange(len(X)), planned.T_nominal_measured))
+    X, dv = posed.at(planned.T_nominal_measured)
+    return _at_plan_pose(result, X, dv, None if result.margin is None else posed.margins_at(
+        planned.T_nominal_measured))
 
 
 def inspect_plan_2d(result, plan: Plan, index, labels: np.ndarray | None,
