@@ -26,9 +26,8 @@ from .registration_types import RegistrationResult, RegistrationSettings
 from .seeds import DEFAULT_SEED, rng
 from .surface import Posed, SampledSurface
 from .tolerance import Tolerance
-from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity,
-                      better_runner_up, judge, plausible_runner_up, pointwise_verdict,
-                      pose_trusted)
+from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
+                      plausible_runner_up, pointwise_verdict, pose_trusted)
 
 if TYPE_CHECKING:
     from .surface import Surface
@@ -141,9 +140,6 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
         reg = _exact_fit(reg, posed, tolerance.width, settings.seed)
         reg = _exact_runner_up(reg, posed, measured, nominal.diagonal, settings.outlier_floor,
                                tolerance.width, settings.seed)
-        if better_runner_up(reg):
-            reg = _better_runner_up_chosen(reg, posed, nominal.diagonal, settings.outlier_floor,
-                                           tolerance.width, settings.seed)
     T = reg.T_nominal_measured
     dev = reg.deviations
     j = _judge_pose(reg, T, apply_transform(T, measured), dev, posed, tolerance, fit,
@@ -256,26 +252,6 @@ def _score_points(n: int, seed: int) -> np.ndarray:
     if n <= EXACT_SCORE_POINTS:
         return np.arange(n)
     return np.sort(rng(seed, EXACT_SCORE_SEED).choice(n, EXACT_SCORE_POINTS, replace=False))
-
-
-def _better_runner_up_chosen(reg, posed: Posed, diagonal: float, floor: float,
-                             zone_width: float, seed: int):
-    """The runner-up, finished on the exact surface, fits better than the pose the sample
-    chose: it becomes the pose, fitted on every point as the chosen one was (:func:`_exact_fit`)
-    and scored on the same points, and the pose chosen before becomes the runner-up. (The
-    sample's scores carry its chordal error: NIST FTC-07 with its largest face bowed 1 mm
-    chose a pose 10 mm off the truth that scored 0.0858 mm exactly, against the runner-up's
-    0.0769 mm at the true pose.) Should the runner-up fit no better once fitted on every point,
-    ``reg`` stays as it was: another pose fits better, and the verdict says so."""
-    _, dev = posed.at(reg.runner_up_T)
-    swapped = _exact_fit(replace(reg, T_nominal_measured=reg.runner_up_T, deviations=dev),
-                         posed, zone_width, seed)
-    score = pose_score(swapped.deviations.signed[_score_points(dev.signed.size, seed)],
-                       floor * diagonal)
-    if score >= reg.score:
-        return reg
-    return replace(swapped, score=score, runner_up_score=reg.score,
-                   runner_up_T=reg.T_nominal_measured)
 
 
 def _exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, floor: float,
