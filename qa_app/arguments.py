@@ -74,6 +74,9 @@ def _add_inspect(sub: argparse._SubParsersAction) -> None:
     i.add_argument("--json", metavar="FILE|-", help="write the JSON results (- for stdout)")
     i.add_argument("--csv", metavar="FILE|-",
                    help="write one CSV row per measured point (- for stdout)")
+    i.add_argument("--qif", metavar="FILE|-",
+                   help="write the QIF 3.0 results (- for stdout); with a QIF plan, that "
+                        "plan's own document with results referencing its ids")
     i.add_argument("--quiet", action="store_true",
                    help="no progress line on the terminal (drawn when a run lasts over 2 s)")
     _add_certificate_options(i)

@@ -201,7 +201,7 @@ def _cmd_inspect(args) -> int:
 
     _no_empty_paths("inspect", {"NOMINAL": args.nominal, "MEASURED": args.measured,
                                 "--report": args.report, "--csv": args.csv, "--json": args.json,
-                                "--sign": args.sign, "--plan": args.plan})
+                                "--qif": args.qif, "--sign": args.sign, "--plan": args.plan})
     tol = _tolerance(args)  # usage errors first, before any process is started
     _scene_options(args, "inspect")
     _checked(lambda: check_section_options(args.section, args.section_band, args.nominal))
@@ -210,12 +210,15 @@ def _cmd_inspect(args) -> int:
     if args.report == "-":
         raise UsageError("qa-inspect inspect: --report needs a file name (a PDF is not written "
                          "to standard output)")
-    if args.csv == "-" and args.json == "-":
-        raise UsageError("qa-inspect inspect: --csv - and --json - both ask for standard "
-                         "output; give one of them a file name")
+    streamed = [f"--{k} -" for k in ("csv", "json", "qif") if getattr(args, k) == "-"]
+    if len(streamed) > 1:
+        raise UsageError(f"qa-inspect inspect: {' and '.join(streamed)} "
+                         f"{'both' if len(streamed) == 2 else 'all'} ask for standard output; "
+                         "give all but one of them a file name")
     try:
         check_outputs({"--report": args.report, "--csv": None if args.csv == "-" else args.csv,
-                       "--json": None if args.json == "-" else args.json},
+                       "--json": None if args.json == "-" else args.json,
+                       "--qif": None if args.qif == "-" else args.qif},
                       {"NOMINAL": args.nominal, "MEASURED": args.measured,
                        "--sign identity": args.sign, "--plan": args.plan})
     except OutputConflictError as e:
@@ -419,6 +422,16 @@ def _run_inspect(args, tol, renderer) -> int:
             stdout = result_json(results_document(run, sections))
         else:
             outputs.append(Output(args.json, result_json(results_document(run, sections))))
+    if args.qif:
+        from reports.qif import plan_source, qif_results_document
+
+        qif = qif_results_document(results_document(run, sections), result.registered,
+                                   result.deviations.signed, result.in_tolerance,
+                                   run.measured.labels, result.outlier, plan_source(run))
+        if args.qif == "-":
+            stdout = qif.decode("utf-8")
+        else:
+            outputs.append(Output(args.qif, qif))
     try:
         write_all(outputs)  # every file or none; stdout only after they all succeeded
     except OutputConflictError as e:  # the target changed into a folder, key... during the run

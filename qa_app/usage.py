@@ -49,8 +49,8 @@ EXIT_CODES = """exit codes:
 
 USAGES = {
     "inspect": """qa-inspect inspect NOMINAL MEASURED --tol T [--tol-lower L --tol-upper U]
-                  [--plan PLAN.toml] [--json FILE|-] [--csv FILE|-] [--quiet]
-                  [--layer NAME] [--units U] [--scale CHORD]
+                  [--plan PLAN.toml|PART.qif] [--json FILE|-] [--csv FILE|-]
+                  [--qif FILE|-] [--quiet] [--layer NAME] [--units U] [--scale CHORD]
                   [--crop XMIN YMIN ZMIN XMAX YMAX ZMAX]
                   [--remove-plane [--remove-plane-distance MM]]
                   [--section AXIS=MM ... [--section-band MM]]

@@ -195,8 +195,8 @@ def _point(v) -> str:
 def parse_qif(raw: bytes, path: str) -> QifDocument:
     """The document these bytes of ``path`` hold, cached by the bytes (a run reads its plan for
     the zone and again with the nominal)."""
-    root = _parse(raw, path)
-    units = _Units(root, path)
+    root = qif_root(raw, path)
+    units = QifUnits(root, path)
     index = {e.get("id"): e for e in root.iter() if e.get("id") is not None}
     features = _features(root, index, units, path)
     datums, datum_notes = _datums(root, features, path)
@@ -226,11 +226,34 @@ def parse_qif(raw: bytes, path: str) -> QifDocument:
                        faces, units.unit, units.mm_per_unit, units.scale, dict(reader.names))
 
 
+@dataclass(frozen=True)
+class QifSource:
+    """A QIF plan's own document as the results that answer it need it (reports.qif): its
+    root element (lxml) and its units."""
+
+    path: str
+    root: object
+    units: "QifUnits"
+
+
+def qif_source(path: str | os.PathLike, sha256: str) -> QifSource:
+    """The QIF plan ``path`` read again for results that reference its ids; InputError when
+    its bytes are no longer those inspected (their SHA-256 ``sha256``): results must answer
+    the plan that was judged."""
+    path = os.fspath(path)
+    raw = read_bytes(path)
+    if hashlib.sha256(raw).hexdigest() != sha256:
+        raise InputError("changed since it was inspected (its SHA-256 is not the inspected "
+                         "plan's): the QIF results would not answer the plan judged", path)
+    root = qif_root(raw, path)
+    return QifSource(path, root, QifUnits(root, path))
+
+
 def _id_order(fid: str):
     return (0, int(fid)) if fid.isdigit() else (1, fid)
 
 
-def _parse(raw: bytes, path: str):
+def qif_root(raw: bytes, path: str):
     """The root element of untrusted XML, safely: no entity expanded, no DTD loaded, no
     network, no huge trees; a DOCTYPE is refused outright (a QIF document has none)."""
     from lxml import etree
@@ -269,7 +292,7 @@ def _children(root, path: str) -> list:
     return [] if parent is None else [c for c in parent if isinstance(c.tag, str)]
 
 
-class _Units:
+class QifUnits:
     """The file's linear units (name -> mm), its primary one, the primary one of its PMI (the
     Characteristics' values: ``PMILinearUnit``, which the QIF 3.0 schema says overrides the
     primary unit there; the primary one where the file states none), its angular units (name
@@ -354,7 +377,7 @@ def _number(text: str | None, what: str, path: str) -> float:
     return value
 
 
-def _face(index: dict, face_id: str, units: _Units, feature: str, path: str) -> QifFace:
+def _face(index: dict, face_id: str, units: QifUnits, feature: str, path: str) -> QifFace:
     face = index.get(face_id)
     if face is None or local_name(face) != "Face":
         raise InputError(f"QIF feature {feature}: its entity {face_id} is not a Face of the "
@@ -375,7 +398,7 @@ def _part(root) -> Part:
                 name=(part.findtext("{*}Name") or part.get("label") or "").strip())
 
 
-def _features(root, index: dict, units: _Units, path: str) -> dict[str, QifFeature]:
+def _features(root, index: dict, units: QifUnits, path: str) -> dict[str, QifFeature]:
     out = {}
     for e in _children(root, "Features/{*}FeatureNominals"):
         kind = re.sub(r"FeatureNominal$", "", local_name(e))

@@ -313,7 +313,7 @@ class Controller:
                                                   run.measured.labels), "CSV")
 
     def export_qif(self, path: str) -> None:
-        from reports.qif import qif_results_document
+        from reports.qif import plan_source, qif_results_document
         from reports.results import run_document
 
         run = self.session.run
@@ -321,8 +321,8 @@ class Controller:
             return
         res = run.result
         self._export(path, lambda: qif_results_document(
-            run_document(run), res.registered, res.deviations.signed, res.in_tolerance, run.measured.labels,
-            res.outlier), "QIF")
+            run_document(run), res.registered, res.deviations.signed, res.in_tolerance,
+            run.measured.labels, res.outlier, plan_source(run)), "QIF")
 
     def _refuse_output(self, what: str, path: str, identity: str | None = None) -> bool:
         """True (with the error) when ``path`` is no file name or names one of the inputs: the

@@ -16,7 +16,7 @@ from engine.section import Section
 
 from .. import figures
 from ..messages import VERDICT_WORD
-from ..qif import qif_results_document
+from ..qif import plan_source, qif_results_document
 from ..results import SOFTWARE_NAME, points_csv, result_json, run_document, software_version
 from ..signing import (
     APPROVER_FIELD,
@@ -104,7 +104,7 @@ def draft_certificate(run: Run, info: CertificateInfo, identity: Identity | None
                                "signed deviation, in tolerance"),
         Attachment("results.qif", qif_results_document(
             doc, res.registered, res.deviations.signed, res.in_tolerance,
-            run.measured.labels, res.outlier), "application/xml",
+            run.measured.labels, res.outlier, plan_source(run)), "application/xml",
             "QIF 3.0 results document"),
         Attachment("results.json", result_json(doc).encode(), "application/json",
                    "qa-inspect results with the settings to re-run the inspection"),

@@ -84,19 +84,25 @@ all points, as producers of CMM results write them (CheckMate, NIST's CTC models
   value in the drawing's convention (absent when it could not be measured) and its reason.
 - ``ActualTransforms/Transform``: the plan's alignment, the pose of the points.
 
+With a QIF plan (``plan``: :func:`plan_source`) the document is instead that plan's own,
+carried through with its ids, and the results reference its characteristic and feature
+nominals through items: :mod:`.linked`.
+
 Ids are consecutive integers from 1 (``idMax`` on the root). The document is deterministic: no
 clock is read; ``QPId`` is a UUID 5 of the inputs' sha256s, the certificate number and the zone
 (and the plan's sha256).
 Numbers are written with 6 decimals (1 nm), the transform and unit vectors exactly (shortest
 round-trip repr).
 
-The code: :mod:`.document` (:func:`qif_results_document`, the entry), :mod:`.model` (what
-the document states, its ids, features, characteristics, datums and frames, made from the JSON),
-:mod:`.nominal` and :mod:`.measured` (the writers of the sections: the part as defined, then
-as measured), :mod:`.text` (numbers and words as QIF's XML spells them).
+The code: :mod:`.document` (:func:`qif_results_document`, the entry), :mod:`.linked` (a QIF
+plan's own document answered), :mod:`.model` (what the document states, its ids, features,
+characteristics, datums and frames, made from the JSON), :mod:`.nominal` and :mod:`.measured`
+(the writers of the sections: the part as defined, then as measured), :mod:`.text` (numbers
+and words as QIF's XML spells them).
 """
 
-from .document import qif_results_document
+from .document import plan_source, qif_results_document
 from .model import DEVICE_KEYS, QIF_NAMESPACE, QIF_VERSION, QIFError
 
-__all__ = ["DEVICE_KEYS", "QIF_NAMESPACE", "QIF_VERSION", "QIFError", "qif_results_document"]
+__all__ = ["DEVICE_KEYS", "QIF_NAMESPACE", "QIF_VERSION", "QIFError", "plan_source",
+           "qif_results_document"]

@@ -12,7 +12,7 @@ from .nominal import (write_characteristics, write_datums, write_definitions, wr
 
 
 def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels=None,
-                         outlier=None) -> bytes:
+                         outlier=None, plan=None) -> bytes:
     """The QIF 3.0 results document (UTF-8 XML bytes) of one inspection.
 
     doc : the dict of :func:`reports.results.result_document`, optionally with ``certificate``
@@ -22,15 +22,36 @@ def qif_results_document(doc: dict, registered, deviations, in_tolerance, labels
     deviations : (n,) signed deviations, mm, positive along the nominal's outward normal.
     in_tolerance : (n,) bool. labels : (n,) str or None. outlier : (n,) bool or None, the
         points excluded from the alignment as gross outliers (InspectionResult.outlier).
+    plan : the QIF plan the inspection was judged by (engine.io.qif_plan.QifSource,
+        :func:`plan_source`): the document is then that plan's own, its results referencing
+        its ids (reports.qif.linked); None: the inspection's own document.
 
     Raises QIFError when the arguments do not fit together.
     """
-    q = Qif.of(doc, *_checked_points(registered, deviations, in_tolerance, labels, outlier))
+    checked = _checked_points(registered, deviations, in_tolerance, labels, outlier)
+    if plan is not None:
+        from .linked import linked_results_document
+
+        return linked_results_document(doc, plan, *checked)
+    q = Qif.of(doc, *checked)
     o: list[str] = []
     for section in (write_header, write_definitions, write_datums, write_resources,
                     write_product, write_features, write_characteristics, write_results):
         section(o.append, q)
     return "".join(o).encode("utf-8")
+
+
+def plan_source(run):
+    """The QIF plan ``run`` (engine.pipeline.Run) was judged by, read again for results that
+    reference its ids (engine.io.qif_plan.qif_source: an InputError when the file changed
+    since), or None when its plan is no QIF file (or it has none)."""
+    from engine.io import formats
+
+    if run.plan is None or formats.kind_of(run.plan.path) != formats.QIF:
+        return None
+    from engine.io.qif_plan import qif_source
+
+    return qif_source(run.plan.path, run.plan.sha256)
 
 
 def _checked_points(registered, deviations, in_tolerance, labels, outlier):

@@ -98,8 +98,8 @@ def _characteristic_measurements(w, q: Qif) -> None:
           "              <Status>\n                <CharacteristicStatusEnum>"
           f"{CHAR_STATUS[c.verdict]}</CharacteristicStatusEnum>\n              </Status>\n"
           f"              <CharacteristicItemId>{c.item}</CharacteristicItemId>\n")
-        w(id_list("FeatureMeasurementIds", [c.feature.measurement] + (
-            [] if c.other is None else [c.other.measurement]), 14))
+        w(id_list("FeatureMeasurementIds", list(c.feature_measurements) or (
+            [c.feature.measurement] + ([] if c.other is None else [c.other.measurement])), 14))
         if ids.component:
             w(f"              <ActualComponentId>{ids.component}</ActualComponentId>\n")
         if ids.device:
@@ -113,6 +113,9 @@ def _characteristic_measurements(w, q: Qif) -> None:
               "</WorstNegativeDeviation>\n")
         if c.kind == "Position" and c.bonus is not None and c.modifier != "RFS":
             w(f"              <Bonus>{fixed(c.bonus)}</Bonus>\n")
+        if c.kind in ("LinearCoordinate", "AngularCoordinate"):  # a QIF plan's, not judged
+            w("              <TypeOfCoordinates>\n                <CoordinateEnum>UNDEFINED"
+              "</CoordinateEnum>\n              </TypeOfCoordinates>\n")
         w(f"            </{c.kind}CharacteristicMeasurement>\n")
     w("          </CharacteristicMeasurements>\n        </MeasuredCharacteristics>\n")
 

@@ -40,8 +40,8 @@ MeasurementDevice)."""
 
 
 class _Ids:
-    def __init__(self):
-        self.last = 0
+    def __init__(self, last: int = 0):
+        self.last = last
 
     def take(self) -> int:
         self.last += 1
@@ -94,7 +94,7 @@ class _Refs:
 
 
 @dataclass(frozen=True)
-class _Feature:
+class Feature:
     """One feature (definition, nominal, item, measurement): the whole nominal (freeform; its
     measurement carries the point set) or a plan's region."""
 
@@ -124,7 +124,7 @@ class Char:
     nominal_id: int
     item: int
     measurement: int
-    feature: _Feature
+    feature: Feature
     name: str
     designator: str | None
     """The drawing's balloon (the plan's id), or None."""
@@ -153,15 +153,18 @@ class Char:
     """Size and location: the feature of size (cylinder, sphere, width)."""
     vector: tuple[float, float, float] = (0.0, 0.0, 1.0)
     """A line profile: the normal of the plane its curve lies in (a 2D template's: z)."""
-    other: _Feature | None = None
+    other: Feature | None = None
     """An angle or a distance: its second feature (``feature`` is its first)."""
+    feature_measurements: tuple[int, ...] = ()
+    """The feature measurements it was judged on, when they are not those of ``feature`` and
+    ``other``: a QIF plan's characteristic on several of its features (reports.qif.linked)."""
 
 
 @dataclass(frozen=True)
 class _Datum:
     id: int
     label: str
-    feature: _Feature | None
+    feature: Feature | None
     """The datum feature (its region's), or None when the document does not name it."""
     algorithm: str | None
     """The datum simulator (SubstituteFeatureAlgorithmEnum), or None when unknown."""
@@ -205,13 +208,15 @@ class Qif:
     outlier: np.ndarray | None
     qpid: uuid.UUID
     results_qpid: uuid.UUID
-    features: tuple[_Feature, ...]
+    features: tuple[Feature, ...]
     chars: tuple[Char, ...]
     datums: tuple[_Datum, ...] = ()
     frames: tuple[_Frame, ...] = ()
 
     @classmethod
-    def of(cls, doc: dict, pts, dev, inside, labels, outlier) -> Qif:
+    def of(cls, doc: dict, pts, dev, inside, labels, outlier, after_id: int = 0) -> Qif:
+        """The document's contents; its ids are consecutive from ``after_id`` + 1 (another
+        document's ids below them: a QIF plan's, reports.qif.linked)."""
         verdict = doc["verdict"]
         if verdict not in CHAR_STATUS:
             raise QIFError(f"unknown verdict {verdict!r}")
@@ -224,14 +229,14 @@ class Qif:
         alignment = doc.get("alignment") or {}
         T = np.asarray(alignment.get("T_nominal_measured", doc["transform"]) if planned
                        else doc["transform"], dtype=float)
-        ids = _Ids()
+        ids = _Ids(after_id)
         refs = _Refs.take(ids, device=any(k in cert for k in DEVICE_KEYS),
                           points=pts.shape[0] != 0,
                           transform=T.shape == (4, 4) and bool(np.isfinite(T).all()),
                           component="serial" in cert, profile=not planned)
         is_2d = doc.get("template") is not None
         path = str(nominal.get("path") or "nominal")
-        whole = _Feature(os.path.basename(path) or path, "OtherCurve" if is_2d else "OtherSurface", refs.feat_def,
+        whole = Feature(os.path.basename(path) or path, "OtherCurve" if is_2d else "OtherSurface", refs.feat_def,
                          refs.feat_nom, refs.feat_item, refs.feat_meas, whole=True)
         if planned:
             parts = _plan(doc, ids, whole, app)
@@ -264,7 +269,7 @@ class Qif:
         return os.path.basename(self.nominal_path) or self.nominal_path
 
 
-def _whole_profile(doc: dict, refs: _Refs, whole: _Feature, dev: np.ndarray, app: str) -> Char:
+def _whole_profile(doc: dict, refs: _Refs, whole: Feature, dev: np.ndarray, app: str) -> Char:
     """The profile over all points (no plan): the zone, its zone-centred Value and the worst
     deviations from the per-point arrays."""
     lower, upper = float(doc["tolerance"]["lower"]), float(doc["tolerance"]["upper"])
@@ -311,14 +316,14 @@ _FORM_AND_ORIENTATION = ("Straightness", "Circularity", "Cylindricity", "Paralle
                          "Perpendicularity", "Angularity")
 
 
-def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
+def _plan(doc: dict, ids: _Ids, whole: Feature, app: str):
     """The features, characteristics, datums and datum reference frames of an inspection plan
     (the JSON's ``features``, ``characteristics`` and ``alignment``)."""
     freeform = whole.kind
     features, regions, datum_features = [whole], {}, {}
     for f in doc.get("features") or []:
         kind = _GEOMETRIC.get(f.get("feature"), freeform) if f.get("nominal") else freeform
-        feat = _Feature(f["region"], kind, ids.take(), ids.take(), ids.take(), ids.take(),
+        feat = Feature(f["region"], kind, ids.take(), ids.take(), ids.take(), ids.take(),
                         f.get("nominal") if kind != freeform else None,
                         f.get("measured") if kind != freeform else None)
         features.append(feat)
@@ -330,7 +335,7 @@ def _plan(doc: dict, ids: _Ids, whole: _Feature, app: str):
         pair = c.get("regions", [])[1:] if c["type"] in _DIMENSION_CHAR else []
         for region in (c["region"], *pair):
             if region not in regions and not (tol and c["id"] == "tol"):
-                regions[region] = _Feature(region, freeform, ids.take(), ids.take(),
+                regions[region] = Feature(region, freeform, ids.take(), ids.take(),
                                            ids.take(), ids.take())
                 features.append(regions[region])
     alignment = doc.get("alignment") or {}
@@ -374,7 +379,7 @@ def _alignment_state(alignment: dict) -> str:
     return f"the plan's alignment, incomplete: {alignment.get('message', '')}"
 
 
-def _plan_char(c: dict, ids: _Ids, feature: _Feature, frames: dict, app: str,
+def _plan_char(c: dict, ids: _Ids, feature: Feature, frames: dict, app: str,
                freeform: str, regions: dict) -> Char:
     """One characteristic of the plan (its JSON entry) on its region's feature."""
     kind = _PLAN_CHAR.get(c["type"], _DIMENSION_CHAR.get(c["type"], "SurfaceProfile"))

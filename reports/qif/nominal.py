@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from .model import DIMENSION_KINDS, QIF_NAMESPACE, QIF_VERSION, Char, QIFError, Qif
+from .model import DIMENSION_KINDS, QIF_NAMESPACE, QIF_VERSION, Char, Feature, QIFError, Qif
 from .text import (algorithm, attributes, exact, file_description, fixed, format_name,
                    geometry, id_list, nmtoken, xml_attr, xml_text)
 
@@ -151,34 +151,47 @@ def write_features(w, q: Qif) -> None:
     n = len(q.features)
     w(f'  <Features>\n    <FeatureDefinitions n="{n}">\n')
     for f in q.features:
-        if f.kind in ("Cylinder", "Sphere"):
-            if f.nominal is None:  # the plan's features are geometric only with a nominal
-                raise QIFError(f"feature {f.name}: a {f.kind} without its nominal geometry")
-            internal = "INTERNAL" if f.nominal.get("internal") else "EXTERNAL"
-            w(f'      <{f.kind}FeatureDefinition id="{f.definition}">\n'
-              f"        <InternalExternal>{internal}</InternalExternal>\n"
-              f"        <Diameter>{fixed(f.nominal['diameter'])}</Diameter>\n"
-              f"      </{f.kind}FeatureDefinition>\n")
-        else:
-            w(f'      <{f.kind}FeatureDefinition id="{f.definition}"/>\n')
+        w(feature_definition(f))
     w(f'    </FeatureDefinitions>\n    <FeatureNominals n="{n}">\n')
     for f in q.features:
-        w(f'      <{f.kind}FeatureNominal id="{f.nominal_id}">\n'
-          f"        <Name>{xml_text(f.name)}</Name>\n"
-          f"        <FeatureDefinitionId>{f.definition}</FeatureDefinitionId>\n")
-        if f.nominal:
-            w(geometry(f.kind, f.nominal, False, 8))
-        w(f"      </{f.kind}FeatureNominal>\n")
+        w(feature_nominal(f))
     w(f'    </FeatureNominals>\n    <FeatureItems n="{n}">\n')
     for f in q.features:
-        w(f'      <{f.kind}FeatureItem id="{f.item}">\n'
-          f"        <FeatureNominalId>{f.nominal_id}</FeatureNominalId>\n"
-          f"        <FeatureName>{xml_text(f.name)}</FeatureName>\n"
-          "        <DeterminationMode>\n          <Checked>\n            <CheckDetails>\n"
-          "              <Measured/>\n            </CheckDetails>\n          </Checked>\n"
-          "        </DeterminationMode>\n"
-          f"      </{f.kind}FeatureItem>\n")
+        w(feature_item(f.kind, f.item, f.nominal_id, f.name))
     w("    </FeatureItems>\n  </Features>\n")
+
+
+def feature_definition(f: Feature) -> str:
+    if f.kind in ("Cylinder", "Sphere"):
+        if f.nominal is None:  # the plan's features are geometric only with a nominal
+            raise QIFError(f"feature {f.name}: a {f.kind} without its nominal geometry")
+        internal = "INTERNAL" if f.nominal.get("internal") else "EXTERNAL"
+        return (f'      <{f.kind}FeatureDefinition id="{f.definition}">\n'
+                f"        <InternalExternal>{internal}</InternalExternal>\n"
+                f"        <Diameter>{fixed(f.nominal['diameter'])}</Diameter>\n"
+                f"      </{f.kind}FeatureDefinition>\n")
+    return f'      <{f.kind}FeatureDefinition id="{f.definition}"/>\n'
+
+
+def feature_nominal(f: Feature) -> str:
+    return (f'      <{f.kind}FeatureNominal id="{f.nominal_id}">\n'
+            f"        <Name>{xml_text(f.name)}</Name>\n"
+            f"        <FeatureDefinitionId>{f.definition}</FeatureDefinitionId>\n"
+            + (geometry(f.kind, f.nominal, False, 8) if f.nominal else "")
+            + f"      </{f.kind}FeatureNominal>\n")
+
+
+def feature_item(kind: str, item: int, nominal_id, name: str) -> str:
+    """A feature item: the feature of the nominal ``nominal_id`` as it is measured (a shape
+    feature's: checked by measurement; a non-shape feature or a pattern states no mode)."""
+    mode = "" if "NonShape" in kind or kind.startswith("Pattern") else (
+        "        <DeterminationMode>\n          <Checked>\n            <CheckDetails>\n"
+        "              <Measured/>\n            </CheckDetails>\n          </Checked>\n"
+        "        </DeterminationMode>\n")
+    return (f'      <{kind}FeatureItem id="{item}">\n'
+            f"        <FeatureNominalId>{nominal_id}</FeatureNominalId>\n"
+            f"        <FeatureName>{xml_text(name)}</FeatureName>\n"
+            + mode + f"      </{kind}FeatureItem>\n")
 
 
 def write_characteristics(w, q: Qif) -> None:
@@ -189,42 +202,57 @@ def write_characteristics(w, q: Qif) -> None:
     w(f"    <FormalStandardId>{q.ids.standard}</FormalStandardId>\n")
     w(f'    <CharacteristicDefinitions n="{n}">\n')
     for c in q.chars:
-        w(f'      <{c.kind}CharacteristicDefinition id="{c.definition}">\n'
-          f"        <Description>{xml_text(c.text)}</Description>\n")
-        w(_zone(c))
-        w(f"      </{c.kind}CharacteristicDefinition>\n")
+        w(characteristic_definition(c))
     w(f'    </CharacteristicDefinitions>\n    <CharacteristicNominals n="{n}">\n')
     for c in q.chars:
-        w(f'      <{c.kind}CharacteristicNominal id="{c.nominal_id}">\n'
-          f"        <CharacteristicDefinitionId>{c.definition}</CharacteristicDefinitionId>\n")
-        w(id_list("FeatureNominalIds", [f.nominal_id for f in _features(c)], 8))
-        if c.kind == "LineProfile":
-            vector = "0 0 1" if tuple(c.vector) == (0.0, 0.0, 1.0) else exact(c.vector)
-            w(f"        <Vector>{vector}</Vector>\n")
-        if c.target is not None:
-            w(f"        <TargetValue>{fixed(c.target)}</TargetValue>\n")
-        if c.kind == "DistanceBetween":
-            first, second = _features(c)
-            w('        <FeatureNominalPairs n="1">\n          <FeaturePair>\n'
-              f"            <FirstFeature>{first.nominal_id}</FirstFeature>\n"
-              f"            <SecondFeature>{second.nominal_id}</SecondFeature>\n"
-              "          </FeaturePair>\n        </FeatureNominalPairs>\n"
-              "        <AnalysisMode>THREEDIMENSIONAL</AnalysisMode>\n")
-        w(f"      </{c.kind}CharacteristicNominal>\n")
+        w(characteristic_nominal(c))
     w(f'    </CharacteristicNominals>\n    <CharacteristicItems n="{n}">\n')
     for c in q.chars:
-        w(f'      <{c.kind}CharacteristicItem id="{c.item}">\n'
-          f"        <Name>{xml_text(c.name)}</Name>\n")
-        if c.designator is not None:
-            w("        <CharacteristicDesignator>\n"
-              f"          <Designator>{xml_text(c.designator)}</Designator>\n"
-              "        </CharacteristicDesignator>\n")
-        w(id_list("FeatureItemIds", [f.item for f in _features(c)], 8))
-        if q.ids.device:
-            w(id_list("MeasurementDeviceIds", [q.ids.device], 8))
-        w(f"        <CharacteristicNominalId>{c.nominal_id}</CharacteristicNominalId>\n"
-          f"      </{c.kind}CharacteristicItem>\n")
+        w(characteristic_item(c.kind, c.item, c.nominal_id, c.name, c.designator,
+                              [f.item for f in _features(c)], q.ids.device))
     w("    </CharacteristicItems>\n  </Characteristics>\n")
+
+
+def characteristic_definition(c: Char) -> str:
+    return (f'      <{c.kind}CharacteristicDefinition id="{c.definition}">\n'
+            f"        <Description>{xml_text(c.text)}</Description>\n"
+            + _zone(c) + f"      </{c.kind}CharacteristicDefinition>\n")
+
+
+def characteristic_nominal(c: Char) -> str:
+    out = (f'      <{c.kind}CharacteristicNominal id="{c.nominal_id}">\n'
+           f"        <CharacteristicDefinitionId>{c.definition}</CharacteristicDefinitionId>\n"
+           + id_list("FeatureNominalIds", [f.nominal_id for f in _features(c)], 8))
+    if c.kind == "LineProfile":
+        vector = "0 0 1" if tuple(c.vector) == (0.0, 0.0, 1.0) else exact(c.vector)
+        out += f"        <Vector>{vector}</Vector>\n"
+    if c.target is not None:
+        out += f"        <TargetValue>{fixed(c.target)}</TargetValue>\n"
+    if c.kind == "DistanceBetween":
+        first, second = _features(c)
+        out += ('        <FeatureNominalPairs n="1">\n          <FeaturePair>\n'
+                f"            <FirstFeature>{first.nominal_id}</FirstFeature>\n"
+                f"            <SecondFeature>{second.nominal_id}</SecondFeature>\n"
+                "          </FeaturePair>\n        </FeatureNominalPairs>\n"
+                "        <AnalysisMode>THREEDIMENSIONAL</AnalysisMode>\n")
+    return out + f"      </{c.kind}CharacteristicNominal>\n"
+
+
+def characteristic_item(kind: str, item: int, nominal_id, name: str, designator: str | None,
+                        feature_items: list, device: int | None) -> str:
+    """A characteristic item: the characteristic of the nominal ``nominal_id`` as it is
+    measured, on the feature items ``feature_items``."""
+    out = (f'      <{kind}CharacteristicItem id="{item}">\n'
+           f"        <Name>{xml_text(name)}</Name>\n")
+    if designator is not None:
+        out += ("        <CharacteristicDesignator>\n"
+                f"          <Designator>{xml_text(designator)}</Designator>\n"
+                "        </CharacteristicDesignator>\n")
+    out += id_list("FeatureItemIds", feature_items, 8)
+    if device:
+        out += id_list("MeasurementDeviceIds", [device], 8)
+    return (out + f"        <CharacteristicNominalId>{nominal_id}</CharacteristicNominalId>\n"
+            f"      </{kind}CharacteristicItem>\n")
 
 
 def _zone(c: Char) -> str:
