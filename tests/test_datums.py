@@ -210,6 +210,34 @@ def test_hole_as_datum_centres_the_largest_inscribed_cylinder():
         assert np.allclose(al.free[0].through[:2], HOLE_XY, atol=1e-6)  # now on the nominal axis
 
 
+@pytest.mark.parametrize("arc", [90, 150, 360])
+def test_a_hole_probed_on_less_than_half_its_circumference_does_not_hold_its_datum(arc):
+    """The largest cylinder inscribed in points along less than half of a hole's circumference
+    can grow without bound (NIST CTC-03's datum B on 5 points). The tangent datum's steps,
+    each trust region four times the last, carried the part 1e20 mm away, the alignment said
+    "complete", and a 12,000-point plan ran for more than 11 minutes. Such a datum is not
+    established, and says why; 8 points around the whole hole hold it."""
+    rng = np.random.default_rng(6)
+    b = Block({"A": 40, "hole": 200, "C": 20}, rng, misplacement(rng, 0.01, 0.2), hole_dr=0.02)
+    c, length = b.frame()
+    (hole,) = b.members("hole")
+    rel = b.true_points[hole, :2] - HOLE_XY
+    on = hole[np.degrees(np.arctan2(rel[:, 1], rel[:, 0])) % 360 < arc][:8]
+    ds = [Datum("A", "A", "plane", "tangent"), Datum("H", "hole", "cylinder", "tangent")]
+    al = align(b.evaluate, np.eye(4), ds, [b.members("A")[0], on], c, length,
+               invariants=b.invariants("A", "hole"))
+    assert np.max(np.abs(al.T_nominal_measured[:3, 3])) < 1.0
+    if arc < 180:
+        assert not al.complete
+        assert al.message.startswith("datum H: its 8 points do not hold its tangent cylinder")
+    else:
+        assert al.complete, al.message
+        X = b.evaluate(al.T_nominal_measured, on)[0]
+        # The inscribed cylinder is the actual hole: its axis on the nominal's.
+        rho = np.linalg.norm(X[:, :2] - HOLE_XY, axis=1)
+        assert np.max(np.abs(rho - (HOLE_R + 0.02))) < 1e-6
+
+
 def test_free_directions_are_named_and_best_fitted_on_request():
     rng = np.random.default_rng(7)
     b = Block({"A": 40, "B": 30, "C": 20}, rng, misplacement(rng))

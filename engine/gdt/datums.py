@@ -66,6 +66,9 @@ and a datum must not take a direction from that noise."""
 STEP_TOLERANCE = 1e-9
 """The fit has settled when no point moves by more than this fraction of the points' extent."""
 MAX_STEPS = 30
+UNHELD = 0.5
+"""A tangent simulator whose step would move the points by this fraction of the part's size
+or more is not held by them (engine.gdt.datums._tangent): its datum is not established."""
 BOOTSTRAP_DRAWS = 32
 """Fresh draws of the datums' scatter whose fits give the frame's (frame_scatter): its sigmas
 to about 12%."""
@@ -215,7 +218,16 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
             fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
                                  0.0, float("nan")))
             continue
-        T, offset, gap = _fit_datum(on, T, datum, idx, taken, centre, length, nrot)
+        fitted = _fit_datum(on, T, datum, idx, taken, centre, length, nrot)
+        if fitted is None:
+            complete = False
+            message = (f"datum {datum.label}: its {idx.size} points do not hold its tangent "
+                       f"{datum.feature} (its simulator could move away without bound: they "
+                       "span too little of it)")
+            fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
+                                 0.0, float("nan")))
+            continue
+        T, offset, gap = fitted
         fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
                              taken.shape[1], offset, gap))
         if taken.shape[1]:
@@ -350,7 +362,8 @@ def _determined(evaluate, T, idx, taken, centre, length, nrot, size) -> bool:
 
 
 def _fit_datum(evaluate: Evaluate, T, datum, idx, taken, centre, length, nrot):
-    """(T, offset, gap): datum's fit along the directions it takes (dof, r)."""
+    """(T, offset, gap): datum's fit along the directions it takes (dof, r); None when a
+    tangent simulator is not held by the points (:func:`_tangent`)."""
     if taken.shape[1] == 0:
         d = evaluate(T, idx)[1]
         return T, 0.0, float(np.max(d) - np.min(d))
@@ -471,7 +484,11 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
     simulator: the largest inscribed hole, the smallest circumscribed shaft). Where several
     simulators reach that optimum (a plane rocking on a high spot), the one with the smallest
     sum of gaps is taken, so that the datum does not depend on the solver's path or on the
-    part's pose. (T, offset s, largest gap g)."""
+    part's pose. (T, offset s, largest gap g); None when a step would move the points by
+    ``UNHELD`` x the part's size or more: the points do not hold the simulator (a hole's
+    largest inscribed cylinder grows without bound on points along less than half of its
+    circumference; NIST CTC-03's datum B on 5 points went 1e20 mm away, each step's trust
+    region four times the last, and a 12,000-point plan ran for more than 11 minutes)."""
     r = B.shape[1]
     radius = length
     settle = STEP_TOLERANCE * length
@@ -482,9 +499,11 @@ def _tangent(evaluate, T, idx, B, centre, length, nrot, size):
         if x is None:
             break
         T, moved = _step(T, B, x[:r], centre, length, nrot)
+        if moved >= UNHELD * length:
+            return None
         if moved <= settle:
             break
-        radius = max(4.0 * moved, 1e-3 * length)
+        radius = min(length, max(4.0 * moved, 1e-3 * length))
     X, d, n = evaluate(T, idx)
     s = float(np.max(d)) if size else 0.0
     return T, s, float(s - np.min(d)) if size else float(np.max(d) - np.min(d))
