@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .neighbours import query_workers
+from .neighbours import query
 
 SEGMENT, ARC = 0, 1
 
@@ -262,7 +262,7 @@ class ContourIndex:
     def nearest(self, p: np.ndarray):
         """For points (n, 2): (primitive index, foot, distance, left normal, at_end), exact."""
         k = min(8, self.owner.size)
-        d, j = self.tree.query(p, k=k, workers=query_workers(len(p)))
+        d, j = query(self.tree, p, k=k)
         d = d.reshape(p.shape[0], -1)
         cand = self.owner[j.reshape(p.shape[0], -1)]
         n = p.shape[0]

@@ -29,7 +29,7 @@ import numpy as np
 
 from . import kernels
 from .geometry import closest_point_on_triangles
-from .neighbours import query_workers
+from .neighbours import query
 from .nominal import Nominal
 
 MAX_NORMAL_TILT_DEG = 25.0
@@ -114,13 +114,13 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
     own normal is meaningless. Points whose facet is already well shaped never get here.
     """
     k = min(4, nominal.n)
-    _, nn = nominal.tree.query(pts, k=k, workers=query_workers(len(pts)))
+    _, nn = query(nominal.tree, pts, k=k)
     tris = nn[:, _QUAD_TRIS] if k == 4 else nn[:, None, :3]  # (n, t, 3) point indices
     sel, b, good, shaped = _pick_facet(nominal, pts, tris)
     bad = np.flatnonzero(~good)
     if bad.size and nominal.n > 4:
         k8 = min(8, nominal.n)
-        _, nn8 = nominal.tree.query(pts[bad], k=k8, workers=query_workers(bad.size))
+        _, nn8 = query(nominal.tree, pts[bad], k=k8)
         i, j = np.triu_indices(k8 - 1, 1)
         fan = np.stack([np.broadcast_to(nn8[:, :1], (bad.size, i.size)),
                         nn8[:, 1:][:, i], nn8[:, 1:][:, j]], axis=2)
@@ -152,7 +152,7 @@ def _spread_fan(nominal: Nominal, pts: np.ndarray) -> np.ndarray:
     """
     m = pts.shape[0]
     k = min(SPREAD_NEIGHBOURS, nominal.n)
-    _, nb = nominal.tree.query(pts, k=k, workers=query_workers(len(pts)))
+    _, nb = query(nominal.tree, pts, k=k)
     centre = nb[:, 0]
     n0 = nominal.normals(centre)
     c = nominal.points[centre]
@@ -232,7 +232,7 @@ def _mesh_facets(nominal: Nominal, pts: np.ndarray):
     # The 4 nearest samples at once: most points need the wider look below (one query costs
     # much less than two).
     k = min(4, tree.n)
-    _, nn = tree.query(pts, k=k, workers=query_workers(len(pts)))
+    _, nn = query(tree, pts, k=k)
     nn = np.asarray(nn).reshape(n, k)
     centre = nn[:, 0]
     best_tri = np.zeros(n, np.int64)

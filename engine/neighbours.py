@@ -1,9 +1,12 @@
-"""Nearest-neighbour queries: how many threads a scipy cKDTree query is worth, the points that
-coincide exactly (:func:`coincident_pairs`), and the constant-time nearest-sample lookup of the
-global search's coarse level (:class:`SampleLookup`)."""
+"""Nearest-neighbour queries: a scipy cKDTree query on as many threads as it is worth
+(:func:`query`), the points that coincide exactly (:func:`coincident_pairs`), and the
+constant-time nearest-sample lookup of the global search's coarse level
+(:class:`SampleLookup`)."""
 
 from __future__ import annotations
 
+import contextlib
+import signal
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +23,39 @@ def query_workers(n_queries: int) -> int:
     """The ``workers`` argument of cKDTree.query for ``n_queries`` points: all cores (-1) for
     large queries, one thread below PARALLEL_QUERIES. The answer does not depend on it."""
     return -1 if n_queries >= PARALLEL_QUERIES else 1
+
+
+def query(tree, pts: np.ndarray, k: int = 1, **options):
+    """tree.query(pts, k, **options) (a scipy cKDTree) on all cores for large queries
+    (:func:`query_workers`). Ctrl-C during a query on several threads is held back until the
+    query ends: interrupted in its wait for them, scipy's worker threads went on reading the
+    arrays the unwinding freed, and the process crashed (exit 139 after "interrupted")."""
+    workers = query_workers(len(pts))
+    if workers == 1:
+        return tree.query(pts, k=k, workers=1, **options)
+    with _interrupt_held():
+        return tree.query(pts, k=k, workers=workers, **options)
+
+
+@contextlib.contextmanager
+def _interrupt_held():
+    """SIGINT held back during the block, then handled as it would have been (in the main
+    thread; elsewhere no signal reaches Python code, and nothing is held)."""
+    held: list = []
+    try:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(frame))
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if held:
+            if callable(previous):
+                previous(signal.SIGINT, held[0])
+            elif previous == signal.SIG_DFL:
+                signal.raise_signal(signal.SIGINT)
 
 
 def coincident_pairs(points: np.ndarray, candidates: np.ndarray | None = None) -> np.ndarray:

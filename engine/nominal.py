@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from . import icp_kernels, kernels
 from .errors import InputError
-from .neighbours import SampleLookup, coincident_pairs, query_workers
+from .neighbours import SampleLookup, coincident_pairs, query
 from .pointset import PointSet
 from .seeds import DEFAULT_SEED, rng
 
@@ -248,7 +248,7 @@ class Nominal:
         """(m, 3, 3) :meth:`shape_operators` at surface points p (m, 3) with outward unit
         normals n (m, 3) (a level's area samples), from their ``k`` nearest nominal points."""
         k = min(k, self.n)
-        _, nb = self.tree.query(p, k=k, workers=query_workers(len(p)))
+        _, nb = query(self.tree, p, k=k)
         dx = self.points[nb] - p[:, None, :]
         dn = self.normals(nb) - n[:, None, :]
         S = np.empty((p.shape[0], 3, 3))
@@ -561,7 +561,7 @@ def copies_nominal(points: np.ndarray, nominal: Nominal) -> bool:
     if points.shape[0] == 0 or nominal.n == 0:
         return False
     for probe in (points[:COPY_PROBE], points):
-        _, near = nominal.tree.query(probe, k=1, workers=query_workers(len(probe)))
+        _, near = query(nominal.tree, probe, k=1)
         if not np.array_equal(nominal.points[near], probe):
             return False
         if len(probe) == len(points):

@@ -56,7 +56,7 @@ from scipy.spatial import cKDTree
 
 from . import icp_kernels
 from .deviation import point_to_surface
-from .neighbours import (PARALLEL_QUERIES, SampleLookup, query_workers, spread_subset,
+from .neighbours import (PARALLEL_QUERIES, SampleLookup, query, spread_subset,
                          voxel_spread)
 from .nominal import Nominal
 from .outliers import gross_outliers, gross_rule
@@ -380,8 +380,8 @@ def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray,
     for k in range(iterations + 1):
         # Pairs from scipy's kd-tree; the arithmetic compiled (icp_kernels.icp_paired).
         X = apply_transform(T, src)
-        dist, j = tree.query(X.reshape(-1, 3), workers=query_workers(H * m),
-                             distance_upper_bound=reach)
+        dist, j = query(tree, X.reshape(-1, 3),
+                        distance_upper_bound=reach)
         far = ~np.isfinite(dist).reshape(H, m)
         j = np.minimum(j, pts.shape[0] - 1).reshape(H, m)
         n = nrm(j) if callable(nrm) else nrm[j]

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .contour import ContourIndex, Deviations2D, deviations_2d
-from .neighbours import query_workers
+from .neighbours import query
 from .outliers import INCLUDED_FIT_ITERATIONS, fit_without_gross, gross_outliers, gross_rule
 from .progress import report
 from .pose import (apply_transform, apply_update, compose_updates, gauss_newton_step,
@@ -299,7 +299,7 @@ def _icp2(T: np.ndarray, src: np.ndarray, S: _Samples, iterations: int):
     score = np.zeros(H)
     for _ in range(iterations):
         X = apply_transform(T, src)
-        _, j = S.tree.query(X.reshape(-1, 2), workers=query_workers(H * m))
+        _, j = query(S.tree, X.reshape(-1, 2))
         j = j.reshape(H, m)
         r = X - S.pts[j]
         n = S.normal[j]

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import NoDistanceError
-from engine.neighbours import query_workers
+from engine.neighbours import query
 from engine.nominal import surface_tree
 from engine.pointset import PointSet
 
@@ -120,7 +120,7 @@ class StepNominal:
         if n == 0:
             return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64)
         k = min(K_NEAREST, self._tree.n)
-        dist, idx = self._tree.query(p, k=k, workers=query_workers(n))
+        dist, idx = query(self._tree, p, k=k)
         dist, idx = np.asarray(dist).reshape(n, k), np.asarray(idx).reshape(n, k)
         best = _Best(n)
         best.upper = dist[:, 0] + max(UPPER_MARGIN_MM, self.tolerance)
