@@ -159,6 +159,8 @@ def test_an_inch_plans_results_are_in_inches_and_name_what_was_not_judged(tmp_pa
     assert pts.shape == csv.shape
     scale = float(plan.findtext(f"{Q}Product/{Q}Header/{Q}ScaleCoefficient"))
     assert scale == 2.0
+    assert out.findtext(f"{Q}Header/{Q}Description").endswith(
+        "(positive = excess material), inch x 2 (the plan's scale)")
     T = np.array(doc["alignment"]["T_nominal_measured"])
     assert np.allclose(pts * 25.4 / scale, csv @ T[:3, :3].T + T[:3, 3], atol=1e-4)
 

@@ -320,4 +320,6 @@ def _in_units(q: Qif, units) -> Qif:
                           worst=None if c.worst is None else (c.worst[0] * p, c.worst[1] * p))
                   for c in q.chars)
     features = tuple(replace(f, measured=geometry(f.measured)) for f in q.features)
-    return replace(q, pts=q.pts * g, dev=q.dev * g, T=T, chars=chars, features=features)
+    return replace(q, pts=q.pts * g, dev=q.dev * g, T=T, chars=chars, features=features,
+                   length_unit=units.unit + (f" x {units.scale:g} (the plan's scale)"
+                                             if units.scale != 1.0 else ""))

@@ -212,6 +212,8 @@ class Qif:
     chars: tuple[Char, ...]
     datums: tuple[_Datum, ...] = ()
     frames: tuple[_Frame, ...] = ()
+    length_unit: str = "mm"
+    """The unit of the lengths written (a QIF plan's own, reports.qif.linked)."""
 
     @classmethod
     def of(cls, doc: dict, pts, dev, inside, labels, outlier, after_id: int = 0) -> Qif:

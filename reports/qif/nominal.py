@@ -31,7 +31,7 @@ def write_header(w, q: Qif) -> None:
         w("    </Author>\n")
     w(f"    <Description>Dimensional inspection results: {q.n} measured points against "
       f"{xml_text(q.nominal_name)}, signed deviations along the nominal's outward normal "
-      "(positive = excess material), mm</Description>\n")
+      f"(positive = excess material), {xml_text(q.length_unit)}</Description>\n")
     w("  </Header>\n")
 
 
