@@ -32,6 +32,9 @@ class Interrupted:
         return out
 
 
+# Ctrl-C as a terminal delivers it: a process started in the background (a CI runner's) may
+# have inherited SIGINT ignored, and Python then never raises KeyboardInterrupt.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 rng = np.random.default_rng(0)
 tree = Interrupted(cKDTree(rng.uniform(size=(20_000, 3))))
 try:
