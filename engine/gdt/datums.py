@@ -203,31 +203,26 @@ def align(evaluate: Evaluate, T0: np.ndarray, datums: list, members: list, centr
         elif inv is None:
             problem = (f"datum {datum.label}: the nominal points of its region do not form a "
                        f"{datum.feature}")
-        if problem:
-            complete, message = False, problem
+        fit = None
+        if problem is None:
+            taken = _complement(free, _within(free, inv))
+            if not _determined(on, T, idx, taken, centre, length, nrot,
+                               datum.feature in SIZE_FEATURES):
+                problem = (f"datum {datum.label}: its {idx.size} points do not determine its "
+                           f"{datum.feature} (they span too little of it: along a line, or a "
+                           "narrow arc)")
+            else:
+                fit = _fit_datum(on, T, datum, idx, taken, centre, length, nrot)
+                if fit is None:
+                    problem = (f"datum {datum.label}: its {idx.size} points do not hold its "
+                               f"tangent {datum.feature} (its simulator could move away "
+                               "without bound: they span too little of it)")
+        if fit is None:  # the datum is not established: ``problem`` says why
+            complete, message = False, problem or ""
             fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
                                  0.0, float("nan")))
             continue
-        taken = _complement(free, _within(free, inv))
-        if not _determined(on, T, idx, taken, centre, length, nrot,
-                           datum.feature in SIZE_FEATURES):
-            complete = False
-            message = (f"datum {datum.label}: its {idx.size} points do not determine its "
-                       f"{datum.feature} (they span too little of it: along a line, or a "
-                       "narrow arc)")
-            fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
-                                 0.0, float("nan")))
-            continue
-        fitted = _fit_datum(on, T, datum, idx, taken, centre, length, nrot)
-        if fitted is None:
-            complete = False
-            message = (f"datum {datum.label}: its {idx.size} points do not hold its tangent "
-                       f"{datum.feature} (its simulator could move away without bound: they "
-                       "span too little of it)")
-            fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size), 0,
-                                 0.0, float("nan")))
-            continue
-        T, offset, gap = fitted
+        T, offset, gap = fit
         fits.append(DatumFit(datum.label, datum.feature, datum.fit, int(idx.size),
                              taken.shape[1], offset, gap))
         if taken.shape[1]:
