@@ -324,7 +324,6 @@ class ContourSurface:
 
     index: ContourIndex
     exact = True
-    bordered = False
     normals_source = "contour"
 
     def deviations(self, X: np.ndarray) -> Deviations2D:

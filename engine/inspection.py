@@ -403,9 +403,7 @@ def _judge_pose(reg, T: np.ndarray, X: np.ndarray, dev, posed: Posed, tol: Toler
         guard = unc.expanded if decision_rule == DecisionRule.GUARDED else None
     ts = time.perf_counter()
     sens, statements = _sensitivity(posed.deviations_at, evaluate, T, dev.signed, cond, reg,
-                                    tol, guard, fit, X,
-                                    posed.beyond_at if posed.surface.bordered else None,
-                                    dev.normal,
+                                    tol, guard, fit, X, posed.beyond_at, dev.normal,
                                     pose_in_guard=unc is not None and guard is not None,
                                     seed=seed)
     ts = time.perf_counter() - ts
@@ -453,7 +451,7 @@ def _sensitivity(deviations_at, evaluate, T, d, cond, reg, tol: Tolerance, margi
     AMBIGUITY_SCORE_RATIO of the chosen one and is no symmetry of a 2D template; with the
     minimax fit it is judged at its own minimax pose, as the chosen one is. points : the measured
     points at pose T (nominal frame), for the bound on how far a probed pose moves each;
-    beyond_at(T, idx): which lie past the nominal's border (None: a closed 2D contour);
+    beyond_at(T, idx): which lie past the nominal's border (a closed 2D contour: none);
     normals : the nominal's normals at the points (with ``points``: the pose's uncertainty
     region, engine.trust.uncertainty_poses, is probed too). pose_in_guard : the guard band
     (``margin``) is each point's expanded uncertainty, which holds the pose's own uncertainty

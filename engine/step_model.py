@@ -1,8 +1,8 @@
 """A STEP model's exact faces as the inspection measures them: deviations exact to the B-rep
 (:class:`ExactDistances`, an engine.surface.Surface, the registration's tessellation as its
 fallback), the faces as regions of a plan (their samples and groups), the analytic features
-the plan layer matches its regions to, and the model's facts for the results. Numbers in, numbers out: the model itself comes from
-engine.io.step."""
+the plan layer matches its regions to, and the model's facts for the results. Numbers in,
+numbers out: the model itself comes from engine.io.step."""
 
 from __future__ import annotations
 
@@ -150,7 +150,6 @@ class ExactDistances:
     """
 
     exact = True
-    bordered = True
     normals_source = "B-rep"
 
     def __init__(self, step, nominal: Nominal | None = None):

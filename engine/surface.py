@@ -37,17 +37,12 @@ class Surface(Protocol):
     exact : the deviations are to the design surface itself (a STEP model's faces, a
         template's lines and arcs), so that ``margins`` are 0 and the registration's pose is
         refined on them (engine.inspection.inspect).
-    bordered : the surface has a border that points can lie past (``beyond``); a template's
-        closed contours have none.
     normals_source : where the normals come from, as the outputs say it (``"B-rep"``,
         ``"contour"``, or the nominal file's: engine.nominal.Nominal.normals_source).
     """
 
     @property
     def exact(self) -> bool: ...
-
-    @property
-    def bordered(self) -> bool: ...
 
     @property
     def normals_source(self) -> str: ...
@@ -64,7 +59,8 @@ class Surface(Protocol):
         ...
 
     def beyond(self, X: np.ndarray) -> np.ndarray:
-        """(n,) bool: the points X (nominal frame) lie past the surface's border."""
+        """(n,) bool: the points X (nominal frame) lie past the surface's border (a template's
+        closed contours have none: all False)."""
         ...
 
 
@@ -76,7 +72,6 @@ class SampledSurface:
 
     nominal: Nominal
     exact = False
-    bordered = True
 
     @property
     def normals_source(self) -> str:

@@ -128,7 +128,7 @@ class _Paraboloid:
     as a STEP model's faces are one): exact deviations, no sampling margin, its border the grid
     nominal's."""
 
-    exact, bordered, normals_source = True, True, "analytic"
+    exact, normals_source = True, "analytic"
 
     def __init__(self, nominal):
         from engine.surface import SampledSurface

@@ -41,7 +41,8 @@ try:
     query(tree, rng.uniform(size=(200_000, 3)), k=4)
     print("not interrupted")
 except KeyboardInterrupt:
-    print("interrupted", tree.finished, signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    restored = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    print("interrupted", tree.finished, restored)
 """
 
 

@@ -238,8 +238,9 @@ class Qif:
                           component="serial" in cert, profile=not planned)
         is_2d = doc.get("template") is not None
         path = str(nominal.get("path") or "nominal")
-        whole = Feature(os.path.basename(path) or path, "OtherCurve" if is_2d else "OtherSurface", refs.feat_def,
-                         refs.feat_nom, refs.feat_item, refs.feat_meas, whole=True)
+        whole = Feature(os.path.basename(path) or path,
+                        "OtherCurve" if is_2d else "OtherSurface", refs.feat_def,
+                        refs.feat_nom, refs.feat_item, refs.feat_meas, whole=True)
         if planned:
             parts = _plan(doc, ids, whole, app)
         else:
