@@ -19,11 +19,12 @@ from .deviation import Deviations
 from .errors import SettingsError
 from .choices import DecisionRule, Fit, Verdict
 from .fits import FITS, minimax
-from .pose import apply_transform, apply_update, lower_along, pose_jacobian
+from .pose import apply_transform
+from .exact_fit import EXACT_HANDOVER_ITERATIONS, finish_exactly
 from .nominal import Nominal
-from .registration import distinct_poses, pose_score, register
+from .registration import register
 from .registration_types import RegistrationResult, RegistrationSettings
-from .seeds import DEFAULT_SEED, rng
+from .seeds import DEFAULT_SEED
 from .surface import Posed, SampledSurface
 from .tolerance import Tolerance
 from .verdict import (DECISION_RULES, RESOLUTION_OF_ZONE, Statistics, ambiguity, judge,
@@ -137,9 +138,7 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
     extra: dict = {}
     # The flow starts from the registration's last evaluation: every point at its final pose.
     if surface.exact:
-        reg = _exact_fit(reg, posed, tolerance.width, settings.seed)
-        reg = _exact_runner_up(reg, posed, measured, nominal.diagonal, settings.outlier_floor,
-                               tolerance.width, settings.seed)
+        reg = finish_exactly(reg, posed, nominal, settings, tolerance.width)
     T = reg.T_nominal_measured
     dev = reg.deviations
     j = _judge_pose(reg, T, apply_transform(T, measured), dev, posed, tolerance, fit,
@@ -157,192 +156,6 @@ def inspect(nominal: Nominal, measured: np.ndarray, tolerance: Tolerance,
                             deviations=dev,
                             normals_source=surface.normals_source,
                             timings_s=timings, extra=extra, **j.verdict_fields)
-
-
-EXACT_HANDOVER_ITERATIONS = 8
-"""Iterations of the registration's final fit on the nominal's sample before the exact surface
-takes over (engine.inspection.inspect with ``exact``)."""
-EXACT_FIT_POINTS = 8192
-"""The exact least squares iterates on at most this many of the points it keeps (a seeded random
-choice), then takes one step on every point: each exact evaluation costs tens of microseconds a
-point."""
-EXACT_FIT_SEED = 11
-"""The random stream of that choice (engine.seeds)."""
-
-
-EXACT_MAX_STEPS = 20
-"""All-point Gauss-Newton steps of the exact fit at most (each one exact evaluation of every
-point); it ends sooner when a step would move no point by more than 1e-9 of their extent."""
-
-
-EXACT_HALVINGS = 4
-"""A step of the exact fit that does not lower the sum of squares is halved at most this many
-times …"""
-EXACT_STALL_OF_ZONE = 0.01
-"""… and when none of them does, the fit has settled if the step moved no point by more than
-this fraction of the zone's width, or if the decrease of the sum of squares the step promised
-was less than one residual variance (the step is then inside the least-squares pose's own
-1-sigma ellipsoid: NIST CTC-01 with its largest face bowed 1 mm stalled at 1.29 um steps that
-promised 0.00027 mm^2, its residual variance 0.071 mm^2)."""
-
-
-def _exact_fit(reg, posed: Posed, zone_width: float, seed: int):
-    """The registration finished on the exact surface: least squares of the exact deviations
-    from the pose found on the nominal's sample (within its chordal error of the answer), over
-    the points the gross-outlier rule (engine.outliers) keeps at the pose reached.
-
-    The points kept at first are those the rule keeps by the sample's deviations at the
-    handover pose; Gauss-Newton iterates on a seeded spread of at most ``EXACT_FIT_POINTS`` of
-    them (cheap: its optimum is within its sampling of every point's), then steps over every
-    point, each step at the exact deviations of every point and the rule applied to them again,
-    until a step would move no point by more than 1e-9 of their extent: the pose is then the
-    least-squares optimum over the points the rule keeps there, and the deviations returned are
-    exact at it. A step that does not lower the sum of squares is halved (``EXACT_HALVINGS``);
-    when no fraction of it does, the fit ends there. converged, rms, inliers and rule are this
-    fit's. seed : the inspection's (engine.seeds)."""
-    from .outliers import gross_outliers, gross_rule
-
-    floor = reg.gross_rule.floor_mm
-    rule = gross_rule(reg.deviations.signed, zone_width, floor)
-    use = ~gross_outliers(reg.deviations.signed, reg.deviations.foot, rule)
-    T = _subset_fit(posed, reg.T_nominal_measured, use, seed)
-    X, dev = posed.at(T)
-    extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
-    converged = False
-    for _ in range(EXACT_MAX_STEPS):
-        rule = gross_rule(dev.signed, zone_width, floor)
-        use = ~gross_outliers(dev.signed, dev.foot, rule)
-        if np.count_nonzero(use) < 6:
-            break
-        gn = _gn_step_exact(X[use], dev.normal[use], dev.signed[use])
-        if gn.moved <= 1e-9 * extent:
-            converged = True
-            break
-        cost = float(np.sum(dev.signed[use] ** 2))
-        lower = _lower_along(posed.at, T, gn.step, gn.c, cost, lambda dv: dv.signed[use])
-        if lower is None:
-            # No fraction of the step lowers the sum of squares: a point's foot flips between
-            # two faces at an edge, and full steps would cycle between two poses (NIST FTC-06
-            # with its largest face bowed 1 mm: 0.38 um steps, back and forth, for ever). The
-            # pose is the optimum to within that step.
-            variance = cost / max(int(np.count_nonzero(use)) - 6, 1)
-            converged = (gn.moved <= EXACT_STALL_OF_ZONE * zone_width
-                         or gn.promised <= variance)
-            break
-        T, X, dev = lower
-    d_in = dev.signed[use]
-    message = "" if converged else ("the least-squares fit on the exact surface did not settle")
-    return replace(reg, T_nominal_measured=T, deviations=dev, converged=converged,
-                   message=message, inlier=use, n_inliers=int(use.sum()),
-                   rms=float(np.sqrt(np.mean(d_in * d_in))) if use.any() else float("nan"),
-                   outlier_cut=rule.threshold_mm, gross_rule=rule)
-
-
-EXACT_SCORE_POINTS = 4096
-"""The exact scores of the chosen and the runner-up pose are taken over a seeded random choice of
-at most this many points (the registration scores on as many)."""
-EXACT_SCORE_SEED = 17
-"""The random stream of that choice (engine.seeds)."""
-RUNNER_UP_FIT_ITERATIONS = 20
-"""Gauss-Newton iterations at most of the runner-up's exact least squares."""
-
-
-def _score_points(n: int, seed: int) -> np.ndarray:
-    """The seeded points (indices, sorted) of ``n`` that the exact scores are taken over."""
-    if n <= EXACT_SCORE_POINTS:
-        return np.arange(n)
-    return np.sort(rng(seed, EXACT_SCORE_SEED).choice(n, EXACT_SCORE_POINTS, replace=False))
-
-
-def _exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, floor: float,
-                     zone_width: float, seed: int):
-    """A plausible runner-up (engine.verdict.plausible_runner_up) judged on the exact surface,
-    as the chosen pose was: its pose finished by least squares of the exact deviations of the
-    points the gross-outlier rule keeps there, then both poses scored (``pose_score`` at
-    ``floor`` x the nominal's ``diagonal``) on the same seeded points; a runner-up that the
-    finish brings onto the chosen pose is none. The sample's scores carry its chordal error, which on
-    a CAD tessellation can exceed the noise a hundredfold: NIST CTC-03's 30% patch scored
-    0.065 mm at the right pose and 0.090 mm at one 24 mm away, a near tie; exactly, 0.0019
-    against 0.048 mm. An implausible runner-up stays as the sample judged it."""
-    from .outliers import gross_outliers, gross_rule
-
-    if not plausible_runner_up(reg):
-        return reg
-    n = reg.deviations.signed.size
-    idx = _score_points(n, seed)
-    _, dev = posed.at(reg.runner_up_T, idx)
-    rule = gross_rule(dev.signed, zone_width, reg.gross_rule.floor_mm)
-    use = np.zeros(n, bool)
-    use[idx[~gross_outliers(dev.signed, dev.foot, rule)]] = True
-    Tr = _subset_fit(posed, reg.runner_up_T, use, seed, RUNNER_UP_FIT_ITERATIONS)
-    score = pose_score(reg.deviations.signed[idx], floor * diagonal)
-    if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
-        return replace(reg, score=score, runner_up_score=None, runner_up_T=None)
-    _, dev_r = posed.at(Tr, idx)
-    return replace(reg, score=score, runner_up_score=pose_score(dev_r.signed, floor * diagonal),
-                   runner_up_T=Tr)
-
-
-@dataclass(frozen=True)
-class _Step:
-    """A Gauss-Newton step of the exact fit: step (6,), rotation vector then translation, about
-    c (3,), the points' centroid; moved, the largest displacement it gives a point (mm);
-    promised, the decrease of the sum of squares the linearised model promises (mm^2)."""
-
-    step: np.ndarray
-    c: np.ndarray
-    moved: float
-    promised: float
-
-
-def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray) -> _Step:
-    """One Gauss-Newton step of the signed deviations ``signed`` (m,) of points X (m, 3) with
-    the surface normals at their feet."""
-    c = X.mean(axis=0)
-    J = pose_jacobian(X, normal, c)
-    step = np.linalg.lstsq(J, -signed, rcond=None)[0]
-    moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
-    return _Step(step, c, moved, float(np.sum((J @ step) ** 2)))
-
-
-def _subset_fit(posed: Posed, T: np.ndarray, use: np.ndarray, seed: int,
-                max_iterations: int = 50) -> np.ndarray:
-    """The pose from T by Gauss-Newton least squares of the exact deviations of a seeded random
-    choice of at most EXACT_FIT_POINTS of the points ``use``, until no point moves by more
-    than 1e-9 of their extent (or ``max_iterations``), or no fraction of a step
-    (``_lower_along``) lowers their sum of squares: the pose is then the optimum to within that
-    step. (Full steps cycled there: NIST FTC-07's runner-up pose, its largest face bowed
-    0.1 mm, went back and forth by 1.5 um for all of its 20 iterations.)"""
-    idx = np.flatnonzero(use)
-    if idx.size > EXACT_FIT_POINTS:
-        idx = np.sort(rng(seed, EXACT_FIT_SEED).choice(idx, EXACT_FIT_POINTS, replace=False))
-    if idx.size < 6:
-        return T
-    X, dev = posed.at(T, idx)
-    extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
-    for _ in range(max_iterations):
-        gn = _gn_step_exact(X, dev.normal, dev.signed)
-        if gn.moved <= 1e-9 * extent:
-            return apply_update(T, gn.step, gn.c)
-        lower = _lower_along(lambda Tc: posed.at(Tc, idx), T, gn.step, gn.c,
-                             float(np.sum(dev.signed ** 2)), lambda dv: dv.signed)
-        if lower is None:
-            break
-        T, X, dev = lower
-    return T
-
-
-def _lower_along(measure, T: np.ndarray, step: np.ndarray, c: np.ndarray, cost: float,
-                 residuals):
-    """The first of the Gauss-Newton ``step`` (about c) and its halves (``EXACT_HALVINGS``)
-    from pose T whose sum of squared ``residuals(dev)`` is below ``cost``: (T', X', dev') with
-    measure(T') = (X', dev'); None when none is."""
-    def evaluate(T_new):
-        X_new, dev_new = measure(T_new)
-        return float(np.sum(residuals(dev_new) ** 2)), (X_new, dev_new)
-
-    lower = lower_along(T, step, c, cost, evaluate, 2.0, EXACT_HALVINGS)
-    return None if lower is None else (lower[0], *lower[1])
 
 
 @dataclass(frozen=True)

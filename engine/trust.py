@@ -80,13 +80,14 @@ class Conditioning:
 
 
 def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
-                 resolution_mm: float | None = None, seed: int = DEFAULT_SEED) -> Conditioning:
+                 resolution_mm: float | None = None, seed: int = DEFAULT_SEED,
+                 weak_below: float = WEAK_STRENGTH) -> Conditioning:
     """Conditioning of fitting points ``X`` (registered, nominal frame) with surface ``normals``.
 
     A direction is unconstrained when its normalised strength is below DEGENERATE_STRENGTH, or
-    below WEAK_STRENGTH while the residuals (rms, mm) imply a 1-sigma motion along it above
-    ``resolution_mm`` (None: any weak direction counts). seed : the inspection's (engine.seeds),
-    of the subset beyond ``CONDITIONING_POINTS``."""
+    below ``weak_below`` (WEAK_STRENGTH) while the residuals (rms, mm) imply a 1-sigma motion
+    along it above ``resolution_mm`` (None: any weak direction counts). seed : the inspection's
+    (engine.seeds), of the subset beyond ``CONDITIONING_POINTS``."""
     X = np.asarray(X, float)
     normals = np.asarray(normals, float)
     n, dim = X.shape
@@ -109,7 +110,7 @@ def conditioning(X: np.ndarray, normals: np.ndarray, residual_rms: float,
     top = float(lam[-1]) or 1.0
     strengths = lam / top
     weak = []
-    for k in np.flatnonzero(strengths < WEAK_STRENGTH):
+    for k in np.flatnonzero(strengths < weak_below):
         # Normalised units are mm: the covariance along the eigenvector is s^2 / (n lambda).
         sig = (float(residual_rms) / np.sqrt(n * lam[k])
                if lam[k] > 0 and np.isfinite(residual_rms) else None)

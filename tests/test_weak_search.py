@@ -1,0 +1,75 @@
+"""engine.weak_search: a pose slid along the direction its kept points leave free is found again
+where the points it left out meet the part. The geometry is tests/step_models.featured_block
+(120 x 80 x 30 mm, a boss of radius 10 at (90, 40) on top), its points written from the
+primitives' dimensions here; the truth is the identity pose."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from engine.io.step import read_step
+from engine.nominal import Nominal
+from engine.pose import make_transform
+from engine.registration import pose_score
+from engine.step_model import ExactDistances
+from engine.surface import Posed
+from engine.weak_search import slid_poses
+
+
+@pytest.fixture(scope="module")
+def block(tmp_path_factory):
+    from step_models import featured_block, write_step
+
+    part = read_step(write_step(featured_block(), tmp_path_factory.mktemp("b") / "block.stp"))
+    nominal = Nominal.from_point_set(part.point_set)
+    return nominal, ExactDistances(part, nominal)
+
+
+def _prismatic_patch_and_boss(rng):
+    """(points, kept): 300 points on the top face (z 30) and the front face (y 0) in the band
+    x 25-70, both invariant along x, and 12 on the boss's cylinder (the only points that fix
+    x), the boss's last."""
+    n = 150
+    top = np.column_stack([rng.uniform(25, 70, n), rng.uniform(5, 28, n), np.full(n, 30.0)])
+    front = np.column_stack([rng.uniform(25, 70, n), np.zeros(n), rng.uniform(3, 27, n)])
+    a = rng.uniform(0.0, 2 * np.pi, 12)
+    boss = np.column_stack([90 + 10 * np.cos(a), 40 + 10 * np.sin(a), rng.uniform(32, 40, 12)])
+    P = np.vstack([top, front, boss])
+    kept = np.ones(len(P), bool)
+    kept[-12:] = False
+    return P, kept
+
+
+@pytest.mark.parametrize("shift", [15.0, -22.0])
+def test_a_pose_slid_along_the_free_direction_is_found_where_the_left_out_points_fit(block,
+                                                                                      shift):
+    nominal, exact = block
+    P, kept = _prismatic_patch_and_boss(np.random.default_rng(4))
+    T = make_transform(np.eye(3), np.array([shift, 0.0, 0.0]))
+    posed = Posed(exact, P)
+    _, dev = posed.at(T)
+    # At the slid pose the kept points fit exactly and the boss's are off by up to millimetres.
+    assert np.max(np.abs(dev.signed[kept])) < 1e-6
+    assert np.min(np.abs(dev.signed[~kept])) > 0.5 and np.median(np.abs(dev.signed[~kept])) > 2
+    scale = 1e-4 * nominal.diagonal
+    found = slid_poses(nominal, P, T, dev, kept, 0.0, posed.deviations_at, scale)
+    assert found
+    best = found[0]
+    assert np.allclose(best[:3, :3], np.eye(3), atol=1e-6)
+    assert np.allclose(best[:3, 3], 0.0, atol=0.01), best[:3, 3]
+    assert pose_score(posed.deviations_at(best, np.arange(len(P))), scale) < 0.01
+
+
+def test_nothing_is_searched_when_no_point_was_left_out_or_nothing_is_free(block):
+    nominal, exact = block
+    P, kept = _prismatic_patch_and_boss(np.random.default_rng(4))
+    T = make_transform(np.eye(3), np.array([15.0, 0.0, 0.0]))
+    posed = Posed(exact, P)
+    _, dev = posed.at(T)
+    scale = 1e-4 * nominal.diagonal
+    every = np.ones(len(P), bool)
+    assert slid_poses(nominal, P, T, dev, every, 0.0, posed.deviations_at, scale) == []
+    # The boss kept: the fit's points constrain every direction.
+    assert slid_poses(nominal, P, np.eye(4), posed.at(np.eye(4))[1], every, 0.0,
+                      posed.deviations_at, scale) == []
