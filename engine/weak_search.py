@@ -9,9 +9,15 @@ feature (an edge, a hole, a step) gross outliers. NIST CTC-03's 30% patch (bench
 103) came to rest 16.9 mm from the truth so, 13 of its 600 points 5 mm off the part and left
 out, the other 587 at the noise; the truth fits all 600 at the noise.
 
-:func:`slid_poses` scans the pose along each such direction over the nominal's whole extent (a
-whole turn for a rotation), scoring a few kept points and the points left out on the nominal's
-sample, and refines the best few places on the surface judged; the caller fits each again and
+The same holds for points the fit kept that lie far beyond its robust spread: an exact least
+squares stalled 1.23 mm from the truth along such a direction, 28 points past an edge holding
+it there (CTC-03's patch, seed 6105). The caller says which points fit (engine.exact_fit: the
+gross-outlier rule's and the robust cut's); the others count as left out.
+
+:func:`slid_poses` scans the pose along each such direction that some point constrains (not a
+symmetry of the surface under every point) over the nominal's whole extent (a whole turn for a
+rotation), scoring the points left out on the nominal's sample, and refines the best few
+places on the surface judged with a few fitting points as well; the caller fits each again and
 keeps a pose that scores better (no pose found may score better than the one reported).
 """
 
@@ -22,8 +28,8 @@ import numpy as np
 from .deviation import point_to_surface
 from .neighbours import spread_subset
 from .nominal import Nominal
-from .pose import apply_transform, screw_motion
-from .trust import conditioning
+from .pose import apply_transform, pose_jacobian, screw_motion
+from .trust import DEGENERATE_STRENGTH, conditioning
 
 SLIDE_STEP_OF_DIAGONAL = 3e-3
 """The scan's step along a free direction, as a fraction of the nominal's bounding-box
@@ -81,6 +87,7 @@ def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept:
         return []
     X = apply_transform(T, measured)
     weak, cond = weak_directions(X, dev.normal, kept, rms)
+    weak = [w for w in weak if not _free_for_all(X, dev.normal, cond, w.twist)]
     if not weak:
         return []
     inside = np.flatnonzero(kept)
@@ -91,6 +98,19 @@ def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept:
         found.extend(_along(nominal, T, X[use[-min(out.size, SLIDE_POINTS):]], use, w, cond,
                             deviations_at, scale))
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
+
+
+def _free_for_all(X: np.ndarray, normals: np.ndarray, cond, twist) -> bool:
+    """Whether no point of X (n, 3), kept or not, constrains the motion ``twist`` (a symmetry
+    of the surface under every point: a turn about a part of revolution's axis). Nothing along
+    it can then fit better, and a whole turn's scan and fits cost a part of revolution with a
+    bump or a mis-probe seconds for nothing (NIST FTC-11)."""
+    J = pose_jacobian(X, normals, np.asarray(cond.centre, float))
+    J[:, :3] /= cond.length
+    A = J.T @ J
+    top = float(np.linalg.eigvalsh(A)[-1]) or 1.0
+    v = np.asarray(twist, float)
+    return float(v @ A @ v) < DEGENERATE_STRENGTH * top
 
 
 def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, use: np.ndarray, w, cond,
@@ -123,13 +143,12 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, use: np.ndarray, w, c
     if not periodic:
         nb_prev[0], nb_next[-1] = np.inf, np.inf
     minima = np.flatnonzero((loss <= nb_prev) & (loss <= nb_next))
-    here = k  # amplitude 0: the pose itself
     chosen: list[int] = []
     for i in minima[np.argsort(loss[minima], kind="stable")]:
-        gap = np.abs(i - np.array([here, *chosen]))
+        gap = np.abs(i - np.array(chosen, int))
         if periodic:
             gap = np.minimum(gap, n - gap)
-        if gap.min() >= SLIDE_SEPARATION:
+        if i != k and (not chosen or gap.min() >= SLIDE_SEPARATION):  # k: the pose itself
             chosen.append(int(i))
         if len(chosen) == SLIDE_CANDIDATES:
             break
