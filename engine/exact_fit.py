@@ -1,7 +1,8 @@
 """The registration finished on an exact surface (a STEP model's faces,
 engine.step_model.ExactDistances): the pose found on the nominal's sample refined by least
-squares of the exact deviations, its runner-up judged the same way, and the best of the poses
-found kept (:func:`finish_exactly`, which engine.inspection.inspect runs).
+squares of the exact deviations, its runner-up judged the same way, and a pose that scores
+better kept where one is found: the runner-up, or the pose slid along a direction its points
+leave free (engine.weak_search) (:func:`finish_exactly`, which engine.inspection.inspect runs).
 
 The sample's scores carry its chordal error, which on a CAD tessellation can exceed the noise a
 hundredfold; on the exact faces the poses compare as they are.
@@ -19,17 +20,21 @@ from .registration_types import RegistrationSettings
 from .seeds import rng
 from .surface import Posed
 from .surface_fit import robust_cut
-from .verdict import (AMBIGUITY_DEVIATION, SCORE_TIE, better_runner_up, deviation_spread,
-                      plausible_runner_up)
-from .weak_search import SLIDE_CANDIDATES, slid_poses
+from .verdict import SCORE_TIE, better_runner_up, plausible_runner_up
+from .weak_search import slid_poses
+
+SLID_FITS = 3
+"""Places found along free directions (engine.weak_search), best first, that the exact least
+squares fits at most: each fit costs as much as the pose's own."""
 
 
 def finish_exactly(reg, posed: Posed, nominal, settings: RegistrationSettings,
                    zone_width: float):
     """The registration ``reg`` (on the nominal's sample) finished on the exact surface of
     ``posed``: its pose fitted by the exact least squares (:func:`exact_fit`), its runner-up
-    fitted and scored alike (:func:`exact_runner_up`), then the best pose found kept
-    (:func:`better_pose`). zone_width : the tolerance zone's, mm."""
+    fitted and scored alike (:func:`exact_runner_up`), then a pose that scores better kept
+    (:func:`better_pose`): the runner-up, then the places engine.weak_search finds.
+    zone_width : the tolerance zone's, mm."""
     measured = posed.points
     seed = settings.seed
     reg = exact_fit(reg, posed, zone_width, seed)
@@ -56,8 +61,8 @@ def finish_exactly(reg, posed: Posed, nominal, settings: RegistrationSettings,
     fitting = reg.inlier & (np.abs(d) <= robust_cut(d[reg.inlier], settings.outlier_sigmas,
                                                     scale))
     return better(reg, slid_poses(nominal, measured, reg.T_nominal_measured, reg.deviations,
-                                  fitting, reg.rms, posed.deviations_at,
-                                  scale)[:SLIDE_CANDIDATES])
+                                  fitting, reg.rms, posed.surface,
+                                  scale)[:SLID_FITS])
 
 
 EXACT_HANDOVER_ITERATIONS = 8
@@ -164,9 +169,7 @@ def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, fl
     finish brings onto the chosen pose is none. The sample's scores carry its chordal error, which on
     a CAD tessellation can exceed the noise a hundredfold: NIST CTC-03's 30% patch scored
     0.065 mm at the right pose and 0.090 mm at one 24 mm away, a near tie; exactly, 0.0019
-    against 0.048 mm. An implausible runner-up stays as the sample judged it. A runner-up that
-    scores better beyond a tie while moving no deviation by more than AMBIGUITY_DEVIATION of
-    the zone (engine.verdict.deviation_spread) is marked ``symmetric``."""
+    against 0.048 mm. An implausible runner-up stays as the sample judged it."""
     from .outliers import gross_outliers, gross_rule
 
     if not plausible_runner_up(reg):
@@ -182,15 +185,8 @@ def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, fl
     if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
         return replace(reg, score=score, runner_up_score=None, runner_up_T=None)
     _, dev_r = posed.at(Tr, idx)
-    runner_score = pose_score(dev_r.signed, floor * diagonal)
-    # A runner-up that scores better but leaves every deviation as it is (a turn about the
-    # axis of a part of revolution: NIST FTC-11 with 2% mis-probes, 32 degrees about it, every
-    # deviation within 6e-5 mm, the score 2.6e-4 lower) is a symmetry at these points: the
-    # pose chosen judges the part as it would.
-    symmetric = bool(runner_score < (1.0 - SCORE_TIE) * score and deviation_spread(
-        reg.deviations.signed, Tr, posed.deviations_at, seed) <= AMBIGUITY_DEVIATION * zone_width)
-    return replace(reg, score=score, runner_up_score=runner_score, runner_up_T=Tr,
-                   symmetric=symmetric)
+    return replace(reg, score=score, runner_up_score=pose_score(dev_r.signed, floor * diagonal),
+                   runner_up_T=Tr)
 
 
 def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float,
@@ -199,8 +195,7 @@ def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float
     (:func:`exact_fit`), scores better than the pose of ``reg`` beyond a tie on the seeded
     points of the exact scores: it becomes the pose, and the runner-up is the better of the pose
     it replaces and the runner-up found before, of those distinct from it (none: no runner-up).
-    ``reg`` as it is when none does: no pose found may score better than the one reported. (A
-    better pose need not be distinct: CTC-03's patch, seed 6105, stalled 1.23 mm from the truth,
+    ``reg`` as it is when none does. (A better pose need not be distinct: CTC-03's patch, seed 6105, stalled 1.23 mm from the truth,
     within the 1% of the points' extent that tells poses apart.)"""
     if not starts:
         return reg
@@ -216,13 +211,14 @@ def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float
     else:
         return reg
     others = [(score, reg.T_nominal_measured)]
-    if reg.runner_up_T is not None and reg.runner_up_score is not None:
-        others.append((reg.runner_up_score, reg.runner_up_T))
+    if reg.runner_up_T is not None:
+        # Scored again as the others are (an implausible runner-up kept the sample's score).
+        others.append((pose_score(posed.deviations_at(reg.runner_up_T, idx), scale),
+                       reg.runner_up_T))
     others = [(s, T) for s, T in others
               if distinct_poses(T, best.T_nominal_measured, measured[idx], diagonal)]
     runner_score, runner_T = min(others, key=lambda o: o[0], default=(None, None))
-    return replace(best, score=best_score, runner_up_T=runner_T, runner_up_score=runner_score,
-                   symmetric=False)
+    return replace(best, score=best_score, runner_up_T=runner_T, runner_up_score=runner_score)
 
 
 @dataclass(frozen=True)

@@ -171,13 +171,13 @@ class RegistrationResult:
         sqrt(mean(min(d^2, cut^2))) at the smallest robust cut among the candidates; lower is
         better; the same measure on the same points scores the runner-up pose.
     runner_up_score, runner_up_T : score and pose of the best pose distinct from the chosen one
-        (None when the global search ended with a single distinct pose); in 3D never below
-        ``score`` (engine.verdict.better_runner_up makes the verdict INCONCLUSIVE if it were).
-    symmetric : the runner-up is a symmetry: every deviation is the same at both poses. In 2D
-        it fits as well and maps the template onto itself; in 3D it scores better on the exact
-        surface, beyond a tie, while moving no measured point's deviation by more than a tenth
-        of the zone (engine.inspection: a turn about the axis of a part of revolution); weak
-        and free directions are otherwise the concern of engine.trust.
+        (None when the global search ended with a single distinct pose); in 3D below ``score``
+        only when the runner-up, refined on a STEP model's exact faces, scores better there and
+        its full fit does not (engine.exact_fit); engine.verdict.better_runner_up then makes
+        the verdict INCONCLUSIVE.
+    symmetric : the runner-up fits as well and maps the nominal onto itself, so that every
+        deviation is the same at both poses (tested for 2D templates; always False in 3D, where
+        weak and free directions are the concern of engine.trust).
     """
 
     T_nominal_measured: np.ndarray

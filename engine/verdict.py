@@ -128,19 +128,11 @@ def ambiguity(reg, d: np.ndarray, tol: Tolerance, deviations_at,
     inspection's (engine.seeds), of the points compared beyond ``AMBIGUITY_POINTS``."""
     if not (pose_trusted(reg) and plausible_runner_up(reg)):
         return False, 0.0
-    spread = deviation_spread(d, reg.runner_up_T, deviations_at, seed)
-    return spread > AMBIGUITY_DEVIATION * tol.width, spread
-
-
-def deviation_spread(d: np.ndarray, T_other: np.ndarray, deviations_at,
-                     seed: int = DEFAULT_SEED) -> float:
-    """The largest change (mm) of the deviations ``d`` (n,) at another pose ``T_other``, over
-    every point (a seeded ``AMBIGUITY_POINTS`` of them beyond that); deviations_at as in
-    :func:`ambiguity`."""
     idx = np.arange(d.size)
     if d.size > AMBIGUITY_POINTS:
         idx = np.sort(rng(seed, AMBIGUITY_SEED).choice(d.size, AMBIGUITY_POINTS, replace=False))
-    return float(np.max(np.abs(deviations_at(T_other, idx) - d[idx])))
+    spread = float(np.max(np.abs(deviations_at(reg.runner_up_T, idx) - d[idx])))
+    return spread > AMBIGUITY_DEVIATION * tol.width, spread
 
 
 MARGIN_NEIGHBOURS = 25

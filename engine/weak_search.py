@@ -16,16 +16,14 @@ gross-outlier rule's and the robust cut's); the others count as left out.
 
 :func:`slid_poses` scans the pose along each such direction that some point constrains (not a
 symmetry of the surface under every point) over the nominal's whole extent (a whole turn for a
-rotation), scoring the points left out on the nominal's sample, and refines the best few
-places on the surface judged with a few fitting points as well; the caller fits each again and
-keeps a pose that scores better (no pose found may score better than the one reported).
+rotation), scoring a few kept and left-out points on the surface judged, and refines the best
+few places with more of them; the caller fits each again and keeps a pose that scores better.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .deviation import point_to_surface
 from .neighbours import spread_subset
 from .nominal import Nominal
 from .pose import apply_transform, pose_jacobian, screw_motion
@@ -33,22 +31,25 @@ from .trust import DEGENERATE_STRENGTH, conditioning
 
 SLIDE_STEP_OF_DIAGONAL = 3e-3
 """The scan's step along a free direction, as a fraction of the nominal's bounding-box
-diagonal (1.8 mm on CTC-03: its truth's basin on the sample is some 6 mm wide)."""
-SLIDE_MAX_STEPS = 1000
-"""Places scanned along one direction at most (the step grows to keep to it)."""
+diagonal, at least (1.8 mm on CTC-03; its 485 mm along the patch's free direction, scanned
+both ways in ``SLIDE_MAX_STEPS``, make it 8.1 mm there: a place is refined over a step on
+either side)."""
+SLIDE_MAX_STEPS = 120
+"""Places scanned along one direction at most, one more for a slide (the step grows to keep to
+it): each costs an exact evaluation of the scanned points."""
+SCAN_POINTS = 8
+"""Kept points and points left out (spread over each) that the scan scores, at most, on the
+surface judged: the left-out ones say where the slid pose meets the feature that pins it, the
+kept ones where it leaves the part (one left-out point alone touches a face at many places:
+CTC-03's 30% patch of 90 points, seed 505). Not on the nominal's sample: a CAD tessellation's
+long facets put that point 2.4 mm off the part at the truth, where it lies on a face."""
 SLIDE_POINTS = 48
 """Kept points (spread over them) and points left out (as many at most) that the refinement
 scores: the kept ones say where the slid pose leaves the part, the others where it meets the
-feature (the scan scores these alone)."""
-SCAN_SCALE = 10.0
-"""The scan's loss on the nominal's sample counts a point as least squares up to this x
-pose_score's scale: the sample's own chordal error is of that scale (0.06 mm on CTC-03), and the
-kept points' share of it hid the truth there. The scan scores the points left out only; where
-the kept points leave the part is the refinement's concern, on the surface judged."""
+feature."""
 SLIDE_CANDIDATES = 3
-"""Places along each direction refined and handed back, best first, at least
-``SLIDE_SEPARATION`` steps apart."""
-SLIDE_SEPARATION = 4
+"""Places along each direction (local minima of the scan, a run of equal ones as one) refined
+and handed back, best first."""
 
 
 SLIDE_STRENGTH = 1e-2
@@ -59,12 +60,27 @@ their own places, and they constrain it only so far (CTC-03's patch taken at its
 9.9 mm from the truth: 0.0028, its rms 0.019 mm against the noise's 0.002)."""
 
 
-def weak_directions(X: np.ndarray, normals: np.ndarray, kept: np.ndarray, rms: float):
-    """The directions (engine.trust.WeakDirection) that the ``kept`` points of X (n, 3; nominal
-    frame; normals at their feet) constrain below ``SLIDE_STRENGTH``, and the fit's
-    conditioning of them."""
+def scan_directions(X: np.ndarray, normals: np.ndarray, kept: np.ndarray, rms: float):
+    """(twists, conditioning): the unit motions to scan, and the ``kept`` points' conditioning
+    (engine.trust.conditioning) whose centre and length they are about. The directions the kept
+    points of X (n, 3; nominal frame; normals at their feet) constrain below ``SLIDE_STRENGTH``
+    span a subspace; within it, the motions that no point at all constrains (a symmetry of the
+    surface under every point, kept or not: a turn about a part of revolution's axis, a slide
+    along a cylinder's) are dropped (nothing along them can fit better, and a whole turn's scan
+    and fits cost FTC-11 with a bump seconds for nothing), and the rest are scanned: the
+    subspace's directions that every point constrains, a basis of them by the eigenvectors of
+    the points' normal matrix within it (so that a free turn and a free slide, mixed by the
+    eigenvalue solver into screws, are told apart)."""
     cond = conditioning(X[kept], normals[kept], rms, weak_below=SLIDE_STRENGTH)
-    return cond.weak, cond
+    if not cond.weak:
+        return [], cond
+    W = np.array([w.twist for w in cond.weak], float).T  # (6, m), orthonormal columns
+    J = pose_jacobian(X, normals, np.asarray(cond.centre, float))
+    J[:, :3] /= cond.length
+    A = J.T @ J
+    top = float(np.linalg.eigvalsh(A)[-1]) or 1.0
+    lam, U = np.linalg.eigh(W.T @ A @ W)
+    return [W @ U[:, j] for j in range(len(lam)) if lam[j] >= DEGENERATE_STRENGTH * top], cond
 
 
 def _score_rows(d: np.ndarray, scale: float) -> np.ndarray:
@@ -74,98 +90,81 @@ def _score_rows(d: np.ndarray, scale: float) -> np.ndarray:
 
 
 def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept: np.ndarray,
-               rms: float, deviations_at, scale: float) -> list[np.ndarray]:
+               rms: float, surface, scale: float) -> list[np.ndarray]:
     """Poses (4, 4) to fit again from, best first: the pose T slid along each direction that the
     ``kept`` points (n,) bool leave weak, to where the points left out meet the nominal. Empty
     when no point was left out or no direction is weak.
 
     dev : every point's deviations at T (normals at their feet); rms : the fit's over the kept
-    points; deviations_at(T, idx) : the signed deviations (mm) of measured points ``idx`` on
-    the surface judged; scale : pose_score's (``outlier_floor`` x the nominal's diagonal)."""
+    points; surface : the surface judged (engine.surface.Surface); scale : pose_score's (``outlier_floor`` x the nominal's diagonal)."""
     out = np.flatnonzero(~kept)
     if out.size == 0 or np.count_nonzero(kept) < 6:
         return []
     X = apply_transform(T, measured)
-    weak, cond = weak_directions(X, dev.normal, kept, rms)
-    weak = [w for w in weak if not _free_for_all(X, dev.normal, cond, w.twist)]
-    if not weak:
+    twists, cond = scan_directions(X, dev.normal, kept, rms)
+    if not twists:
         return []
     inside = np.flatnonzero(kept)
     use = np.concatenate([inside[spread_subset(X[inside], SLIDE_POINTS)],
                           out[spread_subset(X[out], SLIDE_POINTS)]])
     found: list[tuple[float, np.ndarray]] = []
-    for w in weak:
-        found.extend(_along(nominal, T, X[use[-min(out.size, SLIDE_POINTS):]], use, w, cond,
-                            deviations_at, scale))
+    scanned = np.concatenate([inside[spread_subset(X[inside], SCAN_POINTS)],
+                              out[spread_subset(X[out], SCAN_POINTS)]])
+    for twist in twists:
+        found.extend(_along(nominal, T, X[scanned], X[use], twist, cond, surface, scale))
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
 
 
-def _free_for_all(X: np.ndarray, normals: np.ndarray, cond, twist) -> bool:
-    """Whether no point of X (n, 3), kept or not, constrains the motion ``twist`` (a symmetry
-    of the surface under every point: a turn about a part of revolution's axis). Nothing along
-    it can then fit better, and a whole turn's scan and fits cost a part of revolution with a
-    bump or a mis-probe seconds for nothing (NIST FTC-11)."""
-    J = pose_jacobian(X, normals, np.asarray(cond.centre, float))
-    J[:, :3] /= cond.length
-    A = J.T @ J
-    top = float(np.linalg.eigvalsh(A)[-1]) or 1.0
-    v = np.asarray(twist, float)
-    return float(v @ A @ v) < DEGENERATE_STRENGTH * top
-
-
-def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, use: np.ndarray, w, cond,
-           deviations_at, scale: float):
-    """[(loss, pose)] at the best places along weak direction ``w`` (engine.trust.WeakDirection)
-    from pose T: the local minima of the loss of the points left out, P (m, 3) at T, on the
-    nominal's sample (at ``SCAN_SCALE`` x ``scale``), each refined by the loss of the measured
-    points ``use`` (kept and left out) on the surface judged; those that score better there
-    than T itself."""
-    twist = np.asarray(w.twist, float)
+def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist, cond, surface,
+           scale: float):
+    """[(loss, pose)] at the best places along the unit motion ``twist`` (rotation in mm at
+    ``cond.length`` about ``cond.centre``, then translation; engine.pose.screw_motion) from pose
+    T: the local minima of the loss of a few points P (m, 3; kept and left out, at T) on
+    ``surface``, each refined by the loss of more of them, Q; those that score better there than
+    T itself. Both losses are pose_score's at ``scale``."""
+    twist = np.asarray(twist, float)
     centre, length = np.asarray(cond.centre, float), cond.length
-    if w.type == "rotation":
-        # A whole turn: amplitude is mm of arc at ``length`` per unit of rotation.
-        span = np.pi * length / max(float(np.linalg.norm(twist[:3])), 1e-12)
-        periodic = True
-    else:
-        proj = nominal.points @ np.asarray(w.axis, float)
-        span = float(np.ptp(proj))
-        periodic = False
-    step = max(SLIDE_STEP_OF_DIAGONAL * nominal.diagonal, 2.0 * span / SLIDE_MAX_STEPS)
-    k = int(np.ceil(span / step))
+    rot, tr = float(np.linalg.norm(twist[:3])), float(np.linalg.norm(twist[3:]))
+    diagonal_step = SLIDE_STEP_OF_DIAGONAL * nominal.diagonal
+    # A turn (by the larger part, as engine.trust names a direction): half a turn each way,
+    # amplitude being mm of arc at ``length``; a slide: the nominal's extent along it each way.
+    span = (np.pi * length / rot if rot >= tr
+            else float(np.ptp(nominal.points @ (twist[3:] / tr))) / tr)
+    # A turn about an axis (its translation along the axis, the pitch, under a step in a whole
+    # turn) comes back to where it started: the places wrap round, a whole turn in 2k steps.
+    pitch = abs(float(twist[:3] @ twist[3:])) / rot * 2.0 * span if rot >= tr else 0.0
+    periodic = rot >= tr and pitch < diagonal_step
+    k = max(int(np.ceil(span / max(diagonal_step, 2.0 * span / SLIDE_MAX_STEPS))), 1)
+    step = span / k
     amps = step * np.arange(-k, k if periodic else k + 1)
     motions = np.stack([screw_motion(twist, a, centre, length) for a in amps])
     moved = np.einsum("kij,mj->kmi", motions[:, :3, :3], P) + motions[:, None, :3, 3]
-    d = point_to_surface(nominal, moved.reshape(-1, 3)).signed.reshape(len(amps), -1)
-    loss = _score_rows(d, SCAN_SCALE * scale)
-    n = len(amps)
+    d = surface.deviations(moved.reshape(-1, 3)).signed.reshape(len(amps), -1)
+    loss = _score_rows(d, scale)
     nb_prev = np.roll(loss, 1)
     nb_next = np.roll(loss, -1)
     if not periodic:
         nb_prev[0], nb_next[-1] = np.inf, np.inf
     minima = np.flatnonzero((loss <= nb_prev) & (loss <= nb_next))
-    chosen: list[int] = []
-    for i in minima[np.argsort(loss[minima], kind="stable")]:
-        gap = np.abs(i - np.array(chosen, int))
-        if periodic:
-            gap = np.minimum(gap, n - gap)
-        if i != k and (not chosen or gap.min() >= SLIDE_SEPARATION):  # k: the pose itself
-            chosen.append(int(i))
-        if len(chosen) == SLIDE_CANDIDATES:
-            break
-
-    def pose(a: float) -> np.ndarray:
-        return screw_motion(twist, a, centre, length) @ T
+    # Runs of equal minima are one place, refined over the whole run: where a few points fit
+    # over a stretch (a slide along a face), the rest fit somewhere in it.
+    runs = np.split(minima, np.flatnonzero(np.diff(minima) > 1) + 1) if minima.size else []
+    runs.sort(key=lambda r: float(loss[r].min()))
+    chosen = runs[:SLIDE_CANDIDATES]
+    def motion(a: float) -> np.ndarray:
+        return screw_motion(twist, a, centre, length)
 
     def surface_loss(a: float) -> float:
-        return float(_score_rows(deviations_at(pose(a), use)[None, :], scale)[0])
+        d = surface.deviations(apply_transform(motion(a), Q)).signed
+        return float(_score_rows(d[None, :], scale)[0])
 
     from scipy.optimize import minimize_scalar  # only here: its import costs 0.1 s
 
     here_loss = surface_loss(0.0)
     found = []
-    for i in chosen:
-        r = minimize_scalar(surface_loss, bounds=(amps[i] - step, amps[i] + step),
+    for run in chosen:
+        r = minimize_scalar(surface_loss, bounds=(amps[run[0]] - step, amps[run[-1]] + step),
                             method="bounded", options={"xatol": 1e-3 * step})
         if r.fun < here_loss:
-            found.append((float(r.fun), pose(float(r.x))))
+            found.append((float(r.fun), motion(float(r.x)) @ T))
     return found

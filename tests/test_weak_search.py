@@ -53,7 +53,7 @@ def test_a_pose_slid_along_the_free_direction_is_found_where_the_left_out_points
     assert np.max(np.abs(dev.signed[kept])) < 1e-6
     assert np.min(np.abs(dev.signed[~kept])) > 0.5 and np.median(np.abs(dev.signed[~kept])) > 2
     scale = 1e-4 * nominal.diagonal
-    found = slid_poses(nominal, P, T, dev, kept, 0.0, posed.deviations_at, scale)
+    found = slid_poses(nominal, P, T, dev, kept, 0.0, exact, scale)
     assert found
     best = found[0]
     assert np.allclose(best[:3, :3], np.eye(3), atol=1e-6)
@@ -69,7 +69,49 @@ def test_nothing_is_searched_when_no_point_was_left_out_or_nothing_is_free(block
     _, dev = posed.at(T)
     scale = 1e-4 * nominal.diagonal
     every = np.ones(len(P), bool)
-    assert slid_poses(nominal, P, T, dev, every, 0.0, posed.deviations_at, scale) == []
+    assert slid_poses(nominal, P, T, dev, every, 0.0, exact, scale) == []
     # The boss kept: the fit's points constrain every direction.
-    assert slid_poses(nominal, P, np.eye(4), posed.at(np.eye(4))[1], every, 0.0,
-                      posed.deviations_at, scale) == []
+    assert slid_poses(nominal, P, np.eye(4), posed.at(np.eye(4))[1], every, 0.0, exact,
+                      scale) == []
+
+
+def _inclined_cylinder(rng, n=400):
+    """Points and outward normals on a cylinder of radius 20 about an inclined axis through
+    (5, -3, 2), 60 long: analytic."""
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_rotvec([0.4, -0.7, 0.3]).as_matrix()
+    t = rng.uniform(0, 2 * np.pi, n)
+    z = rng.uniform(0, 60, n)
+    radial = np.column_stack([np.cos(t), np.sin(t), np.zeros(n)])
+    P = (20 * radial + np.column_stack([np.zeros((n, 2)), z])) @ R.T + [5.0, -3.0, 2.0]
+    return P, radial @ R.T
+
+
+def test_a_turn_and_a_slide_that_no_point_constrains_are_not_scanned():
+    """A cylinder measured all round about an inclined axis leaves two motions free for every
+    point, kept or not: the turn about the axis and the slide along it. The eigenvalue solver
+    mixes them into screws; neither mixture may be scanned (nothing along it can fit better)."""
+    from engine.weak_search import scan_directions
+
+    P, N = _inclined_cylinder(np.random.default_rng(2))
+    kept = np.ones(len(P), bool)
+    kept[:8] = False  # "left out": on the same cylinder, so they pin nothing either
+    twists, cond = scan_directions(P, N, kept, 0.001)
+    assert len(cond.weak) == 2 and twists == []
+
+
+def test_the_motion_the_left_out_points_pin_is_the_one_scanned():
+    """The featured block's prismatic patch (top and front faces, free along x) with its boss's
+    points left out: the one motion scanned is the slide along x."""
+    from engine.weak_search import scan_directions
+
+    P, kept = _prismatic_patch_and_boss(np.random.default_rng(4))
+    N = np.zeros_like(P)
+    N[:150] = [0, 0, 1]
+    N[150:300] = [0, -1, 0]
+    N[300:] = (P[300:] - [90, 40, P[300, 2]]) * [1, 1, 0] / 10.0
+    twists, _ = scan_directions(P, N, kept, 0.001)
+    assert len(twists) == 1
+    v = twists[0]
+    assert np.linalg.norm(v[:3]) < 1e-9 and abs(abs(v[3]) - 1.0) < 1e-9

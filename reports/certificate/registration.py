@@ -56,13 +56,9 @@ def alignment_statement(run: Run) -> str:
     tried = f"{reg.hypotheses:,} starting poses were tried"
     if reg.runner_up_score is None:
         second = "no second, distinct pose was found"
-    elif reg.symmetric and "template" in res.extra:
+    elif reg.symmetric:
         second = ("the second-best pose is a symmetry of the template: it gives the same "
                   "deviations")
-    elif reg.symmetric:
-        second = (f"the second-best distinct pose fits as well (fit score "
-                  f"{reg.runner_up_score:.4f} mm against {reg.score:.4f} mm) and gives the same "
-                  "deviations to a tenth of the zone: a symmetry of the part at these points")
     else:
         ratio = reg.runner_up_score / reg.score if reg.score > 0 else math.inf
         second = ("the second-best distinct pose fits " + (
