@@ -61,8 +61,7 @@ def finish_exactly(reg, posed: Posed, nominal, settings: RegistrationSettings,
     fitting = reg.inlier & (np.abs(d) <= robust_cut(d[reg.inlier], settings.outlier_sigmas,
                                                     scale))
     return better(reg, slid_poses(nominal, measured, reg.T_nominal_measured, reg.deviations,
-                                  fitting, reg.rms, posed.surface,
-                                  scale)[:SLID_FITS])
+                                  fitting, reg.rms, posed.surface, scale)[:SLID_FITS])
 
 
 EXACT_HANDOVER_ITERATIONS = 8
@@ -166,8 +165,8 @@ def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, fl
     as the chosen pose was: its pose finished by least squares of the exact deviations of the
     points the gross-outlier rule keeps there, then both poses scored (``pose_score`` at
     ``floor`` x the nominal's ``diagonal``) on the same seeded points; a runner-up that the
-    finish brings onto the chosen pose is none. The sample's scores carry its chordal error, which on
-    a CAD tessellation can exceed the noise a hundredfold: NIST CTC-03's 30% patch scored
+    finish brings onto the chosen pose is none. The sample's scores carry its chordal error,
+    which on a CAD tessellation can exceed the noise a hundredfold: NIST CTC-03's 30% patch scored
     0.065 mm at the right pose and 0.090 mm at one 24 mm away, a near tie; exactly, 0.0019
     against 0.048 mm. An implausible runner-up stays as the sample judged it."""
     from .outliers import gross_outliers, gross_rule
@@ -195,8 +194,9 @@ def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float
     (:func:`exact_fit`), scores better than the pose of ``reg`` beyond a tie on the seeded
     points of the exact scores: it becomes the pose, and the runner-up is the better of the pose
     it replaces and the runner-up found before, of those distinct from it (none: no runner-up).
-    ``reg`` as it is when none does. (A better pose need not be distinct: CTC-03's patch, seed 6105, stalled 1.23 mm from the truth,
-    within the 1% of the points' extent that tells poses apart.)"""
+    ``reg`` as it is when none does. (A better pose need not be distinct: CTC-03's patch, seed
+    6105, stalled 1.23 mm from the truth, within the 1% of the points' extent that tells poses
+    apart.)"""
     if not starts:
         return reg
     scale = floor * diagonal

@@ -96,7 +96,8 @@ def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept:
     when no point was left out or no direction is weak.
 
     dev : every point's deviations at T (normals at their feet); rms : the fit's over the kept
-    points; surface : the surface judged (engine.surface.Surface); scale : pose_score's (``outlier_floor`` x the nominal's diagonal)."""
+    points; surface : the surface judged (engine.surface.Surface); scale : pose_score's
+    (``outlier_floor`` x the nominal's diagonal)."""
     out = np.flatnonzero(~kept)
     if out.size == 0 or np.count_nonzero(kept) < 6:
         return []
@@ -151,6 +152,7 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist,
     runs = np.split(minima, np.flatnonzero(np.diff(minima) > 1) + 1) if minima.size else []
     runs.sort(key=lambda r: float(loss[r].min()))
     chosen = runs[:SLIDE_CANDIDATES]
+
     def motion(a: float) -> np.ndarray:
         return screw_motion(twist, a, centre, length)
 
