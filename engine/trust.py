@@ -64,7 +64,7 @@ class Conditioning:
 
     strengths : eigenvalues of the normal matrix (rotations scaled by ``length``, so that both
         kinds are in mm units) over the largest, ascending; one per degree of freedom.
-    weak : the directions with strength below WEAK_STRENGTH.
+    weak : the directions with strength below WEAK_STRENGTH (``weak_below`` of conditioning).
     length : RMS distance of the fitted points from their centroid, mm (the rotation scale).
     pose_sigma_mm : the largest 1-sigma displacement, at any fitted point, that the residuals
         (rms) imply for the pose; None when a direction is unconstrained (the pose is
