@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .nominal import Nominal
 from .pose import apply_update, lower_along, pose_jacobian
 from .registration import distinct_poses, pose_score
 from .registration_types import RegistrationSettings
@@ -28,7 +29,7 @@ SLID_FITS = 3
 squares fits at most: each fit costs as much as the pose's own."""
 
 
-def finish_exactly(reg, posed: Posed, nominal, settings: RegistrationSettings,
+def finish_exactly(reg, posed: Posed, nominal: Nominal, settings: RegistrationSettings,
                    zone_width: float):
     """The registration ``reg`` (on the nominal's sample) finished on the exact surface of
     ``posed``: its pose fitted by the exact least squares (:func:`exact_fit`), its runner-up
@@ -160,7 +161,7 @@ def _score_points(n: int, seed: int) -> np.ndarray:
 
 
 def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, floor: float,
-                     zone_width: float, seed: int):
+                    zone_width: float, seed: int):
     """A plausible runner-up (engine.verdict.plausible_runner_up) judged on the exact surface,
     as the chosen pose was: its pose finished by least squares of the exact deviations of the
     points the gross-outlier rule keeps there, then both poses scored (``pose_score`` at

@@ -263,7 +263,14 @@ def pose_score(d: np.ndarray, scale: float) -> float:
     every point but one (a mis-probe, a missing hole) at the noise does not lose to one slid
     along a weak direction that spreads that point's error over all of them."""
     s2 = scale * scale
-    return float(np.sqrt(max(np.exp(np.mean(np.log(d * d + s2))) - s2, 0.0)))
+    return float(np.sqrt(max(np.exp(pose_loss(d, scale)) - s2, 0.0)))
+
+
+def pose_loss(d: np.ndarray, scale: float) -> np.ndarray:
+    """mean(log(d^2 + scale^2)) over the last axis of deviations d (mm): what
+    :func:`pose_score` ranks poses by (lower is better), per row of a (k, m) array of k poses'
+    deviations (engine.weak_search scans poses so)."""
+    return np.mean(np.log(d * d + scale * scale), axis=-1)
 
 
 # ---------------------------------------------------------------------------- global stage

@@ -27,6 +27,7 @@ import numpy as np
 from .neighbours import spread_subset
 from .nominal import Nominal
 from .pose import apply_transform, pose_jacobian, screw_motion
+from .registration import pose_loss
 from .trust import DEGENERATE_STRENGTH, conditioning
 
 SLIDE_STEP_OF_DIAGONAL = 3e-3
@@ -83,12 +84,6 @@ def scan_directions(X: np.ndarray, normals: np.ndarray, kept: np.ndarray, rms: f
     return [W @ U[:, j] for j in range(len(lam)) if lam[j] >= DEGENERATE_STRENGTH * top], cond
 
 
-def _score_rows(d: np.ndarray, scale: float) -> np.ndarray:
-    """Per row of deviations d (k, m): the mean Cauchy loss that engine.registration.pose_score
-    ranks by (lower is better)."""
-    return np.mean(np.log(d * d + scale * scale), axis=1)
-
-
 def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept: np.ndarray,
                rms: float, surface, scale: float) -> list[np.ndarray]:
     """Poses (4, 4) to fit again from, best first: the pose T slid along each direction that the
@@ -141,7 +136,7 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist,
     motions = np.stack([screw_motion(twist, a, centre, length) for a in amps])
     moved = np.einsum("kij,mj->kmi", motions[:, :3, :3], P) + motions[:, None, :3, 3]
     d = surface.deviations(moved.reshape(-1, 3)).signed.reshape(len(amps), -1)
-    loss = _score_rows(d, scale)
+    loss = pose_loss(d, scale)
     nb_prev = np.roll(loss, 1)
     nb_next = np.roll(loss, -1)
     if not periodic:
@@ -158,7 +153,7 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist,
 
     def surface_loss(a: float) -> float:
         d = surface.deviations(apply_transform(motion(a), Q)).signed
-        return float(_score_rows(d[None, :], scale)[0])
+        return float(pose_loss(d, scale))
 
     from scipy.optimize import minimize_scalar  # only here: its import costs 0.1 s
 
