@@ -156,6 +156,16 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
     return T, iters
 
 
+CANDIDATE_SCORE_RATIO = 3.0
+"""The registration's result keeps the other candidate poses that score within this factor of
+the pose chosen, for an exact surface to judge again (engine.exact_fit.better_candidates): the
+sample's scores carry its chordal error, and a short finish leaves a pose near the right one
+short of it (NIST FTC-07's 90-point patch: a candidate 0.27 mm from the truth at 1.86 x the
+score of a pose 283 mm off, which the exact faces put at 12 x the truth's). Each costs a fit on
+the exact faces, about 1 s for a pose millimetres off (FTC-07 with 2,000 points: candidates
+at 54 x are not kept)."""
+
+
 def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.ndarray,
                settings: RegistrationSettings, zone_width: float | None, hypotheses: int,
                iterations: int) -> RegistrationResult:
@@ -167,7 +177,9 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     run on the points the candidates are scored on (at most ``icp_measured``), those after the
     best one ``ALTERNATIVE_ITERATIONS`` at most (one that ends best unsettled is finished in
     full); the pose chosen is then fitted on every point. The answer is the best finished
-    pose: no candidate scores better. The best distinct other pose is the runner-up."""
+    pose: no candidate scores better. The best distinct other pose is the runner-up; the
+    candidates distinct from both that score within ``CANDIDATE_SCORE_RATIO`` of the pose are
+    kept too (``candidates``)."""
     near, near_rule = settings.near(nominal.diagonal)
     ssub = spread_subset(measured, settings.icp_measured, settings.seed)
     report("comparing the candidate poses", 0.8)
@@ -228,13 +240,18 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     runner = min((j for j in range(len(refined)) if j != chosen
                   and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
                  key=lambda j: scores[j], default=None)
+    others = sorted((j for j in range(len(refined)) if j not in (chosen, runner)
+                     and scores[j] <= CANDIDATE_SCORE_RATIO * final[chosen]
+                     and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
+                    key=lambda j: scores[j])
     return RegistrationResult.from_fit(
         Tb, fit.deviations, fit.inlier, fit.rule, near, converged=fit.converged,
         iterations=iterations + sum(f.iterations for f in finished.values()),
         score=final[chosen], hypotheses=hypotheses,
         runner_up_score=None if runner is None else scores[runner],
         runner_up_T=None if runner is None else poses[runner], deviation_s=fit.deviation_s,
-        message=fit.message, near_rule=near_rule)
+        message=fit.message, near_rule=near_rule,
+        candidates=tuple(poses[j] for j in others))
 
 
 def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
@@ -284,7 +301,11 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     * ``p0``'s local normal turned onto the nominal normal at anchors spread over the whole
       nominal surface (about one per tenth of the measured extent), both ways round, at
       ``n_spins`` spins about it: with the right anchor, one of these starts within 10 degrees
-      and a few millimetres of the answer, whatever part of the nominal was measured.
+      and a few millimetres of the answer, whatever part of the nominal was measured, if
+      ``p0``'s normal is right;
+    * when the measured points cover only part of the nominal and ``p0``'s neighbours are not
+      on a plane, ``p0`` on each of those anchors at ``n_patch_rotations`` evenly spread
+      rotations, whatever its normal.
 
     ``p0`` is a measured point near the measured centroid whose neighbours lie on a plane (so that
     its normal means something); the centroid itself may be in the air (two faces of a bracket).
@@ -296,7 +317,7 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     pca = np.asarray([En @ np.diag(s) @ Em.T
                       for s in ([1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1])])
     extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
-    p0, n0 = _reference_point(measured, extent, settings.seed)
+    p0, n0, flatness = _reference_point(measured, extent, settings.seed)
 
     U = uniform_rotations(settings.n_rotations)
     few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors, settings.seed)]
@@ -312,12 +333,23 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
         R = (spin @ base[:, None]).reshape(-1, 3, 3)
         R_all.append(R)
         t_all.append(np.repeat(a_pts, spins.size, axis=0) - R @ p0)
+    if flatness > settings.patch_flatness \
+            and _radius(measured) < settings.patch_radius * _radius(lvl_pts):
+        U = uniform_rotations(settings.n_patch_rotations)
+        R_all.append(np.repeat(U, a_pts.shape[0], axis=0))
+        t_all.append(np.tile(a_pts, (U.shape[0], 1)) - R_all[-1] @ p0)
     return make_transform(np.concatenate(R_all), np.concatenate(t_all))
 
 
+def _radius(pts: np.ndarray) -> float:
+    """RMS distance of points (n, 3) from their centroid, mm: the same in any pose."""
+    return float(np.sqrt(np.mean(np.sum((pts - pts.mean(axis=0)) ** 2, axis=1))))
+
+
 def _reference_point(measured: np.ndarray, extent: float, seed: int):
-    """A measured point near the centroid whose neighbourhood is planar, and its unit normal
-    (``seed``: the inspection's, engine.seeds)."""
+    """(p0, n0, flatness): a measured point near the centroid whose neighbourhood is planar,
+    its unit normal, and how far from planar that neighbourhood is (the least variance of its
+    8 points over the middle one: 0 on a plane) (``seed``: the inspection's, engine.seeds)."""
     measured = measured[spread_subset(measured, 4096, seed)]
     n = measured.shape[0]
     k = min(8, n)
@@ -329,7 +361,7 @@ def _reference_point(measured: np.ndarray, extent: float, seed: int):
     flatness = vals[:, 0] / np.maximum(vals[:, 1], 1e-300)
     dist = np.linalg.norm(measured[near] - cm, axis=1) / max(extent, 1e-12)
     best = int(np.argmin(dist + 5.0 * flatness))
-    return measured[near[best]], vecs[best, :, 0]
+    return measured[near[best]], vecs[best, :, 0], float(flatness[best])
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -357,7 +389,8 @@ def _principal_axes(c: np.ndarray):
 
 
 def _icp_batch(T: np.ndarray, src: np.ndarray, tree: cKDTree, pts: np.ndarray,
-               nrm: np.ndarray | Callable[[np.ndarray], np.ndarray], spacing: float, iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
+               nrm: np.ndarray | Callable[[np.ndarray], np.ndarray], spacing: float,
+               iterations: int, stop_rad: float = 0.0, lam2: float = 0.0,
                reach: float = np.inf, shape: np.ndarray | None = None,
                stage: tuple[str, float, float] | None = None):
     """Run ICP iterations for H poses at once; returns (poses, truncated scores, iterations run).

@@ -33,6 +33,16 @@ class RegistrationSettings:
     apart: the right anchor's nearest spin starts within 10 degrees of the answer; 30 degrees
     apart left a cube with a boss, whose faces fit at 24 poses, without a start that the global
     search's few ICP iterations bring home, now and then)."""
+    n_patch_rotations: int = 120
+    """When the measured points cover only part of the nominal (their RMS radius about their
+    centroid below ``patch_radius`` of the nominal's) and the reference point's neighbours are
+    not on a plane (flatness above ``patch_flatness``), evenly spread rotations tried at every
+    anchor as well: the normal-aligned hypotheses rest on that point's normal, which a sparse
+    patch's neighbours cannot give (NIST FTC-06 and CTC-01, 90 points on 30% of the part: no
+    neighbourhood of 8 points near the centroid lies on one face, flatness 0.08-0.78, their
+    normals 37-88 degrees off, and no start came within 20 mm of the answer)."""
+    patch_radius: float = 0.8
+    patch_flatness: float = 0.01
     coarse_size: int = 1000
     """Nominal points in the coarsest ICP level, at least …"""
     coarse_samples_per_area: float = 500.0
@@ -206,6 +216,10 @@ class RegistrationResult:
     """How ``near_distance`` was chosen, in words (RegistrationSettings.near)."""
     rms_definition: str = SURFACE_RMS
     symmetric: bool = False
+    candidates: tuple[np.ndarray, ...] = ()
+    """The other poses (4, 4) the registration's last stage carried to its end, each distinct
+    from the chosen pose and the runner-up, best score first (at their finished poses where
+    they were finished): engine.exact_fit judges them again on an exact surface."""
 
     @property
     def near_fraction(self) -> float:
