@@ -40,16 +40,18 @@ def finish_exactly(reg, posed: Posed, nominal: Nominal, settings: RegistrationSe
     zone_width : the tolerance zone's, mm."""
     measured = posed.points
     seed = settings.seed
+    sample_score = reg.score
     reg = exact_fit(reg, posed, zone_width, seed)
+    judged = plausible_runner_up(reg)  # the sample's judgement of both poses
     reg = exact_runner_up(reg, posed, measured, nominal.diagonal, settings.outlier_floor,
                           zone_width, seed)
     # Scored on the exact surface, as every pose compared with it will be, whether or not the
     # runner-up was (the sample's score at the handover pose outlived the fit: NIST CTC-01's
-    # patch, 1.29 mm at a pose whose every exact deviation is within 0.01 mm). Not before the
-    # runner-up is judged: whether it is plausible is the sample's judgement of both.
-    reg = replace(reg, score=pose_score(
-        reg.deviations.signed[_score_points(measured.shape[0], seed)],
-        settings.outlier_floor * nominal.diagonal))
+    # patch, 1.29 mm at a pose whose every exact deviation is within 0.01 mm).
+    if not judged:
+        reg = on_exact_scale(reg, pose_score(
+            reg.deviations.signed[_score_points(measured.shape[0], seed)],
+            settings.outlier_floor * nominal.diagonal), sample_score)
 
     def better(reg, starts):
         return better_pose(reg, starts, posed, measured, nominal.diagonal,
@@ -75,6 +77,22 @@ def finish_exactly(reg, posed: Posed, nominal: Nominal, settings: RegistrationSe
                                                     scale))
     return better(reg, slid_poses(nominal, measured, reg.T_nominal_measured, reg.deviations,
                                   fitting, reg.rms, posed.surface, scale)[:SLID_FITS])
+
+
+def on_exact_scale(reg, score: float, sample_score: float):
+    """``reg`` with ``score``, its pose's exact score, mm, in place of ``sample_score``, the
+    sample's; a runner-up that the exact faces did not judge (implausible on the sample) stays
+    as far behind the pose as the sample scored it: its score the pose's plus the sample's
+    difference. So it never scores better than the pose, and it becomes plausible only if the
+    exact score exceeds twice that difference (then it is probed as a competitor). (Its own
+    exact score would cost a fit on points that lie off the part: about 1 ms an evaluation
+    each. Compared as it was, the sample's score of a runner-up could look better than an exact
+    score that the sample's facets had flattered; its ratio to the pose would make it a tie
+    with a pose that fits exactly, score 0.)"""
+    runner = reg.runner_up_score
+    if runner is not None:
+        runner = score + max(runner - sample_score, 0.0)
+    return replace(reg, score=score, runner_up_score=runner)
 
 
 EXACT_HANDOVER_ITERATIONS = 8
@@ -197,8 +215,8 @@ def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, fl
 
 SCREEN_POINTS = 128
 """The registration's other candidates are fitted and scored on the exact surface over a seeded
-random choice of at most this many points (:func:`better_candidates`): a point far from the
-exact faces costs about 0.1 ms an evaluation."""
+random choice of at most this many points (:func:`better_candidates`): a point off the exact
+faces costs 0.1-1 ms an evaluation."""
 SCREEN_SEED = 19
 """The random stream of that choice (engine.seeds)."""
 SCREEN_FIT_ITERATIONS = 8

@@ -161,9 +161,9 @@ CANDIDATE_SCORE_RATIO = 3.0
 the pose chosen, for an exact surface to judge again (engine.exact_fit.better_candidates): the
 sample's scores carry its chordal error, and a short finish leaves a pose near the right one
 short of it (NIST FTC-07's 90-point patch: a candidate 0.27 mm from the truth at 1.86 x the
-score of a pose 283 mm off, which the exact faces put at 12 x the truth's). Each costs a fit on
-the exact faces, about 1 s for a pose millimetres off (FTC-07 with 2,000 points: candidates
-at 54 x are not kept)."""
+score of a pose 283 mm off, which the exact faces put at 12 x the truth's). Each costs a fit of
+128 points on the exact faces, up to about 1 s when they lie millimetres off them (FTC-07
+with 2,000 points: 2.1 s for two candidates at 54 x, which are not kept now)."""
 
 
 def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.ndarray,
@@ -237,21 +237,35 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     poses = [finished[i].T_nominal_measured if i in finished else refined[i]
              for i in range(len(refined))]
     scores = [final.get(i, scores[i]) for i in range(len(refined))]
-    runner = min((j for j in range(len(refined)) if j != chosen
-                  and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
-                 key=lambda j: scores[j], default=None)
-    others = sorted((j for j in range(len(refined)) if j not in (chosen, runner)
-                     and scores[j] <= CANDIDATE_SCORE_RATIO * final[chosen]
-                     and distinct_poses(poses[j], Tb, measured[sub], nominal.diagonal)),
-                    key=lambda j: scores[j])
+    runner, others = _runner_up(poses, scores, chosen, measured[sub], nominal.diagonal)
     return RegistrationResult.from_fit(
         Tb, fit.deviations, fit.inlier, fit.rule, near, converged=fit.converged,
         iterations=iterations + sum(f.iterations for f in finished.values()),
         score=final[chosen], hypotheses=hypotheses,
         runner_up_score=None if runner is None else scores[runner],
         runner_up_T=None if runner is None else poses[runner], deviation_s=fit.deviation_s,
-        message=fit.message, near_rule=near_rule,
-        candidates=tuple(poses[j] for j in others))
+        message=fit.message, near_rule=near_rule, candidates=others)
+
+
+def _runner_up(poses: list, scores: list, chosen: int, src: np.ndarray, diagonal: float
+               ) -> tuple[int | None, tuple[np.ndarray, ...]]:
+    """(runner, others) among the candidate poses (4, 4) with their ``scores``: the runner-up,
+    the best-scoring one distinct (:func:`distinct_poses` on the points ``src``) from the
+    ``chosen`` one (None: none is); the others, best first, those scoring within
+    CANDIDATE_SCORE_RATIO of the chosen one, each distinct from it, the runner-up and each
+    other."""
+    runner = min((j for j in range(len(poses))
+                  if j != chosen and distinct_poses(poses[j], poses[chosen], src, diagonal)),
+                 key=lambda j: scores[j], default=None)
+    kept = [poses[chosen]] if runner is None else [poses[chosen], poses[runner]]
+    others = []
+    for j in sorted(range(len(poses)), key=lambda j: scores[j]):
+        if j in (chosen, runner) or scores[j] > CANDIDATE_SCORE_RATIO * scores[chosen]:
+            continue
+        if all(distinct_poses(poses[j], Tk, src, diagonal) for Tk in kept):
+            others.append(poses[j])
+            kept.append(poses[j])
+    return runner, tuple(others)
 
 
 def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
@@ -307,8 +321,9 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
       on a plane, ``p0`` on each of those anchors at ``n_patch_rotations`` evenly spread
       rotations, whatever its normal.
 
-    ``p0`` is a measured point near the measured centroid whose neighbours lie on a plane (so that
-    its normal means something); the centroid itself may be in the air (two faces of a bracket).
+    ``p0`` is a measured point near the measured centroid whose neighbours lie nearest a plane
+    (so that its normal means something where they do); the centroid itself may be in the air
+    (two faces of a bracket).
     """
     cm = measured.mean(axis=0)
     cn = nominal.points.mean(axis=0)
@@ -347,9 +362,10 @@ def _radius(pts: np.ndarray) -> float:
 
 
 def _reference_point(measured: np.ndarray, extent: float, seed: int):
-    """(p0, n0, flatness): a measured point near the centroid whose neighbourhood is planar,
-    its unit normal, and how far from planar that neighbourhood is (the least variance of its
-    8 points over the middle one: 0 on a plane) (``seed``: the inspection's, engine.seeds)."""
+    """(p0, n0, flatness): a measured point near the centroid whose neighbourhood is the
+    flattest there, its unit normal, and how far from planar that neighbourhood is (the least
+    variance of its 8 points over the middle one: 0 on a plane) (``seed``: the inspection's,
+    engine.seeds)."""
     measured = measured[spread_subset(measured, 4096, seed)]
     n = measured.shape[0]
     k = min(8, n)

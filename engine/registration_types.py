@@ -42,7 +42,12 @@ class RegistrationSettings:
     neighbourhood of 8 points near the centroid lies on one face, flatness 0.08-0.78, their
     normals 37-88 degrees off, and no start came within 20 mm of the answer)."""
     patch_radius: float = 0.8
+    """A measurement covers only part of the nominal when its RMS radius about its centroid is
+    below this fraction of the nominal's (full coverage: about 1, in any pose) …"""
     patch_flatness: float = 0.01
+    """… and the reference point's normal cannot be trusted when the least variance of its 8
+    neighbours exceeds this fraction of their middle one (a sparse patch's neighbours span
+    faces; so may a dense but noisy or strongly curved one's, which costs those starts too)."""
     coarse_size: int = 1000
     """Nominal points in the coarsest ICP level, at least …"""
     coarse_samples_per_area: float = 500.0
@@ -179,7 +184,9 @@ class RegistrationResult:
         deviations while they are small against ``outlier_floor`` x the nominal's diagonal, a
         point beyond that counting by the logarithm of its distance); in 2D the truncated RMS
         sqrt(mean(min(d^2, cut^2))) at the smallest robust cut among the candidates; lower is
-        better; the same measure on the same points scores the runner-up pose.
+        better; the same measure on the same points scores the runner-up pose (in 3D on a STEP
+        model's exact faces, a runner-up too far behind for them to judge stays as far behind
+        the pose as the sample scored it: engine.exact_fit.on_exact_scale).
     runner_up_score, runner_up_T : score and pose of the best pose distinct from the chosen one
         (None when the global search ended with a single distinct pose); in 3D below ``score``
         only when the runner-up, refined on a STEP model's exact faces, scores better there and
