@@ -224,9 +224,11 @@ class RegistrationResult:
     rms_definition: str = SURFACE_RMS
     symmetric: bool = False
     candidates: tuple[np.ndarray, ...] = ()
-    """The other poses (4, 4) the registration's last stage carried to its end, each distinct
-    from the chosen pose and the runner-up, best score first (at their finished poses where
-    they were finished): engine.exact_fit judges them again on an exact surface."""
+    """The other poses (4, 4) the registration's last stage carried to its end that score
+    within engine.registration.CANDIDATE_SCORE_RATIO of the chosen one, each distinct from it,
+    the runner-up and each other, best score first (at their finished poses where they were
+    finished): engine.exact_fit judges them again on an exact surface, and leaves them as the
+    registration found them (empty in 2D)."""
 
     @property
     def near_fraction(self) -> float:
