@@ -40,6 +40,7 @@ def finish_exactly(reg, posed: Posed, nominal: Nominal, settings: RegistrationSe
     zone_width : the tolerance zone's, mm."""
     measured = posed.points
     seed = settings.seed
+    scale = settings.outlier_floor * nominal.diagonal
     sample_score = reg.score
     reg = exact_fit(reg, posed, zone_width, seed)
     judged = plausible_runner_up(reg)  # the sample's judgement of both poses
@@ -50,8 +51,7 @@ def finish_exactly(reg, posed: Posed, nominal: Nominal, settings: RegistrationSe
     # patch, 1.29 mm at a pose whose every exact deviation is within 0.01 mm).
     if not judged:
         reg = on_exact_scale(reg, pose_score(
-            reg.deviations.signed[_score_points(measured.shape[0], seed)],
-            settings.outlier_floor * nominal.diagonal), sample_score)
+            reg.deviations.signed[_score_points(measured.shape[0], seed)], scale), sample_score)
 
     def better(reg, starts):
         return better_pose(reg, starts, posed, measured, nominal.diagonal,
@@ -71,7 +71,6 @@ def finish_exactly(reg, posed: Posed, nominal: Nominal, settings: RegistrationSe
     # its exact least squares stalled 1.23 mm from the truth along such a direction, 28 edge
     # points 0.06-1.2 mm off and kept, rms 0.18 mm against the truth's 0.002 mm; the other 571
     # leave that direction wholly free.)
-    scale = settings.outlier_floor * nominal.diagonal
     d = reg.deviations.signed
     fitting = reg.inlier & (np.abs(d) <= robust_cut(d[reg.inlier], settings.outlier_sigmas,
                                                     scale))
@@ -183,11 +182,13 @@ RUNNER_UP_FIT_ITERATIONS = 20
 """Gauss-Newton iterations at most of the runner-up's exact least squares."""
 
 
-def _score_points(n: int, seed: int) -> np.ndarray:
-    """The seeded points (indices, sorted) of ``n`` that the exact scores are taken over."""
-    if n <= EXACT_SCORE_POINTS:
+def _score_points(n: int, seed: int, count: int = EXACT_SCORE_POINTS,
+                  stream: int = EXACT_SCORE_SEED) -> np.ndarray:
+    """The seeded points (indices, sorted) of ``n`` that the exact scores are taken over: all of
+    them up to ``count``, else a random choice of ``count`` from random ``stream``."""
+    if n <= count:
         return np.arange(n)
-    return np.sort(rng(seed, EXACT_SCORE_SEED).choice(n, EXACT_SCORE_POINTS, replace=False))
+    return np.sort(rng(seed, stream).choice(n, count, replace=False))
 
 
 def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, floor: float,
@@ -234,9 +235,7 @@ def better_candidates(reg, posed: Posed, diagonal: float, floor: float, zone_wid
     behind a runner-up 151 mm off; fitted exactly, that candidate fits at the noise.)"""
     if not reg.candidates:
         return []
-    n = reg.deviations.signed.size
-    idx = np.arange(n) if n <= SCREEN_POINTS else np.sort(
-        rng(seed, SCREEN_SEED).choice(n, SCREEN_POINTS, replace=False))
+    idx = _score_points(reg.deviations.signed.size, seed, SCREEN_POINTS, SCREEN_SEED)
     scale = floor * diagonal
     score = pose_score(reg.deviations.signed[idx], scale)
     found = []
@@ -287,7 +286,8 @@ def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float
         return reg
     others = [(score, reg.T_nominal_measured)]
     if reg.runner_up_T is not None:
-        # Scored again as the others are (an implausible runner-up kept the sample's score).
+        # Scored again as the others are (an implausible runner-up's score is the sample's
+        # difference from the pose, engine.exact_fit.on_exact_scale, not its own).
         others.append((pose_score(posed.deviations_at(reg.runner_up_T, idx), scale),
                        reg.runner_up_T))
     others = [(s, T) for s, T in others
