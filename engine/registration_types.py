@@ -28,6 +28,16 @@ class RegistrationSettings:
     max_anchors: int = 256
     """At most this many anchors for the normal-aligned hypotheses (one per voxel of a tenth of
     the measured extent, the voxel grown until no more remain)."""
+    patch_anchor_voxel: float = 0.05
+    """When the measured points cover only part of the nominal (see ``patch_radius``) and the
+    best pose found scores worse than the zone's width, the search is run again with the
+    normal-aligned hypotheses alone, at anchors one per voxel of this fraction of the measured
+    extent (a tenth the first time), …"""
+    max_patch_anchors: int = 1024
+    """… at most this many: a patch's point is put on an anchor, and a sparse patch's few points
+    bring a start home only from within a few percent of its extent. (Denser anchors from the
+    start took a seat bracket's two-face patch, sampled, to a pose slid 2 mm along its weak
+    direction, INCONCLUSIVE, instead of the truth.)"""
     n_spins: int = 18
     """Spins about the normal tried at each anchor by the normal-aligned hypotheses (20 degrees
     apart: the right anchor's nearest spin starts within 10 degrees of the answer; 30 degrees
