@@ -173,8 +173,9 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist,
 
 SHIFT_STEPS = 3
 """Grid places each way along each axis that :func:`shifted_poses` scores ((2k + 1)^3 shifts,
-each an exact evaluation of 2 x SCAN_POINTS points: 0.55-0.6 s on CTC-03's patch, where
-they lie millimetres off the faces) …"""
+each an exact evaluation of 2 x SCAN_POINTS points: 0.55-0.6 s on CTC-03's 90-point patches,
+where they lie millimetres off the faces; 2.4-2.9 s on FTC-08's of seed 5455, up to 10 mm
+off) …"""
 SHIFT_REACH = 2.0
 """… reaching this x the largest deviation of a point left out (a shift oblique to that point's
 normal must go further than its deviation) …"""
@@ -234,7 +235,8 @@ def jumped_poses(measured: np.ndarray, T: np.ndarray, dev, kept: np.ndarray, sur
     """Poses (4, 4) to fit again from, best first: the pose T shifted along the foot normal of
     a point left out by its deviation (each of up to SCAN_POINTS of them, spread), so that it
     meets the nominal, kept if a few kept and left-out points score better there than at T on
-    ``surface`` (pose_loss at ``scale``). Empty when no point was left out.
+    ``surface`` (pose_loss at ``scale``, each stratum weighing as its points do), and more of
+    them again. Empty when no point was left out.
 
     A patch of a thin wall's one side fits its other side too (unsigned distances), and the
     pose then rests one wall's thickness off with every point but those of the next face at
