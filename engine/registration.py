@@ -355,22 +355,22 @@ def _hypotheses(nominal: Nominal, measured: np.ndarray, lvl_pts: np.ndarray,
     (so that its normal means something where they do); the centroid itself may be in the air
     (two faces of a bracket).
     """
-    cm = measured.mean(axis=0)
-    cn = nominal.points.mean(axis=0)
-    Em, _ = _principal_axes(measured - cm)
-    En, _ = _principal_axes(lvl_pts - lvl_pts.mean(axis=0))
-    pca = np.asarray([En @ np.diag(s) @ Em.T
-                      for s in ([1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1])])
     extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
     p0, n0, flatness = _reference_point(measured, extent, settings.seed)
+    R_all: list[np.ndarray] = []
+    t_all: list[np.ndarray] = []
+    if not dense:
+        cm = measured.mean(axis=0)
+        cn = nominal.points.mean(axis=0)
+        Em, _ = _principal_axes(measured - cm)
+        En, _ = _principal_axes(lvl_pts - lvl_pts.mean(axis=0))
+        pca = np.asarray([En @ np.diag(s) @ Em.T
+                          for s in ([1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1])])
+        U = uniform_rotations(settings.n_rotations)
+        few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors, settings.seed)]
+        R_all += [pca, U, np.repeat(U, few.shape[0], axis=0)]
+        t_all += [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
 
-    U = uniform_rotations(settings.n_rotations)
-    few = lvl_pts[spread_subset(lvl_pts, settings.min_anchors, settings.seed)]
-    R_all = [pca, U, np.repeat(U, few.shape[0], axis=0)]
-    t_all = [cn - pca @ cm, cn - U @ cm, np.tile(few, (U.shape[0], 1)) - R_all[-1] @ p0]
-
-    if dense:
-        R_all, t_all = [], []
     voxel, cap = ((settings.patch_anchor_voxel, settings.max_patch_anchors) if dense
                   else (0.1, settings.max_anchors))
     anchor_idx = voxel_spread(lvl_pts, voxel * extent, cap)

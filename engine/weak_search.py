@@ -105,11 +105,9 @@ def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept:
     if not twists:
         return []
     inside = np.flatnonzero(kept)
-    use = np.concatenate([inside[spread_subset(X[inside], SLIDE_POINTS)],
-                          out[spread_subset(X[out], SLIDE_POINTS)]])
+    use = np.concatenate(_spread_each(X, inside, out, SLIDE_POINTS))
     found: list[tuple[float, np.ndarray]] = []
-    scanned = np.concatenate([inside[spread_subset(X[inside], SCAN_POINTS)],
-                              out[spread_subset(X[out], SCAN_POINTS)]])
+    scanned = np.concatenate(_spread_each(X, inside, out, SCAN_POINTS))
     for twist in twists:
         found.extend(_along(nominal, T, X[scanned], X[use], twist, cond, surface, scale))
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
@@ -208,8 +206,7 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
                 SHIFT_REACH_OF_DIAGONAL * nominal.diagonal)
     X = apply_transform(T, measured)
     inside = np.flatnonzero(kept)
-    p_in = inside[spread_subset(X[inside], SCAN_POINTS)]
-    p_out = out[spread_subset(X[out], SCAN_POINTS)]
+    p_in, p_out = _spread_each(X, inside, out, SCAN_POINTS)
     P = X[np.concatenate([p_in, p_out])]
     wp = _stratum_weights(p_in.size, p_out.size, inside.size, out.size)
     k, n = SHIFT_STEPS, 2 * SHIFT_STEPS + 1
@@ -217,14 +214,11 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
     shifts = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
     loss = pose_loss(surface.deviations((P[None] + shifts[:, None]).reshape(-1, 3))
                      .signed.reshape(shifts.shape[0], -1), scale, wp).reshape(n, n, n)
-    # Local minima over each place's 26 neighbours (beyond the grid counts as higher).
-    padded = np.pad(loss, 1, constant_values=np.inf)
-    lowest = np.full(loss.shape, np.inf)
-    for di in range(3):
-        for dj in range(3):
-            for dl in range(3):
-                if (di, dj, dl) != (1, 1, 1):
-                    lowest = np.minimum(lowest, padded[di:di + n, dj:dj + n, dl:dl + n])
+    # Local minima: no lower place among each one's 26 neighbours (beyond the grid counts as
+    # higher).
+    from scipy.ndimage import minimum_filter  # only here, as engine.weak_search's scipy.optimize
+
+    lowest = minimum_filter(loss, size=3, mode="constant", cval=np.inf)
     minima = np.flatnonzero(((loss <= lowest) & (loss < loss[k, k, k])).ravel())
     minima = minima[np.argsort(loss.ravel()[minima], kind="stable")][:SHIFT_CANDIDATES]
     return _confirmed(X, inside, out, shifts[minima], T, surface, scale)
@@ -247,11 +241,11 @@ def jumped_poses(measured: np.ndarray, T: np.ndarray, dev, kept: np.ndarray, sur
         return []
     X = apply_transform(T, measured)
     inside = np.flatnonzero(kept)
-    movers = out[spread_subset(X[out], SCAN_POINTS)]
-    P = X[np.concatenate([inside[spread_subset(X[inside], SCAN_POINTS)], movers])]
+    stay, movers = _spread_each(X, inside, out, SCAN_POINTS)
+    P = X[np.concatenate([stay, movers])]
     shifts = -dev.signed[movers, None] * dev.normal[movers]
     moved = P[None] + shifts[:, None]
-    w = _stratum_weights(P.shape[0] - movers.size, movers.size, inside.size, out.size)
+    w = _stratum_weights(stay.size, movers.size, inside.size, out.size)
     loss = pose_loss(surface.deviations(moved.reshape(-1, 3)).signed.reshape(len(shifts), -1),
                      scale, w)
     here = float(pose_loss(surface.deviations(P).signed, scale, w))
@@ -268,8 +262,7 @@ def _confirmed(X: np.ndarray, inside: np.ndarray, out: np.ndarray, shifts: np.nd
     first."""
     if shifts.shape[0] == 0:
         return []
-    q_in = inside[spread_subset(X[inside], SLIDE_POINTS)]
-    q_out = out[spread_subset(X[out], SLIDE_POINTS)]
+    q_in, q_out = _spread_each(X, inside, out, SLIDE_POINTS)
     Q = X[np.concatenate([q_in, q_out])]
     w = _stratum_weights(q_in.size, q_out.size, inside.size, out.size)
     loss = pose_loss(surface.deviations((Q[None] + shifts[:, None]).reshape(-1, 3)).signed
@@ -277,6 +270,13 @@ def _confirmed(X: np.ndarray, inside: np.ndarray, out: np.ndarray, shifts: np.nd
     here = float(pose_loss(surface.deviations(Q).signed, scale, w))
     return [make_transform(np.eye(3), shifts[i]) @ T
             for i in np.argsort(loss, kind="stable") if loss[i] < here]
+
+
+def _spread_each(X: np.ndarray, inside: np.ndarray, out: np.ndarray,
+                 m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Up to ``m`` of the kept points (indices ``inside`` into X, the points at the pose) and up
+    to ``m`` of those left out (``out``), each spread over its own (spread_subset)."""
+    return inside[spread_subset(X[inside], m)], out[spread_subset(X[out], m)]
 
 
 def _stratum_weights(n_kept_chosen: int, n_out_chosen: int, n_kept: int,
