@@ -89,14 +89,16 @@ def scan_directions(X: np.ndarray, normals: np.ndarray, kept: np.ndarray, rms: f
 
 
 def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept: np.ndarray,
-               rms: float, surface, scale: float) -> list[np.ndarray]:
+               rms: float, surface, scale: float,
+               reach: float | None = None) -> list[np.ndarray]:
     """Poses (4, 4) to fit again from, best first: the pose T slid along each direction that the
     ``kept`` points (n,) bool leave weak, to where the points left out meet the nominal. Empty
     when no point was left out or no direction is weak.
 
     dev : every point's deviations at T (normals at their feet); rms : the fit's over the kept
     points; surface : the surface judged (engine.surface.Surface); scale : pose_score's
-    (``outlier_floor`` x the nominal's diagonal)."""
+    (``outlier_floor`` x the nominal's diagonal); reach : the largest motion scanned, mm at the
+    kept points' RMS radius (None: the nominal's extent, a whole turn)."""
     out = np.flatnonzero(~kept)
     if out.size == 0 or np.count_nonzero(kept) < 6:
         return []
@@ -109,17 +111,18 @@ def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept:
     found: list[tuple[float, np.ndarray]] = []
     scanned = np.concatenate(_spread_each(X, inside, out, SCAN_POINTS))
     for twist in twists:
-        found.extend(_along(nominal, T, X[scanned], X[use], twist, cond, surface, scale))
+        found.extend(_along(nominal, T, X[scanned], X[use], twist, cond, surface, scale,
+                            reach))
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
 
 
 def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist, cond, surface,
-           scale: float):
+           scale: float, reach: float | None = None):
     """[(loss, pose)] at the best places along the unit motion ``twist`` (rotation in mm at
     ``cond.length`` about ``cond.centre``, then translation; engine.pose.screw_motion) from pose
     T: the local minima of the loss of a few points P (m, 3; kept and left out, at T) on
     ``surface``, each refined by the loss of more of them, Q; those that score better there than
-    T itself. Both losses are pose_score's at ``scale``."""
+    T itself. Both losses are pose_score's at ``scale``. reach : slid_poses'."""
     twist = np.asarray(twist, float)
     centre, length = np.asarray(cond.centre, float), cond.length
     rot, tr = float(np.linalg.norm(twist[:3])), float(np.linalg.norm(twist[3:]))
@@ -132,6 +135,11 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist,
     # turn) comes back to where it started: the places wrap round, a whole turn in 2k steps.
     pitch = abs(float(twist[:3] @ twist[3:])) / rot * 2.0 * span if rot >= tr else 0.0
     periodic = rot >= tr and pitch < diagonal_step
+    # A short slide (``reach``) is refined within it too; a long one may be refined a step past
+    # the nominal's extent.
+    limit = np.inf
+    if reach is not None and reach < span:
+        span, periodic, limit = reach, False, reach
     k = max(int(np.ceil(span / max(diagonal_step, 2.0 * span / SLIDE_MAX_STEPS))), 1)
     step = span / k
     amps = step * np.arange(-k, k if periodic else k + 1)
@@ -162,7 +170,8 @@ def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist,
     here_loss = surface_loss(0.0)
     found = []
     for run in chosen:
-        r = minimize_scalar(surface_loss, bounds=(amps[run[0]] - step, amps[run[-1]] + step),
+        r = minimize_scalar(surface_loss, bounds=(max(amps[run[0]] - step, -limit),
+                                                  min(amps[run[-1]] + step, limit)),
                             method="bounded", options={"xatol": 1e-3 * step})
         if r.fun < here_loss:
             found.append((float(r.fun), motion(float(r.x)) @ T))

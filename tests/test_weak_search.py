@@ -61,6 +61,20 @@ def test_a_pose_slid_along_the_free_direction_is_found_where_the_left_out_points
     assert pose_score(posed.deviations_at(best, np.arange(len(P))), scale) < 0.01
 
 
+@pytest.mark.parametrize("reach, home", [(8.0, False), (20.0, True)])
+def test_a_short_slide_reaches_no_further_than_it_is_told(block, reach, home):
+    """A slide given a reach scans only that far (engine.exact_fit's short slide of a
+    candidate): the pose slid 15 mm comes home with a reach of 20 mm, not with one of 8 mm."""
+    nominal, exact = block
+    P, kept = _prismatic_patch_and_boss(np.random.default_rng(4))
+    T = make_transform(np.eye(3), np.array([15.0, 0.0, 0.0]))
+    _, dev = Posed(exact, P).at(T)
+    found = slid_poses(nominal, P, T, dev, kept, 0.0, exact, 1e-4 * nominal.diagonal, reach)
+    at_home = [F for F in found if np.allclose(F[:3, 3], 0.0, atol=0.01)]
+    assert bool(at_home) == home, [F[:3, 3] for F in found]
+    assert all(abs(F[0, 3] - 15.0) <= reach + 1e-6 for F in found)
+
+
 def test_nothing_is_searched_when_no_point_was_left_out_or_nothing_is_free(block):
     nominal, exact = block
     P, kept = _prismatic_patch_and_boss(np.random.default_rng(4))
