@@ -75,42 +75,60 @@ def register(nominal: Nominal, measured: np.ndarray,
     zone_width : the tolerance zone's width, mm, when known: a gross outlier lies beyond several
     zone widths (engine.outliers); without it, the robust spread and a floor of
     ``gross_floor_without_zone`` x the nominal's diagonal decide. With it, a patch whose best
-    pose scores worse than the zone's width, or leaves gross outliers, is searched again with
-    denser anchors (``RegistrationSettings.patch_anchor_voxel``)."""
+    pose scores worse than the zone's width is searched again with denser anchors
+    (:func:`search_densely`)."""
     measured = np.ascontiguousarray(measured, dtype=np.float64)
-    # The coarsest level must still put a few hundred samples under the measured area.
-    extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
-    ratio = nominal.diagonal / max(extent, 1e-12)
-    coarse = int(np.clip(settings.coarse_samples_per_area * ratio * ratio,
-                         settings.coarse_size, 16 * settings.coarse_size))
+    coarse = _coarse_level(nominal, measured, settings)
     T, sub, n_hyp = _global_search(nominal, measured, coarse, settings)
     T, iters = _coarse_to_fine(nominal, measured, T, coarse, settings)
     found = _final_fit(nominal, measured, list(T), sub, settings, zone_width,
                        hypotheses=n_hyp, iterations=iters)
-    if zone_width is None or (found.score <= zone_width
-                              and found.n_inliers == measured.shape[0]) \
+    if zone_width is None or found.score <= zone_width \
             or not covers_part_only(measured, nominal.level(settings.coarse_size)[0], settings):
         return found
-    # A patch whose best pose leaves the typical point out of the zone, or some points off the
-    # part (gross outliers): its starts may all have been too far from the truth (NIST CTC-01
-    # and FTC-06, 90 points on 30% of the part: the nearest anchor with the reference point's
-    # normal lay 27 and 36 mm from its true place, no start came within 20 mm, and the poses
-    # found put 85 and 90 of 90 points out, sample scores 4.8 and 1.3 mm. CTC-05 (AP242), seed
-    # 5555: a look-alike 402 mm off fitting 85 of 90 points, 0.072 mm, under the zone's width;
-    # the best start 53 mm off). The search again, with denser anchors (0.18 and 0.067 mm
-    # there; 0.056 mm on CTC-05, 0.2 mm from the truth). Its answer replaces the first only if
-    # it scores far better (RETRY_GAIN); either way the other is kept among the candidates, for
-    # an exact surface to judge (engine.exact_fit.better_candidates: CTC-05's, 0.0021 mm
-    # exactly against the look-alike's 0.036).
-    T2, _, n2 = _global_search(nominal, measured, coarse, settings, dense=True)
-    T2, iters2 = _coarse_to_fine(nominal, measured, T2, coarse, settings)
-    again = _final_fit(nominal, measured, list(T2), sub, settings, zone_width,
-                       hypotheses=n_hyp + n2, iterations=iters + iters2)
+    # A patch whose best pose leaves the typical point out of the zone: its starts may all
+    # have been too far from the truth (NIST CTC-01 and FTC-06, 90 points on 30% of the part:
+    # the nearest anchor with the reference point's normal lay 27 and 36 mm from its true
+    # place, no start came within 20 mm, and the poses found put 85 and 90 of 90 points out,
+    # sample scores 4.8 and 1.3 mm). The search again, with denser anchors (0.18 and 0.067 mm
+    # there); its answer replaces the first only if it scores far better (RETRY_GAIN), and
+    # the other is kept among the candidates, for an exact surface to judge
+    # (engine.exact_fit.better_candidates).
+    again = search_densely(nominal, measured, settings, zone_width)
+    again = replace(again, hypotheses=n_hyp + again.hypotheses,
+                    iterations=iters + again.iterations)
     chosen, other = (again, found) if again.score < RETRY_GAIN * found.score else (found, again)
     if not distinct_poses(other.T_nominal_measured, chosen.T_nominal_measured, measured[sub],
                           nominal.diagonal):
         return chosen
     return replace(chosen, candidates=(other.T_nominal_measured, *chosen.candidates))
+
+
+def search_densely(nominal: Nominal, measured: np.ndarray, settings: RegistrationSettings,
+                   zone_width: float | None) -> RegistrationResult:
+    """The search for a patch again, with the normal-aligned starts alone at denser anchors
+    (``RegistrationSettings.patch_anchor_voxel``), refined and finished as :func:`register`'s
+    own: its answer (hypotheses and iterations its own). register runs it when a patch's pose
+    scores worse than the zone's width; engine.exact_fit when a patch's pose still calls points
+    gross outliers on the exact faces (NIST CTC-05 (AP242), seed 5555: a look-alike 402 mm off
+    fitting 85 of 90 points, 0.072 mm on the sample, under the zone's width, the best start 53
+    mm from the truth; this search's answer, 0.2 mm from it, scores 0.056 mm there, and on the
+    exact faces 0.0021 mm against the look-alike's 0.036)."""
+    measured = np.ascontiguousarray(measured, dtype=np.float64)
+    coarse = _coarse_level(nominal, measured, settings)
+    T, sub, n = _global_search(nominal, measured, coarse, settings, dense=True)
+    T, iters = _coarse_to_fine(nominal, measured, T, coarse, settings)
+    return _final_fit(nominal, measured, list(T), sub, settings, zone_width, hypotheses=n,
+                      iterations=iters)
+
+
+def _coarse_level(nominal: Nominal, measured: np.ndarray, settings: RegistrationSettings) -> int:
+    """The nominal's coarsest level for these measured points: it must still put a few hundred
+    samples under the measured area."""
+    extent = float(np.linalg.norm(measured.max(0) - measured.min(0)))
+    ratio = nominal.diagonal / max(extent, 1e-12)
+    return int(np.clip(settings.coarse_samples_per_area * ratio * ratio,
+                       settings.coarse_size, 16 * settings.coarse_size))
 
 
 def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,

@@ -318,10 +318,9 @@ def test_a_look_alike_under_the_zone_s_width_that_leaves_points_off_is_searched_
     --poses 10 --points 300 --seed 3550): no start came within 50 mm of the truth, and the
     pose chosen, a look-alike 402 mm off, fitted 85 of 90 points on the nominal's sample at
     0.072 mm, under the zone's width, so the search with denser anchors did not run: a
-    confident REJECT of a perfect part, 2 points out. A patch whose pose leaves gross outliers
-    is searched again too; that search's answer, 0.2 mm from the truth, scores 0.056 mm on the
-    sample (not half the first's), and is kept as a candidate for the exact faces, where it
-    scores 0.0021 mm against the look-alike's 0.036."""
+    confident REJECT of a perfect part, 2 points out. A patch whose pose still calls points
+    gross outliers on the exact faces is searched again too; that search's answer, 0.2 mm from
+    the truth, scores 0.0021 mm there against the look-alike's 0.036."""
     res, (outcome, err) = _inspect_case("nist_ctc_05_asme1_ap242-e1.stp", "cover30", 5555, n=300)
     assert outcome == "right" and res.verdict == "ACCEPT", (outcome, err, res.reasons)
     assert res.registration.rms < 0.003
