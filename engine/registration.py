@@ -98,8 +98,11 @@ def register(nominal: Nominal, measured: np.ndarray,
     again = replace(again, hypotheses=n_hyp + again.hypotheses,
                     iterations=iters + again.iterations)
     chosen, other = (again, found) if again.score < RETRY_GAIN * found.score else (found, again)
-    if not distinct_poses(other.T_nominal_measured, chosen.T_nominal_measured, measured[sub],
-                          nominal.diagonal):
+    known = [chosen.T_nominal_measured, *chosen.candidates]
+    if chosen.runner_up_T is not None:
+        known.append(chosen.runner_up_T)
+    if not all(distinct_poses(other.T_nominal_measured, K, measured[sub], nominal.diagonal)
+               for K in known):
         return chosen
     return replace(chosen, candidates=(other.T_nominal_measured, *chosen.candidates))
 

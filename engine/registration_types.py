@@ -237,8 +237,10 @@ class RegistrationResult:
     """The other poses (4, 4) the registration's last stage carried to its end that score
     within engine.registration.CANDIDATE_SCORE_RATIO of the chosen one, each distinct from it,
     the runner-up and each other, best score first (at their finished poses where they were
-    finished): engine.exact_fit judges them again on an exact surface, and leaves them as the
-    registration found them (empty in 2D)."""
+    finished); first of all, when a patch was searched again with denser anchors, the answer
+    of the search not chosen, if distinct from them all, whatever it scores
+    (engine.registration.register). engine.exact_fit judges them again on an exact surface,
+    and leaves them as the registration found them (empty in 2D)."""
 
     @property
     def near_fraction(self) -> float:

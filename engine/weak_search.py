@@ -249,7 +249,7 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
     # Each line reaches as far as the grid would for its point alone; a line whose steps would
     # be coarser than LINE_STEP_OF_SCALE x scale finds no narrow basin (a mis-probe millimetres
     # off, whose points off the faces cost 0.5 ms an evaluation each: 0.7 s a grid's lines).
-    along = SHIFT_REACH * np.abs(dev.signed[p_out])
+    along = np.minimum(SHIFT_REACH * np.abs(dev.signed[p_out]), reach)
     movers = np.flatnonzero(along <= LINE_STEPS * LINE_STEP_OF_SCALE * scale)
     if movers.size == 0:
         return found
@@ -258,9 +258,12 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
              * (along[movers, None] * a[None, :])[:, :, None]).reshape(-1, 3)
     line_loss = pose_loss(surface.deviations((P[None] + lines[:, None]).reshape(-1, 3))
                           .signed.reshape(lines.shape[0], -1), scale, wp).reshape(movers.size, -1)
+    # A place lower than the pose itself (each line's middle, exactly T) and than the place
+    # before it, and not above the one after (a run of equal places is one: its first).
     edged = np.pad(line_loss, ((0, 0), (1, 1)), constant_values=np.inf)
-    on_line = np.flatnonzero(((line_loss <= edged[:, :-2]) & (line_loss <= edged[:, 2:])
-                              & (line_loss < loss[k, k, k])).ravel())
+    here = line_loss[:, LINE_STEPS:LINE_STEPS + 1]
+    on_line = np.flatnonzero(((line_loss < edged[:, :-2]) & (line_loss <= edged[:, 2:])
+                              & (line_loss < here)).ravel())
     on_line = on_line[np.argsort(line_loss.ravel()[on_line], kind="stable")][:SHIFT_CANDIDATES]
     return found + [make_transform(np.eye(3), lines[i]) @ T for i in on_line]
 
