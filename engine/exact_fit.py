@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .nominal import Nominal
-from .pose import apply_update, lower_along, pose_jacobian
+from .pose import apply_update, lower_along, make_transform, pose_jacobian
 from .progress import within
 from .registration import covers_part_only, distinct_poses, pose_score, search_densely
 from .registration_types import RegistrationSettings
@@ -236,13 +236,8 @@ def _turned_half_way(nominal: Nominal, T: np.ndarray) -> list[np.ndarray]:
     against 0.0254. The turns about the principal axes of its tessellation's points land
     200-500 mm off.)"""
     centre = 0.5 * (nominal.points.min(axis=0) + nominal.points.max(axis=0))
-    turns = []
-    for axis in np.eye(3):
-        R = 2.0 * np.outer(axis, axis) - np.eye(3)  # a half turn about ``axis``
-        S = np.eye(4)
-        S[:3, :3], S[:3, 3] = R, centre - R @ centre
-        turns.append(S @ T)
-    return turns
+    halves = [2.0 * np.outer(axis, axis) - np.eye(3) for axis in np.eye(3)]  # half turns
+    return [make_transform(R, centre - R @ centre) @ T for R in halves]
 
 
 SHORT_SLIDE_REACH = 2.0
