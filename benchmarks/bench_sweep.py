@@ -5,12 +5,13 @@
     .venv/bin/python benchmarks/bench_sweep.py --poses 3       # 3 random poses per case
     .venv/bin/python benchmarks/bench_sweep.py --parts ctc_01 ftc_06 --defects none bow1.0
 
-The cases and the truth are tests/sweep.py's: 2,000 points area-uniform on the exact B-rep faces,
-2 µm noise, the defect, a random pose; the truth is the least-squares pose started from the
-known pose, by Gauss-Newton on OpenCascade's exact distances. *right*: the truth's verdict and
-every deviation within 0.01 mm of the truth's; *INCONCLUSIVE*: the product said it could not
-tell (``pose right`` says whether its pose was right all the same); *wrong*: a confident verdict
-at a wrong pose or the wrong verdict. A file the reader refuses counts as *refused*.
+The cases and the truth are tests/sweep.py's: 2,000 points area-uniform on the exact B-rep
+faces, 2 µm noise (``--noise``), the defect, a random pose; the truth is the least-squares pose
+started from the known pose, by Gauss-Newton on OpenCascade's exact distances. *right*: the
+truth's verdict and every deviation within 0.01 mm of the truth's; *INCONCLUSIVE*: the product
+said it could not tell (``pose right`` says whether its pose was right all the same); *wrong*: a
+confident verdict at a wrong pose or the wrong verdict. A file the reader refuses counts as
+*refused*.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ def main() -> None:
                     help="tests/sweep.py's DEFECTS to plant (default: every one)")
     ap.add_argument("--points", type=int, default=2000)
     ap.add_argument("--tol", type=float, default=0.05)
+    ap.add_argument("--noise", type=float, default=0.002,
+                    help="standard deviation of the noise along the normal, mm")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
 
@@ -78,7 +81,7 @@ def main() -> None:
             for k in range(args.poses):
                 seed = args.seed + 1000 * k + DEFECTS.index(defect) if defect in DEFECTS \
                     else args.seed + k
-                case = make_case(part, defect, seed, n=args.points)
+                case = make_case(part, defect, seed, n=args.points, noise=args.noise)
                 d_true = truth(part, case)
                 t0 = time.perf_counter()
                 nominal = Nominal.from_point_set(part.point_set)

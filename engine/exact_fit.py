@@ -227,15 +227,16 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
                                   rms, posed.surface, scale, reach)[:SLID_FITS])
 
 
-def _turned_half_way(nominal: Nominal, T: np.ndarray, measured: np.ndarray) -> list[np.ndarray]:
+def _turned_half_way(nominal: Nominal, T: np.ndarray,
+                     measured: np.ndarray) -> list[np.ndarray]:
     """The pose T turned 180 degrees about each axis of the nominal's frame through the centre
     of its bounding box, where most ``measured`` points then lie near the nominal's finest
     sample (:data:`TURN_NEAR_SHARE`): a part that is nearly symmetric so (CAD parts are drawn
     along their frame's axes) fits a patch in both poses but for the feature that breaks the
     symmetry. (NIST CTC-05 (AP203), its 90-point patch, seed 7855: the pose the truth turned
     about z, 89 points at the noise and one 2.65 mm off; turned back it lands on the truth,
-    0.0019 mm against 0.0254, 87 % of its points near, the other two turns' 1 %. The turns about the principal axes of its tessellation's points land
-    200-500 mm off.)"""
+    0.0019 mm against 0.0254, 87 % of its points near, the other two turns' at most 1 %. The
+    turns about the principal axes of its tessellation's points land 200-500 mm off.)"""
     centre = 0.5 * (nominal.points.min(axis=0) + nominal.points.max(axis=0))
     halves = [2.0 * np.outer(axis, axis) - np.eye(3) for axis in np.eye(3)]  # half turns
     pts, nrm, tree = nominal.level(nominal.finest_level)
