@@ -267,14 +267,17 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
     movers = np.flatnonzero(along <= LINE_STEPS * LINE_STEP_OF_SCALE * scale)
     a = np.linspace(-1.0, 1.0, 2 * LINE_STEPS + 1)
     lines = [dev.normal[p_out[movers]][:, None, :] * (along[movers, None] * a)[:, :, None]]
-    # And along the direction the kept points constrain least, as far as the grid reaches, at
-    # that finest step: the wrong side of a thin wall lies there when the points on the
-    # wall's sides are few and the normal of a point left out points elsewhere (CTC-03's
-    # 90-point patch, seed 5105, noise 10 µm: 1.9 mm off along x, which 2 of the 86 kept points
-    # constrain; the points left out lie on faces whose normals are 14-76 degrees from x).
+    # And along the direction the kept points constrain least, as far as the grid may reach
+    # (SHIFT_REACH_OF_DIAGONAL), at that finest step (or WEAKEST_LINE_STEPS each way): the
+    # wrong side of a thin wall lies there when the points on the wall's sides are few and no
+    # point left out says how far (CTC-03's 90-point patches: seed 5105, noise 10 µm, 1.9 mm
+    # off along x, which 2 of the 86 kept points constrain, the 4 left out on faces whose
+    # normals are 14-76 degrees from x; seed 16855, 1.94 mm off along x, the 2 left out 0.09
+    # and 0.13 mm off, so that the grid reached 0.26 mm).
     weakest = np.linalg.eigh(dev.normal[inside].T @ dev.normal[inside])[1][:, 0]
-    k = int(min(np.ceil(reach / (LINE_STEP_OF_SCALE * scale)), WEAKEST_LINE_STEPS))
-    lines.append((weakest[None, :] * np.linspace(-reach, reach, 2 * k + 1)[:, None])[None])
+    far = SHIFT_REACH_OF_DIAGONAL * nominal.diagonal
+    k = int(min(np.ceil(far / (LINE_STEP_OF_SCALE * scale)), WEAKEST_LINE_STEPS))
+    lines.append((weakest[None, :] * np.linspace(-far, far, 2 * k + 1)[:, None])[None])
     minima = sorted((m for offsets in lines for m in _line_minima(P, wp, offsets, surface, scale)),
                     key=lambda m: m[0])[:SHIFT_CANDIDATES]
     return found + [make_transform(np.eye(3), shift) @ T for _, shift in minima]
