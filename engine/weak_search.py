@@ -278,9 +278,10 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
     far = SHIFT_REACH_OF_DIAGONAL * nominal.diagonal
     k = int(min(np.ceil(far / (LINE_STEP_OF_SCALE * scale)), WEAKEST_LINE_STEPS))
     lines.append((weakest[None, :] * np.linspace(-far, far, 2 * k + 1)[:, None])[None])
-    minima = sorted((m for offsets in lines for m in _line_minima(P, wp, offsets, surface, scale)),
-                    key=lambda m: m[0])[:SHIFT_CANDIDATES]
-    return found + [make_transform(np.eye(3), shift) @ T for _, shift in minima]
+    on_lines = sorted((m for offsets in lines
+                       for m in _line_minima(P, wp, offsets, surface, scale)),
+                      key=lambda m: m[0])[:SHIFT_CANDIDATES]
+    return found + [make_transform(np.eye(3), shift) @ T for _, shift in on_lines]
 
 
 WEAKEST_LINE_STEPS = 64
