@@ -167,9 +167,9 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
                            settings: RegistrationSettings, zone_width: float, better,
                            fits: np.ndarray):
     """``reg`` with the pose that one of the registration's other candidates, the pose turned
-    half way about an axis (:func:`_turned_half_way`), or the answer of its search with denser
-    anchors (engine.registration.search_densely), distinct from the pose and its runner-up,
-    reaches and that scores better (``better``: finish_exactly's better_pose): each fitted by
+    half way about an axis (:func:`_turned_half_way`), or the answer or runner-up of its
+    search with denser anchors (engine.registration.search_densely), distinct from the pose
+    and its runner-up, reaches and that scores better (:func:`_adopted` as better_pose would): each fitted by
     the exact least squares on every point, not on the screen's few
     (:func:`better_candidates`), which may not lead a pose tens of millimetres off home;
     when none scores better, the one that scores best slid along the directions its points
@@ -201,7 +201,7 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
             known.append(T)  # (register's own second search may have found it already)
             fitted.append((pose_score(f.deviations.signed[idx], scale), f))
             if fitted[-1][0] < (1.0 - SCORE_TIE) * score:
-                return f.T_nominal_measured
+                return fitted[-1]
         return None
 
     # The candidates first; the search again (0.1-0.3 s on the NIST patches) only when none
@@ -219,7 +219,8 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
         home = fit([T for T in (again.T_nominal_measured, again.runner_up_T) if T is not None],
                    found)
     if home is not None:
-        return better(reg, [home])
+        return _adopted(reg, score, home[1], home[0], posed, measured[idx], idx, scale,
+                        nominal.diagonal)
     if not fitted:
         return reg
     f = min(fitted, key=lambda c: c[0])[1]
@@ -499,9 +500,16 @@ def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float
                          posed, zone_width, seed)
         best_score = pose_score(best.deviations.signed[idx], scale)
         if best_score < (1.0 - SCORE_TIE) * score:
-            break
-    else:
-        return reg
+            return _adopted(reg, score, best, best_score, posed, measured[idx], idx, scale,
+                            diagonal)
+    return reg
+
+
+def _adopted(reg, score: float, best, best_score: float, posed: Posed, src: np.ndarray,
+             idx: np.ndarray, scale: float, diagonal: float):
+    """``best`` (an exact fit scoring ``best_score`` on the points ``idx``, ``src`` where they
+    were measured) as the pose in place of that of ``reg`` (scoring ``score``), its runner-up
+    the better of that pose and the runner-up of ``reg`` distinct from it (:func:`better_pose`)."""
     others = [(score, reg.T_nominal_measured)]
     if reg.runner_up_T is not None:
         # Scored again as the others are (an implausible runner-up's score is the sample's
@@ -509,7 +517,7 @@ def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float
         others.append((pose_score(posed.deviations_at(reg.runner_up_T, idx), scale),
                        reg.runner_up_T))
     others = [(s, T) for s, T in others
-              if distinct_poses(T, best.T_nominal_measured, measured[idx], diagonal)]
+              if distinct_poses(T, best.T_nominal_measured, src, diagonal)]
     runner_score, runner_T = min(others, key=lambda o: o[0], default=(None, None))
     return replace(best, score=best_score, runner_up_T=runner_T, runner_up_score=runner_score)
 
