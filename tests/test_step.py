@@ -633,3 +633,29 @@ def test_nist_file_is_bundled_with_its_source():
     assert os.path.getsize(NIST) < 2_000_000
     source = _text(os.path.join(os.path.dirname(NIST), "SOURCE.txt"))
     assert "public domain" in source.lower() and "nist_ftc_06_asme1_rd.stp" in source
+
+
+def test_a_closed_model_has_no_border_to_lie_past_and_an_open_sheet_has_one(tmp_path):
+    """A measured point lies past the nominal's border only where the surface ends. A closed
+    model has no such place: on the perfect NIST CTC-01 and FTC-07, 600 points on their exact
+    faces lie past none (the tessellation, meshed face by face, had put 327 and 253 of them
+    past a border). The open half-cylinder sheet ends at its straight edges: a point beyond
+    one, in the sheet's own plane, lies past it; a point off its middle does not."""
+    from engine.nominal import Nominal
+    from engine.step_model import ExactDistances
+    from sweep import on_part
+
+    data = os.path.join(os.path.dirname(__file__), "data", "step")
+    for name in ("nist_ctc_01_asme1_ap203.stp", "nist_ftc_07_asme1_ap242-e2.stp"):
+        part = read_step(os.path.join(data, name))
+        P, _, _ = on_part(part, np.random.default_rng(3), 600)
+        exact = ExactDistances(part, Nominal.from_point_set(part.point_set))
+        assert part.closed and not np.asarray(exact.beyond(P)).any()
+    sheet = read_step(sm.write_step(sm.half_cylinder_sheet(), tmp_path / "half.step"))
+    assert not sheet.closed
+    exact = ExactDistances(sheet, Nominal.from_point_set(sheet.point_set))
+    # The sheet: radius 10 about z, y >= 0, 0 <= z <= 20; past its straight edges (x = +-10,
+    # y = 0) and its top arc, along the surface continued.
+    past = np.array([[10.0, -5.0, 10.0], [-10.5, -4.0, 5.0], [0.0, 10.0, 25.0]])
+    over = np.array([[0.0, 11.0, 10.0], [0.0, 9.0, 10.0]])
+    assert np.asarray(exact.beyond(past)).all() and not np.asarray(exact.beyond(over)).any()

@@ -82,6 +82,13 @@ class StepNominal:
     def n_faces(self) -> int:
         return len(self.faces)
 
+    @property
+    def closed(self) -> bool:
+        """No free edge: every edge (but a degenerate one, a cone's apex) bounds two faces, or
+        one twice (a cylinder's seam): the model encloses a volume, and a measured point has
+        no border of the surface to lie past."""
+        return self._brep.closed
+
     def deviations(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Exact signed distances from ``points`` to the B-rep.
 
@@ -260,6 +267,7 @@ class Brep:
         self._tools: dict[int, FaceTools] = {}
         self._boxes: np.ndarray | None = None
         self._ancestors: tuple | None = None  # (edge -> faces, vertex -> faces)
+        self._closed: bool | None = None
         self.mesh: tuple = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64))
 
     def tools(self, fid: int) -> FaceTools:
@@ -530,6 +538,22 @@ class Brep:
         if k == 0:
             return []
         return sorted({self.index.FindIndex(f) for f in ancestors.FindFromIndex(k)} - {0})
+
+    @property
+    def closed(self) -> bool:
+        """Every non-degenerate edge is held twice by the faces (StepNominal.closed)."""
+        if self._closed is None:
+            from OCP.BRep import BRep_Tool
+            from OCP.TopoDS import TopoDS
+
+            if self._ancestors is None:
+                self._ancestors = self._adjacency()
+            edges = self._ancestors[0]
+            self._closed = all(
+                edges.FindFromIndex(i).Size() >= 2
+                or BRep_Tool.Degenerated_s(TopoDS.Edge(edges.FindKey(i)))
+                for i in range(1, edges.Extent() + 1))
+        return self._closed
 
     def _adjacency(self):
         """(edge -> faces, vertex -> faces) maps over all placed faces."""
