@@ -169,10 +169,10 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
     """``reg`` with the pose that one of the registration's other candidates, the pose turned
     half way about an axis (:func:`_turned_half_way`), or the answer or runner-up of its
     search with denser anchors (engine.registration.search_densely), distinct from the pose
-    and its runner-up, reaches and that scores better (:func:`_adopted` as better_pose would): each fitted by
-    the exact least squares on every point, not on the screen's few
-    (:func:`better_candidates`), which may not lead a pose tens of millimetres off home;
-    when none scores better, the one that scores best slid along the directions its points
+    and its runner-up, reaches and that scores better (taken as better_pose takes one,
+    :func:`_adopted`): each fitted by the exact least squares on every point, not on the
+    screen's few (:func:`better_candidates`), which may not lead a pose tens of millimetres off
+    home; when none scores better, the one that scores best slid along the directions its points
     at the pose's noise leave weak (``fits``: the pose's points that fit, whose spread says
     what the noise is), a short way (``SHORT_SLIDE_REACH``), if it is near the truth.
 

@@ -192,7 +192,8 @@ class ExactDistances:
     def beyond(self, X: np.ndarray) -> np.ndarray:
         """Past the border: never for a closed model (StepNominal.closed: it has none, and
         its tessellation's faces, meshed apart, would put borders along every edge: 253 of
-        600 points of the perfect NIST FTC-07 at the truth); else as on the tessellation."""
+        600 points of the perfect NIST FTC-07 with 2 µm noise, at the truth); else as on the
+        tessellation."""
         if self.step.closed:
             return np.zeros(len(X), bool)
         return SampledSurface(self.nominal).beyond(X)

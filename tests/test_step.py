@@ -638,9 +638,10 @@ def test_nist_file_is_bundled_with_its_source():
 def test_a_closed_model_has_no_border_to_lie_past_and_an_open_sheet_has_one(tmp_path):
     """A measured point lies past the nominal's border only where the surface ends. A closed
     model has no such place: on the perfect NIST CTC-01 and FTC-07, 600 points on their exact
-    faces lie past none (the tessellation, meshed face by face, had put 327 and 253 of them
-    past a border). The open half-cylinder sheet ends at its straight edges: a point beyond
-    one, in the sheet's own plane, lies past it; a point off its middle does not."""
+    faces lie past none (the tessellation, meshed face by face, had put 151 and 75 of them
+    past a border; 327 and 253 with 2 µm noise). The open half-cylinder sheet ends at its
+    edges: a point past one, along the surface continued, lies past it; a point off its middle
+    does not."""
     from engine.nominal import Nominal
     from engine.step_model import ExactDistances
     from sweep import on_part
