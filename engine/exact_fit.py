@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .nominal import Nominal
-from .pose import apply_update, lower_along, make_transform, pose_jacobian
+from .pose import apply_transform, apply_update, lower_along, make_transform, pose_jacobian
 from .progress import within
 from .registration import covers_part_only, distinct_poses, pose_score, search_densely
 from .registration_types import RegistrationSettings
@@ -251,7 +251,7 @@ def _turned_half_way(nominal: Nominal, T: np.ndarray,
     turned = []
     for R in halves:
         K = make_transform(R, centre - R @ centre) @ T
-        X = measured @ K[:3, :3].T + K[:3, 3]
+        X = apply_transform(K, measured)
         d, j = tree.query(X, distance_upper_bound=TURN_NEAR_SPACINGS * spacing)
         j = np.minimum(j, len(pts) - 1)  # (no sample that near: j is len(pts), d inf)
         plane = np.abs(np.einsum("ij,ij->i", X - pts[j], nrm[j]))

@@ -531,9 +531,7 @@ class Brep:
         from OCP.TopAbs import TopAbs_EDGE, TopAbs_VERTEX
         if support is None or support.ShapeType() not in (TopAbs_EDGE, TopAbs_VERTEX):
             return []
-        if self._ancestors is None:
-            self._ancestors = self._adjacency()
-        ancestors = self._ancestors[support.ShapeType() == TopAbs_VERTEX]
+        ancestors = self._adjacency()[support.ShapeType() == TopAbs_VERTEX]
         k = ancestors.FindIndex(support)
         if k == 0:
             return []
@@ -546,9 +544,7 @@ class Brep:
             from OCP.BRep import BRep_Tool
             from OCP.TopoDS import TopoDS
 
-            if self._ancestors is None:
-                self._ancestors = self._adjacency()
-            edges = self._ancestors[0]
+            edges = self._adjacency()[0]
             self._closed = all(
                 edges.FindFromIndex(i).Size() >= 2
                 or BRep_Tool.Degenerated_s(TopoDS.Edge(edges.FindKey(i)))
@@ -556,7 +552,9 @@ class Brep:
         return self._closed
 
     def _adjacency(self):
-        """(edge -> faces, vertex -> faces) maps over all placed faces."""
+        """(edge -> faces, vertex -> faces) maps over all placed faces, built once."""
+        if self._ancestors is not None:
+            return self._ancestors
         from OCP.collections import \
             IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as Ancestors
         from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_VERTEX
@@ -565,7 +563,8 @@ class Brep:
         edges, vertices = Ancestors(), Ancestors()
         TopExp.MapShapesAndAncestors_s(self.compound, TopAbs_EDGE, TopAbs_FACE, edges)
         TopExp.MapShapesAndAncestors_s(self.compound, TopAbs_VERTEX, TopAbs_FACE, vertices)
-        return edges, vertices
+        self._ancestors = (edges, vertices)
+        return self._ancestors
 
 
 def _by_face(pairs: np.ndarray):
