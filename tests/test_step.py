@@ -660,3 +660,26 @@ def test_a_closed_model_has_no_border_to_lie_past_and_an_open_sheet_has_one(tmp_
     past = np.array([[10.0, -5.0, 10.0], [-10.5, -4.0, 5.0], [0.0, 10.0, 25.0]])
     over = np.array([[0.0, 11.0, 10.0], [0.0, 9.0, 10.0]])
     assert np.asarray(exact.beyond(past)).all() and not np.asarray(exact.beyond(over)).any()
+
+
+def test_distances_within_a_bound_are_exact_and_the_farther_ones_are_marked():
+    """A search asks only whether its points lie near the part (engine.weak_search): within the
+    bound the signed distance is the full query's to the last digit; beyond it, NaN, and never
+    for a point within it. Points on NIST FTC-06's faces moved 0-40 mm in random directions,
+    against the bound 3 mm."""
+    from engine.nominal import Nominal
+    from engine.step_model import ExactDistances
+    from sweep import on_part
+
+    part = read_step(NIST)
+    exact = ExactDistances(part, Nominal.from_point_set(part.point_set))
+    rng = np.random.default_rng(5)
+    P, _, _ = on_part(part, rng, 400)
+    v = rng.normal(size=P.shape)
+    X = P + v / np.linalg.norm(v, axis=1, keepdims=True) * rng.uniform(0.0, 40.0, (len(P), 1))
+    full = exact.deviations(X).signed
+    within = exact.signed_within(X, 3.0)
+    near = np.abs(full) <= 3.0
+    assert 50 < near.sum() < len(X) - 50  # both kinds asked about
+    np.testing.assert_array_equal(within[near], full[near])
+    assert np.isnan(within[~near]).all()

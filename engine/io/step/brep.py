@@ -17,7 +17,6 @@ Exact deviations
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -27,6 +26,7 @@ from engine.nominal import surface_tree
 from engine.pointset import PointSet
 
 from .faces import SURFACE_KINDS, FaceTools, StepFace, Surfaces, Trims, geometry, in_box, in_period
+from .nearest import Best, unique_pairs
 
 K_NEAREST = 8
 """Tessellation points whose faces are the first candidates of a measured point."""
@@ -89,7 +89,8 @@ class StepNominal:
         no border of the surface to lie past."""
         return self._brep.closed
 
-    def deviations(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def deviations(self, points, within: float | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Exact signed distances from ``points`` to the B-rep.
 
         points : (n, 3) float, mm, nominal frame.
@@ -117,6 +118,10 @@ class StepNominal:
         Exact to OpenCascade's precision (tested to 0.1 µm against analytic truth and against
         the distance to all faces at once); an extrema search over a general (B-spline) face's
         (u, v) box is OpenCascade's, a grid search refined by Newton steps.
+
+        within : mm, or None. Given, no face farther than it is asked about, and a point with
+        no foot within it gets NaN for each of its values (face 0): its distance is only known
+        to exceed ``within``. The others' are exact as above.
         """
         p = np.ascontiguousarray(points, dtype=np.float64)
         if p.ndim != 2 or p.shape[1] != 3:
@@ -129,9 +134,11 @@ class StepNominal:
         k = min(K_NEAREST, self._tree.n)
         dist, idx = query(self._tree, p, k=k)
         dist, idx = np.asarray(dist).reshape(n, k), np.asarray(idx).reshape(n, k)
-        best = _Best(n)
+        best = Best(n)
         best.upper = dist[:, 0] + max(UPPER_MARGIN_MM, self.tolerance)
-        pairs = _unique_pairs(np.repeat(np.arange(n), k), self.face_ids[idx].ravel())
+        if within is not None:
+            best.upper = np.minimum(best.upper, within)
+        pairs = unique_pairs(np.repeat(np.arange(n), k), self.face_ids[idx].ravel())
         bound, inside = self._brep.project(p, pairs, best)
         more = self._brep.nearer_boxes(p, np.minimum(best.dist, best.upper), pairs)
         if more.shape[0]:
@@ -140,7 +147,15 @@ class StepNominal:
             bound = np.concatenate([bound, more_bound])
             inside = np.concatenate([inside, more_inside])
         self._brep.settle(p, pairs, bound, inside, best)
-        return self._brep.finish(p, best)
+        if within is None:
+            return self._brep.finish(p, best)
+        near = np.flatnonzero((best.face > 0) & (best.dist <= within))
+        signed, foot, normal, face = (np.full(n, np.nan), np.full((n, 3), np.nan),
+                                      np.full((n, 3), np.nan), np.zeros(n, np.int64))
+        if near.size:
+            signed[near], foot[near], normal[near], face[near] = self._brep.finish(
+                p[near], best.take(near))
+        return signed, foot, normal, face
 
     def faces_within(self, points, reach, face, others) -> tuple[np.ndarray, np.ndarray]:
         """The other faces within each point's ``reach`` (mm), with their exact distances.
@@ -164,7 +179,7 @@ class StepNominal:
         if not len(pairs):
             return pairs, np.zeros(0)
         # Each pair measured alone: a scratch "best" that keeps nothing from one to the next.
-        bound, inside = self._brep.project(p, pairs, _Best(n))
+        bound, inside = self._brep.project(p, pairs, Best(n))
         d = np.where(inside, bound, np.inf)
         for j in np.flatnonzero(~inside & (bound <= reach[pairs[:, 0]])):
             got = self._brep.tools(int(pairs[j, 1])).nearest_on_face(p[pairs[j, 0]])
@@ -206,30 +221,6 @@ class StepNominal:
             if got is not None:
                 out[i] = got[0]
         return out
-
-
-@dataclass
-class _Best:
-    """The nearest foot found so far, per point: distance, face id, and either the foot's (u, v)
-    on the face's surface (``on_face``) or the foot found on the trimmed face with its support
-    (an edge, a vertex or the face) for the boundary case."""
-
-    n: int
-
-    def __post_init__(self):
-        self.dist = np.full(self.n, np.inf)
-        self.face = np.zeros(self.n, np.int64)
-        self.uv = np.zeros((self.n, 2))
-        self.on_face = np.zeros(self.n, bool)
-        self.foot = np.zeros((self.n, 3))
-        self.upper = np.full(self.n, np.inf)
-        self.support: dict[int, object] = {}
-
-
-def _unique_pairs(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(m, 2) int64 unique (point index, face id) pairs, sorted by point then face."""
-    key = np.unique(points.astype(np.int64) * (1 << 32) + faces.astype(np.int64))
-    return np.stack([key >> 32, key & ((1 << 32) - 1)], axis=1)
 
 
 def deflection_for(diagonal_mm: float) -> float:
@@ -361,7 +352,7 @@ class Brep:
         return pts, normals, tris
 
     # ---------------------------------------------------------------- exact distance
-    def project(self, p: np.ndarray, pairs: np.ndarray, best: _Best) -> tuple:
+    def project(self, p: np.ndarray, pairs: np.ndarray, best: Best) -> tuple:
         """Project the points of the (point index, face id) ``pairs`` on their faces' surfaces
         and keep in ``best`` each point's nearest foot that lies on its trimmed face. Returns
         (bound, inside) per pair: ``bound`` is the distance to the untrimmed surface, exact
@@ -400,7 +391,7 @@ class Brep:
         return np.where(inside, d, bound), inside
 
     def _keep_nearest_inside(self, pairs: np.ndarray, d: np.ndarray, uv: np.ndarray,
-                             pending: np.ndarray, inside: np.ndarray, best: _Best) -> None:
+                             pending: np.ndarray, inside: np.ndarray, best: Best) -> None:
         """Classify the ``pending`` pairs' feet (at distance ``d``, parameters ``uv``) nearest
         first per point, while nearer than the point's best; mark ``inside`` those on their
         trimmed face and keep the nearest in ``best``."""
@@ -450,7 +441,7 @@ class Brep:
         return Trims(self.n)
 
     def settle(self, p: np.ndarray, pairs: np.ndarray, bound: np.ndarray, inside: np.ndarray,
-               best: _Best) -> None:
+               best: Best) -> None:
         """For the pairs whose foot fell outside the face and whose lower ``bound`` is below the
         point's best (and its upper bound), measure the trimmed face (nearest_on_face), each
         point's candidates in increasing order of their bound, while the bound stays below."""
@@ -476,7 +467,7 @@ class Brep:
         return boxes_nearer(p, self.boxes(), np.ascontiguousarray(dist, np.float64), start,
                             np.ascontiguousarray(done[:, 1]))
 
-    def finish(self, p: np.ndarray, best: _Best):
+    def finish(self, p: np.ndarray, best: Best):
         """(signed, foot, normal, face) from each point's nearest foot (see deviations)."""
         if (best.face == 0).any():
             raise NoDistanceError(np.flatnonzero(best.face == 0), p[best.face == 0],
