@@ -221,21 +221,39 @@ def screw_motion(twist, amplitude: float, centre, length: float) -> np.ndarray:
     """The exact rigid motion (4x4, or 3x3 in 2D) of ``amplitude`` along a unit ``twist``
     (engine.trust.WeakDirection.twist: rotations first, in mm at ``length`` from ``centre``,
     then translations) about ``centre``: the screw motion exp(amplitude x twist), so a rotation
-    about a cylinder's axis stays on the cylinder however large it is."""
-    from scipy.linalg import expm
-
+    about a cylinder's axis stays on the cylinder however large it is. In closed form (the
+    exponential of a rigid motion's generator: Rodrigues' rotation, and its integral for the
+    translation; scipy.linalg.expm took 1-8 ms a call, 0.25 s of the uncertainty region's 32
+    poses on NIST FTC-07)."""
     v = np.asarray(twist, float) * amplitude
     c = np.asarray(centre, float)
     if c.size == 3:
         w, t = v[:3] / length, v[3:]
         W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-        G = np.zeros((4, 4))
-        G[:3, :3] = W
-        G[:3, 3] = t - W @ c  # velocity w x (x - c) + t
+        a, b, e = _exp_coefficients(float(np.linalg.norm(w)))
+        R = np.eye(3) + a * W + b * (W @ W)
+        V = np.eye(3) + b * W + e * (W @ W)
+        E = np.eye(4)
     else:
         th, t = v[0] / length, v[1:]
         W = np.array([[0.0, -th], [th, 0.0]])
-        G = np.zeros((3, 3))
-        G[:2, :2] = W
-        G[:2, 2] = t - W @ c
-    return expm(G)
+        a, b, e = _exp_coefficients(abs(th))
+        R = np.eye(2) + a * W + b * (W @ W)
+        V = np.eye(2) + b * W + e * (W @ W)
+        E = np.eye(3)
+    k = c.size
+    E[:k, :k] = R
+    E[:k, k] = V @ (t - W @ c)  # the generator's translation: velocity w x (x - c) + t
+    return E
+
+
+def _exp_coefficients(theta: float) -> tuple[float, float, float]:
+    """sin(theta) / theta, (1 - cos(theta)) / theta^2, (theta - sin(theta)) / theta^3: the
+    coefficients of W and W^2 in exp(W) and in its integral, for a skew matrix W of angle
+    ``theta`` (2D too: there W^2 = -theta^2 I); by their series below 1e-4 rad, where the
+    closed forms lose digits."""
+    if theta < 1e-4:
+        t2 = theta * theta
+        return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+    s, co = np.sin(theta), np.cos(theta)
+    return s / theta, (1.0 - co) / theta ** 2, (theta - s) / theta ** 3
