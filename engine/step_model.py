@@ -186,18 +186,21 @@ class ExactDistances:
         signed, foot, normal, _ = self(X)
         return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
 
-    def signed_within(self, X: np.ndarray, within: float) -> np.ndarray:
-        """(n,) the signed deviations of the points X (n, 3) that lie within ``within`` mm of
-        the model, NaN for the others: a search's few points scored at many poses, which need
-        not know how far off a point is that fits nowhere near (OpenCascade measures a point
-        30 mm off a NIST part 9 x as long as one on it). As :meth:`deviations` where a point
-        has no exact distance."""
+    def deviations_within(self, X: np.ndarray, within: float) -> Deviations:
+        """:meth:`deviations` of the points X (n, 3) that lie within ``within`` mm of the model,
+        NaN (signed, foot and normal) for the others: a search's few points scored at many
+        poses, which need not know how far off a point is that fits nowhere near (OpenCascade
+        measures a point 30 mm off a NIST part 9 x as long as one on it). As
+        :meth:`deviations` where a point has no exact distance."""
         X = np.asarray(X, dtype=np.float64)
         try:
-            return self.step.deviations(X, within)[0]
+            signed, foot, normal, _ = self.step.deviations(X, within)
         except NoDistanceError:
-            signed = self(X)[0]
-            return np.where(np.abs(signed) <= within, signed, np.nan)
+            signed, foot, normal, _ = self(X)
+            far = ~(np.abs(signed) <= within)
+            signed, foot, normal = signed.copy(), foot.copy(), normal.copy()
+            signed[far], foot[far], normal[far] = np.nan, np.nan, np.nan
+        return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
 
     def margins(self, dev: Deviations) -> np.ndarray:
         return np.zeros(dev.signed.size)

@@ -678,8 +678,10 @@ def test_distances_within_a_bound_are_exact_and_the_farther_ones_are_marked():
     v = rng.normal(size=P.shape)
     X = P + v / np.linalg.norm(v, axis=1, keepdims=True) * rng.uniform(0.0, 40.0, (len(P), 1))
     full = exact.deviations(X).signed
-    within = exact.signed_within(X, 3.0)
+    got = exact.deviations_within(X, 3.0)
+    within = got.signed
     near = np.abs(full) <= 3.0
     assert 50 < near.sum() < len(X) - 50  # both kinds asked about
     np.testing.assert_array_equal(within[near], full[near])
-    assert np.isnan(within[~near]).all()
+    np.testing.assert_array_equal(got.normal[near], exact.deviations(X).normal[near])
+    assert np.isnan(within[~near]).all() and np.isnan(got.normal[~near]).all()
