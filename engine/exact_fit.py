@@ -24,7 +24,7 @@ from .seeds import rng
 from .surface import Posed
 from .surface_fit import robust_cut
 from .verdict import SCORE_TIE, better_runner_up, plausible_runner_up
-from .weak_search import jumped_poses, shifted_poses, slid_poses
+from .weak_search import jumped_poses, shifted_poses, slid_poses, twin_turns
 
 SLID_FITS = 3
 """Places found along free directions (engine.weak_search), best first, that the exact least
@@ -160,7 +160,18 @@ def _search_left_out(reg, posed: Posed, nominal: Nominal, settings: Registration
     if patch and not reg.inlier.all():
         reg = _from_other_candidates(reg, posed, nominal, settings, zone_width, better,
                                      fitting(reg))
+    # A twin tied with the pose: a third turn about their axis may fit better (twin_turns).
+    if patch and _tied_twin(reg):
+        reg = better(reg, twin_turns(nominal, measured, reg.T_nominal_measured,
+                                     reg.deviations, reg.runner_up_T, posed.surface, scale)[:1])
     return reg
+
+
+def _tied_twin(reg) -> bool:
+    """The runner-up of ``reg`` scores as its pose does, to SCORE_TIE: a twin (the part
+    repeats about the axis between them)."""
+    return (reg.runner_up_T is not None and reg.runner_up_score is not None
+            and abs(reg.runner_up_score - reg.score) <= SCORE_TIE * reg.score)
 
 
 def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
