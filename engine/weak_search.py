@@ -33,7 +33,8 @@ import numpy as np
 
 from .neighbours import spread_subset
 from .nominal import Nominal
-from .pose import apply_transform, make_transform, pose_jacobian, screw_motion
+from .pose import (apply_transform, make_transform, pose_jacobian, rotation_angle_deg,
+                   screw_motion)
 from .registration import pose_loss
 from .trust import DEGENERATE_STRENGTH, conditioning
 
@@ -208,12 +209,11 @@ def twin_turns(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, T_twi
     3.26 µm, the truth 1.94 µm, and every point fits all three within 0.014 mm.)"""
     G = T_twin @ np.linalg.inv(T)  # the motion, nominal frame
     R, t = G[:3, :3], G[:3, 3]
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    if np.linalg.norm(w) < 1e-9:  # a half turn: the axis from R + I
-        e, v = np.linalg.eigh(R + R.T)
-        w = v[:, -1] if e[-1] > 1.0 else np.zeros(3)
-    if np.linalg.norm(w) < 1e-9:
+    if rotation_angle_deg(R) < TWIN_LEAST_TURN_DEG:  # a slide, not a turn
         return []
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if np.linalg.norm(w) < 1e-6:  # a half turn: its axis is R + R^T's top eigenvector
+        w = np.linalg.eigh(R + R.T)[1][:, -1]
     axis = w / np.linalg.norm(w)
     # A point of the axis: (I - R) c = t across it (t along it, a screw's pitch, left aside).
     c = np.linalg.lstsq(np.eye(3) - R, t - axis * float(axis @ t), rcond=None)[0]
@@ -230,6 +230,8 @@ def twin_turns(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, T_twi
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
 
 
+TWIN_LEAST_TURN_DEG = 1.0
+"""Twins turned apart by less than this are a slide apart: :func:`twin_turns` has no axis."""
 TWIN_FREE_RATE = 1e-4
 """A turn that changes the points' deviations at an RMS rate below this (mm per mm of arc at
 their radius) moves no point off its face: :func:`twin_turns` does not scan it."""

@@ -129,3 +129,16 @@ def test_the_motion_the_left_out_points_pin_is_the_one_scanned():
     assert len(twists) == 1
     v = twists[0]
     assert np.linalg.norm(v[:3]) < 1e-9 and abs(abs(v[3]) - 1.0) < 1e-9
+
+
+def test_twins_a_slide_apart_have_no_axis_to_turn_about(block):
+    """weak_search.twin_turns scans the turn between a pose and its tied twin; twins that only
+    slide apart (along the block's length, its top and front faces fitting both) have none, and
+    nothing is handed back, whatever the points would score turned about an arbitrary axis."""
+    from engine.weak_search import twin_turns
+
+    nominal, surface = block
+    P, _ = _prismatic_patch_and_boss(np.random.default_rng(2))
+    dev = surface.deviations(P)
+    twin = make_transform(np.eye(3), [5.0, 0.0, 0.0])
+    assert twin_turns(nominal, P, np.eye(4), dev, twin, surface, 0.01) == []
