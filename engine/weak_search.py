@@ -22,7 +22,8 @@ Where no direction is free, the points left out may still say where the pose is,
 millimetres away past a barrier that the kept points would have to cross:
 :func:`shifted_poses` scores a grid of translations and the places along the direction the kept
 points constrain least (and the nominal's axis nearest it) where a point left out crosses the
-nominal (a look-alike a pocket's pitch away), :func:`jumped_poses` the translations that put each point left out on the nominal.
+nominal (a look-alike a pocket's pitch away), :func:`jumped_poses` the translations that put
+each point left out on the nominal.
 """
 
 from __future__ import annotations
@@ -266,9 +267,9 @@ def shifted_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev,
     ``surface``; its best local minima are scored again with more of them, and those better
     than T there are handed back; then the places along the direction the kept points
     constrain least (and the nominal's axis nearest it) where a point left out crosses the
-    surface (:func:`_crossings`), confirmed alike; then, unconfirmed, the best local minima of that loss along each left-out point's
-    normal and along that direction, at a finer step (``LINE_STEPS``). Empty when no point was
-    left out.
+    surface (:func:`_crossings`), confirmed alike; then, unconfirmed, the best local minima
+    of that loss along each left-out point's normal and along that direction, at a finer
+    step (``LINE_STEPS``). Empty when no point was left out.
 
     A least-squares pose can rest a few millimetres from the truth with every point but those
     of one feature at the noise and no direction free: slid along an extrusion, held there by
