@@ -190,16 +190,9 @@ class ExactDistances:
         """:meth:`deviations` of the points X (n, 3) that lie within ``within`` mm of the model,
         NaN (signed, foot and normal) for the others: a search's few points scored at many
         poses, which need not know how far off a point is that fits nowhere near (OpenCascade
-        measures a point 30 mm off a NIST part 9 x as long as one on it). As
-        :meth:`deviations` where a point has no exact distance."""
-        X = np.asarray(X, dtype=np.float64)
-        try:
-            signed, foot, normal, _ = self.step.deviations(X, within)
-        except NoDistanceError:
-            signed, foot, normal, _ = self(X)
-            far = ~(np.abs(signed) <= within)
-            signed, foot, normal = signed.copy(), foot.copy(), normal.copy()
-            signed[far], foot[far], normal[far] = np.nan, np.nan, np.nan
+        measures a point 30 mm off a NIST part 9 x as long as one on it). A point to which
+        OpenCascade finds no distance counts as far, NaN too: nothing is stood in for it."""
+        signed, foot, normal, _ = self.step.deviations(np.asarray(X, dtype=np.float64), within)
         return Deviations(signed, foot, normal, np.zeros(signed.size, bool))
 
     def margins(self, dev: Deviations) -> np.ndarray:
