@@ -28,8 +28,6 @@ each point left out on the nominal.
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 
 from .neighbours import spread_subset
@@ -130,20 +128,20 @@ def slid_poses(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, kept:
     found: list[tuple[float, np.ndarray]] = []
     scanned = np.concatenate(_spread_each(X, inside, out, SCAN_POINTS))
     for twist in twists:
-        found.extend(_along(nominal, T, X[scanned], X[use], twist, cond, surface, scale,
-                            reach))
+        found.extend(_along(nominal, T, X[scanned], X[use], twist, cond.centre, cond.length,
+                            surface, scale, reach))
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
 
 
-def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist, cond, surface,
-           scale: float, reach: float | None = None):
+def _along(nominal: Nominal, T: np.ndarray, P: np.ndarray, Q: np.ndarray, twist, centre,
+           length: float, surface, scale: float, reach: float | None = None):
     """[(loss, pose)] at the best places along the unit motion ``twist`` (rotation in mm at
-    ``cond.length`` about ``cond.centre``, then translation; engine.pose.screw_motion) from pose
+    ``length`` about ``centre``, then translation; engine.pose.screw_motion) from pose
     T: the local minima of the loss of a few points P (m, 3; kept and left out, at T) on
     ``surface``, each refined by the loss of more of them, Q; those that score better there than
     T itself. Both losses are pose_score's at ``scale``. reach : slid_poses'."""
     twist = np.asarray(twist, float)
-    centre, length = np.asarray(cond.centre, float), cond.length
+    centre = np.asarray(centre, float)
     rot, tr = float(np.linalg.norm(twist[:3])), float(np.linalg.norm(twist[3:]))
     diagonal_step = SLIDE_STEP_OF_DIAGONAL * nominal.diagonal
     # A turn (by the larger part, as engine.trust names a direction): half a turn each way,
@@ -220,14 +218,14 @@ def twin_turns(nominal: Nominal, measured: np.ndarray, T: np.ndarray, dev, T_twi
     c = np.linalg.lstsq(np.eye(3) - R, t - axis * float(axis @ t), rcond=None)[0]
     X = apply_transform(T, measured)
     radial = (X - c) - np.outer((X - c) @ axis, axis)
-    turn = SimpleNamespace(centre=c, length=float(np.sqrt(np.mean(np.sum(radial ** 2, 1))))
-                           or 1.0)
+    length = float(np.sqrt(np.mean(np.sum(radial ** 2, 1)))) or 1.0
     # Each point's deviation changes at this rate (mm per mm of arc at the points' radius).
-    rate = np.cross(X - c, dev.normal) @ axis / turn.length
+    rate = np.cross(X - c, dev.normal) @ axis / length
     if float(np.sqrt(np.mean(rate ** 2))) < TWIN_FREE_RATE:
         return []
     P, Q = X[spread_subset(X, 2 * SCAN_POINTS)], X[spread_subset(X, 2 * SLIDE_POINTS)]
-    found = _along(nominal, T, P, Q, np.concatenate([axis, np.zeros(3)]), turn, surface, scale)
+    found = _along(nominal, T, P, Q, np.concatenate([axis, np.zeros(3)]), c, length, surface,
+                   scale)
     return [Ts for _, Ts in sorted(found, key=lambda f: f[0])]
 
 
