@@ -7,8 +7,9 @@
 
 The cases and the truth are tests/sweep.py's: 2,000 points area-uniform on the exact B-rep
 faces, 2 µm noise (``--noise``), the defect, a random pose; the truth is the least-squares pose
-started from the known pose, by Gauss-Newton on OpenCascade's exact distances. *right*: the
-truth's verdict and every deviation within 0.01 mm of the truth's; *INCONCLUSIVE*: the product
+started from the known pose, by Gauss-Newton on OpenCascade's exact distances. *left*: the
+points the fit left out of the alignment as gross outliers. *right*: the truth's verdict and
+every deviation within 0.01 mm of the truth's; *INCONCLUSIVE*: the product
 said it could not tell (``pose right`` says whether its pose was right all the same); *wrong*: a
 confident verdict at a wrong pose or the wrong verdict. A file the reader refuses counts as
 *refused*.
@@ -64,7 +65,7 @@ def main() -> None:
     inconclusive_right_pose = 0
     times = []
     print(f"{'file':34s} {'defect':9s} {'seed':>4s} {'verdict':12s} {'truth':7s} "
-          f"{'max err mm':>10s} {'s':>6s}  outcome")
+          f"{'max err mm':>10s} {'s':>6s} {'left':>5s}  outcome")
     for path in files:
         name = os.path.basename(path)
         try:
@@ -95,8 +96,9 @@ def main() -> None:
                     inconclusive_right_pose += 1
                 expected = "ACCEPT" if np.all(np.abs(d_true) <= args.tol) else "REJECT"
                 why = "" if outcome == "right" else "  " + "; ".join(res.reasons)[:110]
+                left = int(res.outlier.sum())  # points the fit left out as gross outliers
                 print(f"{name:34s} {defect:9s} {seed:4d} {res.verdict:12s} {expected:7s} "
-                      f"{err:10.4f} {dt:6.2f}  {outcome}{why}", flush=True)
+                      f"{err:10.4f} {dt:6.2f} {left:5d}  {outcome}{why}", flush=True)
     n = sum(counts.values())
     print(f"\n{n} cases: {counts['right']} right, {counts['INCONCLUSIVE']} INCONCLUSIVE "
           f"({inconclusive_right_pose} of them at the right pose), {counts['wrong']} wrong, "

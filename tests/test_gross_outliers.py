@@ -98,6 +98,24 @@ def test_two_percent_mis_probed_points_are_exactly_the_excluded_ones(fairing):
     assert not dirty.in_tolerance[idx].any()
 
 
+@pytest.mark.parametrize("fraction, trusted", [(0.08, True), (0.12, False)])
+def test_a_pose_that_leaves_more_than_a_tenth_of_the_points_out_is_not_trusted(
+        fairing, fraction, trusted):
+    """1,100 points, ``fraction`` of them mis-probed 10 mm off: each is left out of the alignment
+    (the planted ones exactly). Up to a tenth (engine.verdict.MAX_LEFT_OUT_FRACTION), a
+    measurement with mis-probes: REJECT, they lie 10 mm off. Beyond it the pose is not trusted,
+    whatever the points say (a wrong pose of a patch left 21 of 90 good points out to fit the
+    rest, issue 21): INCONCLUSIVE, naming how many were left out."""
+    rng = np.random.default_rng(43)
+    q, _, _, T = _part(rng)
+    bad, idx = _mis_probe(rng, q, fraction=fraction)
+    res = inspect(fairing, apply_transform(T, bad), ZONE)
+    assert np.array_equal(np.flatnonzero(res.outlier), idx)
+    assert res.verdict == ("REJECT" if trusted else "INCONCLUSIVE"), res.reasons
+    said = [r for r in res.reasons if "left out of the alignment as gross outliers" in r]
+    assert said == ([] if trusted else [said[0]]) and (trusted or f"{idx.size} of 1100" in said[0])
+
+
 @pytest.mark.parametrize("depth", [0.15, 0.4, 3.0])
 def test_a_dent_is_never_excluded(fairing, depth):
     """An in-tolerance dent (0.15 mm on +-0.25), an out-of-tolerance one (0.4 mm) and one deeper

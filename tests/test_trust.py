@@ -203,6 +203,7 @@ def test_a_planted_outlier_does_not_move_the_pose_but_counts(fairing):
 class _Reg:
     converged, near_fraction, near_distance, message = True, 1.0, 1.0, ""
     score, runner_up_score = 0.01, None
+    inlier = np.ones(4, dtype=bool)
 
 
 def test_guarded_rule_switches_to_inconclusive_near_the_limits():
