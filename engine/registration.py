@@ -110,7 +110,8 @@ def register(nominal: Nominal, measured: np.ndarray,
 def search_densely(nominal: Nominal, measured: np.ndarray, settings: RegistrationSettings,
                    zone_width: float | None) -> RegistrationResult:
     """The search for a patch again, with the normal-aligned starts alone at denser anchors
-    (``RegistrationSettings.patch_anchor_voxel``), refined and finished as :func:`register`'s
+    (``RegistrationSettings.patch_anchor_voxel``), iterated on more measured points
+    (``patch_measured``), refined and finished as :func:`register`'s
     own: its answer (hypotheses and iterations its own). register runs it when a patch's pose
     scores worse than the zone's width; engine.exact_fit when a patch's pose still calls points
     gross outliers on the exact faces (NIST CTC-05 (AP242), seed 5555: a look-alike 402 mm off
@@ -146,12 +147,13 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
     h0 = nominal.level_spacing(coarse)
 
     report("global search: pose hypotheses", 0.02)
-    sub = spread_subset(measured, settings.coarse_measured, settings.seed)
+    count = settings.patch_measured if dense else settings.coarse_measured
+    sub = spread_subset(measured, count, settings.seed)
     T = _hypotheses(nominal, measured, lvl_pts, lvl_nrm, settings, dense)
     n_hyp = T.shape[0]
     # Every hypothesis iterates, poses that arrive at the same place merge, and only the best
     # distinct ones go on.
-    first = sub[spread_subset(measured[sub], settings.coarse_measured // 2, settings.seed)]
+    first = sub[spread_subset(measured[sub], count // 2, settings.seed)]
     lookup = nominal.level_lookup(coarse)
     report(f"global search over {n_hyp} poses", 0.05)
     T, score = _icp_poses(T, measured[first], lookup, lvl_pts, lvl_nrm, lvl_shape, h0,
