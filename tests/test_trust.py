@@ -835,3 +835,50 @@ def test_a_point_within_the_pose_uncertainty_of_a_limit_makes_a_sparse_fit_incon
     assert any("pose's uncertainty" in r and "REJECT" in r for r in res.reasons)
     # With a zone twice as wide no point is that near a limit: the verdict stands.
     assert inspect(nominal, measured, Tolerance.symmetric(0.06)).verdict == ACCEPT
+
+
+@pytest.mark.parametrize("far, shift", [(0.06, 0.002), (0.0505, 0.002)])
+def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(far, shift):
+    """2,000 points on the plane z = 0 (deviation = z), +-0.05 mm, one point ``far`` out, and
+    poses of the uncertainty region that shift the part down by up to ``shift`` mm and tilt it.
+    At each pose the probe's verdict is the verdict of every point evaluated there (the naive
+    twin). A point out by more than a pose moves it stays out: REJECT there, proven without
+    the subset's 512 points and their completion (64 evaluated); 0.0505 mm is not: the
+    shift by 0.002 mm brings it in, and that pose is ACCEPT."""
+    from engine.pose_sensitivity import REJECT_SUBSET, pose_sensitivity
+    from engine.trust import Conditioning
+    from engine.verdict import pointwise_verdict
+
+    rng = np.random.default_rng(3)
+    n = 2000
+    M = np.column_stack([rng.uniform(-50, 50, (n, 2)), rng.normal(0, 0.004, n)])
+    M[0, 2] = far
+    tol = Tolerance.symmetric(0.05)
+    evaluated = []
+
+    def deviations_at(P, idx):
+        evaluated.append(len(idx))
+        return (M[idx] @ P[:3, :3].T + P[:3, 3])[:, 2]
+
+    def verdict_of(dd):
+        return pointwise_verdict(dd, tol)[0]
+
+    region = [make_transform(np.eye(3), [0, 0, -shift]),
+              make_transform(np.eye(3), [0, 0, shift]),
+              make_transform(_rotation_about_x(2e-5), [0, 0, 0])]
+    cond = Conditioning((1.0,) * 6, (), 40.0, None, (0.0, 0.0, 0.0))
+    sens = pose_sensitivity(deviations_at, np.eye(4), M[:, 2].copy(), tol.lower, tol.upper,
+                            cond, verdict_of, points=M, region=region)
+    probe = next(p for p in sens.probes if p.kind == "uncertainty")
+    naive = [verdict_of(deviations_at(P, np.arange(n))) for P in region]
+    assert list(probe.verdicts) == naive
+    assert naive[0] == (REJECT if far == 0.06 else ACCEPT)
+    if far == 0.06:
+        assert evaluated[:3] == [REJECT_SUBSET] * 3
+    else:
+        assert evaluated[0] >= 512
+
+
+def _rotation_about_x(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
