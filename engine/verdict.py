@@ -15,14 +15,14 @@ Whatever the deviations say, the verdict is INCONCLUSIVE when the pose cannot be
 did not converge, fewer than half of the points lie within 1% of the nominal's size of its
 surface (the measurement is not of this part), the fit left more than a tenth of the points out
 of the alignment as gross outliers (mis-probes are rarer; a wrong pose leaves good points off
-the part to fit the rest), or another pose the registration found fits better than the one it reports (it is
-not the best fit; engine.registration reports the best, so this is a safety net). It is
-INCONCLUSIVE too when the verdict depends on a pose the measurement does not fix: when moving
-the part along a direction the measured points leave unconstrained (within +-3 sigma of the
-pose's uncertainty, or far along a free direction) or to another pose that fits about as well
-changes the verdict (engine.pose_sensitivity). A weak or free direction along which the verdict
-holds (a cylinder measured all round, slid along its axis) and a runner-up at which it is the
-same are reported, in plain words, and the verdict stands.
+the part to fit the rest), or another pose the registration found fits better than the one it
+reports (it is not the best fit; engine.registration reports the best, so this is a safety
+net). It is INCONCLUSIVE too when the verdict depends on a pose the measurement does not fix:
+when moving the part along a direction the measured points leave unconstrained (within +-3
+sigma of the pose's uncertainty, or far along a free direction) or to another pose that fits
+about as well changes the verdict (engine.pose_sensitivity). A weak or free direction along
+which the verdict holds (a cylinder measured all round, slid along its axis) and a runner-up at
+which it is the same are reported, in plain words, and the verdict stands.
 """
 
 from __future__ import annotations
