@@ -471,7 +471,9 @@ def test_a_pose_that_leaves_a_fifth_of_a_patch_out_as_gross_outliers_is_not_trus
     truth, and its best pose, 313 mm off, fit 62 points within 0.017 mm and left 21 out as gross
     outliers, 0.1-16 mm off: a confident REJECT of a perfect part. Mis-probes are rarer than a
     tenth of the points (engine.verdict.MAX_LEFT_OUT_FRACTION): such a pose is not trusted, and
-    the answer is INCONCLUSIVE, saying why, unless the right pose is found."""
+    the answer is INCONCLUSIVE, saying why, unless the right pose is found (as it is since the
+    denser search iterates on 64 points; tests/test_gross_outliers.py and test_trust.py hold
+    the rule itself)."""
     res, (outcome, err) = _inspect_case("nist_ctc_01_asme1_ap242-e1.stp", "cover10", 25004,
                                         n=900)
     assert outcome in ("right", "INCONCLUSIVE"), (outcome, err, res.reasons)
