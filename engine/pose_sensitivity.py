@@ -265,6 +265,7 @@ class _PoseJudge:
         self.seen = np.zeros(n, bool)
         self.seen[self.idx] = True
         self.seed = seed
+        self._out: np.ndarray | None = None  # the points stays_out may rely on
         rms0 = float(np.sqrt(np.mean(d[self.idx] ** 2)))
         self.fit_rms = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * self.width
         self.T = np.asarray(T, float)
@@ -276,9 +277,15 @@ class _PoseJudge:
     def stays_out(self, P) -> bool:
         """Some point lies beyond a limit (the outer cut) at the chosen pose by more than pose P
         moves it: it is out at P too (a deviation cannot change by more than the point's
-        displacement), and the verdict there is REJECT whatever the others do."""
+        displacement), and the verdict there is REJECT whatever the others do. Points past the
+        nominal's border do not count: there the deviation's sign can flip."""
         gap = np.maximum(self.cuts[0] - self.d, self.d - self.cuts[3])
-        out = np.flatnonzero(gap > 0)
+        if self._out is None:
+            out = np.flatnonzero(gap > 0)
+            if self.beyond_at is not None and out.size:
+                out = out[~np.asarray(self.beyond_at(self.T, out), bool)]
+            self._out = out
+        out = self._out
         if self.points is None or not out.size:
             return False
         X = self.points[out]

@@ -837,14 +837,17 @@ def test_a_point_within_the_pose_uncertainty_of_a_limit_makes_a_sparse_fit_incon
     assert inspect(nominal, measured, Tolerance.symmetric(0.06)).verdict == ACCEPT
 
 
-@pytest.mark.parametrize("far, shift", [(0.06, 0.002), (0.0505, 0.002)])
-def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(far, shift):
+@pytest.mark.parametrize("far, shift, past", [(0.06, 0.002, False), (0.0505, 0.002, False),
+                                              (0.06, 0.002, True)])
+def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(far, shift,
+                                                                              past):
     """2,000 points on the plane z = 0 (deviation = z), +-0.05 mm, one point ``far`` out, and
     poses of the uncertainty region that shift the part down by up to ``shift`` mm and tilt it.
     At each pose the probe's verdict is the verdict of every point evaluated there (the naive
     twin). A point out by more than a pose moves it stays out: REJECT there, proven without
     the subset's 512 points and their completion (64 evaluated); 0.0505 mm is not: the
-    shift by 0.002 mm brings it in, and that pose is ACCEPT."""
+    shift by 0.002 mm brings it in, and that pose is ACCEPT. A point ``past`` the nominal's
+    border proves nothing (its deviation's sign may flip there): judged in full."""
     from engine.pose_sensitivity import REJECT_SUBSET, pose_sensitivity
     from engine.trust import Conditioning
     from engine.verdict import pointwise_verdict
@@ -868,12 +871,14 @@ def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(f
               make_transform(_rotation_about_x(2e-5), [0, 0, 0])]
     cond = Conditioning((1.0,) * 6, (), 40.0, None, (0.0, 0.0, 0.0))
     sens = pose_sensitivity(deviations_at, np.eye(4), M[:, 2].copy(), tol.lower, tol.upper,
-                            cond, verdict_of, points=M, region=region)
+                            cond, verdict_of, points=M, region=region,
+                            beyond_at=lambda P, idx: np.asarray(idx) == 0 if past else
+                            np.zeros(len(idx), bool))
     probe = next(p for p in sens.probes if p.kind == "uncertainty")
     naive = [verdict_of(deviations_at(P, np.arange(n))) for P in region]
     assert list(probe.verdicts) == naive
     assert naive[0] == (REJECT if far == 0.06 else ACCEPT)
-    if far == 0.06:
+    if far == 0.06 and not past:
         assert evaluated[:3] == [REJECT_SUBSET] * 3
     else:
         assert evaluated[0] >= 512
@@ -882,3 +887,24 @@ def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(f
 def _rotation_about_x(angle):
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+
+
+@pytest.mark.parametrize("n, left, trusted", [(9, 1, True), (20, 2, True), (20, 3, False),
+                                              (100, 10, True), (100, 11, False)])
+def test_a_pose_is_not_trusted_when_its_fit_leaves_more_than_a_tenth_and_two_points_out(
+        n, left, trusted):
+    """engine.verdict's rule: a fit that leaves more than 10% of the points, and more than 2,
+    out of the alignment as gross outliers is not trusted (INCONCLUSIVE, saying how many); a
+    mis-probe or two among a few points is not held against the pose."""
+    from engine.verdict import pose_trusted
+
+    class Reg(_Reg):
+        inlier = np.arange(n) >= left
+
+    d = np.zeros(n)
+    d[:left] = 5.0
+    verdict, reasons, _ = judge(d, Tolerance.symmetric(0.1), Reg())
+    assert pose_trusted(Reg()) == trusted
+    assert verdict == (REJECT if trusted else INCONCLUSIVE), reasons
+    assert any(f"{left} of {n} points" in r and "gross outliers" in r
+               for r in reasons) != trusted
