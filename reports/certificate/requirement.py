@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 
 from engine.choices import DecisionRule
-from engine.verdict import MAX_LEFT_OUT_FRACTION
+from engine.verdict import LEFT_OUT_ALLOWED, MAX_LEFT_OUT_FRACTION
 
 from .layout import Layout, esc
 from .result import type_word
@@ -37,8 +37,9 @@ def requirement(c: Layout) -> list:
                            "Pointwise, guarded " + _guarded_words(res))
                           + "; the result is inconclusive when the registration cannot be "
                             "trusted (not converged, the points do not match the nominal, or "
-                            f"more than {100 * MAX_LEFT_OUT_FRACTION:.0f}% of them left out of "
-                            "the alignment as gross outliers), "
+                            f"more than {100 * MAX_LEFT_OUT_FRACTION:.0f}% of them, and more "
+                            f"than {LEFT_OUT_ALLOWED}, left out of the alignment as gross "
+                            "outliers), "
                             "or when the verdict could differ within what the measurement "
                             "leaves open: along a direction the points do not fix, within ±3 "
                             "sigma of one they fix only weakly, or at another pose that fits "
