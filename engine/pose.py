@@ -228,23 +228,18 @@ def screw_motion(twist, amplitude: float, centre, length: float) -> np.ndarray:
     32 poses on NIST FTC-07 so)."""
     v = np.asarray(twist, float) * amplitude
     c = np.asarray(centre, float)
-    if c.size == 3:
+    k = c.size
+    if k == 3:
         w, t = v[:3] / length, v[3:]
-        W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-        a, b, e = _exp_coefficients(float(np.linalg.norm(w)))
-        R = np.eye(3) + a * W + b * (W @ W)
-        V = np.eye(3) + b * W + e * (W @ W)
-        E = np.eye(4)
+        W, theta = skew(w), float(np.linalg.norm(w))
     else:
         th, t = v[0] / length, v[1:]
-        W = np.array([[0.0, -th], [th, 0.0]])
-        a, b, e = _exp_coefficients(abs(th))
-        R = np.eye(2) + a * W + b * (W @ W)
-        V = np.eye(2) + b * W + e * (W @ W)
-        E = np.eye(3)
-    k = c.size
-    E[:k, :k] = R
-    E[:k, k] = V @ (t - W @ c)  # the generator's translation: velocity w x (x - c) + t
+        W, theta = np.array([[0.0, -th], [th, 0.0]]), abs(th)
+    a, b, e = _exp_coefficients(theta)
+    E = np.eye(k + 1)
+    E[:k, :k] = np.eye(k) + a * W + b * (W @ W)
+    # The generator's translation, velocity w x (x - c) + t, through the rotation's integral.
+    E[:k, k] = (np.eye(k) + b * W + e * (W @ W)) @ (t - W @ c)
     return E
 
 

@@ -265,7 +265,7 @@ class _PoseJudge:
         self.seen = np.zeros(n, bool)
         self.seen[self.idx] = True
         self.seed = seed
-        self._out: np.ndarray | None = None  # the points stays_out may rely on
+        self._out: tuple[np.ndarray, np.ndarray] | None = None  # stays_out's points, gaps
         rms0 = float(np.sqrt(np.mean(d[self.idx] ** 2)))
         self.fit_rms = PLAUSIBLE_RMS_RATIO * rms0 + INVARIANT_FRACTION * self.width
         self.T = np.asarray(T, float)
@@ -279,19 +279,25 @@ class _PoseJudge:
         moves it: it is out at P too (a deviation cannot change by more than the point's
         displacement), and the verdict there is REJECT whatever the others do. Points past the
         nominal's border do not count: there the deviation's sign can flip."""
-        gap = np.maximum(self.cuts[0] - self.d, self.d - self.cuts[3])
         if self._out is None:
+            gap = np.maximum(self.cuts[0] - self.d, self.d - self.cuts[3])
             out = np.flatnonzero(gap > 0)
             if self.beyond_at is not None and out.size:
                 out = out[~np.asarray(self.beyond_at(self.T, out), bool)]
-            self._out = out
-        out = self._out
+            self._out = (out, gap[out])
+        out, gap = self._out
         if self.points is None or not out.size:
             return False
-        X = self.points[out]
+        return bool(np.any(self.displacement(P, out) < gap))
+
+    def displacement(self, P, idx=slice(None)) -> np.ndarray:
+        """How far pose P moves the points ``idx`` (all by default) from pose T, mm (the
+        points given)."""
+        assert self.points is not None
+        X = self.points[idx]
         G = P @ self.T_inv  # the motion, nominal frame
         k = X.shape[1]
-        return bool(np.any(np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1) < gap[out]))
+        return np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1)
 
     def to_limit(self, dd, sel=slice(None)):
         """Distance of each point to the nearest value where its pointwise verdict changes."""
@@ -324,12 +330,7 @@ class _PoseJudge:
         v = self.verdict_of(dd)
         if every and idx.size < n and not (v == Verdict.REJECT and self.base != Verdict.REJECT):
             # (One point out makes a REJECT whatever the others do.)
-            if X is None:
-                rest = np.ones(n, bool)
-            else:
-                G = P @ self.T_inv  # the motion, nominal frame
-                k = X.shape[1]
-                rest = np.linalg.norm(X @ G[:k, :k].T + G[:k, k] - X, axis=1) >= self.dist
+            rest = np.ones(n, bool) if X is None else self.displacement(P) >= self.dist
             rest[idx] = False
             rest = np.flatnonzero(rest)
             if rest.size:

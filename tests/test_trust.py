@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import linprog
 
 from engine.fits import minimax_pose
-from engine.pose import apply_transform, make_transform
+from engine.pose import apply_transform, make_transform, rotation_from_rotvec
 from engine.inspection import Tolerance, inspect
 from engine.nominal import Nominal
 from engine.trust import conditioning
@@ -868,7 +868,7 @@ def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(f
 
     region = [make_transform(np.eye(3), [0, 0, -shift]),
               make_transform(np.eye(3), [0, 0, shift]),
-              make_transform(_rotation_about_x(2e-5), [0, 0, 0])]
+              make_transform(rotation_from_rotvec(np.array([2e-5, 0.0, 0.0])), [0, 0, 0])]
     cond = Conditioning((1.0,) * 6, (), 40.0, None, (0.0, 0.0, 0.0))
     sens = pose_sensitivity(deviations_at, np.eye(4), M[:, 2].copy(), tol.lower, tol.upper,
                             cond, verdict_of, points=M, region=region,
@@ -883,10 +883,6 @@ def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(f
     else:
         assert evaluated[0] >= 512
 
-
-def _rotation_about_x(angle):
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
 
 
 @pytest.mark.parametrize("n, left, trusted", [(9, 1, True), (20, 2, True), (20, 3, False),
