@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .nominal import Nominal
-from .pose import apply_transform, apply_update, lower_along, make_transform, pose_jacobian
+from .pose import apply_update, lower_along, pose_jacobian
 from .progress import within
 from .registration import covers_part_only, distinct_poses, pose_score, search_densely
 from .registration_types import RegistrationSettings
@@ -24,7 +24,7 @@ from .seeds import rng
 from .surface import Posed
 from .surface_fit import robust_cut
 from .verdict import SCORE_TIE, better_runner_up, plausible_runner_up
-from .weak_search import jumped_poses, shifted_poses, slid_poses, twin_turns
+from .weak_search import half_turns, jumped_poses, shifted_poses, slid_poses, twin_turns
 
 SLID_FITS = 3
 """Places found along free directions (engine.weak_search), best first, that the exact least
@@ -178,7 +178,7 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
                            settings: RegistrationSettings, zone_width: float, better,
                            fits: np.ndarray):
     """``reg`` with the pose that one of the registration's other candidates, the pose turned
-    half way about an axis (:func:`_turned_half_way`), or the answer, runner-up or a candidate
+    half way about an axis (:func:`half_turns`), or the answer, runner-up or a candidate
     of its search with denser anchors (engine.registration.search_densely), distinct from the pose
     and its runner-up, reaches and that scores better (taken as better_pose takes one,
     :func:`_adopted`): each fitted by the exact least squares on every point, not on the
@@ -219,7 +219,7 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
     # comes home.
     home = fit(reg.candidates or ())
     if home is None:
-        home = fit(_turned_half_way(nominal, reg.T_nominal_measured, measured))
+        home = fit(half_turns(nominal, reg.T_nominal_measured, measured))
     if home is None:
         with within(0.8, 0.8):  # its stages named, the bar held where registration left it
             again = search_densely(nominal, measured, settings, zone_width)
@@ -245,47 +245,6 @@ def _from_other_candidates(reg, posed: Posed, nominal: Nominal,
     rms = float(np.sqrt(np.mean(d[kept] ** 2)))
     return better(reg, slid_poses(nominal, measured, f.T_nominal_measured, f.deviations, kept,
                                   rms, posed.surface, scale, reach)[:SLID_FITS])
-
-
-def _turned_half_way(nominal: Nominal, T: np.ndarray,
-                     measured: np.ndarray) -> list[np.ndarray]:
-    """The pose T turned 180 degrees about each axis of the nominal's frame through the centre
-    of its bounding box, where most ``measured`` points then lie near the nominal's finest
-    sample (:data:`TURN_NEAR_SHARE`): a part that is nearly symmetric so (CAD parts are drawn
-    along their frame's axes) fits a patch in both poses but for the feature that breaks the
-    symmetry. (NIST CTC-05 (AP203), its 90-point patch, seed 7855: the pose the truth turned
-    about z, 89 points at the noise and one 2.65 mm off; turned back it lands on the truth,
-    0.0019 mm against 0.0254, 87 % of its points near, the other two turns' at most 1 %. The
-    turns about the principal axes of its tessellation's points land 200-500 mm off.)"""
-    centre = 0.5 * (nominal.points.min(axis=0) + nominal.points.max(axis=0))
-    halves = [2.0 * np.outer(axis, axis) - np.eye(3) for axis in np.eye(3)]  # half turns
-    pts, nrm, tree = nominal.level(nominal.finest_level)
-    spacing = nominal.level_spacing(nominal.finest_level)
-    turned = []
-    for R in halves:
-        K = make_transform(R, centre - R @ centre) @ T
-        X = apply_transform(K, measured)
-        d, j = tree.query(X, distance_upper_bound=TURN_NEAR_SPACINGS * spacing)
-        j = np.minimum(j, len(pts) - 1)  # (no sample that near: j is len(pts), d inf)
-        plane = np.abs(np.einsum("ij,ij->i", X - pts[j], nrm[j]))
-        if np.mean(np.isfinite(d) & (plane <= TURN_PLANE_SPACINGS * spacing)) >= TURN_NEAR_SHARE:
-            turned.append(K)
-    return turned
-
-
-TURN_NEAR_SPACINGS = 3.0
-TURN_PLANE_SPACINGS = 0.1
-"""A point lies near the nominal at a half turn (:func:`_turned_half_way`) when a sample point
-of the nominal's finest level lies within ``TURN_NEAR_SPACINGS`` of its spacings and the point
-within ``TURN_PLANE_SPACINGS`` of them of that sample's tangent plane (a point on a face may
-lie a spacing from its nearest sample, but off that sample's tangent plane only as far as the
-face curves between them) …"""
-TURN_NEAR_SHARE = 0.5
-"""… and a half turn is fitted only where at least this share of the points lies near: each
-fit of a turn that puts the points millimetres off costs 0.1-0.5 s (an exact evaluation of a
-point far off: about 0.5 ms). (NIST patches of 90 points with two mis-probes each, six parts x
-three seeds: 21 of the 54 turns lie near and are fitted, and the 18 cases take 37.3 s, 55.4 s
-when every turn was fitted; CTC-05 (AP203)'s seed 7855 keeps its one turn, 1.25 s, 2.36 s.)"""
 
 
 SHORT_SLIDE_REACH = 2.0

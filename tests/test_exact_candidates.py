@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from engine.exact_fit import _turned_half_way, better_candidates, on_exact_scale
+from engine.exact_fit import better_candidates, on_exact_scale
 from engine.io.step import read_step
 from engine.neighbours import spread_subset
 from engine.nominal import Nominal
@@ -20,6 +20,7 @@ from engine.registration import _hypotheses
 from engine.registration_types import RegistrationResult, RegistrationSettings
 from engine.step_model import ExactDistances
 from engine.surface import Posed
+from engine.weak_search import half_turns
 
 ZONE = 0.1
 
@@ -80,7 +81,7 @@ def test_only_the_half_turns_that_land_the_points_on_the_faces_are_fitted(block)
     posed = Posed(exact, P)
     box = np.array([nominal.points.min(axis=0), nominal.points.max(axis=0)])
     centre = box.mean(axis=0)
-    kept = _turned_half_way(nominal, np.eye(4), P)
+    kept = half_turns(nominal, np.eye(4), P)
     landed = []
     for axis in np.eye(3):
         R = 2.0 * np.outer(axis, axis) - np.eye(3)
