@@ -100,10 +100,10 @@ def _search_left_out(reg, posed: Posed, nominal: Nominal, settings: Registration
     meet the nominal (``better``: finish_exactly's better_pose): the pose slid along a direction
     the points fitting it leave free (:func:`engine.weak_search.slid_poses`), jumped along the
     others' normals onto the nominal (``jumped_poses``), shifted to where they fit too
-    (``shifted_poses``); again from a pose found, ``SEARCH_ROUNDS`` at most; and when the pose
-    still leaves points out (a patch only, as the grid of shifts), from the runner-up too; and
-    when it calls some of them gross outliers, the other candidates fitted on every point
-    (:func:`_from_other_candidates`).
+    (``shifted_poses``); again from a pose found, ``SEARCH_ROUNDS`` at most; on a patch (as the
+    grid of shifts), from the runner-up too when it may be nearer (:func:`_runner_up_to_search`);
+    and when the pose calls some points gross outliers, the other candidates fitted on every
+    point (:func:`_from_other_candidates`).
     The points left out: the gross outliers of the fit, and the points it kept beyond the
     robust cut of its deviations. (CTC-03's patch, seed 6105: its exact least squares stalled
     1.23 mm from the truth along a free direction, 28 edge points 0.06-1.2 mm off and kept, rms
@@ -146,27 +146,13 @@ def _search_left_out(reg, posed: Posed, nominal: Nominal, settings: Registration
         return r
 
     reg = rounds(reg)
-    # The pose still leaves points out: the runner-up may rest near a pose that fits them
-    # all, however it scores. (NIST CTC-03's 90-point patch, seed 11305: the pose 313 mm off,
-    # 0.052 mm exactly, 6 points out; the runner-up 0.49 mm from the truth, 0.174 mm on the
-    # sample, its chordal error, so never fitted on the exact faces; fitted and searched from,
-    # it comes home, 0.0018 mm. CTC-01 (AP242), seed 9455: the pose 643 mm off, 0.096 mm, 8
-    # points out; the runner-up 3.25 mm off at 1.30 mm, 13 x, comes home. With denser anchors
-    # from the start, FTC-07's seed 6305: a look-alike 220 mm off chosen, the runner-up 5.0 mm
-    # off, slid home.) So too when the runner-up leaves points out but fits those it keeps
-    # tighter than the pose fits its own (CTC-03's 90-point patch, seed 26004: a look-alike 393
-    # mm off, rms 0.0046 mm, none out; the runner-up 4.8 mm off, 89 at 0.0021 mm, one 0.6 mm off,
-    # slid along the patch's plane, slides home).
-    runner = reg.runner_up_T
-    if patch and runner is not None:
-        there = posed.at(runner)[1]
-        d = there.signed
-        kept = np.abs(d) <= robust_cut(d, settings.outlier_sigmas, scale)
-        if not fitting(reg).all() or (not kept.all() and RUNNER_TIGHTER * float(
-                np.sqrt(np.mean(d[kept] ** 2))) < reg.rms):
-            found = rounds(exact_fit(replace(reg, T_nominal_measured=runner, deviations=there),
-                                     posed, zone_width, settings.seed))
-            reg = better(reg, [found.T_nominal_measured])
+    # The runner-up may rest near a pose that fits every point, however it scores.
+    there = _runner_up_to_search(reg, posed, bool(fitting(reg).all()), settings.outlier_sigmas,
+                                 scale) if patch and reg.runner_up_T is not None else None
+    if there is not None:
+        found = rounds(exact_fit(replace(reg, T_nominal_measured=reg.runner_up_T,
+                                         deviations=there), posed, zone_width, settings.seed))
+        reg = better(reg, [found.T_nominal_measured])
     # Points off the part still (gross outliers, not a defect's region), on a patch: the pose
     # may be a look-alike, and a candidate the screen's few points could not lead home may come
     # home on every point, or the search with denser anchors find one. (A defect's region is no
@@ -181,6 +167,31 @@ def _search_left_out(reg, posed: Posed, nominal: Nominal, settings: Registration
         reg = better(reg, twin_turns(nominal, measured, reg.T_nominal_measured,
                                      reg.deviations, reg.runner_up_T, posed.surface, scale)[:1])
     return reg
+
+
+def _runner_up_to_search(reg, posed: Posed, pose_fits: bool, sigmas: float, scale: float):
+    """The deviations at ``reg``'s runner-up when :func:`_search_left_out` should fit it and
+    search from it, else None: when the pose leaves points out (not ``pose_fits``), or when
+    the runner-up leaves points out beyond its robust cut (``sigmas``, never below ``scale``)
+    while those within it fit ``RUNNER_TIGHTER`` x tighter than the pose's.
+
+    (NIST CTC-03's 90-point patch, seed 11305: the pose 313 mm off, 0.052 mm exactly, 6 points
+    out; the runner-up 0.49 mm from the truth, 0.174 mm on the sample, its chordal error, so
+    never fitted on the exact faces; fitted and searched from, it comes home, 0.0018 mm.
+    CTC-01 (AP242), seed 9455: the pose 643 mm off, 0.096 mm, 8 points out; the runner-up
+    3.25 mm off at 1.30 mm, 13 x, comes home. With denser anchors from the start, FTC-07's seed
+    6305: a look-alike 220 mm off chosen, the runner-up 5.0 mm off, slid home. CTC-03's
+    90-point patch, seed 26004: a look-alike 393 mm off, rms 0.0046 mm, none out; the runner-up
+    4.8 mm off, 89 points at 0.0021 mm, one 0.6 mm off, slid along the patch's plane; searched
+    from, it slides home.)"""
+    there = posed.at(reg.runner_up_T)[1]
+    if not pose_fits:
+        return there
+    d = there.signed
+    kept = np.abs(d) <= robust_cut(d, sigmas, scale)
+    if kept.all() or RUNNER_TIGHTER * float(np.sqrt(np.mean(d[kept] ** 2))) >= reg.rms:
+        return None
+    return there
 
 
 def _tied_twin(reg) -> bool:
