@@ -109,8 +109,9 @@ class StepNominal:
         projector per face). The foot is kept when it lies on the face's trimmed domain
         (``IntTools_FClass2d``, IN or ON), nearest candidates first; when it lies outside, the
         nearest point of the trimmed face (on an edge, at a vertex, or another interior
-        minimum) comes from ``BRepExtrema_DistShapeShape``, asked only while the face's lower
-        bound is below the best so far. The nearest wins. On a face the sign comes from the
+        minimum) comes from ``BRepExtrema_DistShapeShape`` (on a plane bounded by lines and
+        circles, from its edges in closed form: engine.io.step.boundary), asked only while the
+        face's lower bound is below the best so far. The nearest wins. On a face the sign comes from the
         face's outward normal at the foot; at a foot on an edge or a vertex from the sum of the
         outward normals of the faces that meet there (right on either side of a sharp convex or
         concave edge).

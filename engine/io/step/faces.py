@@ -15,6 +15,8 @@ import numpy as np
 
 from engine.errors import InputError
 
+from .boundary import PlaneBoundary
+
 TRIM_DEFLECTION = 2e-4
 """A face's trim is drawn in its (u, v) domain as polylines within this fraction of the domain
 box's diagonal of the boundary curves; a foot farther than ``TRIM_BAND`` x that from every
@@ -190,6 +192,7 @@ class FaceTools:
         self.classifier = IntTools_FClass2d(face, max(BRep_Tool.Tolerance_s(face), 1e-7))
         self.props = GeomLProp_SLProps(self.surface, 1, 1e-12)
         self._distance = None
+        self._boundary: PlaneBoundary | None | bool = None  # False: none (nearest_on_face)
 
     def normal(self, u: float, v: float) -> np.ndarray | None:
         """The outward unit normal at (u, v), or None where the surface has none (a pole)."""
@@ -311,13 +314,19 @@ class FaceTools:
         return out
 
     def nearest_on_face(self, xyz) -> tuple[float, np.ndarray, object] | None:
-        """The nearest point of the trimmed face to xyz (BRepExtrema_DistShapeShape): distance,
-        foot and its support (the face, an edge or a vertex); None when OpenCascade finds
-        none."""
+        """The nearest point of the trimmed face to xyz, whose foot on the surface fell outside
+        it: distance, foot and its support (the face, an edge or a vertex); None when
+        OpenCascade finds none. On a plane bounded by lines and circles, the nearest point of
+        its boundary in closed form (engine.io.step.boundary); else BRepExtrema_DistShapeShape."""
         from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
         from OCP.BRepExtrema import BRepExtrema_DistShapeShape
         from OCP.gp import gp_Pnt
 
+        if self._boundary is None:
+            plane = self.elementary is not None and self.elementary.kind == "Plane"
+            self._boundary = (PlaneBoundary.of(self.face) if plane else None) or False
+        if isinstance(self._boundary, PlaneBoundary):
+            return self._boundary.nearest(xyz)
         if self._distance is None:
             self._distance = BRepExtrema_DistShapeShape()
             self._distance.LoadS2(self.face)
