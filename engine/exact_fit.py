@@ -1,6 +1,6 @@
 """The registration finished on an exact surface (a STEP model's faces,
 engine.step_model.ExactDistances): the pose found on the nominal's sample refined by least
-squares of the exact deviations, its runner-up and other candidates judged the same way, and a
+squares of the exact deviations (engine.exact_lsq), its runner-up and other candidates judged the same way, and a
 pose that scores better kept where one is found: the runner-up, another candidate, or the pose
 slid along a direction its points leave free (engine.weak_search) (:func:`finish_exactly`, which
 engine.inspection.inspect runs).
@@ -11,12 +11,12 @@ hundredfold; on the exact faces the poses compare as they are.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
+from .exact_lsq import exact_fit, kept_fit
 from .nominal import Nominal
-from .pose import apply_update, lower_along, pose_jacobian
 from .progress import within
 from .registration import covers_part_only, distinct_poses, pose_score, search_densely
 from .registration_types import RegistrationSettings
@@ -305,82 +305,6 @@ def on_exact_scale(reg, score: float, sample_score: float):
 EXACT_HANDOVER_ITERATIONS = 8
 """Iterations of the registration's final fit on the nominal's sample before the exact surface
 takes over (engine.inspection.inspect with an exact surface)."""
-EXACT_FIT_POINTS = 8192
-"""The exact least squares iterates on at most this many of the points it keeps (a seeded random
-choice), then takes one step on every point: each exact evaluation costs tens of microseconds a
-point."""
-EXACT_FIT_SEED = 11
-"""The random stream of that choice (engine.seeds)."""
-
-
-EXACT_MAX_STEPS = 20
-"""All-point Gauss-Newton steps of the exact fit at most (each one exact evaluation of every
-point); it ends sooner when a step would move no point by more than 1e-9 of their extent."""
-
-
-EXACT_HALVINGS = 4
-"""A step of the exact fit that does not lower the sum of squares is halved at most this many
-times …"""
-EXACT_STALL_OF_ZONE = 0.01
-"""… and when none of them does, the fit has settled if the step moved no point by more than
-this fraction of the zone's width, or if the decrease of the sum of squares the step promised
-was less than one residual variance (the step is then inside the least-squares pose's own
-1-sigma ellipsoid: NIST CTC-01 with its largest face bowed 1 mm stalled at 1.29 um steps that
-promised 0.00027 mm^2, its residual variance 0.071 mm^2)."""
-
-
-def exact_fit(reg, posed: Posed, zone_width: float, seed: int):
-    """The registration finished on the exact surface: least squares of the exact deviations
-    from the pose found on the nominal's sample (within its chordal error of the answer), over
-    the points the gross-outlier rule (engine.outliers) keeps at the pose reached.
-
-    The points kept at first are those the rule keeps by the sample's deviations at the
-    handover pose; Gauss-Newton iterates on a seeded spread of at most ``EXACT_FIT_POINTS`` of
-    them (cheap: its optimum is within its sampling of every point's), then steps over every
-    point, each step at the exact deviations of every point and the rule applied to them again,
-    until a step would move no point by more than 1e-9 of their extent: the pose is then the
-    least-squares optimum over the points the rule keeps there, and the deviations returned are
-    exact at it. A step that does not lower the sum of squares is halved (``EXACT_HALVINGS``);
-    when no fraction of it does, the fit ends there. converged, rms, inliers and rule are this
-    fit's. seed : the inspection's (engine.seeds)."""
-    from .outliers import gross_outliers, gross_rule
-
-    floor = reg.gross_rule.floor_mm
-    rule = gross_rule(reg.deviations.signed, zone_width, floor)
-    use = ~gross_outliers(reg.deviations.signed, reg.deviations.foot, rule)
-    T = _subset_fit(posed, reg.T_nominal_measured, use, seed)
-    X, dev = posed.at(T)
-    extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
-    converged = False
-    for _ in range(EXACT_MAX_STEPS):
-        rule = gross_rule(dev.signed, zone_width, floor)
-        use = ~gross_outliers(dev.signed, dev.foot, rule)
-        if np.count_nonzero(use) < 6:
-            break
-        gn = _gn_step_exact(X[use], dev.normal[use], dev.signed[use])
-        if gn.moved <= 1e-9 * extent:
-            converged = True
-            break
-        cost = float(np.sum(dev.signed[use] ** 2))
-        lower = _lower_along(posed.at, T, gn.step, gn.c, cost, lambda dv: dv.signed[use])
-        if lower is None:
-            # No fraction of the step lowers the sum of squares: a point's foot flips between
-            # two faces at an edge, and full steps would cycle between two poses (NIST FTC-06
-            # with its largest face bowed 1 mm: 0.38 um steps, back and forth, for ever). The
-            # pose is the optimum to within that step.
-            variance = cost / max(int(np.count_nonzero(use)) - 6, 1)
-            converged = (gn.moved <= EXACT_STALL_OF_ZONE * zone_width
-                         or gn.promised <= variance)
-            break
-        T, X, dev = lower
-    d_in = dev.signed[use]
-    message = "" if converged else ("the least-squares fit on the exact surface did not settle")
-    return replace(reg, T_nominal_measured=T, deviations=dev, converged=converged,
-                   message=message, inlier=use, n_inliers=int(use.sum()),
-                   rms=float(np.sqrt(np.mean(d_in * d_in))) if use.any() else float("nan"),
-                   outlier_cut=rule.threshold_mm, gross_rule=rule)
-
-
 EXACT_SCORE_POINTS = 4096
 """The exact scores of the chosen and the runner-up pose are taken over a seeded random choice of
 at most this many points (the registration scores on as many)."""
@@ -412,7 +336,7 @@ def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, fl
     if not plausible_runner_up(reg):
         return reg
     idx = _score_points(reg.deviations.signed.size, seed)
-    Tr = _kept_fit(posed, reg.runner_up_T, idx, reg.gross_rule.floor_mm, zone_width, seed,
+    Tr = kept_fit(posed, reg.runner_up_T, idx, reg.gross_rule.floor_mm, zone_width, seed,
                    RUNNER_UP_FIT_ITERATIONS)
     score = pose_score(reg.deviations.signed[idx], floor * diagonal)
     if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
@@ -458,26 +382,12 @@ def screened(reg, starts, posed: Posed, diagonal: float, floor: float, zone_widt
     score = pose_score(reg.deviations.signed[idx], scale)
     found = []
     for Tc in starts:
-        Tf = _kept_fit(posed, Tc, idx, reg.gross_rule.floor_mm, zone_width, seed,
+        Tf = kept_fit(posed, Tc, idx, reg.gross_rule.floor_mm, zone_width, seed,
                        SCREEN_FIT_ITERATIONS)
         fitted = pose_score(posed.deviations_at(Tf, idx), scale)
         if fitted < (1.0 - margin) * score:
             found.append((fitted, Tf))
     return [T for _, T in sorted(found, key=lambda f: f[0])]
-
-
-def _kept_fit(posed: Posed, T: np.ndarray, idx: np.ndarray, floor_mm: float,
-              zone_width: float, seed: int, iterations: int) -> np.ndarray:
-    """The pose from T fitted by least squares of the exact deviations (:func:`_subset_fit`,
-    ``iterations`` at most) of those of the points ``idx`` that the gross-outlier rule (floor
-    ``floor_mm``, mm) keeps at T."""
-    from .outliers import gross_outliers, gross_rule
-
-    _, dev = posed.at(T, idx)
-    rule = gross_rule(dev.signed, zone_width, floor_mm)
-    use = np.zeros(posed.points.shape[0], bool)
-    use[idx[~gross_outliers(dev.signed, dev.foot, rule)]] = True
-    return _subset_fit(posed, T, use, seed, iterations)
 
 
 def better_pose(reg, starts, posed: Posed, measured: np.ndarray, diagonal: float,
@@ -519,65 +429,3 @@ def _adopted(reg, score: float, best, best_score: float, posed: Posed, src: np.n
               if distinct_poses(T, best.T_nominal_measured, src, diagonal)]
     runner_score, runner_T = min(others, key=lambda o: o[0], default=(None, None))
     return replace(best, score=best_score, runner_up_T=runner_T, runner_up_score=runner_score)
-
-
-@dataclass(frozen=True)
-class _Step:
-    """A Gauss-Newton step of the exact fit: step (6,), rotation vector then translation, about
-    c (3,), the points' centroid; moved, the largest displacement it gives a point (mm);
-    promised, the decrease of the sum of squares the linearised model promises (mm^2)."""
-
-    step: np.ndarray
-    c: np.ndarray
-    moved: float
-    promised: float
-
-
-def _gn_step_exact(X: np.ndarray, normal: np.ndarray, signed: np.ndarray) -> _Step:
-    """One Gauss-Newton step of the signed deviations ``signed`` (m,) of points X (m, 3) with
-    the surface normals at their feet."""
-    c = X.mean(axis=0)
-    J = pose_jacobian(X, normal, c)
-    step = np.linalg.lstsq(J, -signed, rcond=None)[0]
-    moved = float(np.max(np.linalg.norm(np.cross(step[:3], X - c) + step[3:], axis=1)))
-    return _Step(step, c, moved, float(np.sum((J @ step) ** 2)))
-
-
-def _subset_fit(posed: Posed, T: np.ndarray, use: np.ndarray, seed: int,
-                max_iterations: int = 50) -> np.ndarray:
-    """The pose from T by Gauss-Newton least squares of the exact deviations of a seeded random
-    choice of at most EXACT_FIT_POINTS of the points ``use``, until no point moves by more
-    than 1e-9 of their extent (or ``max_iterations``), or no fraction of a step
-    (``_lower_along``) lowers their sum of squares: the pose is then the optimum to within that
-    step. (Full steps cycled there: NIST FTC-07's runner-up pose, its largest face bowed
-    0.1 mm, went back and forth by 1.5 um for all of its 20 iterations.)"""
-    idx = np.flatnonzero(use)
-    if idx.size > EXACT_FIT_POINTS:
-        idx = np.sort(rng(seed, EXACT_FIT_SEED).choice(idx, EXACT_FIT_POINTS, replace=False))
-    if idx.size < 6:
-        return T
-    X, dev = posed.at(T, idx)
-    extent = float(np.linalg.norm(np.ptp(X, axis=0))) or 1.0
-    for _ in range(max_iterations):
-        gn = _gn_step_exact(X, dev.normal, dev.signed)
-        if gn.moved <= 1e-9 * extent:
-            return apply_update(T, gn.step, gn.c)
-        lower = _lower_along(lambda Tc: posed.at(Tc, idx), T, gn.step, gn.c,
-                             float(np.sum(dev.signed ** 2)), lambda dv: dv.signed)
-        if lower is None:
-            break
-        T, X, dev = lower
-    return T
-
-
-def _lower_along(measure, T: np.ndarray, step: np.ndarray, c: np.ndarray, cost: float,
-                 residuals):
-    """The first of the Gauss-Newton ``step`` (about c) and its halves (``EXACT_HALVINGS``)
-    from pose T whose sum of squared ``residuals(dev)`` is below ``cost``: (T', X', dev') with
-    measure(T') = (X', dev'); None when none is."""
-    def evaluate(T_new):
-        X_new, dev_new = measure(T_new)
-        return float(np.sum(residuals(dev_new) ** 2)), (X_new, dev_new)
-
-    lower = lower_along(T, step, c, cost, evaluate, 2.0, EXACT_HALVINGS)
-    return None if lower is None else (lower[0], *lower[1])
