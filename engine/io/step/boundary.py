@@ -14,10 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-VERTEX_TOLERANCE_MM = 1e-7
-"""A foot within this of an end's vertex, or within the vertex's own tolerance (OpenCascade's,
-as its shape-to-shape distance takes it), lies at that vertex: its support is the vertex, whose
-faces all give the normal at the foot (engine.io.step.brep); elsewhere on the edge, the edge."""
 
 
 class PlaneBoundary:
@@ -28,14 +24,14 @@ class PlaneBoundary:
     def __init__(self, segments: list, arcs: list):
         self.seg_a = np.array([s[0] for s in segments], float).reshape(-1, 3)
         self.seg_b = np.array([s[1] for s in segments], float).reshape(-1, 3)
-        self.seg_shapes = [s[2:] for s in segments]  # (edge, its ends: _ends)
+        self.seg_shapes = [(s[2], s[3]) for s in segments]  # (edge, its ends: _ends)
         self.arc_centre = np.array([a[0] for a in arcs], float).reshape(-1, 3)
         self.arc_x = np.array([a[1] for a in arcs], float).reshape(-1, 3)
         self.arc_y = np.array([a[2] for a in arcs], float).reshape(-1, 3)
         self.arc_r = np.array([a[3] for a in arcs], float)
         self.arc_first = np.array([a[4] for a in arcs], float)
         self.arc_span = np.array([a[5] for a in arcs], float)
-        self.arc_shapes = [a[6:] for a in arcs]  # (edge, its ends: _ends)
+        self.arc_shapes = [(a[6], a[7]) for a in arcs]  # (edge, its ends: _ends)
 
     @classmethod
     def of(cls, face) -> "PlaneBoundary | None":
@@ -57,10 +53,10 @@ class PlaneBoundary:
                 continue
             curve = BRepAdaptor_Curve(edge)
             first, last = curve.FirstParameter(), curve.LastParameter()
-            ends = _ends(edge, TopExp, BRep_Tool)
+            a, b = (np.array(curve.Value(t).Coord()) for t in (first, last))
+            ends = _ends(edge, a, b, TopExp, BRep_Tool)
             kind = curve.GetType()
             if kind == GeomAbs_Line:
-                a, b = (np.array(curve.Value(t).Coord()) for t in (first, last))
                 segments.append((a, b, edge, ends))
             elif kind == GeomAbs_Circle:
                 circle = curve.Circle()
@@ -86,7 +82,8 @@ class PlaneBoundary:
             foot = self.seg_a + t[:, None] * ab
             d = np.linalg.norm(p - foot, axis=1)
             k = int(np.argmin(d))
-            best = (float(d[k]), foot[k], _support(foot[k], *self.seg_shapes[k]))
+            edge, ends = self.seg_shapes[k]
+            best = (float(d[k]), foot[k], _support(edge, ends, t[k] == 0.0, t[k] == 1.0))
         if self.arc_r.shape[0]:
             w = p - self.arc_centre
             angle = np.arctan2(np.einsum("ij,ij->i", w, self.arc_y),
@@ -102,22 +99,23 @@ class PlaneBoundary:
             d = np.linalg.norm(p - foot, axis=1)
             k = int(np.argmin(d))
             if d[k] < best[0]:
-                best = (float(d[k]), foot[k], _support(foot[k], *self.arc_shapes[k]))
+                whole = self.arc_span[k] >= 2 * np.pi - 1e-9  # (its one vertex: a seam)
+                edge, ends = self.arc_shapes[k]
+                best = (float(d[k]), foot[k], _support(edge, ends, not whole and s[k] == 0.0,
+                                                       not whole and s[k] == self.arc_span[k]))
         return best
 
 
-def _ends(edge, TopExp, BRep_Tool) -> tuple:
-    """The edge's vertices, each as (vertex, its point (3,), its reach: its tolerance or
-    ``VERTEX_TOLERANCE_MM``, whichever is larger)."""
-    return tuple((v, np.array(BRep_Tool.Pnt_s(v).Coord()),
-                  max(BRep_Tool.Tolerance_s(v), VERTEX_TOLERANCE_MM))
-                 for v in (TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)))
+def _ends(edge, a: np.ndarray, b: np.ndarray, TopExp, BRep_Tool) -> tuple:
+    """The edge's vertices at its curve's first and last points ``a`` and ``b``: each the one of
+    its two vertices nearer to that point."""
+    vertices = [TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)]
+    where = np.array([BRep_Tool.Pnt_s(v).Coord() for v in vertices])
+    return tuple(vertices[int(np.argmin(np.linalg.norm(where - q, axis=1)))] for q in (a, b))
 
 
-def _support(foot: np.ndarray, edge, ends: tuple) -> object:
-    """The support of a foot on ``edge``: the vertex of its ``ends`` (:func:`_ends`) within
-    reach of the foot, else the edge."""
-    for vertex, where, reach in ends:
-        if np.linalg.norm(foot - where) <= reach:
-            return vertex
-    return edge
+def _support(edge, ends: tuple, at_first: bool, at_last: bool) -> object:
+    """The support of a foot on ``edge``: the vertex at the end its foot was held to (the
+    point lies beyond that end, as OpenCascade's shape-to-shape distance then names the
+    vertex, whose faces all give the normal there: engine.io.step.brep), else the edge."""
+    return ends[0] if at_first else ends[1] if at_last else edge

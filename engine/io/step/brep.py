@@ -110,11 +110,11 @@ class StepNominal:
         (``IntTools_FClass2d``, IN or ON), nearest candidates first; when it lies outside, the
         nearest point of the trimmed face (on an edge, at a vertex, or another interior
         minimum) comes from ``BRepExtrema_DistShapeShape`` (on a plane bounded by lines and
-        circles, from its edges in closed form: engine.io.step.boundary), asked only while the
-        face's lower bound is below the best so far. The nearest wins. On a face the sign comes from the
-        face's outward normal at the foot; at a foot on an edge or a vertex from the sum of the
-        outward normals of the faces that meet there (right on either side of a sharp convex or
-        concave edge).
+        circles, from its edges in closed form: engine.io.step.boundary), asked only while
+        the face's lower bound is below the best so far. The nearest wins. On a face the sign
+        comes from the face's outward normal at the foot; at a foot on an edge or a vertex from
+        the sum of the outward normals of the faces that meet there (right on either side of a
+        sharp convex or concave edge).
 
         Exact to OpenCascade's precision (tested to 0.1 µm against analytic truth and against
         the distance to all faces at once); an extrema search over a general (B-spline) face's
@@ -452,7 +452,7 @@ class Brep:
             i, fid = int(pairs[j, 0]), int(pairs[j, 1])
             if bound[j] >= min(best.dist[i], best.upper[i]) - TIE_MM:
                 continue
-            found = self.tools(fid).nearest_on_face(p[i])
+            found = self.tools(fid).nearest_on_face(p[i], outside=True)
             if found is not None and found[0] < best.dist[i]:
                 best.dist[i], best.face[i], best.foot[i], best.support[i] = found[0], fid, \
                     found[1], found[2]

@@ -313,11 +313,13 @@ class FaceTools:
                 out[j] = False
         return out
 
-    def nearest_on_face(self, xyz) -> tuple[float, np.ndarray, object] | None:
-        """The nearest point of the trimmed face to xyz, whose foot on the surface fell outside
-        it: distance, foot and its support (the face, an edge or a vertex); None when
-        OpenCascade finds none. On a plane bounded by lines and circles, the nearest point of
-        its boundary in closed form (engine.io.step.boundary); else BRepExtrema_DistShapeShape."""
+    def nearest_on_face(self, xyz, outside: bool = False
+                        ) -> tuple[float, np.ndarray, object] | None:
+        """The nearest point of the trimmed face to xyz: distance, foot and its support (the
+        face, an edge or a vertex); None when OpenCascade finds none. On a plane bounded by
+        lines and circles, the foot on the plane if it lies in the face (not asked when the
+        caller knows it lies ``outside``), else the nearest point of its boundary in closed
+        form (engine.io.step.boundary); on other faces BRepExtrema_DistShapeShape."""
         from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
         from OCP.BRepExtrema import BRepExtrema_DistShapeShape
         from OCP.gp import gp_Pnt
@@ -325,7 +327,10 @@ class FaceTools:
         if self._boundary is None:
             plane = self.elementary is not None and self.elementary.kind == "Plane"
             self._boundary = (PlaneBoundary.of(self.face) if plane else None) or False
-        if isinstance(self._boundary, PlaneBoundary):
+        if isinstance(self._boundary, PlaneBoundary) and self.elementary is not None:
+            d, u, v, foot, _ = self.elementary.nearest(np.asarray(xyz, float).reshape(1, 3))
+            if not outside and self.classify(np.column_stack([u, v]))[0]:
+                return float(d[0]), foot[0], self.face
             return self._boundary.nearest(xyz)
         if self._distance is None:
             self._distance = BRepExtrema_DistShapeShape()
