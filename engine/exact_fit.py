@@ -272,10 +272,11 @@ def _near_fitted(reg, fitted: list, posed: Posed, nominal: Nominal,
     that fit, whose spread says what the noise is), reaching ``SHORT_SLIDE_REACH`` x the
     largest deviation of a point beyond that noise, if that is near (``SHORT_SLIDE_OF_DIAGONAL``),
     and shifted to where its points left out meet the nominal (engine.weak_search's
-    shifted_poses, screened as :func:`_search_left_out` screens them); only a candidate that
-    leaves out at most ``NEAR_MORE_OUT`` points more than the pose does. The first that scores
-    better ends the search. (FTC-08 (AP242)'s 90-point patch, seed 5455: the candidate 1.33 mm
-    off, turned about a hinge of points at the noise, slides home.)
+    shifted_poses, screened as :func:`_search_left_out` screens them); beyond the best one's
+    slide (tried whatever it leaves out, as it was before the others were searched: FTC-08
+    (AP242)'s 90-point patch, seed 5455, its candidate 1.33 mm off turned about a hinge of 12
+    points at the noise, once slid home so), only a candidate that leaves out at most
+    ``NEAR_MORE_OUT`` points more than the pose does. The first that scores better ends it.
 
     (NIST FTC-07's 90-point patch, seed 26000: the pose a look-alike 136 mm off, 1 point
     3.9 mm out; the candidate the search with denser anchors found 13.8 mm off fits to 8.2 mm
@@ -290,19 +291,20 @@ def _near_fitted(reg, fitted: list, posed: Posed, nominal: Nominal,
         if all(distinct_poses(f.T_nominal_measured, g.T_nominal_measured, measured,
                               nominal.diagonal) for g in distinct):
             distinct.append(f)
-    for f in distinct[:NEAR_FITTED]:
+    for rank, f in enumerate(distinct[:NEAR_FITTED]):
         d = np.abs(f.deviations.signed)
         kept = d <= cut
         reach = SHORT_SLIDE_REACH * float(d[~kept].max(initial=0.0))
-        if (kept.all() or np.count_nonzero(kept) < 6
-                or np.count_nonzero(~kept) > np.count_nonzero(~fits) + NEAR_MORE_OUT):
+        few = (np.count_nonzero(kept) >= 6
+               and np.count_nonzero(~kept) <= np.count_nonzero(~fits) + NEAR_MORE_OUT)
+        if kept.all() or not (few or rank == 0):
             continue
         T = f.T_nominal_measured
         if reach <= SHORT_SLIDE_OF_DIAGONAL * nominal.diagonal:
             rms = float(np.sqrt(np.mean(d[kept] ** 2)))
             reg = better(reg, slid_poses(nominal, measured, T, f.deviations, kept, rms,
                                          posed.surface, scale, reach)[:SLID_FITS])
-        if reg.T_nominal_measured is start:
+        if few and reg.T_nominal_measured is start:
             reg = better(reg, screened(f, shifted_poses(nominal, measured, T, f.deviations, kept,
                                                         posed.surface, scale),
                                        posed, nominal.diagonal, settings.outlier_floor,
@@ -321,9 +323,8 @@ mis-probe or two leaves them out, and so does every look-alike, with more of its
 NIST parts' 90-point patches with two mis-probes, the candidates left out 2-84 points; searching
 near each of the best six cost 0.5-1.9 s a patch for nothing)."""
 SHORT_SLIDE_REACH = 2.0
-"""A candidate's short slide (:func:`_from_other_candidates`) reaches this x the largest
-deviation of a point beyond the pose's noise (FTC-08's seed 5455: 3.1 mm, 0.65 s; a whole
-turn, 8.4 s) …"""
+"""A candidate's short slide (:func:`_near_fitted`) reaches this x the largest deviation of a
+point beyond the pose's noise (FTC-08's seed 5455: 3.1 mm, 0.65 s; a whole turn, 8.4 s) …"""
 SHORT_SLIDE_OF_DIAGONAL = 0.02
 """… and is tried only when that is within this fraction of the nominal's bounding-box
 diagonal: a candidate near the truth. (Look-alikes put points further off: on 90-point
@@ -383,7 +384,7 @@ def exact_runner_up(reg, posed: Posed, measured: np.ndarray, diagonal: float, fl
         return reg
     idx = _score_points(reg.deviations.signed.size, seed)
     Tr = kept_fit(posed, reg.runner_up_T, idx, reg.gross_rule.floor_mm, zone_width, seed,
-                   RUNNER_UP_FIT_ITERATIONS)
+                  RUNNER_UP_FIT_ITERATIONS)
     score = pose_score(reg.deviations.signed[idx], floor * diagonal)
     if not distinct_poses(Tr, reg.T_nominal_measured, measured[idx], diagonal):
         return replace(reg, score=score, runner_up_score=None, runner_up_T=None)
@@ -429,7 +430,7 @@ def screened(reg, starts, posed: Posed, diagonal: float, floor: float, zone_widt
     found = []
     for Tc in starts:
         Tf = kept_fit(posed, Tc, idx, reg.gross_rule.floor_mm, zone_width, seed,
-                       SCREEN_FIT_ITERATIONS)
+                      SCREEN_FIT_ITERATIONS)
         fitted = pose_score(posed.deviations_at(Tf, idx), scale)
         if fitted < (1.0 - margin) * score:
             found.append((fitted, Tf))

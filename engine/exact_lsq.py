@@ -92,7 +92,7 @@ def exact_fit(reg, posed: Posed, zone_width: float, seed: int):
 
 
 def kept_fit(posed: Posed, T: np.ndarray, idx: np.ndarray, floor_mm: float,
-              zone_width: float, seed: int, iterations: int) -> np.ndarray:
+             zone_width: float, seed: int, iterations: int) -> np.ndarray:
     """The pose from T fitted by least squares of the exact deviations (:func:`_subset_fit`,
     ``iterations`` at most) of those of the points ``idx`` that the gross-outlier rule (floor
     ``floor_mm``, mm) keeps at T."""
