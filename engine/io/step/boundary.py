@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 
 
-
 class PlaneBoundary:
     """The straight edges (segments a-b) and circular arcs of one planar face, in the nominal
     frame (mm), each with its OpenCascade edge and end vertices (the support of a foot found on

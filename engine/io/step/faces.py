@@ -328,9 +328,10 @@ class FaceTools:
             plane = self.elementary is not None and self.elementary.kind == "Plane"
             self._boundary = (PlaneBoundary.of(self.face) if plane else None) or False
         if isinstance(self._boundary, PlaneBoundary) and self.elementary is not None:
-            d, u, v, foot, _ = self.elementary.nearest(np.asarray(xyz, float).reshape(1, 3))
-            if not outside and self.classify(np.column_stack([u, v]))[0]:
-                return float(d[0]), foot[0], self.face
+            if not outside:
+                d, u, v, foot, _ = self.elementary.nearest(np.asarray(xyz, float).reshape(1, 3))
+                if self.classify(np.column_stack([u, v]))[0]:
+                    return float(d[0]), foot[0], self.face
             return self._boundary.nearest(xyz)
         if self._distance is None:
             self._distance = BRepExtrema_DistShapeShape()
