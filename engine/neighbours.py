@@ -14,9 +14,12 @@ import numpy as np
 from . import icp_kernels
 from .seeds import DEFAULT_SEED, rng
 
-PARALLEL_QUERIES = 2048
+PARALLEL_QUERIES = 1024
 """A kd-tree query of fewer points runs on one thread: starting the threads costs more than
-they save (a plan's datum fits query a few dozen points, many times)."""
+they save (a plan's datum fits query a few dozen points, many times). From 2,048 down to 1,024
+(2026-12-07, 2 cores): the belly fairing's 1,100 points, whole inspection, 0.263-0.276 s ->
+0.222-0.265 s; NIST FTC-06 (AP242) bowed 1 mm, 2,000 points (4 neighbours among 1.33 million
+samples, 3.9 ms on one thread, 3.3 ms on two), 1.56-1.59 s -> 1.32-1.48 s."""
 
 
 def query_workers(n_queries: int) -> int:
