@@ -513,8 +513,9 @@ def test_a_runner_up_whose_kept_points_fit_tighter_than_the_pose_s_is_searched_f
     cover10 --poses 5 --points 900 --seed 26000): a confident ACCEPT at a look-alike 393 mm
     off, every point within 0.038 mm, rms 0.0046 mm, so none left out and no search ran. Its
     runner-up, 4.8 mm from the truth, fitted 89 points at 0.0021 mm and left one out 0.6 mm
-    off: slid along the patch's plane. A runner-up whose kept points fit tighter than the
-    pose's, while it leaves points out, is searched from too; the one point slides it home."""
+    off: slid along the patch's plane. A runner-up whose kept points fit 1.5 x tighter than
+    the pose's, while it leaves points out, is searched from too; the one point slides it
+    home."""
     res, (outcome, err) = _inspect_case("nist_ctc_03_asme1_ap242-e2.stp", "cover10", 26004,
                                         n=900)
     assert outcome == "right" and res.verdict == "ACCEPT", (outcome, err, res.reasons)
@@ -526,8 +527,8 @@ def test_a_look_alike_among_many_is_left_for_the_truth_near_a_candidate(defect, 
     """FTC-07, 90 points on 10-15% of a perfect part (bench_sweep --defects cover10 --poses 5
     --points 900 --seed 26000; --defects cover15 --points 600 --seed 19600): confident REJECTs
     136 and 165 mm off, one point out. The part repeats its pockets: a dozen candidates fit 87-89
-    of the points at the noise, none the truth. Near one of them (8.2 mm off along x, 3 points
-    out; the sixth best of 19600's) the shifts where a point left out crosses a face come
-    home."""
+    of the points at the noise, none the truth. Near one of them (26000: the third best, 8.2 mm
+    off along x, 3 points out; 19600: the sixth best) the shifts where a point left out crosses
+    a face come home."""
     res, (outcome, err) = _inspect_case("nist_ftc_07_asme1_ap242-e2.stp", defect, seed, n=n)
     assert outcome == "right" and res.verdict == "ACCEPT", (outcome, err, res.reasons)
