@@ -192,7 +192,6 @@ class FaceTools:
         self.classifier = IntTools_FClass2d(face, max(BRep_Tool.Tolerance_s(face), 1e-7))
         self.props = GeomLProp_SLProps(self.surface, 1, 1e-12)
         self._distance = None
-        self._boundary: PlaneBoundary | None | bool = None  # False: none (nearest_on_face)
 
     def normal(self, u: float, v: float) -> np.ndarray | None:
         """The outward unit normal at (u, v), or None where the surface has none (a pole)."""
@@ -249,6 +248,13 @@ class FaceTools:
             if n is not None:
                 normal[j] = n
         return foot, normal
+
+    @functools.cached_property
+    def plane_boundary(self) -> PlaneBoundary | None:
+        """A plane's edges for its nearest points in closed form (engine.io.step.boundary), made
+        on first use; None for another surface or a plane with another kind of edge."""
+        plane = self.elementary is not None and self.elementary.kind == "Plane"
+        return PlaneBoundary.of(self.face) if plane else None
 
     @functools.cached_property
     def trim(self) -> tuple[np.ndarray, float] | None:
@@ -324,15 +330,13 @@ class FaceTools:
         from OCP.BRepExtrema import BRepExtrema_DistShapeShape
         from OCP.gp import gp_Pnt
 
-        if self._boundary is None:
-            plane = self.elementary is not None and self.elementary.kind == "Plane"
-            self._boundary = (PlaneBoundary.of(self.face) if plane else None) or False
-        if isinstance(self._boundary, PlaneBoundary) and self.elementary is not None:
+        boundary = self.plane_boundary
+        if boundary is not None and self.elementary is not None:
             if not outside:
                 d, u, v, foot, _ = self.elementary.nearest(np.asarray(xyz, float).reshape(1, 3))
                 if self.classify(np.column_stack([u, v]))[0]:
                     return float(d[0]), foot[0], self.face
-            return self._boundary.nearest(xyz)
+            return boundary.nearest(xyz)
         if self._distance is None:
             self._distance = BRepExtrema_DistShapeShape()
             self._distance.LoadS2(self.face)
