@@ -17,22 +17,9 @@ PARTS = [os.path.join(ROOT, "tests", "data", "step", f)
          for f in ("nist_ftc_08_asme1_ap242-e1.stp", "nist_ctc_01_asme1_ap203.stp")]
 
 
-def _opencascade_nearest(face, p):
-    """(distance, foot) from OpenCascade's BRepExtrema_DistShapeShape to the trimmed face."""
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
-    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
-    from OCP.gp import gp_Pnt
-    dss = BRepExtrema_DistShapeShape(BRepBuilderAPI_MakeVertex(gp_Pnt(*p)).Vertex(), face)
-    assert dss.IsDone()
-    return dss.Value(), np.array(dss.PointOnShape2(1).Coord())
-
-
 def _distance_to(shape, p) -> float:
-    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
-    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
-    from OCP.gp import gp_Pnt
-    return BRepExtrema_DistShapeShape(BRepBuilderAPI_MakeVertex(gp_Pnt(*p)).Vertex(),
-                                      shape).Value()
+    """OpenCascade's distance from point p to a shape (step_models.distance_to_shape)."""
+    return float(sm.distance_to_shape(shape, np.asarray(p, float)[None])[0])
 
 
 def _tolerance(shape) -> float:
@@ -90,7 +77,7 @@ def test_the_nearest_point_of_a_planar_face_s_boundary_is_opencascade_s(path):
             if BRepClass_FaceClassifier(face, gp_Pnt(*on_plane), 1e-7).State() != TopAbs_OUT:
                 continue
             distance, foot, support = boundary.nearest(p)
-            truth, _ = _opencascade_nearest(face, p)
+            truth = _distance_to(face, p)
             assert abs(distance - truth) < 1e-7, (path, p, distance, truth)
             assert abs(np.linalg.norm(p - foot) - distance) < 1e-9
             assert _distance_to(face, foot) < 1e-7
@@ -159,7 +146,7 @@ def test_a_face_s_own_distance_is_opencascade_s_over_its_inside_and_beyond_it(pa
         p = on[rng.choice(len(on), m, replace=False)] + rng.normal(0, 1.0, (m, 3))
         got = nominal.face_distances(fid, p)
         for q, d in zip(p, got):
-            truth, _ = _opencascade_nearest(face, q)
+            truth = _distance_to(face, q)
             assert abs(d - truth) < 1e-7, (path, fid, q, d, truth)
             over += boundary.nearest(q)[0] > truth + 1e-6
             checked += 1
