@@ -884,7 +884,6 @@ def test_the_uncertainty_region_of_a_reject_is_judged_as_every_point_judges_it(f
         assert evaluated[0] >= 512
 
 
-
 @pytest.mark.parametrize("n, left, trusted", [(9, 1, True), (20, 2, True), (20, 3, False),
                                               (100, 10, True), (100, 11, False)])
 def test_a_pose_is_not_trusted_when_its_fit_leaves_more_than_a_tenth_and_two_points_out(
