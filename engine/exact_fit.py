@@ -18,11 +18,11 @@ import numpy as np
 from .exact_lsq import exact_fit, kept_fit
 from .nominal import Nominal
 from .progress import within
-from .registration import covers_part_only, distinct_poses, pose_score, search_densely
+from .registration import covers_part_only, distinct_poses, search_densely
 from .registration_types import RegistrationSettings
 from .seeds import rng
 from .surface import Posed
-from .surface_fit import robust_cut
+from .surface_fit import pose_score, robust_cut
 from .verdict import SCORE_TIE, better_runner_up, plausible_runner_up
 from .weak_search import half_turns, jumped_poses, shifted_poses, slid_poses, twin_turns
 

@@ -64,7 +64,8 @@ from .pose import (apply_transform, make_transform, rms_radius, rotation_angle_d
                    rotation_from_rotvec, uniform_rotations)
 from .progress import report
 from .registration_types import PoseFit, RegistrationResult, RegistrationSettings
-from .surface_fit import ALTERNATIVE_ITERATIONS, MAX_FINISHES, gross_floor, point_to_surface_fit
+from .surface_fit import (ALTERNATIVE_ITERATIONS, MAX_FINISHES, Watch, gross_floor,
+                          point_to_surface_fit, pose_score)
 
 
 def register(nominal: Nominal, measured: np.ndarray,
@@ -232,8 +233,10 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     finish may move a pose away: least squares over every point pulls a wrong pose towards the
     points it leaves off the part; and it brings a pose near the right one home). The finishes
     run on the points the candidates are scored on (at most ``icp_measured``), those after the
-    best one ``ALTERNATIVE_ITERATIONS`` at most (one that ends best unsettled is finished in
-    full); the pose chosen is then fitted on every point. The answer is the best finished
+    best one ``ALTERNATIVE_ITERATIONS`` at most and given up, at the best pose they saw, once
+    they score no better than where they started and worse than the best finish
+    (surface_fit.Watch) (one that ends best unsettled is finished in full); the pose chosen is
+    then fitted on every point. The answer is the best finished
     pose: no candidate scores better. The best distinct other pose is the runner-up; the
     candidates distinct from both that score within ``CANDIDATE_SCORE_RATIO`` of the pose are
     kept too (``candidates``)."""
@@ -254,15 +257,10 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     # ``icp_measured``); the one chosen is then fitted on every point. (Each finish of a wrong
     # pose over 200,000 points ran its whole iteration budget: 425 s on a 1M-point nominal.)
     compared = measured[ssub]
-    # The best candidate's finish has the whole iteration budget, the others' a short one: a
-    # wrong pose does not settle, and ran the budget out (50 evaluations of 4,096 far points,
-    # 12 s on a 1M-point nominal). A short finish chosen all the same is finished in full.
-    short = replace(settings, max_final_iterations=min(settings.max_final_iterations,
-                                                       ALTERNATIVE_ITERATIONS))
     best: int | None = order[0]  # the next candidate to finish
     while best is not None:
-        finished[best] = (_unfitted if unfit else point_to_surface_fit)(
-            nominal, compared, refined[best], short if finished else settings, zone_width)
+        finished[best] = _finish(nominal, compared, refined[best], settings, zone_width, unfit,
+                                 final, scale)
         final[best] = pose_score(finished[best].deviations.signed, scale)
         chosen = min(final, key=final.__getitem__)
         # Not only the candidates already scoring better are finished: one a millimetre off
@@ -305,6 +303,25 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
         message=fit.message, near_rule=near_rule, candidates=others)
 
 
+def _finish(nominal: Nominal, compared: np.ndarray, T: np.ndarray, settings: RegistrationSettings,
+            zone_width: float | None, unfit: bool, final: dict, scale: float) -> PoseFit:
+    """The finish of the candidate pose T on the points ``compared``, when the candidates
+    finished before it scored ``final`` (candidate -> score at ``scale``): T as it is when no
+    pose is worth fitting (``unfit``); the first candidate's with the whole iteration budget,
+    the others' with a short one (a wrong pose does not settle, and ran the budget out: 50
+    evaluations of 4,096 far points, 12 s on a 1M-point nominal), given up once it is plainly
+    not going to beat the best (surface_fit.Watch). A short finish chosen all the same is
+    finished in full (_final_fit)."""
+    if unfit:
+        return _unfitted(nominal, compared, T, settings, zone_width)
+    if not final:
+        return point_to_surface_fit(nominal, compared, T, settings, zone_width)
+    short = replace(settings, max_final_iterations=min(settings.max_final_iterations,
+                                                       ALTERNATIVE_ITERATIONS))
+    return point_to_surface_fit(nominal, compared, T, short, zone_width,
+                                Watch(scale, min(final.values())))
+
+
 def _runner_up(poses: list, scores: list, chosen: int, src: np.ndarray, diagonal: float,
                sampled: list) -> tuple[int | None, tuple[np.ndarray, ...]]:
     """(runner, others) among the candidate poses (4, 4) with their ``scores``: the runner-up,
@@ -342,28 +359,6 @@ def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
     inlier = ~gross_outliers(dev.signed, dev.foot, rule)
     return PoseFit(T, False, 0, inlier, rule, dev, dev_s,
                    "the measured points do not match the nominal at any pose found")
-
-
-def pose_score(d: np.ndarray, scale: float) -> float:
-    """How well deviations d (mm) fit, mm: sqrt(exp(mean(log(d^2 + scale^2))) - scale^2).
-
-    Poses rank as by the mean Cauchy loss log(1 + (d / scale)^2) of their points: 0.01 for a
-    point at a tenth of ``scale``, 0.7 at ``scale``, 9.2 at 100 x ``scale``. While the
-    deviations are small against ``scale`` the score is about their RMS (close fits compare as
-    least squares does); beyond it a point counts by the logarithm of its distance. So a few
-    gross outliers do not decide between poses; a pose that leaves a quarter of the points
-    millimetres off loses to one that keeps every point within hundredths; and a pose with
-    every point but one (a mis-probe, a missing hole) at the noise does not lose to one slid
-    along a weak direction that spreads that point's error over all of them."""
-    s2 = scale * scale
-    return float(np.sqrt(max(np.exp(pose_loss(d, scale)) - s2, 0.0)))
-
-
-def pose_loss(d: np.ndarray, scale: float, weights: np.ndarray | None = None) -> np.ndarray:
-    """mean(log(d^2 + scale^2)) over the last axis of deviations d (mm): what
-    :func:`pose_score` ranks poses by (lower is better), per row of a (k, m) array of k poses'
-    deviations (engine.weak_search scans poses so); ``weights`` (m,): a weighted mean."""
-    return np.average(np.log(d * d + scale * scale), axis=-1, weights=weights)
 
 
 # ---------------------------------------------------------------------------- global stage

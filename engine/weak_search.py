@@ -35,7 +35,7 @@ from .neighbours import spread_subset
 from .nominal import Nominal
 from .pose import (apply_transform, make_transform, pose_jacobian, rotation_angle_deg,
                    screw_motion)
-from .registration import pose_loss
+from .surface_fit import pose_loss
 from .trust import DEGENERATE_STRENGTH, conditioning
 
 SLIDE_STEP_OF_DIAGONAL = 3e-3

@@ -11,7 +11,7 @@ import pytest
 from engine.io.step import read_step
 from engine.nominal import Nominal
 from engine.pose import make_transform
-from engine.registration import pose_score
+from engine.surface_fit import pose_score
 from engine.step_model import ExactDistances
 from engine.surface import Posed
 from engine.weak_search import slid_poses
