@@ -170,9 +170,8 @@ def _global_search(nominal: Nominal, measured: np.ndarray, coarse: int,
 def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coarse: int,
                     settings: RegistrationSettings):
     """(T (k, 4, 4), iterations): the candidate poses refined level by level, the nominal
-    sample growing x4 per level from ``coarse`` and the measured subset with it (many
-    candidates meeting many points pruned on ``PRUNE_POINTS`` first); the count includes the
-    global stage's iterations."""
+    sample growing x4 per level from ``coarse`` and the measured subset with it; the count
+    includes the global stage's iterations."""
     size = coarse
     level = 0
     iters = 10
@@ -196,28 +195,15 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
         shape = nominal.level_shape(size) if size <= settings.quadric_max_level and not last \
             else None
         frac = 0.4 + 0.35 * min(level, 4) / 4
-        keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
-        if T.shape[0] > keep and msub.size > PRUNE_POINTS:
-            few = spread_subset(measured, PRUNE_POINTS, settings.seed)
-            T, score, done = _icp_batch(T, measured[few], tree, pts_l, nrm_l, h, iterations=2,
-                                        reach=10 * h, shape=shape)
-            iters += done
-            T = _best_distinct(T, score, measured[few], keep, settings.seed)
         T, score, done = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h,
                                     iterations=4, stop_rad=1e-6 if last else 0.0,
                                     reach=10 * h, shape=shape,
                                     stage=(f"ICP on {size:,} nominal samples", frac,
                                            frac + 0.08))
         iters += done
+        keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
         T = _best_distinct(T, score, measured[msub], keep, settings.seed)
     return T, iters
-
-
-PRUNE_POINTS = 128
-"""A level whose candidates outnumber the distinct ones it keeps (``keep_per_level``) and that
-iterates on more measured points than this first iterates them twice on this many spread
-points and keeps that many distinct ones. The belly fairing's quarter and tenth (400 points):
-32 candidates straight from the coarse level to the 60,000-point nominal, 46 -> 18 ms."""
 
 
 RETRY_GAIN = 0.5

@@ -134,36 +134,6 @@ def test_a_finish_that_gains_nothing_is_given_up_and_the_answer_stays(fairing, c
     assert fewer < more
 
 
-@pytest.mark.parametrize("coverage", ["quarter", "tenth"])
-def test_many_candidates_meeting_many_points_are_pruned_on_a_few_first(fairing, coverage,
-                                                                      monkeypatch):
-    """The 32 candidates of a patch's global search go straight from the coarse level to the
-    whole nominal: they iterate on PRUNE_POINTS spread points first, and only the level's
-    distinct few go on with every point. The pose is the one found without that (the twin),
-    for fewer points paired on the nominal's kd-tree."""
-    import engine.registration as reg
-
-    rng = np.random.default_rng(70 + len(coverage))
-    m, xr, yr = COVERAGE[coverage]
-    q = _patch(rng, m, xr, yr)
-    measured = apply_transform(_pose(rng), q)
-    paired = []
-    query = reg.query
-    monkeypatch.setattr(reg, "query", lambda tree, X, *a, **k: paired.append(len(X))
-                        or query(tree, X, *a, **k))
-    runs = []
-    for prune in (reg.PRUNE_POINTS, 10 ** 9):
-        monkeypatch.setattr(reg, "PRUNE_POINTS", prune)
-        paired.clear()
-        runs.append((register(fairing, measured, zone_width=0.1), sum(paired)))
-    (pruned, fewer), (twin, more) = runs
-    assert pruned.converged and twin.converged
-    assert np.max(np.abs(apply_transform(pruned.T_nominal_measured, measured)
-                         - apply_transform(twin.T_nominal_measured, measured))) < 1e-3
-    assert _max_error(pruned, measured, q) < {"quarter": 0.03, "tenth": 0.3}[coverage]
-    assert fewer < 0.6 * more
-
-
 @pytest.mark.parametrize("scores, beat, gives_up_at, best", [
     ([1.0] * 8, 0.1, 5, 0),                      # stuck above the best: given up at LOST_AFTER
     ([1.0, 0.8, 0.6, 0.5, 0.4, 0.3, 0.2], 0.1, None, 6),  # gaining: never
