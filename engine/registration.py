@@ -66,6 +66,7 @@ from .progress import report
 from .registration_types import PoseFit, RegistrationResult, RegistrationSettings
 from .surface_fit import (ALTERNATIVE_ITERATIONS, MAX_FINISHES, Watch, gross_floor,
                           point_to_surface_fit, pose_score)
+from .verdict import AMBIGUITY_SCORE_RATIO
 
 
 def register(nominal: Nominal, measured: np.ndarray,
@@ -310,8 +311,9 @@ def _finish(nominal: Nominal, compared: np.ndarray, T: np.ndarray, settings: Reg
     pose is worth fitting (``unfit``); the first candidate's with the whole iteration budget,
     the others' with a short one (a wrong pose does not settle, and ran the budget out: 50
     evaluations of 4,096 far points, 12 s on a 1M-point nominal), given up once it is plainly
-    not going to beat the best (surface_fit.Watch). A short finish chosen all the same is
-    finished in full (_final_fit)."""
+    not going to beat the best, nor come within the ambiguity ratio of it, where it would be a
+    competitor (surface_fit.Watch; engine.verdict.AMBIGUITY_SCORE_RATIO). A short finish chosen
+    all the same is finished in full (_final_fit)."""
     if unfit:
         return _unfitted(nominal, compared, T, settings, zone_width)
     if not final:
@@ -319,7 +321,7 @@ def _finish(nominal: Nominal, compared: np.ndarray, T: np.ndarray, settings: Reg
     short = replace(settings, max_final_iterations=min(settings.max_final_iterations,
                                                        ALTERNATIVE_ITERATIONS))
     return point_to_surface_fit(nominal, compared, T, short, zone_width,
-                                Watch(scale, min(final.values())))
+                                Watch(scale, AMBIGUITY_SCORE_RATIO * min(final.values())))
 
 
 def _runner_up(poses: list, scores: list, chosen: int, src: np.ndarray, diagonal: float,

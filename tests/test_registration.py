@@ -97,14 +97,17 @@ def test_deterministic(fairing):
     assert a.rms == b.rms and a.iterations == b.iterations and a.score == b.score
 
 
-@pytest.mark.parametrize("coverage", list(COVERAGE))
+@pytest.mark.parametrize("coverage, noise_mm",
+                         [(c, None) for c in COVERAGE] + [("quarter", 0.004)])
 def test_a_finish_that_gains_nothing_is_given_up_and_the_answer_stays(fairing, coverage,
-                                                                       monkeypatch):
+                                                                       noise_mm, monkeypatch):
     """A candidate's finish after the best one's is given up once it scores no better than
     where it started (surface_fit.Watch): the pose, its score and whether the runner-up is a
     competitor stay those of every finish run to its budget (the twin: a watch that never gives
-    up), with fewer evaluations of the deviations. Before the watch, the belly fairing's second
-    candidate went from a score of 1.3 mm to 637 mm in 11 evaluations."""
+    up), with fewer evaluations of the deviations; also when the measurement's noise is known
+    (a scene's), where steps that do not lower the sum of squares are shortened. Before the
+    watch, the belly fairing's second candidate went from a score of 1.3 mm to 637 mm in 11
+    evaluations."""
     import engine.surface_fit as sf
     from engine.verdict import AMBIGUITY_SCORE_RATIO
 
@@ -120,7 +123,8 @@ def test_a_finish_that_gains_nothing_is_given_up_and_the_answer_stays(fairing, c
     for lost_after in (sf.LOST_AFTER, 10 ** 9):
         monkeypatch.setattr(sf, "LOST_AFTER", lost_after)
         evaluations.clear()
-        runs[lost_after] = register(fairing, measured, zone_width=0.1), sum(evaluations)
+        runs[lost_after] = (register(fairing, measured, RegistrationSettings(noise_mm=noise_mm),
+                                     zone_width=0.1), sum(evaluations))
     (watched, fewer), (twin, more) = runs.values()
     # The same pose: two candidates that finish there may tie to 1e-13 mm and swap.
     assert np.max(np.abs(apply_transform(watched.T_nominal_measured, measured)
