@@ -203,8 +203,22 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
                                            frac + 0.08))
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
+        if np.sum(score <= TIE * np.min(score)) > keep and msub.size < measured.shape[0]:
+            # More candidates fit these points equally than the level keeps: the points that
+            # tell them apart are elsewhere. Ranked on more points (one pairing each).
+            msub = spread_subset(measured, settings.icp_measured, settings.seed)
+            score = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h, iterations=0,
+                               reach=10 * h, shape=shape)[1]
         T = _best_distinct(T, score, measured[msub], keep, settings.seed)
     return T, iters
+
+
+TIE = 2.0
+"""Candidates whose ICP scores (mean squared distances) on a level's measured points lie
+within this factor of the best one's tie. When more tie than the level keeps, they are ranked
+on up to ``icp_measured`` points: a 50 mm cube with an R2 boss, 1,211 points (11 on the boss),
+tied at 1.04e-6 mm^2 on 125 spread points with none on the boss, 29 poses; the 8 kept by the
+order of ties held none of the right one, and the part was rejected at a pose 62 mm off."""
 
 
 RETRY_GAIN = 0.5
