@@ -135,3 +135,45 @@ def bracket_two_faces(rng, n_nominal: int):
     q = np.vstack([np.column_stack([xa, ya, gen.face_a_height(xa, ya)]),
                    np.column_stack([gen.face_b_offset(yb, zb), yb, zb])])
     return nom, q, np.vstack([gen.face_a_normal(xa, ya), gen.face_b_normal(yb, zb)])
+
+
+CUBE_BOSS = np.array([15.0, 30.0, 50.0])
+"""The centre of the hemispherical boss on the top of the 50 mm cube of :func:`cube_face` (a
+corner at the origin)."""
+
+
+def upper_hemisphere(rng, k):
+    """k random unit vectors with z > 0."""
+    v = rng.normal(size=(4 * k, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    return v[v[:, 2] > 0][:k]
+
+
+def cube_face(rng, axis, side, k, lo, hi, clear):
+    """k points uniform over [lo, hi]^2 on the 50 mm cube's face x[axis] = 50 x side (on the top,
+    farther than ``clear`` from the boss's axis), and its outward normals."""
+    p = np.insert(rng.uniform(lo, hi, (k, 2)), axis, 50.0 * side, axis=1)
+    if axis == 2 and side:
+        p = p[np.hypot(p[:, 0] - CUBE_BOSS[0], p[:, 1] - CUBE_BOSS[1]) > clear]
+    return p, np.tile(np.insert([0.0, 0.0], axis, 2 * side - 1), (len(p), 1))
+
+
+def cube_with_small_boss(rng, radius=2.0, per_face=10_000, on_boss=3000, measured_per_face=300,
+                         measured_on_boss=12, noise=0.001):
+    """The 50 mm cube with a boss of ``radius`` on its top, sampled at random as bare points
+    (``per_face`` a face, ``on_boss`` on the boss): (points, normals), and points measured on
+    it in its frame: ``measured_per_face`` on each of the bottom, the sides x = 0 and y = 0 and
+    the top (5 mm or more from every edge and 3 mm from the boss), up to ``measured_on_boss``
+    on the boss (those more than 0.1 radius above the top), ``noise`` mm along the normals."""
+    faces = [cube_face(rng, axis, side, per_face, 0.0, 50.0, radius)
+             for axis in range(3) for side in (0.0, 1.0)]
+    s = upper_hemisphere(rng, on_boss)
+    pts = np.vstack([p for p, _ in faces] + [CUBE_BOSS + radius * s])
+    nrm = np.vstack([n for _, n in faces] + [s])
+    faces = [cube_face(rng, axis, side, 4 * measured_per_face // 3, 5.0, 45.0, radius + 3)
+             for axis, side in ((2, 0.0), (0, 0.0), (1, 0.0), (2, 1.0))]
+    s = upper_hemisphere(rng, measured_on_boss)
+    s = s[s[:, 2] > 0.1]
+    q = np.vstack([p[:measured_per_face] for p, _ in faces] + [CUBE_BOSS + radius * s])
+    n = np.vstack([n[:measured_per_face] for _, n in faces] + [s])
+    return pts, nrm, q + rng.normal(0.0, noise, len(q))[:, None] * n

@@ -10,8 +10,8 @@ from engine.nominal import Nominal
 from engine.registration import register
 from engine.registration_types import RegistrationSettings
 from engine.verdict import ACCEPT, REJECT
-from surfaces import (bracket_two_faces, height, height_grid, height_normal, point_set,
-                      random_rotation)
+from surfaces import (CUBE_BOSS, bracket_two_faces, cube_face, cube_with_small_boss, height,
+                      height_grid, height_normal, point_set, random_rotation, upper_hemisphere)
 
 import samples.generate as gen
 
@@ -180,42 +180,27 @@ def test_without_a_zone_a_dent_stays_and_mis_probed_points_go(fairing):
 
 # A 50 mm cube (a corner at the origin) with a hemispherical boss R10 on its top: its faces fit
 # at 24 poses, and only the boss's points (a quarter of them) tell the right one from the others.
-BOSS, BOSS_R = np.array([15.0, 30.0, 50.0]), 10.0
-
-
-def _hemisphere(rng, k):
-    v = rng.normal(size=(4 * k, 3))
-    v /= np.linalg.norm(v, axis=1)[:, None]
-    return v[v[:, 2] > 0][:k]
-
-
-def _face(rng, axis, side, k, lo, hi, clear):
-    """k points uniform over [lo, hi]^2 on the face x[axis] = 50 x side (on the top, farther
-    than ``clear`` from the boss's axis), and its outward normals."""
-    p = np.insert(rng.uniform(lo, hi, (k, 2)), axis, 50.0 * side, axis=1)
-    if axis == 2 and side:
-        p = p[np.hypot(p[:, 0] - BOSS[0], p[:, 1] - BOSS[1]) > clear]
-    return p, np.tile(np.insert([0.0, 0.0], axis, 2 * side - 1), (len(p), 1))
+BOSS_R = 10.0
 
 
 def _cube_with_boss(rng):
     """The nominal: 1,500 random points on each face, 2,000 on the boss, with normals."""
-    faces = [_face(rng, axis, side, 1500, 0.0, 50.0, BOSS_R)
+    faces = [cube_face(rng, axis, side, 1500, 0.0, 50.0, BOSS_R)
              for axis in range(3) for side in (0.0, 1.0)]
-    s = _hemisphere(rng, 2000)
-    return Nominal.from_point_set(point_set(np.vstack([p for p, _ in faces] + [BOSS + BOSS_R * s]),
-                                            np.vstack([n for _, n in faces] + [s])))
+    s = upper_hemisphere(rng, 2000)
+    pts = np.vstack([p for p, _ in faces] + [CUBE_BOSS + BOSS_R * s])
+    return Nominal.from_point_set(point_set(pts, np.vstack([n for _, n in faces] + [s])))
 
 
 def _cube_measured(rng, boss_r=BOSS_R, boss_shift=0.0):
     """About 110 points (0.001 mm noise) in the cube's frame: 20 on each of the bottom, the
     sides x = 0 and y = 0 and the top (5 mm or more from every edge and the boss), the rest
     (1 mm or more above the top) on a boss of radius ``boss_r`` moved ``boss_shift`` along x."""
-    faces = [_face(rng, axis, side, 80, 5.0, 45.0, BOSS_R + 5)
+    faces = [cube_face(rng, axis, side, 80, 5.0, 45.0, BOSS_R + 5)
              for axis, side in ((2, 0.0), (0, 0.0), (1, 0.0), (2, 1.0))]
-    s = _hemisphere(rng, 30)
+    s = upper_hemisphere(rng, 30)
     s = s[s[:, 2] > 0.1]
-    q = np.vstack([p[:20] for p, _ in faces] + [BOSS + [boss_shift, 0.0, 0.0] + boss_r * s])
+    q = np.vstack([p[:20] for p, _ in faces] + [CUBE_BOSS + [boss_shift, 0.0, 0.0] + boss_r * s])
     n = np.vstack([n[:20] for _, n in faces] + [s])
     return q + rng.normal(0.0, 0.001, len(q))[:, None] * n
 
@@ -256,21 +241,11 @@ def test_candidates_that_tie_on_the_spread_points_are_ranked_on_more():
     one; the good part was rejected at a pose 62.6 mm off, its 11 boss points out. Ties beyond
     what a level keeps are ranked on more points (registration.TIE)."""
     rng = np.random.default_rng(25)
-    r = 2.0
-    faces = [_face(rng, axis, side, 10_000, 0.0, 50.0, r)
-             for axis in range(3) for side in (0.0, 1.0)]
-    s = _hemisphere(rng, 3000)
-    nominal = Nominal.from_point_set(point_set(np.vstack([p for p, _ in faces] + [BOSS + r * s]),
-                                               np.vstack([n for _, n in faces] + [s])))
-    faces = [_face(rng, axis, side, 400, 5.0, 45.0, r + 3)
-             for axis, side in ((2, 0.0), (0, 0.0), (1, 0.0), (2, 1.0))]
-    s = _hemisphere(rng, 12)
-    s = s[s[:, 2] > 0.1]
-    q = np.vstack([p[:300] for p, _ in faces] + [BOSS + r * s])
-    q = q + rng.normal(0.0, 0.001, len(q))[:, None] * np.vstack([n[:300] for _, n in faces] + [s])
-    assert len(q) == 1211 and len(s) == 11
+    pts, nrm, q = cube_with_small_boss(rng)
+    assert len(q) == 1211
     measured = apply_transform(make_transform(random_rotation(rng), rng.uniform(-300, 300, 3)), q)
-    res = inspect(nominal, measured, Tolerance.symmetric(0.025))
+    res = inspect(Nominal.from_point_set(point_set(pts, nrm)), measured,
+                  Tolerance.symmetric(0.025))
     assert res.verdict == ACCEPT
     assert _max_error(res.registration, measured, q) < 0.005
 
