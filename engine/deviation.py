@@ -112,8 +112,9 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
     searched: its nearest well-shaped facet holding the foot, else its nearest well-shaped one
     (the foot on a vertex of a convex sample, or beyond the border), replaces the sliver, whose
     own normal is meaningless. A well-shaped facet that does not hold the foot is replaced by
-    that fan's only when it does: over a gap of a sample drawn at random, the 8 nearest all on
-    one side (0.4 mm measured sideways to a facet's edge, for a point on the surface).
+    that fan's only when it does and its vertex normals agree (one side of the material): over
+    a gap of a sample drawn at random, the 8 nearest all on one side (0.4 mm measured sideways
+    to a facet's edge, for a point on the surface).
     """
     k = min(4, nominal.n)
     _, nn = query(nominal.tree, pts, k=k)
@@ -135,8 +136,11 @@ def _nearest_point_facets(nominal: Nominal, pts: np.ndarray):
                                                shaped_next=True)
         # A sliver gives way to any well-shaped facet; a well-shaped facet that does not hold
         # the foot (a gap in a random sample, or beyond the sample's border) only to one that
-        # does.
-        better = np.where(shaped[bad], good3, shaped3)
+        # does and lies on one side of the material: its vertex normals within 60 degrees of
+        # its centre's (not across a thin wall, whose far side the fan may reach sideways).
+        n3 = nominal.normals(sel3.ravel()).reshape(-1, 3, 3)
+        one_side = np.all(np.einsum("mij,mj->mi", n3, n3[:, 0]) > 0.5, axis=1)
+        better = np.where(shaped[bad], good3 & one_side, shaped3)
         take = bad[better]
         sel[take], b[take] = sel3[better], b3[better]
     return nominal.points[sel], nominal.normals(sel), b

@@ -74,9 +74,9 @@ class Watch:
     """The finish of a candidate pose when a better one is known, watched: it is given up at an
     evaluation of its deviations (the ``LOST_AFTER``-th or a later one) whose score
     (:func:`pose_score` at ``scale``) is no lower than its start's and above ``beat`` (the
-    registration passes the best finish's score x engine.verdict.AMBIGUITY_SCORE_RATIO: a
-    candidate that could still be a competitor is never given up). The fit then ends, not
-    converged, at the best pose it saw (``best``). Least squares over every point pulls a wrong
+    registration passes the best finish's score so far x engine.verdict.AMBIGUITY_SCORE_RATIO:
+    a finish is not given up while it scores within that ratio of the best). The fit then ends,
+    not converged, at the best pose it saw (``best``). Least squares over every point pulls a wrong
     pose towards the points it leaves off the part: the belly fairing's second candidate went
     from 1.3 mm to 637 mm over the 11 evaluations of its budget, 46 of the whole inspection's
     157 ms (1.1 s of 2.3 s on a million-point nominal).
