@@ -250,9 +250,9 @@ def _final_fit(nominal: Nominal, measured: np.ndarray, refined: list, sub: np.nd
     run on the points the candidates are scored on (at most ``icp_measured``), those after the
     best one ``ALTERNATIVE_ITERATIONS`` at most and given up, at the best pose they saw, once
     they score no better than where they started and worse than AMBIGUITY_SCORE_RATIO x the
-    best finish's (surface_fit.Watch) (one that ends best unsettled is finished in full); the pose chosen is
-    then fitted on every point. The answer is the best finished
-    pose: no candidate scores better. The best distinct other pose is the runner-up; the
+    best finish's (surface_fit.Watch) (one that ends best unsettled is finished in full); the
+    pose chosen is then fitted on every point. The answer is the best finished pose: no
+    candidate scores better. The best distinct other pose is the runner-up; the
     candidates distinct from both that score within ``CANDIDATE_SCORE_RATIO`` of the pose are
     kept too (``candidates``)."""
     near, near_rule = settings.near(nominal.diagonal)
