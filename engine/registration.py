@@ -203,9 +203,9 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
                                            frac + 0.08))
         iters += done
         keep = settings.keep_per_level[min(level, len(settings.keep_per_level) - 1)]
-        if np.sum(score <= TIE * np.min(score)) > keep and msub.size < measured.shape[0]:
-            # More candidates fit these points equally than the level keeps: the points that
-            # tell them apart are elsewhere. Ranked on more points (one pairing each).
+        tie = TIE * np.min(score) + (TIE_SPACING * h) ** 2
+        if np.sum(score <= tie) > keep and msub.size < measured.shape[0]:
+            # More tie than the level keeps: ranked on more points (one pairing each).
             msub = spread_subset(measured, settings.icp_measured, settings.seed)
             score = _icp_batch(T, measured[msub], tree, pts_l, nrm_l, h, iterations=0,
                                reach=10 * h, shape=shape)[1]
@@ -214,11 +214,14 @@ def _coarse_to_fine(nominal: Nominal, measured: np.ndarray, T: np.ndarray, coars
 
 
 TIE = 2.0
-"""Candidates whose ICP scores (mean squared distances) on a level's measured points lie
-within this factor of the best one's tie. When more tie than the level keeps, they are ranked
-on up to ``icp_measured`` points: a 50 mm cube with an R2 boss, 1,211 points (11 on the boss),
-tied at 1.04e-6 mm^2 on 125 spread points with none on the boss, 29 poses; the 8 kept by the
-order of ties held none of the right one, and the part was rejected at a pose 62 mm off."""
+TIE_SPACING = 0.05
+"""Candidates whose ICP scores (mean squared distances) on a level's measured points lie within
+TIE x the best one's, or (TIE_SPACING x the level's sample spacing)^2 of it, tie. When more tie
+than the level keeps, they are ranked on up to ``icp_measured`` points. A 50 mm cube with an R2
+boss, 1,211 points (11 on the boss): 29 poses tied at 1.04e-6 mm^2 on 125 spread points with
+none on the boss, and the 8 kept by the order of ties held none of the right one (rejected 62
+mm off); with an R1.5 boss, samples 1.9 mm apart did not represent the boss: the right pose
+scored 7.1e-4 mm^2, the look-alikes 1.1e-6 (a level cannot tell such fits apart)."""
 
 
 RETRY_GAIN = 0.5
