@@ -22,7 +22,6 @@ from .registration_types import PoseFit, RegistrationSettings, RobustFit
 
 
 # ---------------------------------------------------------------------------- final stage
-
 MAX_FINISHES = 4
 """Point-to-surface finishes at most, of the best-scoring distinct candidate poses: each costs
 a full fit over every measured point, and the global stage alone (a nominal no larger than its
@@ -62,7 +61,6 @@ def pose_loss(d: np.ndarray, scale: float, weights: np.ndarray | None = None) ->
     return np.average(np.log(d * d + scale * scale), axis=-1, weights=weights)
 
 
-
 LOST_AFTER = ROBUST_ITERATIONS + 2
 """A watched finish (:class:`Watch`) may be given up from this evaluation of its deviations
 on: the first after a least-squares step (the robust iterations evaluate ``ROBUST_ITERATIONS``
@@ -76,10 +74,10 @@ class Watch:
     (:func:`pose_score` at ``scale``) is no lower than its start's and above ``beat`` (the
     registration passes the best finish's score so far x engine.verdict.AMBIGUITY_SCORE_RATIO:
     a finish is not given up while it scores within that ratio of the best). The fit then ends,
-    not converged, at the best pose it saw (``best``). Least squares over every point pulls a wrong
-    pose towards the points it leaves off the part: the belly fairing's second candidate went
-    from 1.3 mm to 637 mm over the 11 evaluations of its budget, 46 of the whole inspection's
-    157 ms (1.1 s of 2.3 s on a million-point nominal).
+    not converged, at the best pose it saw (``best``). Least squares over every point pulls a
+    wrong pose towards the points it leaves off the part: the belly fairing's second candidate
+    went from 1.3 mm to 637 mm over the 11 evaluations of its budget, 46 of the whole
+    inspection's 157 ms (1.15 s of 2.7 s on a million-point nominal).
 
     Over 2,084 such finishes in ten sweeps of NIST parts (patches, 2 % mis-probes, bumps), the
     rule gives up 728 (2,698 of 18,010 evaluations saved); one would have ended below the best,
@@ -214,7 +212,7 @@ def _given_up(nominal: Nominal, measured: np.ndarray, watch: Watch, subset: bool
         dev_s = time.perf_counter() - t0
     rule = gross_rule(dev.signed, zone_width, floor)
     return PoseFit(T, False, iterations, ~gross_outliers(dev.signed, dev.foot, rule), rule, dev,
-                   dev_s, "given up: it scored no better than where it started, and worse than "
+                   dev_s, "given up: it scored no better than where it started, and well behind "
                           "the best pose")
 
 
@@ -309,7 +307,8 @@ def _gross(dev, rule, included):
 
 def _moved(dev: Deviations, X: np.ndarray, delta: np.ndarray, c: np.ndarray):
     """The deviations ``dev`` of the points ``X`` (n, 3) after the small step ``delta`` about
-    ``c`` (from gauss_newton_step), to first order (exact to ~step^2 x curvature), and the moved points."""
+    ``c`` (from gauss_newton_step), to first order (exact to ~step^2 x curvature), and the moved
+    points."""
     motion = np.cross(delta[:3], X - c) + delta[3:]
     along = np.einsum("ij,ij->i", motion, dev.normal)
     return Deviations(dev.signed + along, dev.foot + motion - along[:, None] * dev.normal,
