@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import os
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -59,13 +58,12 @@ from .deviation import point_to_surface
 from .neighbours import (PARALLEL_QUERIES, SampleLookup, query, spread_subset,
                          voxel_spread)
 from .nominal import Nominal
-from .outliers import gross_outliers, gross_rule
 from .pose import (apply_transform, make_transform, rms_radius, rotation_angle_deg,
                    rotation_from_rotvec, uniform_rotations)
 from .progress import report
 from .registration_types import PoseFit, RegistrationResult, RegistrationSettings
 from .surface_fit import (ALTERNATIVE_ITERATIONS, MAX_FINISHES, Watch, gross_floor,
-                          point_to_surface_fit, pose_score)
+                          point_to_surface_fit, pose_as_it_is, pose_score)
 from .verdict import AMBIGUITY_SCORE_RATIO
 
 
@@ -370,14 +368,9 @@ def _unfitted(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
               settings: RegistrationSettings, zone_width: float | None) -> PoseFit:
     """The candidate pose T measured as it is, unfitted (no pose there is worth fitting), in
     the form of point_to_surface_fit's result."""
-    X = apply_transform(T, measured)
-    t0 = time.perf_counter()
-    dev = point_to_surface(nominal, X)
-    dev_s = time.perf_counter() - t0
-    rule = gross_rule(dev.signed, zone_width, gross_floor(nominal, settings, zone_width))
-    inlier = ~gross_outliers(dev.signed, dev.foot, rule)
-    return PoseFit(T, False, 0, inlier, rule, dev, dev_s,
-                   "the measured points do not match the nominal at any pose found")
+    floor = gross_floor(nominal, settings, zone_width)
+    return pose_as_it_is(nominal, measured, T, zone_width, floor, 0,
+                         "the measured points do not match the nominal at any pose found")
 
 
 # ---------------------------------------------------------------------------- global stage

@@ -206,14 +206,24 @@ def _given_up(nominal: Nominal, measured: np.ndarray, watch: Watch, subset: bool
     evaluated again on every point of ``measured`` when it watched a ``subset`` of them."""
     assert watch.best is not None
     _, T, dev, dev_s = watch.best
-    if subset:
+    return pose_as_it_is(nominal, measured, T, zone_width, floor, iterations,
+                         "given up: it scored no better than where it started, and well behind "
+                         "the best pose", None if subset else dev, dev_s)
+
+
+def pose_as_it_is(nominal: Nominal, measured: np.ndarray, T: np.ndarray,
+                  zone_width: float | None, floor: float, iterations: int, message: str,
+                  dev: Deviations | None = None, dev_s: float = 0.0) -> PoseFit:
+    """The pose T of the points ``measured`` as it is, in the form of point_to_surface_fit's
+    result, not converged: its deviations (``dev`` when known, whose evaluation took ``dev_s``
+    seconds) and the points the gross-outlier rule (floor ``floor``, mm) keeps."""
+    if dev is None:
         t0 = time.perf_counter()
         dev = point_to_surface(nominal, apply_transform(T, measured))
         dev_s = time.perf_counter() - t0
     rule = gross_rule(dev.signed, zone_width, floor)
     return PoseFit(T, False, iterations, ~gross_outliers(dev.signed, dev.foot, rule), rule, dev,
-                   dev_s, "given up: it scored no better than where it started, and well behind "
-                          "the best pose")
+                   dev_s, message)
 
 
 def gross_floor(nominal: Nominal, settings: RegistrationSettings,
